@@ -1,0 +1,35 @@
+# The two set-up commands of the README: `make demo` (the main job) and
+# `make test` (the test suite). Each builds .venv on first use.
+PYTHON ?= python3.11
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+
+export ROS_LOG_DIR ?= $(CURDIR)/.ros_log
+export PYTHONDONTWRITEBYTECODE := 1
+
+.PHONY: demo test test-long bench venv clean
+
+venv: $(STAMP)
+
+$(STAMP): requirements.txt setup.py setup.cfg package.xml
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet -r requirements.txt
+	$(BIN)/python -m pip install --quiet --no-deps --no-build-isolation -e .
+	touch $(STAMP)
+
+demo: $(STAMP)
+	$(BIN)/pmv oblateness --altitude-km 500 --inclination-deg 74.5
+
+test: $(STAMP)
+	$(BIN)/python -m pytest -q
+
+test-long: $(STAMP)
+	$(BIN)/python -m pytest -q -m long --run-long
+
+bench: $(STAMP)
+	$(BIN)/python benchmarks/bench_chain.py
+	$(BIN)/python benchmarks/bench_pipeline.py
+
+clean:
+	rm -rf $(VENV) build install log .ros_log report *.egg-info

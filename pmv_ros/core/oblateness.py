@@ -1,0 +1,106 @@
+"""The oblateness error of the geometric vertical: from ray geometry, and in closed form.
+
+The sensor finds the geometric vertical — the bisector of the tangent rays of
+opposite chords — which on an ellipsoid differs from the geocentric vertical
+(physics.md §2.1). :func:`sensed_roll_pitch` gets it from exact tangency on
+the ellipsoid for any orbit position and attitude; :func:`oblateness_error`
+is that reading at zero attitude. :func:`closed_form_oblateness` is the
+published approximation, used for on-board compensation and as a cross-check.
+Signs follow :mod:`pmv_ros.core.attitude` (the published convention).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .attitude import body_axes_in_orbital, roll_pitch_from_nadir
+from .constants import EARTH_MEAN_RADIUS_M, GRS80, Ellipsoid
+from .geometry import tangent_nadir_angles, vertical_from_horizon_angles
+from .orbit import CircularOrbit
+
+
+def sensor_axes_eci(orbit: CircularOrbit, t_s, q_orbital_to_body=None):
+    """Sensor (= body) axes in ECI, ``(3, 3[, N])``: orbital frame times the body attitude.
+
+    Args:
+        orbit: the spacecraft orbit.
+        t_s: simulation time(s), s.
+        q_orbital_to_body: ``(4[, N])`` attitude (x, y, z, w); None for zero attitude.
+    """
+    frame = orbit.orbital_frame_eci(t_s)
+    if q_orbital_to_body is None:
+        return frame
+    body = body_axes_in_orbital(q_orbital_to_body)
+    return np.einsum("ij...,jk...->ik...", frame, body)
+
+
+def sensed_roll_pitch(orbit: CircularOrbit, t_s, q_orbital_to_body=None, ellipsoid: Ellipsoid = GRS80, height_m=0.0):
+    """Roll and pitch, rad, an ideal-horizon sensor reads (geometry only, no radiance).
+
+    Args:
+        orbit: the spacecraft orbit.
+        t_s: simulation time(s), s (scalar or ``(N,)``).
+        q_orbital_to_body: ``(4[, N])`` body attitude; None for zero attitude.
+        ellipsoid: Earth figure.
+        height_m: height of the grazing layer above the ellipsoid, m.
+
+    Returns:
+        (roll_rad, pitch_rad), each shaped like ``t_s``.
+    """
+    position, _ = orbit.state_eci(t_s)
+    angles = tangent_nadir_angles(position, sensor_axes_eci(orbit, t_s, q_orbital_to_body), ellipsoid, height_m)
+    return roll_pitch_from_nadir(vertical_from_horizon_angles(angles))
+
+
+def oblateness_error(orbit: CircularOrbit, u_rad, ellipsoid: Ellipsoid = GRS80, height_m=0.0):
+    """Oblateness error (roll, pitch), rad, at arguments of latitude ``u_rad``: the zero-attitude reading.
+
+    Vectorised: one call for any number of orbit positions (all four chords at once).
+    """
+    return sensed_roll_pitch(orbit, orbit.time_of_argument_of_latitude(u_rad), None, ellipsoid, height_m)
+
+
+def meridian_radius(latitude_rad, ellipsoid: Ellipsoid = GRS80):
+    """Distance from the centre to the meridian ellipse at geocentric latitude, m (any latitude, wraps)."""
+    a, b = ellipsoid.a_m, ellipsoid.b_m
+    lat = np.asarray(latitude_rad, float)
+    return a * b / np.sqrt((b * np.cos(lat)) ** 2 + (a * np.sin(lat)) ** 2)
+
+
+def closed_form_oblateness(u_rad, altitude_m, inclination_rad, ellipsoid: Ellipsoid = GRS80,
+                           mean_radius_m: float = EARTH_MEAN_RADIUS_M):
+    """Published closed-form oblateness error (physics.md §2.1): meridional, roll, pitch in rad.
+
+    Φ1,2 = Φ0 ∓ (90° − φ0); (Δβ)m = ½[atan((R1 − R)/L) − atan((R2 − R)/L)];
+    B is the angle between the meridian and the orbit plane.
+
+    Two choices that the text leaves open, settled against the published table
+    and the ray geometry:
+
+    * B is taken with ``arctan2(cos i, sin i cos u)`` so that it runs through
+      the whole orbit (for u in 90…270° the along-track component changes
+      sign, which the single-argument atan of the text would lose);
+    * the published table has roll = −(Δβ)m·sin B (the text writes +); the
+      table's sign is the one the ray geometry confirms, and it is used here.
+
+    Args:
+        u_rad: argument of latitude, rad (array-like).
+        altitude_m: orbit altitude H above the mean radius, m.
+        inclination_rad: inclination i, rad.
+        ellipsoid: figure for R1, R2.
+        mean_radius_m: R of the method, m.
+
+    Returns:
+        (meridional_rad, roll_rad, pitch_rad) shaped like ``u_rad``.
+    """
+    u = np.asarray(u_rad, float)
+    r, h = mean_radius_m, float(altitude_m)
+    horizon_nadir = np.arcsin(r / (r + h))
+    subsatellite_lat = np.arcsin(np.sin(inclination_rad) * np.sin(u))
+    offset = 0.5 * np.pi - horizon_nadir
+    r1 = meridian_radius(subsatellite_lat - offset, ellipsoid)
+    r2 = meridian_radius(subsatellite_lat + offset, ellipsoid)
+    slant = np.sqrt(h * (2.0 * r + h))
+    meridional = 0.5 * (np.arctan((r1 - r) / slant) - np.arctan((r2 - r) / slant))
+    b_angle = np.arctan2(np.cos(inclination_rad), np.sin(inclination_rad) * np.cos(u))
+    return meridional, -meridional * np.sin(b_angle), meridional * np.cos(b_angle)

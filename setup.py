@@ -1,0 +1,29 @@
+from glob import glob
+
+from setuptools import find_packages, setup
+
+PACKAGE = "pmv_ros"
+
+setup(
+    name=PACKAGE,
+    version="0.1.0",
+    packages=find_packages(include=["pmv_ros", "pmv_ros.*", "pmv_msgs_shim", "pmv_msgs_shim.*"]),
+    package_data={PACKAGE: ["data/*"]},
+    data_files=[
+        ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
+        (f"share/{PACKAGE}", ["package.xml"]),
+        (f"share/{PACKAGE}/config", glob("config/*.yaml")),
+    ],
+    install_requires=["setuptools"],
+    zip_safe=True,
+    maintainer="pmv_ros maintainers",
+    maintainer_email="pmv-ros@example.com",
+    description="Emulator of the PMV scanning infrared Earth horizon sensor for ROS 2 Jazzy.",
+    license="Apache-2.0",
+    tests_require=["pytest"],
+    entry_points={
+        "console_scripts": [
+            "pmv = pmv_ros.cli:main",
+        ],
+    },
+)
