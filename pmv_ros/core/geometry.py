@@ -98,13 +98,16 @@ def tangent_nadir_angles(position_m, sensor_axes, ellipsoid: Ellipsoid = GRS80, 
         qb = p_c * p_b - k * c_b
         qc = p_b**2 - k * b_b
         disc = qb**2 - qa * qc
-        # qc > 0: the boresight hits the Earth; qa < 0: a ray across it misses.
-        # Then the roots have opposite signs, one horizon on each chord.
-        ok = (qa < 0.0) & (qc > 0.0) & (disc >= 0.0)
+        # qc > 0 with p·b < 0: the boresight ray (not just its line) hits the
+        # Earth; qa < 0: a ray across it misses. Then the roots have opposite
+        # signs, one horizon on each chord, and both tangent rays lie ahead.
+        ok = (qa < 0.0) & (qc > 0.0) & (p_b < 0.0) & (disc >= 0.0)
         with np.errstate(invalid="ignore", divide="ignore"):
             root = np.sqrt(np.where(ok, disc, np.nan))
             t_plus = (-qb - root) / qa
             t_minus = (-qb + root) / qa
+        t_plus = np.where(p_c * t_plus + p_b < 0.0, t_plus, np.nan)
+        t_minus = np.where(p_c * t_minus + p_b < 0.0, t_minus, np.nan)
         angles.append((np.arctan(t_plus), -np.arctan(t_minus)))
     (px, mx), (py, my) = angles
     return np.stack([px, py, mx, my])

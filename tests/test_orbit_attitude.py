@@ -1,0 +1,98 @@
+"""Circular orbit, orbital frame and the attitude convention (issue 2)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from pmv_ros.core.attitude import (
+    nadir_in_body,
+    quaternion_from_roll_pitch_yaw,
+    roll_pitch_from_nadir,
+    roll_pitch_yaw_from_quaternion,
+    true_roll_pitch,
+)
+from pmv_ros.core.orbit import CircularOrbit, eci_to_ecef, geocentric_latitude_longitude
+
+
+def test_period_matches_the_reference_orbits():
+    # physics.md §2: Kondor ≈ 95 min, Meteor-M ≈ 101 min.
+    assert CircularOrbit(500e3, math.radians(74.5)).period_s / 60 == pytest.approx(94.6, abs=0.5)
+    assert CircularOrbit(835e3, math.radians(98.8)).period_s / 60 == pytest.approx(101.3, abs=0.5)
+
+
+def test_orbital_frame_is_right_handed_with_z_up_and_x_along_velocity():
+    orbit = CircularOrbit(700e3, math.radians(63.0), raan_rad=0.4, arg_latitude_at_epoch_rad=1.0)
+    t = np.linspace(0.0, 6000.0, 17)
+    frame = orbit.orbital_frame_eci(t)
+    position, velocity = orbit.state_eci(t)
+    for k in range(t.size):
+        m = frame[:, :, k]
+        np.testing.assert_allclose(m.T @ m, np.eye(3), atol=1e-12)
+        assert np.linalg.det(m) == pytest.approx(1.0)
+        np.testing.assert_allclose(m[:, 2], position[:, k] / np.linalg.norm(position[:, k]), atol=1e-12)
+        np.testing.assert_allclose(m[:, 0], velocity[:, k] / np.linalg.norm(velocity[:, k]), atol=1e-12)
+    # velocity is the time derivative of position
+    dt = 1e-2
+    ahead, _ = orbit.state_eci(t + dt)
+    behind, _ = orbit.state_eci(t - dt)
+    np.testing.assert_allclose((ahead - behind) / (2 * dt), velocity, rtol=1e-7, atol=1e-5)
+
+
+def test_subsatellite_latitude_peaks_at_the_inclination():
+    orbit = CircularOrbit(500e3, math.radians(74.5))
+    position, _ = orbit.state_eci(orbit.time_of_argument_of_latitude(math.pi / 2))
+    latitude, _ = geocentric_latitude_longitude(position)
+    assert math.degrees(latitude) == pytest.approx(74.5, abs=1e-9)
+
+
+def test_j2_node_drift_of_a_sun_synchronous_orbit():
+    # Meteor-M is sun-synchronous: with J2 the node drifts ≈ +0.9856°/day.
+    orbit = CircularOrbit(835e3, math.radians(98.8), j2_node_drift=True)
+    assert math.degrees(orbit.raan_rate_rad_s) * 86400 == pytest.approx(0.9856, abs=0.03)
+    assert CircularOrbit(835e3, math.radians(98.8)).raan_rate_rad_s == 0.0
+
+
+def test_earth_rotation_moves_a_fixed_point_westward_in_ecef():
+    point = np.array([1.0, 0.0, 0.0])
+    _, lon = geocentric_latitude_longitude(eci_to_ecef(point, 3600.0))
+    assert math.degrees(lon) == pytest.approx(-15.04, abs=0.01)
+
+
+@pytest.mark.parametrize("bad", [dict(altitude_m=-5e3, inclination_rad=1.0), dict(altitude_m=1e9, inclination_rad=1.0),
+                                 dict(altitude_m=500e3, inclination_rad=4.0)])
+def test_bad_orbit_raises_a_value_error_naming_the_range(bad):
+    with pytest.raises(ValueError, match="allowed range"):
+        CircularOrbit(**bad)
+
+
+def test_quaternion_round_trip_and_vectorisation():
+    rng = np.random.default_rng(1)
+    roll, pitch, yaw = rng.uniform(-0.5, 0.5, (3, 50))
+    q = quaternion_from_roll_pitch_yaw(roll, pitch, yaw)
+    assert q.shape == (4, 50)
+    np.testing.assert_allclose(np.linalg.norm(q, axis=0), 1.0)
+    back = roll_pitch_yaw_from_quaternion(q)
+    np.testing.assert_allclose(back, [roll, pitch, yaw], atol=1e-12)
+
+
+def test_convention_puts_the_nadir_where_the_docstring_says():
+    # attitude.py: positive roll → nadir on the +Y side; positive pitch → on the −X side.
+    n_roll = nadir_in_body(quaternion_from_roll_pitch_yaw(0.01, 0.0))
+    n_pitch = nadir_in_body(quaternion_from_roll_pitch_yaw(0.0, 0.01))
+    assert n_roll[1] > 0 and abs(n_roll[0]) < 1e-12
+    assert n_pitch[0] < 0 and abs(n_pitch[1]) < 1e-12
+
+
+def test_roll_pitch_reading_inverts_the_convention_at_zero_yaw():
+    roll, pitch = np.radians([3.0, -7.0, 0.2]), np.radians([-2.0, 1.0, 0.0])
+    q = quaternion_from_roll_pitch_yaw(roll, pitch, 0.0)
+    np.testing.assert_allclose(roll_pitch_from_nadir(nadir_in_body(q)), [roll, pitch], atol=1e-12)
+    np.testing.assert_allclose(true_roll_pitch(q), [roll, pitch], atol=1e-12)
+
+
+def test_yaw_alone_is_not_observable():
+    q = quaternion_from_roll_pitch_yaw(0.0, 0.0, math.radians(25.0))
+    np.testing.assert_allclose(true_roll_pitch(q), [0.0, 0.0], atol=1e-12)
