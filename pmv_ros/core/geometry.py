@@ -135,6 +135,31 @@ def vertical_from_horizon_angles(horizon_nadir_rad):
     return nadir / np.linalg.norm(nadir, axis=0)
 
 
+
+def roll_pitch_from_horizon_angles(horizon_nadir_rad):
+    """Roll and pitch, rad, read from the four horizon nadir angles, each pair on its own.
+
+    Equivalent to :func:`vertical_from_horizon_angles` followed by
+    :func:`pmv_ros.core.attitude.roll_pitch_from_nadir`, written so that roll
+    depends on the ±Y pair only and pitch on the ±X pair only: a lost chord
+    makes its own angle NaN and leaves the other one standing (the ±Y tilt
+    enters pitch at second order; it is taken as zero when that pair is lost).
+
+    Args:
+        horizon_nadir_rad: ``(4, ...)`` nadir angles, rad, chords +X, +Y, −X, −Y.
+
+    Returns:
+        (roll_rad, pitch_rad) shaped like one chord's angles.
+    """
+    phi = np.asarray(horizon_nadir_rad, float)
+    tilt_x = 0.5 * (phi[0] - phi[2])
+    tilt_y = 0.5 * (phi[1] - phi[3])
+    # With n ∝ (tan δx, tan δy, −1): roll = atan2(n_y, −n_z) = δy and
+    # pitch = atan2(−n_x, |(n_y, n_z)|) = atan(−tan δx · cos δy).
+    roll = tilt_y
+    pitch = np.arctan(-np.tan(tilt_x) * np.cos(np.where(np.isfinite(tilt_y), tilt_y, 0.0)))
+    return roll, pitch
+
 def sphere_tangent_height(nadir_angle_rad, orbit_radius_m, earth_radius_m):
     """Height above a sphere of the closest point of a line of sight, m: (R + H) sin φ − R.
 
