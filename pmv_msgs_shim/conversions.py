@@ -1,0 +1,289 @@
+"""Plain functions between the domain records and the standard ROS 2 messages of interfaces.md.
+
+The one place that knows the wire layout. Every function is pure: no node, no
+``rclpy.init()``. Naming: ``<record>_to_msg(record)`` and
+``<record>_from_msg(msg)``; :func:`to_msg` dispatches on the record type.
+
+Wire layouts
+    /pmv/horizon_crossings  PolygonStamped: 4 points (float32) = lines of sight,
+                            chords +X, +Y, −X, −Y; an invalid chord is a NaN point.
+    /pmv/attitude, /pmv/residual
+                            Vector3Stamped: x = roll, y = pitch (rad), z = 0.
+    /attitude/truth, /star_tracker/attitude
+                            QuaternionStamped: body in header.frame_id (orbital).
+    /orbit/odometry         Odometry: pose.position = r, twist.linear = v, both in
+                            header.frame_id (ECI); orientation identity.
+    /pmv/error_statistics   DiagnosticArray: one status per channel, named
+                            ``pmv_error_monitor: roll|pitch|meridional``, then
+                            ``pmv_error_monitor: samples`` with the counters.
+                            Channel keys (arcmin for people, m for the ground):
+                            count, mean_arcmin, sigma_arcmin, three_sigma_arcmin,
+                            limit_low_arcmin, limit_high_arcmin (mean ∓ 3σ),
+                            max_abs_arcmin, harmonic_kNN_arcmin (NN = 01…),
+                            ground_mean_m, ground_sigma_m, ground_max_abs_m,
+                            oblateness_removed. Numbers are Python ``repr`` of
+                            floats ("nan" where there is no value yet).
+    /diagnostics            DiagnosticArray of :class:`HealthStatus`.
+    /clock                  rosgraph_msgs/Clock: simulation time.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from functools import singledispatch
+
+import numpy as np
+from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import Point32, PolygonStamped, QuaternionStamped, Vector3Stamped
+from nav_msgs.msg import Odometry
+from rosgraph_msgs.msg import Clock
+
+from .records import (
+    CHANNELS,
+    AttitudeAngles,
+    AttitudeQuaternion,
+    ChannelStatistics,
+    ErrorStatistics,
+    HealthReport,
+    HealthStatus,
+    HorizonCrossings,
+    Level,
+    OrbitState,
+)
+
+#: One arc minute in radians (the same value as pmv_ros.core.constants.ARCMIN_RAD).
+ARCMIN_RAD = math.pi / (180.0 * 60.0)
+
+#: Name prefix of the /pmv/error_statistics statuses.
+STATISTICS_STATUS_PREFIX = "pmv_error_monitor: "
+#: Name of the counters status of /pmv/error_statistics.
+SAMPLES_STATUS_NAME = STATISTICS_STATUS_PREFIX + "samples"
+
+_HARMONIC_KEY = re.compile(r"^harmonic_k(\d+)_arcmin$")
+_INT32_MAX = 2**31 - 1
+
+
+# ----------------------------------------------------------------------------- time
+
+def time_to_msg(stamp_s: float) -> Time:
+    """builtin_interfaces/Time from seconds (rounded to the nanosecond); 0 ≤ stamp < 2³¹ s."""
+    stamp = float(stamp_s)
+    if not (math.isfinite(stamp) and 0.0 <= stamp < _INT32_MAX + 1):
+        raise ValueError(f"stamp_s = {stamp_s} is outside the allowed range [0, 2^31) s")
+    seconds = math.floor(stamp)
+    nanoseconds = round((stamp - seconds) * 1e9)
+    if nanoseconds >= 1_000_000_000:
+        seconds, nanoseconds = seconds + 1, nanoseconds - 1_000_000_000
+    return Time(sec=int(seconds), nanosec=int(nanoseconds))
+
+
+def time_from_msg(msg: Time) -> float:
+    """Seconds from builtin_interfaces/Time."""
+    return msg.sec + msg.nanosec * 1e-9
+
+
+def clock_to_msg(stamp_s: float) -> Clock:
+    """rosgraph_msgs/Clock for /clock (fast-time simulation), from seconds."""
+    return Clock(clock=time_to_msg(stamp_s))
+
+
+def clock_from_msg(msg: Clock) -> float:
+    """Seconds from rosgraph_msgs/Clock."""
+    return time_from_msg(msg.clock)
+
+
+def _header(msg, stamp_s: float, frame_id: str) -> None:
+    msg.header.stamp = time_to_msg(stamp_s)
+    msg.header.frame_id = frame_id
+
+
+# --------------------------------------------------------------- horizon crossings
+
+def horizon_crossings_to_msg(record: HorizonCrossings) -> PolygonStamped:
+    """PolygonStamped of the 4 chord crossings; invalid chords as NaN points."""
+    msg = PolygonStamped()
+    _header(msg, record.stamp_s, record.frame_id)
+    msg.polygon.points = [Point32(x=float(v[0]), y=float(v[1]), z=float(v[2])) for v in record.line_of_sight]
+    return msg
+
+
+def horizon_crossings_from_msg(msg: PolygonStamped) -> HorizonCrossings:
+    """HorizonCrossings from a PolygonStamped; a chord is valid when its point is finite."""
+    points = msg.polygon.points
+    if len(points) != 4:
+        raise ValueError(f"horizon crossings need 4 points (chords +X, +Y, -X, -Y), got {len(points)}")
+    vectors = np.array([[p.x, p.y, p.z] for p in points], float)
+    valid = np.all(np.isfinite(vectors), axis=1)
+    return HorizonCrossings(time_from_msg(msg.header.stamp), msg.header.frame_id, vectors, valid)
+
+
+# ----------------------------------------------------------------------- attitude
+
+def attitude_angles_to_msg(record: AttitudeAngles) -> Vector3Stamped:
+    """Vector3Stamped with x = roll, y = pitch (rad), z = 0 (yaw is not observable)."""
+    msg = Vector3Stamped()
+    _header(msg, record.stamp_s, record.frame_id)
+    msg.vector.x, msg.vector.y, msg.vector.z = record.roll_rad, record.pitch_rad, 0.0
+    return msg
+
+
+def attitude_angles_from_msg(msg: Vector3Stamped) -> AttitudeAngles:
+    """AttitudeAngles from a Vector3Stamped (z is ignored)."""
+    return AttitudeAngles(time_from_msg(msg.header.stamp), msg.header.frame_id, msg.vector.x, msg.vector.y)
+
+
+def attitude_quaternion_to_msg(record: AttitudeQuaternion) -> QuaternionStamped:
+    """QuaternionStamped of the body orientation in ``record.frame_id``."""
+    msg = QuaternionStamped()
+    _header(msg, record.stamp_s, record.frame_id)
+    x, y, z, w = (float(c) for c in record.q_xyzw)
+    msg.quaternion.x, msg.quaternion.y, msg.quaternion.z, msg.quaternion.w = x, y, z, w
+    return msg
+
+
+def attitude_quaternion_from_msg(msg: QuaternionStamped) -> AttitudeQuaternion:
+    """AttitudeQuaternion from a QuaternionStamped (not normalised: the consumer validates)."""
+    q = msg.quaternion
+    return AttitudeQuaternion(time_from_msg(msg.header.stamp), msg.header.frame_id, [q.x, q.y, q.z, q.w])
+
+
+# -------------------------------------------------------------------------- orbit
+
+def orbit_state_to_msg(record: OrbitState) -> Odometry:
+    """Odometry with position and velocity in ``record.frame_id``; orientation identity, covariances zero."""
+    msg = Odometry()
+    _header(msg, record.stamp_s, record.frame_id)
+    msg.child_frame_id = record.child_frame_id
+    position, velocity = msg.pose.pose.position, msg.twist.twist.linear
+    position.x, position.y, position.z = (float(c) for c in record.position_m)
+    velocity.x, velocity.y, velocity.z = (float(c) for c in record.velocity_m_s)
+    return msg
+
+
+def orbit_state_from_msg(msg: Odometry) -> OrbitState:
+    """OrbitState from an Odometry (orientation and angular twist ignored)."""
+    p, v = msg.pose.pose.position, msg.twist.twist.linear
+    return OrbitState(time_from_msg(msg.header.stamp), msg.header.frame_id, msg.child_frame_id,
+                      [p.x, p.y, p.z], [v.x, v.y, v.z])
+
+
+# ------------------------------------------------------------------- diagnostics
+
+def _level_to_msg(level: Level) -> bytes:
+    return bytes([int(level)])
+
+
+def _level_from_msg(value) -> Level:
+    return Level(value[0] if isinstance(value, (bytes, bytearray)) else int(value))
+
+
+def _number(value: float) -> str:
+    return repr(float(value))
+
+
+def _status(name: str, level: Level, message: str, hardware_id: str, values) -> DiagnosticStatus:
+    return DiagnosticStatus(level=_level_to_msg(level), name=name, message=message, hardware_id=hardware_id,
+                            values=[KeyValue(key=str(k), value=str(v)) for k, v in values])
+
+
+def _channel_values(channel: ChannelStatistics, oblateness_removed: bool) -> list[tuple[str, str]]:
+    values = [
+        ("count", str(channel.count)),
+        ("mean_arcmin", _number(channel.mean_rad / ARCMIN_RAD)),
+        ("sigma_arcmin", _number(channel.sigma_rad / ARCMIN_RAD)),
+        ("three_sigma_arcmin", _number(channel.three_sigma_rad / ARCMIN_RAD)),
+        ("limit_low_arcmin", _number(channel.limit_low_rad / ARCMIN_RAD)),
+        ("limit_high_arcmin", _number(channel.limit_high_rad / ARCMIN_RAD)),
+        ("max_abs_arcmin", _number(channel.max_abs_rad / ARCMIN_RAD)),
+    ]
+    values += [(f"harmonic_k{k:02d}_arcmin", _number(a / ARCMIN_RAD)) for k, a in sorted(channel.harmonics_rad.items())]
+    values += [
+        ("ground_mean_m", _number(channel.ground_mean_m)),
+        ("ground_sigma_m", _number(channel.ground_sigma_m)),
+        ("ground_max_abs_m", _number(channel.ground_max_abs_m)),
+        ("oblateness_removed", "true" if oblateness_removed else "false"),
+    ]
+    return values
+
+
+def error_statistics_to_msg(record: ErrorStatistics) -> DiagnosticArray:
+    """DiagnosticArray for /pmv/error_statistics: a status per channel, then the counters (layout above)."""
+    msg = DiagnosticArray()
+    msg.header.stamp = time_to_msg(record.stamp_s)
+    statuses = [_status(STATISTICS_STATUS_PREFIX + c.channel, c.level, c.message, record.hardware_id,
+                        _channel_values(c, record.oblateness_removed)) for c in record.channels]
+    counters = record.counters
+    used = counters.get("used", 0)
+    skipped = sum(v for k, v in counters.items() if k.startswith("skipped_"))
+    rejected = sum(v for k, v in counters.items() if k.startswith("rejected_"))
+    statuses.append(_status(SAMPLES_STATUS_NAME, Level.OK if used else Level.WARN,
+                            f"{used} used, {skipped} skipped, {rejected} rejected", record.hardware_id,
+                            [(k, str(v)) for k, v in counters.items()]
+                            + [("oblateness_removed", "true" if record.oblateness_removed else "false")]))
+    msg.status = statuses
+    return msg
+
+
+def error_statistics_from_msg(msg: DiagnosticArray) -> ErrorStatistics:
+    """ErrorStatistics from a /pmv/error_statistics DiagnosticArray (derived keys such as limits are ignored)."""
+    channels, counters, removed, hardware_id = [], {}, True, "pmv"
+    for status in msg.status:
+        if not status.name.startswith(STATISTICS_STATUS_PREFIX):
+            continue
+        values = {kv.key: kv.value for kv in status.values}
+        hardware_id = status.hardware_id
+        removed = values.get("oblateness_removed", "true") == "true"
+        if status.name == SAMPLES_STATUS_NAME:
+            counters = {k: int(v) for k, v in values.items() if k != "oblateness_removed"}
+            continue
+        channel = status.name[len(STATISTICS_STATUS_PREFIX):]
+        if channel not in CHANNELS:
+            continue
+
+        def angle(key):
+            return float(values.get(key, "nan")) * ARCMIN_RAD
+
+        harmonics = {int(m.group(1)): float(v) * ARCMIN_RAD
+                     for k, v in values.items() if (m := _HARMONIC_KEY.match(k))}
+        channels.append(ChannelStatistics(
+            channel=channel, count=int(values.get("count", "0")), mean_rad=angle("mean_arcmin"),
+            sigma_rad=angle("sigma_arcmin"), three_sigma_rad=angle("three_sigma_arcmin"),
+            max_abs_rad=angle("max_abs_arcmin"), harmonics_rad=harmonics,
+            ground_mean_m=float(values.get("ground_mean_m", "nan")),
+            ground_sigma_m=float(values.get("ground_sigma_m", "nan")),
+            ground_max_abs_m=float(values.get("ground_max_abs_m", "nan")),
+            level=_level_from_msg(status.level), message=status.message))
+    return ErrorStatistics(time_from_msg(msg.header.stamp), tuple(channels), counters, removed, hardware_id)
+
+
+def health_to_msg(record: HealthReport) -> DiagnosticArray:
+    """DiagnosticArray for /diagnostics."""
+    msg = DiagnosticArray()
+    msg.header.stamp = time_to_msg(record.stamp_s)
+    msg.status = [_status(s.name, s.level, s.message, s.hardware_id, s.values) for s in record.statuses]
+    return msg
+
+
+def health_from_msg(msg: DiagnosticArray) -> HealthReport:
+    """HealthReport from a /diagnostics DiagnosticArray."""
+    statuses = tuple(HealthStatus(s.name, _level_from_msg(s.level), s.message, s.hardware_id,
+                                  tuple((kv.key, kv.value) for kv in s.values)) for s in msg.status)
+    return HealthReport(time_from_msg(msg.header.stamp), statuses)
+
+
+# ----------------------------------------------------------------------- dispatch
+
+@singledispatch
+def to_msg(record):
+    """The message for any record of :mod:`.records`."""
+    raise TypeError(f"no message layout for {type(record).__name__}")
+
+
+to_msg.register(HorizonCrossings, horizon_crossings_to_msg)
+to_msg.register(AttitudeAngles, attitude_angles_to_msg)
+to_msg.register(AttitudeQuaternion, attitude_quaternion_to_msg)
+to_msg.register(OrbitState, orbit_state_to_msg)
+to_msg.register(ErrorStatistics, error_statistics_to_msg)
+to_msg.register(HealthReport, health_to_msg)

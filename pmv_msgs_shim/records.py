@@ -1,0 +1,270 @@
+"""Typed domain records of the PMV topics (interfaces.md), independent of any message package.
+
+Records hold SI units and radians; arc minutes appear only on the wire of
+/pmv/error_statistics, which is meant for people (see :mod:`.conversions`).
+Records are frozen; array fields are stored as read-only numpy copies, so
+compare them with ``numpy.array_equal``/``allclose``, not ``==``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from enum import IntEnum
+from typing import Mapping
+
+import numpy as np
+
+#: Frame of the sensor (= body) axes: boresight −Z, chords along ±X, ±Y.
+SENSOR_FRAME = "pmv_sensor"
+#: Orbital frame: Z up along the geocentric radius, X towards the velocity in the orbit plane, Y = Z × X.
+ORBITAL_FRAME = "orbital"
+#: Earth-centred inertial frame.
+ECI_FRAME = "eci"
+#: Spacecraft body frame.
+BODY_FRAME = "body"
+
+#: Chord order of /pmv/horizon_crossings.
+CHORDS = ("+X", "+Y", "-X", "-Y")
+
+#: Channels of /pmv/error_statistics, in the order of the statuses.
+CHANNELS = ("roll", "pitch", "meridional")
+
+#: Tolerance on |line of sight| − 1 for a valid chord (float32 on the wire gives ~1e-7).
+UNIT_VECTOR_TOLERANCE = 1e-4
+
+
+def _check_stamp(stamp_s: float) -> float:
+    stamp = float(stamp_s)
+    if not (math.isfinite(stamp) and stamp >= 0.0):
+        raise ValueError(f"stamp_s = {stamp_s} must be finite and ≥ 0")
+    return stamp
+
+
+def _frozen_array(values, shape, name, dtype=float) -> np.ndarray:
+    array = np.array(values, dtype=dtype)
+    if array.shape != shape:
+        raise ValueError(f"{name} must have shape {shape}, got {array.shape}")
+    array.flags.writeable = False
+    return array
+
+
+@dataclass(frozen=True, eq=False)
+class HorizonCrossings:
+    """Lines of sight to the horizon crossings of the 4 chords (/pmv/horizon_crossings).
+
+    Args:
+        stamp_s: time of the scan, s.
+        frame_id: frame of the vectors (the sensor frame).
+        line_of_sight: ``(4, 3)`` unit vectors, chords +X, +Y, −X, −Y; rows of
+            invalid chords are set to NaN.
+        valid: ``(4,)`` bools: the chord saw a horizon.
+    """
+
+    stamp_s: float
+    frame_id: str = SENSOR_FRAME
+    line_of_sight: np.ndarray = field(default_factory=lambda: np.full((4, 3), np.nan))
+    valid: np.ndarray = field(default_factory=lambda: np.zeros(4, bool))
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "stamp_s", _check_stamp(self.stamp_s))
+        valid = _frozen_array(self.valid, (4,), "valid", bool)
+        vectors = np.array(self.line_of_sight, dtype=float)
+        if vectors.shape != (4, 3):
+            raise ValueError(f"line_of_sight must have shape (4, 3), got {vectors.shape}")
+        vectors[~valid] = np.nan
+        norms = np.linalg.norm(vectors[valid], axis=1)
+        if not np.all(np.abs(norms - 1.0) <= UNIT_VECTOR_TOLERANCE):
+            raise ValueError(f"valid lines of sight must be unit vectors, got norms {norms}")
+        vectors.flags.writeable = False
+        object.__setattr__(self, "valid", valid)
+        object.__setattr__(self, "line_of_sight", vectors)
+
+
+@dataclass(frozen=True)
+class AttitudeAngles:
+    """Roll and pitch of the sensor axis from the local vertical, rad (/pmv/attitude, /pmv/residual).
+
+    Signs: :mod:`pmv_ros.core.attitude`. For /pmv/residual the angles are sensor minus star tracker.
+    """
+
+    stamp_s: float
+    frame_id: str = SENSOR_FRAME
+    roll_rad: float = 0.0
+    pitch_rad: float = 0.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "stamp_s", _check_stamp(self.stamp_s))
+        object.__setattr__(self, "roll_rad", float(self.roll_rad))
+        object.__setattr__(self, "pitch_rad", float(self.pitch_rad))
+
+
+@dataclass(frozen=True, eq=False)
+class AttitudeQuaternion:
+    """Orientation of the body in the frame ``frame_id`` (the orbital frame), (x, y, z, w).
+
+    For /attitude/truth and /star_tracker/attitude. Not normalised here: a
+    consumer validates it (the monitor counts and rejects bad ones).
+    """
+
+    stamp_s: float
+    frame_id: str = ORBITAL_FRAME
+    q_xyzw: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 0.0, 1.0]))
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "stamp_s", _check_stamp(self.stamp_s))
+        object.__setattr__(self, "q_xyzw", _frozen_array(self.q_xyzw, (4,), "q_xyzw"))
+
+
+@dataclass(frozen=True, eq=False)
+class OrbitState:
+    """Spacecraft position (m) and velocity (m/s), both in ``frame_id`` (ECI) (/orbit/odometry).
+
+    On the wire the velocity goes in the twist of ``nav_msgs/Odometry``
+    expressed in ``frame_id`` — not in ``child_frame_id`` as the Odometry
+    comment suggests for robots: an orbit is described in the inertial frame.
+    """
+
+    stamp_s: float
+    frame_id: str = ECI_FRAME
+    child_frame_id: str = BODY_FRAME
+    position_m: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    velocity_m_s: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "stamp_s", _check_stamp(self.stamp_s))
+        object.__setattr__(self, "position_m", _frozen_array(self.position_m, (3,), "position_m"))
+        object.__setattr__(self, "velocity_m_s", _frozen_array(self.velocity_m_s, (3,), "velocity_m_s"))
+
+
+class Level(IntEnum):
+    """Level of a diagnostic status (the values of diagnostic_msgs/DiagnosticStatus)."""
+
+    OK = 0
+    WARN = 1
+    ERROR = 2
+    STALE = 3
+
+
+@dataclass(frozen=True)
+class ChannelStatistics:
+    """Live error statistics of one channel (roll, pitch or meridional), rad; ground error in m.
+
+    Field names match :class:`pmv_ros.core.monitor.ChannelSummary`.
+    ``harmonics_rad`` maps k (multiple of the orbital frequency) to the
+    amplitude over the last full orbit (NaN until there is one).
+    ``ground_*`` is the residual as the ground error of a nadir imager
+    (physics.md §7): cross-track for roll, along-track for pitch, circular
+    for meridional.
+    """
+
+    channel: str
+    count: int = 0
+    mean_rad: float = math.nan
+    sigma_rad: float = math.nan
+    three_sigma_rad: float = math.nan
+    max_abs_rad: float = math.nan
+    harmonics_rad: Mapping[int, float] = field(default_factory=dict)
+    ground_mean_m: float = math.nan
+    ground_sigma_m: float = math.nan
+    ground_max_abs_m: float = math.nan
+    level: Level = Level.OK
+    message: str = ""
+
+    def __post_init__(self) -> None:
+        if self.channel not in CHANNELS:
+            raise ValueError(f"channel = {self.channel!r} must be one of {CHANNELS}")
+        if int(self.count) != self.count or self.count < 0:
+            raise ValueError(f"count = {self.count} must be a non-negative integer")
+        object.__setattr__(self, "count", int(self.count))
+        object.__setattr__(self, "harmonics_rad", {int(k): float(v) for k, v in dict(self.harmonics_rad).items()})
+        object.__setattr__(self, "level", Level(self.level))
+
+    @property
+    def limit_low_rad(self) -> float:
+        """mean − 3σ."""
+        return self.mean_rad - self.three_sigma_rad
+
+    @property
+    def limit_high_rad(self) -> float:
+        """mean + 3σ."""
+        return self.mean_rad + self.three_sigma_rad
+
+
+@dataclass(frozen=True)
+class ErrorStatistics:
+    """The content of /pmv/error_statistics: one :class:`ChannelStatistics` per channel plus sample counters.
+
+    ``counters`` are the monitor's counts by name (samples used, skipped per
+    reason, rejected per stream and reason, ...).
+    """
+
+    stamp_s: float
+    channels: tuple = ()
+    counters: Mapping[str, int] = field(default_factory=dict)
+    oblateness_removed: bool = True
+    hardware_id: str = "pmv"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "stamp_s", _check_stamp(self.stamp_s))
+        channels = tuple(self.channels)
+        names = [c.channel for c in channels]
+        if len(set(names)) != len(names):
+            raise ValueError(f"channels must be distinct, got {names}")
+        object.__setattr__(self, "channels", channels)
+        object.__setattr__(self, "counters", {str(k): int(v) for k, v in dict(self.counters).items()})
+        object.__setattr__(self, "oblateness_removed", bool(self.oblateness_removed))
+
+    def channel(self, name: str) -> ChannelStatistics:
+        """The statistics of channel ``name``."""
+        for statistics in self.channels:
+            if statistics.channel == name:
+                return statistics
+        raise KeyError(name)
+
+    @classmethod
+    def from_summary(cls, summary, stamp_s: float, hardware_id: str = "pmv") -> "ErrorStatistics":
+        """Build from a monitor summary (:class:`pmv_ros.core.monitor.MonitorSummary`), read by field name.
+
+        Duck-typed so that this package does not import the physics core.
+        """
+        channels = tuple(
+            ChannelStatistics(channel=c.channel, count=c.count, mean_rad=c.mean_rad, sigma_rad=c.sigma_rad,
+                              three_sigma_rad=c.three_sigma_rad, max_abs_rad=c.max_abs_rad,
+                              harmonics_rad=c.harmonics_rad, ground_mean_m=c.ground_mean_m,
+                              ground_sigma_m=c.ground_sigma_m, ground_max_abs_m=c.ground_max_abs_m,
+                              level=Level.OK if c.count > 0 else Level.WARN,
+                              message="" if c.count > 0 else "no aligned samples yet")
+            for c in summary.channels)
+        return cls(stamp_s, channels, summary.counters, summary.oblateness_removed, hardware_id)
+
+
+@dataclass(frozen=True)
+class HealthStatus:
+    """One health status for /diagnostics (a diagnostic_msgs/DiagnosticStatus).
+
+    ``values`` are (key, value) string pairs, order kept; a mapping is accepted.
+    """
+
+    name: str
+    level: Level = Level.OK
+    message: str = ""
+    hardware_id: str = "pmv"
+    values: tuple = ()
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "level", Level(self.level))
+        pairs = self.values.items() if isinstance(self.values, Mapping) else self.values
+        object.__setattr__(self, "values", tuple((str(k), str(v)) for k, v in pairs))
+
+
+@dataclass(frozen=True)
+class HealthReport:
+    """A /diagnostics message: health statuses at one time."""
+
+    stamp_s: float
+    statuses: tuple = ()
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "stamp_s", _check_stamp(self.stamp_s))
+        object.__setattr__(self, "statuses", tuple(self.statuses))

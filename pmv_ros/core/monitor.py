@@ -1,0 +1,634 @@
+"""The error monitor without ROS: align the sensor with star-tracker truth, keep live statistics.
+
+:class:`ErrorMonitor` is what ``error_monitor_node`` wraps. It takes truth
+samples (t, roll, pitch) — or star-tracker quaternions — and sensor samples
+(t, roll, pitch, plus the orbit position for the oblateness model), and for
+each sensor sample returns an :class:`Outcome`: the residual sensor − truth,
+or the reason it could not be used. Times are seconds (float) on the node
+clock; angles radians.
+
+Alignment (physics.md §6: truth has noise, latency and gaps)
+    Truth is interpolated linearly in roll and pitch between the two truth
+    samples that bracket the sensor stamp, never across a gap longer than
+    ``max_truth_gap_s``. A sensor sample newer than the latest truth waits in
+    a bounded pending queue until truth at or after its stamp arrives, so the
+    residual of a sample comes out with the truth latency plus up to one
+    truth interval of delay; a sample that waits longer than
+    ``max_truth_wait_s`` (measured by the newer sensor stamps or by ``now_s``)
+    is given up as ``stale_truth`` — that is what a star-tracker outage
+    produces, and alignment resumes by itself when truth returns.
+
+Validation (issue 6)
+    Every incoming sample is checked before it touches any state: non-finite
+    values, a zero (unset) or negative stamp, a stamp in the future of
+    ``now_s``, a duplicate or backwards stamp, a quaternion far from unit norm
+    (near-unit ones are normalised and counted). A stamp that goes back by
+    more than ``clock_jump_s`` — or a ``now_s`` that does — is a clock jump
+    (simulation restarted, a node restarted on a new clock): the alignment
+    state and the harmonic ring are reset so that nothing is interpolated or
+    fitted across the discontinuity, while the running statistics, which are
+    sums over valid residuals, carry on. :meth:`ErrorMonitor.reset` clears
+    everything.
+
+Statistics
+    Per channel roll, pitch, meridional, both with the oblateness model
+    removed and kept (``remove_oblateness`` picks the one reported by
+    default): running count, mean, σ (N − 1), 3σ, max |e|
+    (:class:`~pmv_ros.core.statistics.RunningStatistics`); harmonic
+    amplitudes over the last full orbit from a fixed-size ring
+    (:class:`~pmv_ros.core.statistics.OrbitRing`); and the residual as the
+    ground error of a nadir imager (physics.md §7): cross-track for roll,
+    along-track for pitch, circular for meridional. Memory is bounded
+    whatever the run length: fixed counters, fixed ring, truth buffer and
+    pending queue capped.
+
+Not thread-safe: call it from one executor thread.
+"""
+
+from __future__ import annotations
+
+import bisect
+import math
+from collections import deque
+from dataclasses import dataclass, field
+from enum import Enum
+
+import numpy as np
+
+from .attitude import true_roll_pitch
+from .constants import EARTH_MEAN_RADIUS_M
+from .ground_error import nadir_ground_error
+from .oblateness import closed_form_oblateness
+from .orbit import CircularOrbit
+from .statistics import (
+    DEFAULT_MAX_CONDITION,
+    DEFAULT_MAX_GAP_FRACTION,
+    ORBIT_HARMONICS,
+    OrbitRing,
+    RunningStatistics,
+)
+
+#: The statistics channels, in the order they are reported.
+CHANNELS = ("roll", "pitch", "meridional")
+
+
+class Status(str, Enum):
+    """What became of a sample: ``ok`` or the reason it was not used (the value is the counter name)."""
+
+    OK = "ok"
+    # Alignment of a valid sensor sample with truth.
+    NO_TRUTH = "no_truth"                  # no truth at or before the stamp since the (re)start
+    TOO_OLD = "too_old"                    # older than the truth history kept (sensor far behind truth)
+    TRUTH_GAP = "truth_gap"                # bracketing truth samples further apart than max_truth_gap_s
+    STALE_TRUTH = "stale_truth"            # no truth covering the stamp arrived within max_truth_wait_s
+    PENDING_OVERFLOW = "pending_overflow"  # pushed out of a full pending queue
+    RESET = "reset"                        # still pending when a discontinuity reset the alignment
+    # Validation of an incoming sample (either stream).
+    NON_FINITE = "non_finite"              # NaN/Inf stamp or value
+    ZERO_STAMP = "zero_stamp"              # stamp 0 (unset header) or negative
+    FUTURE_STAMP = "future_stamp"          # later than now_s + future_tolerance_s
+    DUPLICATE = "duplicate"                # same stamp as the previous sample of the stream
+    BACKWARDS = "backwards"                # earlier than the previous sample, by less than clock_jump_s
+    BAD_QUATERNION = "bad_quaternion"      # norm further than the tolerance from 1 (or zero)
+
+
+#: Reasons a valid sensor sample could not be aligned with truth.
+SKIP_REASONS = (Status.NO_TRUTH, Status.TOO_OLD, Status.TRUTH_GAP, Status.STALE_TRUTH,
+                Status.PENDING_OVERFLOW, Status.RESET)
+
+#: Reasons an incoming sample is rejected, per stream.
+SENSOR_REJECTIONS = (Status.NON_FINITE, Status.ZERO_STAMP, Status.FUTURE_STAMP, Status.DUPLICATE, Status.BACKWARDS)
+TRUTH_REJECTIONS = SENSOR_REJECTIONS + (Status.BAD_QUATERNION,)
+
+
+def _counter_names() -> tuple[str, ...]:
+    names = ["sensor_received", "truth_received", "used"]
+    names += [f"skipped_{reason.value}" for reason in SKIP_REASONS]
+    names += [f"rejected_sensor_{reason.value}" for reason in SENSOR_REJECTIONS]
+    names += [f"rejected_truth_{reason.value}" for reason in TRUTH_REJECTIONS]
+    names += ["truth_quaternions_normalised", "used_without_oblateness_model", "clock_jumps", "alignment_resets"]
+    return tuple(names)
+
+
+#: Every counter the monitor keeps (fixed: memory does not grow with new reasons).
+COUNTER_NAMES = _counter_names()
+
+
+def _positive(name: str, value: float, low: float = 0.0, high: float = math.inf) -> float:
+    number = float(value)
+    if not (math.isfinite(number) and low < number <= high):
+        raise ValueError(f"{name} = {value} is outside the allowed range ({low:g}, {high:g}]")
+    return number
+
+
+@dataclass(frozen=True)
+class MonitorConfig:
+    """Parameters of :class:`ErrorMonitor` (SI, rad). Out-of-range values raise ValueError.
+
+    Args:
+        orbital_period_s: period for the harmonic ring, s (:meth:`for_orbit` derives it).
+        altitude_m: default altitude for the oblateness model and the ground error, m (None: per sample only).
+        inclination_rad: default inclination for the oblateness model, rad (None: per sample only).
+        remove_oblateness: report the statistics with the oblateness model removed (both are kept).
+        max_truth_gap_s: never interpolate truth across a gap longer than this, s.
+        max_truth_wait_s: give a sensor sample up when no truth covers it after this long, s.
+        truth_history_s: how far back truth is kept for late sensor samples, s.
+        truth_capacity: hard cap on stored truth samples.
+        max_pending: hard cap on sensor samples waiting for truth.
+        clock_jump_s: a stamp (or now) going back by more than this is a clock jump, s.
+        future_tolerance_s: a stamp later than now + this is rejected, s.
+        quaternion_norm_tolerance: | |q| − 1 | up to this is normalised, beyond it rejected.
+        harmonic_bins: bins of the one-orbit ring.
+        harmonics: harmonics of the orbital frequency to report (physics.md §5.1).
+        max_harmonic_gap_fraction: largest hole in the last orbit for which harmonics are reported.
+        roll_offset_rad, pitch_offset_rad: known constant offsets (mounting) removed before the statistics.
+    """
+
+    orbital_period_s: float
+    altitude_m: float | None = None
+    inclination_rad: float | None = None
+    remove_oblateness: bool = True
+    max_truth_gap_s: float = 2.0
+    max_truth_wait_s: float = 10.0
+    truth_history_s: float = 60.0
+    truth_capacity: int = 4096
+    max_pending: int = 4096
+    clock_jump_s: float = 1.0
+    future_tolerance_s: float = 1.0
+    quaternion_norm_tolerance: float = 0.01
+    harmonic_bins: int = 1024
+    harmonics: tuple = ORBIT_HARMONICS
+    max_harmonic_gap_fraction: float = DEFAULT_MAX_GAP_FRACTION
+    roll_offset_rad: float = 0.0
+    pitch_offset_rad: float = 0.0
+
+    def __post_init__(self) -> None:
+        _positive("orbital_period_s", self.orbital_period_s, 0.0, 1e7)
+        if self.altitude_m is not None:
+            _positive("altitude_m", self.altitude_m, 0.0, 1e8)
+        if self.inclination_rad is not None and not 0.0 <= self.inclination_rad <= math.pi:
+            raise ValueError(f"inclination_rad = {self.inclination_rad} is outside the allowed range [0, π]")
+        _positive("max_truth_gap_s", self.max_truth_gap_s, 0.0, 1e5)
+        _positive("max_truth_wait_s", self.max_truth_wait_s, 0.0, 1e5)
+        _positive("truth_history_s", self.truth_history_s, 0.0, 1e6)
+        _positive("clock_jump_s", self.clock_jump_s, 0.0, 1e6)
+        _positive("future_tolerance_s", self.future_tolerance_s, 0.0, 1e6)
+        _positive("quaternion_norm_tolerance", self.quaternion_norm_tolerance, 0.0, 0.5)
+        _positive("max_harmonic_gap_fraction", self.max_harmonic_gap_fraction, 0.0, 1.0)
+        for name in ("truth_capacity", "max_pending"):
+            value = getattr(self, name)
+            if int(value) != value or not 2 <= value <= 10_000_000:
+                raise ValueError(f"{name} = {value} is outside the allowed range 2 … 10000000 (an integer)")
+        if int(self.harmonic_bins) != self.harmonic_bins or not 64 <= self.harmonic_bins <= 1_000_000:
+            raise ValueError(f"harmonic_bins = {self.harmonic_bins} is outside the allowed range 64 … 1000000")
+        if not self.harmonics or any(int(k) != k or k < 1 for k in self.harmonics):
+            raise ValueError(f"harmonics = {self.harmonics} must be a non-empty list of positive integers")
+        for name in ("roll_offset_rad", "pitch_offset_rad"):
+            if not math.isfinite(getattr(self, name)):
+                raise ValueError(f"{name} = {getattr(self, name)} must be finite")
+
+    @classmethod
+    def for_orbit(cls, altitude_m: float, inclination_rad: float, **options) -> "MonitorConfig":
+        """A configuration for a circular orbit: the period comes from :class:`CircularOrbit`."""
+        period = CircularOrbit(altitude_m, inclination_rad).period_s
+        return cls(orbital_period_s=period, altitude_m=altitude_m, inclination_rad=inclination_rad, **options)
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What became of one sensor sample: its residuals (rad) and ground error (m), or why it was skipped.
+
+    ``residual_*`` is sensor − truth, as published on /pmv/residual.
+    ``roll_rad``/``pitch_rad``/``meridional_rad`` are the residuals that went
+    into the reported statistics (offsets removed, oblateness model removed
+    when configured). All NaN unless ``status`` is OK.
+    """
+
+    stamp_s: float
+    status: Status
+    residual_roll_rad: float = math.nan
+    residual_pitch_rad: float = math.nan
+    roll_rad: float = math.nan
+    pitch_rad: float = math.nan
+    meridional_rad: float = math.nan
+    along_track_m: float = math.nan
+    cross_track_m: float = math.nan
+    circular_m: float = math.nan
+
+    @property
+    def ok(self) -> bool:
+        """True when the sample was aligned and used."""
+        return self.status is Status.OK
+
+
+@dataclass(frozen=True)
+class ChannelSummary:
+    """Live statistics of one channel, rad (ground error in m). Field names match the shim's ChannelStatistics."""
+
+    channel: str
+    count: int
+    mean_rad: float
+    sigma_rad: float
+    three_sigma_rad: float
+    max_abs_rad: float
+    harmonics_rad: dict = field(default_factory=dict)
+    ground_mean_m: float = math.nan
+    ground_sigma_m: float = math.nan
+    ground_max_abs_m: float = math.nan
+
+    @property
+    def limit_low_rad(self) -> float:
+        """mean − 3σ."""
+        return self.mean_rad - self.three_sigma_rad
+
+    @property
+    def limit_high_rad(self) -> float:
+        """mean + 3σ."""
+        return self.mean_rad + self.three_sigma_rad
+
+
+@dataclass(frozen=True)
+class MonitorSummary:
+    """A snapshot of the monitor: channels roll, pitch, meridional and the sample counters."""
+
+    oblateness_removed: bool
+    channels: tuple
+    counters: dict
+    harmonics_full_orbit: bool
+
+    def channel(self, name: str) -> ChannelSummary:
+        """The statistics of channel ``name``."""
+        for summary in self.channels:
+            if summary.channel == name:
+                return summary
+        raise KeyError(name)
+
+
+@dataclass
+class _Pending:
+    stamp_s: float
+    roll_rad: float
+    pitch_rad: float
+    oblateness_roll_rad: float
+    oblateness_pitch_rad: float
+    altitude_m: float
+
+
+class _StatisticsSet:
+    """Running statistics of roll, pitch, meridional and their ground errors."""
+
+    def __init__(self) -> None:
+        self.angles = [RunningStatistics() for _ in CHANNELS]
+        self.ground = [RunningStatistics() for _ in CHANNELS]
+
+    def reset(self) -> None:
+        for stats in self.angles + self.ground:
+            stats.reset()
+
+
+def validate_quaternion(q_xyzw, tolerance: float):
+    """Check a quaternion: (unit quaternion or None, status, normalised flag).
+
+    Non-finite components give NON_FINITE; a norm further than ``tolerance``
+    from 1 gives BAD_QUATERNION; otherwise the quaternion is normalised.
+    """
+    q = np.asarray(q_xyzw, float).ravel()
+    if q.size != 4 or not np.all(np.isfinite(q)):
+        return None, Status.NON_FINITE, False
+    norm = float(np.linalg.norm(q))
+    if abs(norm - 1.0) > tolerance:
+        return None, Status.BAD_QUATERNION, False
+    return q / norm, Status.OK, norm != 1.0
+
+
+def orbit_angles_from_state(position_eci_m, velocity_eci_m_s):
+    """Argument of latitude u (rad), inclination (rad) and altitude above the mean radius (m) from r, v in ECI.
+
+    For the oblateness model of a monitor fed from /orbit/odometry. u is the
+    angle from the ascending node to r in the orbit plane (0 … 2π); for an
+    equatorial orbit the node is undefined and u is measured from the ECI x axis.
+    """
+    r = np.asarray(position_eci_m, float).ravel()
+    v = np.asarray(velocity_eci_m_s, float).ravel()
+    h = np.cross(r, v)
+    h_norm = np.linalg.norm(h)
+    if not (np.all(np.isfinite(h)) and h_norm > 0.0):
+        raise ValueError("position and velocity must be finite and not parallel")
+    inclination = math.acos(max(-1.0, min(1.0, h[2] / h_norm)))
+    node = np.array([-h[1], h[0], 0.0])
+    if np.linalg.norm(node) < 1e-12 * h_norm:
+        node = np.array([1.0, 0.0, 0.0])
+    node = node / np.linalg.norm(node)
+    u = math.atan2(float(np.dot(np.cross(node, r), h / h_norm)), float(np.dot(node, r)))
+    return u % (2.0 * math.pi), inclination, float(np.linalg.norm(r)) - EARTH_MEAN_RADIUS_M
+
+
+class ErrorMonitor:
+    """Align sensor roll/pitch with star-tracker truth and keep live error statistics (physics.md §5, §5.1, §6, §7).
+
+    Feed it with :meth:`add_truth` (or :meth:`add_truth_quaternion`) and
+    :meth:`add_sensor` in arrival order; each returns the outcomes of the
+    sensor samples it settled (possibly none, possibly several). Call
+    :meth:`poll` from a timer so that pending samples time out even when no
+    message arrives, and :meth:`summary` to publish.
+    """
+
+    def __init__(self, config: MonitorConfig) -> None:
+        self.config = config
+        self._counters = dict.fromkeys(COUNTER_NAMES, 0)
+        self._truth_t: list[float] = []
+        self._truth_roll: list[float] = []
+        self._truth_pitch: list[float] = []
+        self._pending: deque[_Pending] = deque()
+        self._sets = {True: _StatisticsSet(), False: _StatisticsSet()}
+        # Ring columns: roll, pitch, meridional with the oblateness model removed, then kept.
+        self._ring = OrbitRing(config.orbital_period_s, 2 * len(CHANNELS), config.harmonic_bins)
+        self._reset_alignment_state()
+
+    # ----------------------------------------------------------------- state
+
+    def _reset_alignment_state(self) -> None:
+        self._truth_t.clear()
+        self._truth_roll.clear()
+        self._truth_pitch.clear()
+        self._truth_pruned = False
+        self._last_stamp = {"sensor": None, "truth": None}
+        self._last_now_s = None
+        self._ring.clear()
+
+    def reset_alignment(self) -> list[Outcome]:
+        """Start a new time axis: drop truth, pending samples (as RESET) and the harmonic ring; keep statistics."""
+        outcomes = [self._skip(entry.stamp_s, Status.RESET) for entry in self._pending]
+        self._pending.clear()
+        self._reset_alignment_state()
+        self._counters["alignment_resets"] += 1
+        return outcomes
+
+    def reset(self) -> None:
+        """Forget everything: alignment, statistics and counters."""
+        self._pending.clear()
+        self._reset_alignment_state()
+        for statistics in self._sets.values():
+            statistics.reset()
+        self._counters = dict.fromkeys(COUNTER_NAMES, 0)
+
+    @property
+    def counters(self) -> dict:
+        """A copy of every counter (fixed keys: :data:`COUNTER_NAMES`)."""
+        return dict(self._counters)
+
+    @property
+    def truth_buffer_length(self) -> int:
+        """Truth samples held (≤ truth_capacity)."""
+        return len(self._truth_t)
+
+    @property
+    def pending_count(self) -> int:
+        """Sensor samples waiting for truth (≤ max_pending)."""
+        return len(self._pending)
+
+    @property
+    def ring_nbytes(self) -> int:
+        """Memory of the harmonic ring, bytes (fixed)."""
+        return self._ring.nbytes
+
+    # ------------------------------------------------------------ validation
+
+    def _observe_now(self, now_s) -> list[Outcome]:
+        if now_s is None or not math.isfinite(now_s):
+            return []
+        outcomes = []
+        if self._last_now_s is not None and now_s < self._last_now_s - self.config.clock_jump_s:
+            self._counters["clock_jumps"] += 1
+            outcomes = self.reset_alignment()
+        self._last_now_s = float(now_s) if self._last_now_s is None else max(self._last_now_s, float(now_s))
+        return outcomes
+
+    def _check(self, stream: str, t_s: float, values, now_s) -> tuple[Status, list[Outcome]]:
+        """Validate a sample of ``stream``; a clock jump resets the alignment and accepts the sample."""
+        if not (math.isfinite(t_s) and all(math.isfinite(v) for v in values)):
+            return Status.NON_FINITE, []
+        if t_s <= 0.0:
+            return Status.ZERO_STAMP, []
+        if now_s is not None and math.isfinite(now_s) and t_s > now_s + self.config.future_tolerance_s:
+            return Status.FUTURE_STAMP, []
+        last = self._last_stamp[stream]
+        if last is not None:
+            if t_s == last:
+                return Status.DUPLICATE, []
+            if t_s < last - self.config.clock_jump_s:
+                self._counters["clock_jumps"] += 1
+                return Status.OK, self.reset_alignment()
+            if t_s < last:
+                return Status.BACKWARDS, []
+        return Status.OK, []
+
+    # ------------------------------------------------------------------ truth
+
+    def add_truth(self, t_s: float, roll_rad: float, pitch_rad: float, *, now_s: float | None = None) -> list[Outcome]:
+        """Add a truth sample (star-tracker roll, pitch in rad at stamp ``t_s`` in s).
+
+        Args:
+            now_s: the node clock now, s — enables the future-stamp check and
+                clock-jump detection; None to skip both.
+
+        Returns:
+            Outcomes of the pending sensor samples this settled.
+        """
+        self._counters["truth_received"] += 1
+        outcomes = self._observe_now(now_s)
+        t_s, roll_rad, pitch_rad = float(t_s), float(roll_rad), float(pitch_rad)
+        status, reset = self._check("truth", t_s, (roll_rad, pitch_rad), now_s)
+        outcomes += reset
+        if status is not Status.OK:
+            self._counters[f"rejected_truth_{status.value}"] += 1
+            return outcomes + self._expire(now_s)
+        self._last_stamp["truth"] = t_s
+        self._truth_t.append(t_s)
+        self._truth_roll.append(roll_rad)
+        self._truth_pitch.append(pitch_rad)
+        while self._pending and self._pending[0].stamp_s <= t_s:
+            outcomes.append(self._align(self._pending.popleft()))
+        outcomes += self._expire(now_s)
+        self._prune_truth()
+        return outcomes
+
+    def add_truth_quaternion(self, t_s: float, q_orbital_to_body, *, now_s: float | None = None) -> list[Outcome]:
+        """Add a star-tracker quaternion (x, y, z, w), body in the orbital frame; validated, then as roll/pitch.
+
+        The quaternion becomes the roll and pitch an ideal horizon sensor would
+        read (:func:`pmv_ros.core.attitude.true_roll_pitch`), so yaw cannot
+        leak into the comparison.
+        """
+        q, status, normalised = validate_quaternion(q_orbital_to_body, self.config.quaternion_norm_tolerance)
+        if status is not Status.OK:
+            self._counters["truth_received"] += 1
+            self._counters[f"rejected_truth_{status.value}"] += 1
+            return self._observe_now(now_s) + self._expire(now_s)
+        if normalised:
+            self._counters["truth_quaternions_normalised"] += 1
+        roll, pitch = true_roll_pitch(q)
+        return self.add_truth(t_s, float(roll), float(pitch), now_s=now_s)
+
+    def _prune_truth(self) -> None:
+        cutoff = self._truth_t[-1] - self.config.truth_history_s
+        if self._pending:
+            cutoff = min(cutoff, self._pending[0].stamp_s)
+        # Keep the last sample at or before the cutoff: it brackets what comes after.
+        drop = bisect.bisect_right(self._truth_t, cutoff) - 1
+        drop = max(drop, len(self._truth_t) - self.config.truth_capacity)
+        if drop > 0:
+            del self._truth_t[:drop], self._truth_roll[:drop], self._truth_pitch[:drop]
+            self._truth_pruned = True
+
+    # ----------------------------------------------------------------- sensor
+
+    def add_sensor(self, t_s: float, roll_rad: float, pitch_rad: float, *, u_rad: float | None = None,
+                   altitude_m: float | None = None, inclination_rad: float | None = None,
+                   oblateness_roll_rad: float | None = None, oblateness_pitch_rad: float | None = None,
+                   now_s: float | None = None) -> list[Outcome]:
+        """Add a sensor sample (roll, pitch in rad at stamp ``t_s`` in s).
+
+        The oblateness model for this sample comes from, in order: the values
+        passed (``oblateness_roll_rad``/``oblateness_pitch_rad``, e.g. what the
+        sensor's on-board compensation used); or the published closed form
+        (physics.md §2.1) at ``u_rad`` with ``altitude_m``/``inclination_rad``
+        (per sample or from the configuration). Without either, the sample
+        enters only the oblateness-kept statistics (counted in
+        ``used_without_oblateness_model``).
+
+        Args:
+            u_rad: argument of latitude at ``t_s``, rad (see :func:`orbit_angles_from_state`).
+            altitude_m: orbit altitude at ``t_s``, m (also used for the ground error).
+            inclination_rad: orbit inclination, rad.
+            now_s: the node clock now, s (see :meth:`add_truth`).
+
+        Returns:
+            Outcomes settled by this call: this sample's if it was rejected or
+            could be aligned at once, and any pending samples that timed out.
+        """
+        self._counters["sensor_received"] += 1
+        outcomes = self._observe_now(now_s)
+        t_s, roll_rad, pitch_rad = float(t_s), float(roll_rad), float(pitch_rad)
+        status, reset = self._check("sensor", t_s, (roll_rad, pitch_rad), now_s)
+        outcomes += reset
+        if status is not Status.OK:
+            self._counters[f"rejected_sensor_{status.value}"] += 1
+            return outcomes + [Outcome(t_s, status)] + self._expire(now_s)
+        self._last_stamp["sensor"] = t_s
+        altitude = self.config.altitude_m if altitude_m is None else float(altitude_m)
+        model_roll, model_pitch = self._oblateness(u_rad, altitude, inclination_rad,
+                                                   oblateness_roll_rad, oblateness_pitch_rad)
+        entry = _Pending(t_s, roll_rad, pitch_rad, model_roll, model_pitch,
+                         math.nan if altitude is None else altitude)
+        if self._truth_t and self._truth_t[-1] >= t_s and not self._pending:
+            outcomes.append(self._align(entry))
+        else:
+            self._pending.append(entry)
+            if len(self._pending) > self.config.max_pending:
+                outcomes.append(self._skip(self._pending.popleft().stamp_s, Status.PENDING_OVERFLOW))
+        return outcomes + self._expire(now_s)
+
+    def _oblateness(self, u_rad, altitude, inclination_rad, model_roll, model_pitch) -> tuple[float, float]:
+        if model_roll is not None and model_pitch is not None:
+            return float(model_roll), float(model_pitch)
+        inclination = self.config.inclination_rad if inclination_rad is None else float(inclination_rad)
+        if u_rad is None or altitude is None or inclination is None:
+            return math.nan, math.nan
+        _, roll, pitch = closed_form_oblateness(float(u_rad), altitude, inclination)
+        return float(roll), float(pitch)
+
+    def poll(self, now_s: float | None = None) -> list[Outcome]:
+        """Time out pending samples by the clock (call from a timer); returns their outcomes."""
+        return self._observe_now(now_s) + self._expire(now_s)
+
+    def _expire(self, now_s) -> list[Outcome]:
+        """Give up pending samples that have waited longer than max_truth_wait_s."""
+        latest = self._last_stamp["sensor"]
+        if now_s is not None and math.isfinite(now_s):
+            latest = now_s if latest is None else max(latest, now_s)
+        outcomes = []
+        while self._pending and latest is not None and latest - self._pending[0].stamp_s > self.config.max_truth_wait_s:
+            outcomes.append(self._skip(self._pending.popleft().stamp_s, Status.STALE_TRUTH))
+        return outcomes
+
+    # -------------------------------------------------------------- alignment
+
+    def _skip(self, t_s: float, status: Status) -> Outcome:
+        self._counters[f"skipped_{status.value}"] += 1
+        return Outcome(t_s, status)
+
+    def _align(self, entry: _Pending) -> Outcome:
+        """Interpolate truth at the sample's stamp and account the residual, or say why not."""
+        times = self._truth_t
+        t = entry.stamp_s
+        after = bisect.bisect_left(times, t)
+        if after < len(times) and times[after] == t:
+            truth_roll, truth_pitch = self._truth_roll[after], self._truth_pitch[after]
+        elif after == 0:
+            return self._skip(t, Status.TOO_OLD if self._truth_pruned else Status.NO_TRUTH)
+        else:
+            before = after - 1
+            span = times[after] - times[before]
+            if span > self.config.max_truth_gap_s:
+                return self._skip(t, Status.TRUTH_GAP)
+            weight = (t - times[before]) / span
+            truth_roll = self._truth_roll[before] + weight * (self._truth_roll[after] - self._truth_roll[before])
+            truth_pitch = self._truth_pitch[before] + weight * (self._truth_pitch[after] - self._truth_pitch[before])
+        return self._account(entry, entry.roll_rad - truth_roll, entry.pitch_rad - truth_pitch)
+
+    def _account(self, entry: _Pending, residual_roll: float, residual_pitch: float) -> Outcome:
+        """Update both statistics sets and the ring with one residual; return the outcome."""
+        self._counters["used"] += 1
+        roll_kept = residual_roll - self.config.roll_offset_rad
+        pitch_kept = residual_pitch - self.config.pitch_offset_rad
+        has_model = math.isfinite(entry.oblateness_roll_rad) and math.isfinite(entry.oblateness_pitch_rad)
+        if not has_model:
+            self._counters["used_without_oblateness_model"] += 1
+        roll_removed = roll_kept - entry.oblateness_roll_rad if has_model else math.nan
+        pitch_removed = pitch_kept - entry.oblateness_pitch_rad if has_model else math.nan
+        rows = {False: (roll_kept, pitch_kept, math.hypot(roll_kept, pitch_kept)),
+                True: (roll_removed, pitch_removed, math.hypot(roll_removed, pitch_removed))}
+        grounds = {}
+        if math.isfinite(entry.altitude_m) and entry.altitude_m > 0.0:
+            for key in (True, False):
+                if math.isfinite(rows[key][0]):
+                    # Cross-track goes with roll, along-track with pitch, circular with meridional.
+                    error = nadir_ground_error(rows[key][0], rows[key][1], entry.altitude_m)
+                    grounds[key] = (error.cross_track_m, error.along_track_m, error.circular_m)
+        for key, values in rows.items():
+            if not math.isfinite(values[0]):
+                continue
+            target = self._sets[key]
+            for stats, value in zip(target.angles, values):
+                stats.update(value)
+            if key in grounds:
+                for stats, value in zip(target.ground, grounds[key]):
+                    stats.update(value)
+        self._ring.add(entry.stamp_s, rows[True] + rows[False])
+        primary = self.config.remove_oblateness
+        ground = grounds.get(primary, (math.nan, math.nan, math.nan))
+        return Outcome(entry.stamp_s, Status.OK, residual_roll, residual_pitch, *rows[primary],
+                       along_track_m=float(ground[1]), cross_track_m=float(ground[0]), circular_m=float(ground[2]))
+
+    # ---------------------------------------------------------------- summary
+
+    def summary(self, oblateness_removed: bool | None = None) -> MonitorSummary:
+        """The statistics for publication (default: the configured oblateness choice) and the counters.
+
+        Harmonic amplitudes are fitted here (a few ms for the default ring),
+        so call it at the publication rate, not per sample.
+        """
+        removed = self.config.remove_oblateness if oblateness_removed is None else bool(oblateness_removed)
+        amplitudes = self._ring.amplitudes(self.config.harmonics,
+                                           max_gap_fraction=self.config.max_harmonic_gap_fraction,
+                                           max_condition=DEFAULT_MAX_CONDITION)
+        first_column = 0 if removed else len(CHANNELS)
+        channels = []
+        for index, name in enumerate(CHANNELS):
+            angle = self._sets[removed].angles[index]
+            ground = self._sets[removed].ground[index]
+            harmonics = {int(k): float(a) for k, a in zip(self.config.harmonics, amplitudes[:, first_column + index])}
+            channels.append(ChannelSummary(name, angle.count, angle.mean, angle.sigma, angle.three_sigma,
+                                           angle.max_abs, harmonics, ground.mean, ground.sigma, ground.max_abs))
+        return MonitorSummary(removed, tuple(channels), self.counters, self._ring.full_orbit)

@@ -1,0 +1,84 @@
+"""Attitude error → ground error of a nadir imager (physics.md §7)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from pmv_ros.core.constants import ARCMIN_RAD, EARTH_MEAN_RADIUS_M
+from pmv_ros.core.ground_error import GroundError, combine_in_quadrature, ground_error, nadir_ground_error
+
+R = EARTH_MEAN_RADIUS_M
+
+
+def spherical_offset_m(nadir_angle_rad, altitude_m, sphere_radius_m=R):
+    """Arc from the sub-satellite point to where a ray at a nadir angle meets the sphere (sine rule)."""
+    central = math.asin((R + altitude_m) / sphere_radius_m * math.sin(nadir_angle_rad)) - nadir_angle_rad
+    return sphere_radius_m * central
+
+
+def test_one_arcminute_from_500_km_is_about_145_m():
+    # physics.md §7: "A 1′ attitude error is ≈ 145 m on the ground from 500 km at nadir".
+    # 1 m slack: the paper rounds; H·tan(1′) = 145.4 m.
+    for roll, pitch in ((ARCMIN_RAD, 0.0), (0.0, ARCMIN_RAD)):
+        error = ground_error(roll, pitch, 500e3)
+        assert error.circular_m == pytest.approx(145.0, abs=1.0)
+
+
+def test_signs_follow_the_attitude_convention():
+    # Positive pitch tilts the boresight forward (+X_O); positive roll tilts it to −Y_O (attitude.py).
+    forward = ground_error(0.0, ARCMIN_RAD, 500e3)
+    assert forward.along_track_m > 140.0 and abs(forward.cross_track_m) < 1e-6
+    sideways = ground_error(ARCMIN_RAD, 0.0, 500e3)
+    assert sideways.cross_track_m < -140.0 and abs(sideways.along_track_m) < 1e-6
+
+
+@pytest.mark.parametrize("angle_deg, altitude_km, height_km", [(10.0, 500.0, 0.0), (25.0, 835.0, 0.0),
+                                                                (0.5, 500.0, 5.0)])
+def test_large_roll_matches_the_spherical_sine_rule(angle_deg, altitude_km, height_km):
+    angle = math.radians(angle_deg)
+    error = ground_error(angle, 0.0, altitude_km * 1e3, target_height_m=height_km * 1e3)
+    expected = spherical_offset_m(angle, altitude_km * 1e3, R + height_km * 1e3)
+    assert -error.cross_track_m == pytest.approx(expected, rel=1e-9)
+
+
+def test_yaw_matters_only_off_nadir():
+    psi = 10 * ARCMIN_RAD
+    assert ground_error(0.0, 0.0, 500e3, psi).circular_m < 1e-6
+    look = math.radians(30.0)
+    error = ground_error(0.0, 0.0, 500e3, psi, look_across_rad=look)
+    # The pixel's ground point turns about the Earth's axis through the sub-satellite point by ψ:
+    # X′ = R sin λ sin ψ, so P_X = R asin(sin λ sin ψ), λ the pixel's central angle.
+    central = spherical_offset_m(look, 500e3) / R
+    assert error.along_track_m == pytest.approx(R * math.asin(math.sin(central) * math.sin(psi)), rel=1e-9)
+
+
+def test_vectorised_and_off_earth():
+    roll = np.array([[0.0, ARCMIN_RAD], [2 * ARCMIN_RAD, math.radians(80.0)]])
+    error = ground_error(roll, 0.0, 500e3)
+    assert error.circular_m.shape == (2, 2)
+    assert error.circular_m[0, 1] * 2 == pytest.approx(error.circular_m[1, 0], rel=1e-6)
+    assert math.isnan(error.circular_m[1, 1])        # 80° from nadir at 500 km misses the Earth
+
+
+def test_independent_sources_add_in_quadrature():
+    total = combine_in_quadrature([GroundError(12.0, 15.0, 19.2), GroundError(-16.0, 0.0, 16.0)])
+    assert total.along_track_m == pytest.approx(20.0) and total.cross_track_m == pytest.approx(15.0)
+    assert total.circular_m == pytest.approx(25.0)
+
+
+def test_closed_form_nadir_path_matches_the_general_chain():
+    # The monitor's per-sample path re-derives the boresight direction; it must agree with the chain
+    # through attitude.py (rotation matrices) for any roll, pitch, yaw, altitude and target height.
+    rng = np.random.default_rng(11)
+    roll, pitch, yaw = rng.uniform(-0.2, 0.2, (3, 200))
+    altitude = rng.uniform(300e3, 1200e3, 200)
+    height = rng.uniform(0.0, 8e3, 200)
+    general = ground_error(roll, pitch, altitude, yaw, target_height_m=height)
+    fast = nadir_ground_error(roll, pitch, altitude, target_height_m=height)
+    for a, b in zip(general, fast):
+        assert np.allclose(a, b, rtol=1e-9, atol=1e-6)
+    scalar = nadir_ground_error(ARCMIN_RAD, 0.0, 500e3)
+    assert isinstance(scalar.circular_m, float) and scalar.cross_track_m == pytest.approx(-145.4, abs=0.1)
