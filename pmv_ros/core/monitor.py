@@ -298,7 +298,8 @@ def validate_quaternion(q_xyzw, tolerance: float):
     norm = float(np.linalg.norm(q))
     if abs(norm - 1.0) > tolerance:
         return None, Status.BAD_QUATERNION, False
-    return q / norm, Status.OK, norm != 1.0
+    # Rounding leaves |q| a few ulp off 1: only a real departure counts as normalised.
+    return q / norm, Status.OK, abs(norm - 1.0) > 1e-9
 
 
 def orbit_angles_from_state(position_eci_m, velocity_eci_m_s):

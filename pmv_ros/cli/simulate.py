@@ -1,0 +1,118 @@
+"""``pmv simulate``: the main job — the three nodes in one process, fast time, live statistics, a report."""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from pathlib import Path
+
+from ..core.constants import ARCMIN_RAD
+from .common import add_json_flag, format_table, print_json, ranged_float
+
+COLUMNS = [
+    ("channel", "channel", ""),
+    ("count", "N", "d"),
+    ("mean_arcmin", "mean, ′", "+.2f"),
+    ("sigma_arcmin", "σ, ′", ".2f"),
+    ("limit", "mean ± 3σ, ′", ""),
+    ("max_abs_arcmin", "max |e|, ′", ".2f"),
+    ("k1", "k=1, ′", ".2f"),
+    ("k2", "k=2, ′", ".2f"),
+    ("hump", "k=15…25 peak, ′", ".2f"),
+]
+
+
+def add_parser(subparsers) -> None:
+    """Register ``pmv simulate``."""
+    parser = subparsers.add_parser(
+        "simulate", help="run sensor, star tracker and error monitor in fast time and report",
+        description="The main job: sensor_node, star_tracker_node and error_monitor_node in one process on one "
+                    "executor, in fast time, with live statistics and a report (JSON + PNG plots).")
+    parser.add_argument("--config", required=True, help="ros__parameters preset, e.g. config/kondor.yaml")
+    parser.add_argument("--orbits", type=ranged_float(0.0, 1000.0, low_open=True), default=1.0,
+                        help="how many orbits to fly (default 1)")
+    parser.add_argument("--rate-hz", type=ranged_float(0.1, 100.0, " Hz"), default=None,
+                        help="sensor output rate (default: the preset's)")
+    parser.add_argument("--report", default=None, help="write statistics.json and PNG plots into this folder")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_json_flag(parser)
+    parser.set_defaults(func=run)
+
+
+def _rows(statistics_dict: dict) -> list[dict]:
+    rows = []
+    for name, channel in statistics_dict["channels"].items():
+        harmonics = {int(k): v for k, v in channel["harmonics_arcmin"].items()}
+        hump = [v for k, v in harmonics.items() if 15 <= k <= 25 and v is not None and math.isfinite(v)]
+        rows.append({
+            "channel": name, "count": channel["count"], "mean_arcmin": channel["mean_arcmin"],
+            "sigma_arcmin": channel["sigma_arcmin"],
+            "limit": f"{channel['limit_low_arcmin']:+.2f} … {channel['limit_high_arcmin']:+.2f}",
+            "max_abs_arcmin": channel["max_abs_arcmin"],
+            "k1": harmonics.get(1, math.nan), "k2": harmonics.get(2, math.nan),
+            "hump": max(hump) if hump else math.nan,
+        })
+    return rows
+
+
+def run(args) -> int:
+    """Fly the configured spacecraft for ``--orbits`` orbits and report."""
+    from tqdm import tqdm  # imported here: `pmv oblateness` should not pay for it
+
+    from ..nodes.params import ParameterError
+    from ..nodes.pipeline import Pipeline
+    from ..report import statistics_to_dict, write_report
+
+    overrides = {} if args.rate_hz is None else {"sensor.rate_hz": args.rate_hz}
+    try:
+        pipeline = Pipeline(args.config, overrides)
+    except ParameterError as error:
+        raise ValueError(f"{args.config}: {error}") from None
+    started = time.perf_counter()
+    with pipeline:
+        orbit = pipeline.sensor._orbit
+        rate = pipeline.sensor.get_parameter("sensor.rate_hz").value
+        ticks = max(1, round(args.orbits * orbit.period_s * rate))
+        bar = tqdm(total=ticks, unit="tick", file=sys.stderr, disable=args.quiet, dynamic_ncols=True,
+                   desc=f"{Path(args.config).stem} {args.orbits:g} orbit(s) at {rate:g} Hz")
+        refresh = max(1, ticks // 200)
+        for tick in range(ticks):
+            pipeline.step()
+            if (tick + 1) % refresh == 0:
+                bar.update(refresh)
+                statistics = pipeline.collector.statistics
+                if statistics is not None:
+                    roll, pitch = statistics.channel("roll"), statistics.channel("pitch")
+                    bar.set_postfix_str(f"σ roll {roll.sigma_rad / ARCMIN_RAD:.2f}′ "
+                                        f"σ pitch {pitch.sigma_rad / ARCMIN_RAD:.2f}′ N={roll.count}")
+        bar.update(ticks - bar.n)
+        bar.close()
+        final = pipeline.monitor.publish_statistics(pipeline.sensor.sim_time_s)
+        pipeline.drain()
+        wall_s = time.perf_counter() - started
+        result = statistics_to_dict(final)
+        result.update({
+            "config": str(args.config), "orbits": args.orbits, "rate_hz": rate,
+            "simulated_s": pipeline.sensor.sim_time_s - orbit.epoch_s, "wall_s": wall_s,
+            "altitude_km": orbit.altitude_m / 1e3, "inclination_deg": math.degrees(orbit.inclination_rad),
+        })
+        if args.report:
+            live = {name: {int(k): v for k, v in c["harmonics_arcmin"].items()}
+                    for name, c in result["channels"].items()}
+            paths = write_report(args.report, result, pipeline.collector.residual_array(), orbit, live)
+            result["report_files"] = [str(p) for p in paths]
+    if args.json:
+        print_json(result)
+        return 0
+    print(f"{result['config']}: {result['simulated_s']:.0f} s simulated in {wall_s:.1f} s wall "
+          f"({result['simulated_s'] / wall_s:.0f}× real time); residual statistics, "
+          f"oblateness {'removed' if result['oblateness_removed'] else 'kept'}:")
+    print(format_table(_rows(result), COLUMNS))
+    counters = result["counters"]
+    skipped = {k: v for k, v in counters.items() if (k.startswith("skipped_") or k.startswith("rejected_")) and v}
+    print(f"samples used {counters.get('used', 0)}, not used: "
+          + (", ".join(f"{k} {v}" for k, v in skipped.items()) or "none"))
+    if args.report:
+        print("report: " + ", ".join(result["report_files"]))
+    return 0

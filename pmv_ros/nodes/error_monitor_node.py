@@ -1,0 +1,213 @@
+"""``error_monitor_node``: live methodical-error statistics of the sensor against star-tracker truth.
+
+Subscribes to ``/pmv/attitude`` (sensor), ``/star_tracker/attitude`` (truth)
+and ``/orbit/odometry`` (where the spacecraft is, for the oblateness model);
+publishes ``/pmv/residual`` for every aligned sample, ``/pmv/error_statistics``
+every ``1/statistics_rate_hz`` seconds of sample time, and ``/diagnostics``.
+The alignment and statistics are :class:`pmv_ros.core.monitor.ErrorMonitor`;
+this node only converts and wires.
+
+Statistics are driven by the sample stamps, so the node behaves the same on
+the wall clock and on a fast-time ``/clock``; a 1 Hz node-clock timer times
+out samples waiting for truth when nothing arrives at all. QoS: reliable,
+keep-last 100 on every topic; memory is bounded by the monitor's caps.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
+from nav_msgs.msg import Odometry
+from rclpy.node import Node
+from rclpy.qos import QoSProfile
+
+import pmv_msgs_shim as shim
+from ..core.constants import ARCMIN_RAD
+from ..core.monitor import ErrorMonitor, MonitorConfig, Status, orbit_angles_from_state
+from .params import ParamSpec, ParameterError, declare, install_validation
+
+QOS = QoSProfile(depth=100)
+
+PARAMS = (
+    ParamSpec("orbit.altitude_km", 500.0, "nominal orbit altitude (until /orbit/odometry arrives)", 150.0, 40000.0,
+              unit="km"),
+    ParamSpec("orbit.inclination_deg", 74.5, "nominal inclination (until /orbit/odometry arrives)", 0.0, 180.0,
+              unit="deg"),
+    ParamSpec("remove_oblateness", True, "report statistics with the closed-form oblateness model removed"),
+    ParamSpec("max_truth_gap_s", 2.0, "never interpolate truth across a gap longer than this", 0.001, 3600.0, unit="s"),
+    ParamSpec("max_truth_wait_s", 10.0, "give a sensor sample up when no truth covers it after this long",
+              0.01, 3600.0, unit="s"),
+    ParamSpec("statistics_rate_hz", 1.0, "publication rate of /pmv/error_statistics", 0.001, 100.0, unit="Hz"),
+    ParamSpec("roll_offset_arcmin", 0.0, "known constant roll offset removed before the statistics",
+              -600.0, 600.0, unit="arcmin"),
+    ParamSpec("pitch_offset_arcmin", 0.0, "known constant pitch offset removed before the statistics",
+              -600.0, 600.0, unit="arcmin"),
+    ParamSpec("clock_jump_s", 1.0, "a stamp going back by more than this is a clock jump (alignment reset)",
+              0.001, 3600.0, unit="s"),
+    ParamSpec("future_tolerance_s", 1.0, "stamps later than the node clock by more than this are rejected",
+              0.001, 3600.0, unit="s"),
+    ParamSpec("odometry_timeout_s", 5.0, "orbit data older than this is not used for the oblateness model",
+              0.01, 3600.0, unit="s"),
+)
+
+
+def build_monitor(values: dict) -> ErrorMonitor:
+    """The monitor core from parameter values; ValueError if inconsistent."""
+    return ErrorMonitor(MonitorConfig.for_orbit(
+        values["orbit.altitude_km"] * 1e3, math.radians(values["orbit.inclination_deg"]),
+        remove_oblateness=values["remove_oblateness"],
+        max_truth_gap_s=values["max_truth_gap_s"],
+        max_truth_wait_s=values["max_truth_wait_s"],
+        clock_jump_s=values["clock_jump_s"],
+        future_tolerance_s=values["future_tolerance_s"],
+        roll_offset_rad=values["roll_offset_arcmin"] * ARCMIN_RAD,
+        pitch_offset_rad=values["pitch_offset_arcmin"] * ARCMIN_RAD,
+    ))
+
+
+class ErrorMonitorNode(Node):
+    """Aligns the sensor with truth and publishes residuals and live statistics."""
+
+    def __init__(self, **kwargs):
+        super().__init__("error_monitor_node", **kwargs)
+        self._values = declare(self, PARAMS)
+        self._monitor = build_monitor(self._values)
+        install_validation(self, PARAMS, self._values, self._rebuild)
+        self._pub_residual = self.create_publisher(Vector3Stamped, "/pmv/residual", QOS)
+        self._pub_statistics = self.create_publisher(DiagnosticArray, "/pmv/error_statistics", QOS)
+        self._pub_diagnostics = self.create_publisher(DiagnosticArray, "/diagnostics", QOS)
+        self.create_subscription(Vector3Stamped, "/pmv/attitude", self._on_sensor, QOS)
+        self._truth_subscription = self.create_subscription(
+            QuaternionStamped, "/star_tracker/attitude", self._on_truth, QOS)
+        self.create_subscription(Odometry, "/orbit/odometry", self._on_odometry, QOS)
+        self._orbit = None  # (stamp_s, u_rad, inclination_rad, altitude_m, mean_motion_rad_s)
+        self._rejected_messages = {}
+        self._next_statistics_s = None
+        self._last_statistics = None
+        self.create_timer(1.0, self._on_timer)
+
+    def _rebuild(self, values: dict) -> None:
+        # A new configuration starts new statistics: mixing two configurations would mean nothing.
+        self._monitor = build_monitor(values)
+        self._next_statistics_s = None
+
+    def _now_s(self) -> float | None:
+        now = self.get_clock().now().nanoseconds * 1e-9
+        return now if now > 0.0 else None
+
+    def _reject(self, reason: str) -> None:
+        self._rejected_messages[reason] = self._rejected_messages.get(reason, 0) + 1
+
+    # -- inputs ------------------------------------------------------------------------------------
+
+    def _on_odometry(self, message: Odometry) -> None:
+        try:
+            state = shim.orbit_state_from_msg(message)
+            u, inclination, altitude = orbit_angles_from_state(state.position_m, state.velocity_m_s)
+        except ValueError as error:
+            self._reject(f"odometry: {error}")
+            return
+        radius = float(sum(x * x for x in state.position_m)) ** 0.5
+        speed = float(sum(x * x for x in state.velocity_m_s)) ** 0.5
+        self._orbit = (state.stamp_s, u, inclination, altitude, speed / radius)
+
+    def _on_truth(self, message: QuaternionStamped) -> None:
+        try:
+            record = shim.attitude_quaternion_from_msg(message)
+        except ValueError as error:
+            self._reject(f"truth: {error}")
+            return
+        self._handle(self._monitor.add_truth_quaternion(record.stamp_s, record.q_xyzw, now_s=self._now_s()))
+
+    def _on_sensor(self, message: Vector3Stamped) -> None:
+        try:
+            record = shim.attitude_angles_from_msg(message)
+        except ValueError as error:
+            self._reject(f"sensor: {error}")
+            return
+        orbit = {}
+        if self._orbit is not None and abs(record.stamp_s - self._orbit[0]) <= self._values["odometry_timeout_s"]:
+            stamp, u, inclination, altitude, rate = self._orbit
+            orbit = dict(u_rad=u + rate * (record.stamp_s - stamp), inclination_rad=inclination, altitude_m=altitude)
+        self._handle(self._monitor.add_sensor(record.stamp_s, record.roll_rad, record.pitch_rad,
+                                              now_s=self._now_s(), **orbit))
+        self._maybe_publish_statistics(record.stamp_s)
+
+    def _handle(self, outcomes) -> None:
+        for outcome in outcomes:
+            if outcome.status is Status.OK:
+                self._pub_residual.publish(shim.attitude_angles_to_msg(shim.AttitudeAngles(
+                    stamp_s=outcome.stamp_s, frame_id=shim.SENSOR_FRAME,
+                    roll_rad=outcome.residual_roll_rad, pitch_rad=outcome.residual_pitch_rad)))
+
+    # -- outputs -----------------------------------------------------------------------------------
+
+    def _maybe_publish_statistics(self, stamp_s: float) -> None:
+        period = 1.0 / self._values["statistics_rate_hz"]
+        if self._next_statistics_s is None or stamp_s < self._next_statistics_s - period:
+            self._next_statistics_s = stamp_s  # first sample, or the clock went back
+        if stamp_s >= self._next_statistics_s:
+            self.publish_statistics(stamp_s)
+            self._next_statistics_s = stamp_s + period
+
+    def publish_statistics(self, stamp_s: float) -> shim.ErrorStatistics:
+        """Publish the current statistics on /pmv/error_statistics (and return them)."""
+        statistics = shim.ErrorStatistics.from_summary(self._monitor.summary(), stamp_s)
+        self._pub_statistics.publish(shim.error_statistics_to_msg(statistics))
+        self._last_statistics = statistics
+        return statistics
+
+    @property
+    def monitor(self) -> ErrorMonitor:
+        """The monitor core (read-only use: reports, tests)."""
+        return self._monitor
+
+    def _on_timer(self) -> None:
+        now = self._now_s()
+        self._handle(self._monitor.poll(now))
+        counters = self._monitor.counters
+        skipped = {k: v for k, v in counters.items() if k.startswith("skipped_") and v}
+        rejected = {k: v for k, v in counters.items() if k.startswith("rejected_") and v}
+        rejected.update({f"rejected message: {k}": v for k, v in self._rejected_messages.items()})
+        problems = []
+        if counters["truth_received"] == 0:
+            problems.append("no star-tracker truth received yet")
+        if self._monitor.pending_count:
+            problems.append(f"{self._monitor.pending_count} sensor samples waiting for truth")
+        if rejected:
+            problems.append("rejected input messages")
+        level = shim.Level.WARN if problems else shim.Level.OK
+        values = {"used": counters["used"], **skipped, **rejected}
+        self._pub_diagnostics.publish(shim.health_to_msg(shim.HealthReport(
+            stamp_s=now or 0.0, statuses=(shim.HealthStatus(
+                name="pmv_ros/error_monitor_node", level=level,
+                message="; ".join(problems) if problems else "aligned with truth",
+                hardware_id="pmv", values=values),))))
+
+
+def main(args=None) -> int:
+    """Console script / ``ros2 run pmv_ros error_monitor_node``."""
+    rclpy.init(args=args)
+    node = None
+    try:
+        node = ErrorMonitorNode()
+        rclpy.spin(node)
+    except ParameterError as error:
+        print(f"error_monitor_node: invalid parameter: {error}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        pass
+    finally:
+        if node is not None:
+            node.destroy_node()
+        if rclpy.ok():
+            rclpy.shutdown()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,148 @@
+"""The three nodes in one process on one executor, stepped in fast time.
+
+Used by ``pmv simulate`` (the main job), the node tests and the pipeline
+benchmark. Each :class:`Pipeline` has its own rclpy context, so several can
+live in one process one after another. Flow control is explicit: every
+sensor tick is followed by :meth:`Pipeline.drain`, which runs ready callbacks
+until none is left, so no queue grows and nothing is dropped however fast
+the simulation runs.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import Vector3Stamped
+from rclpy.executors import SingleThreadedExecutor, TimeoutException
+from rclpy.node import Node
+from rclpy.qos import QoSProfile
+
+import pmv_msgs_shim as shim
+from .error_monitor_node import ErrorMonitorNode
+from .sensor_node import SensorNode
+from .star_tracker_node import StarTrackerNode
+
+
+def ros_value(value) -> str:
+    """A Python value as a ``-p name:=value`` command-line literal."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (list, tuple)):
+        return "[" + ",".join(ros_value(v) for v in value) + "]"
+    return str(value)
+
+
+class ReportCollector(Node):
+    """Keeps what a report needs: residuals (decimated to a bounded count) and the latest statistics."""
+
+    def __init__(self, max_points: int = 50_000, **kwargs):
+        super().__init__("pmv_report_collector", **kwargs)
+        self.max_points = max_points
+        self.residuals = []  # (stamp_s, roll_rad, pitch_rad)
+        self.residual_count = 0
+        self._stride = 1
+        self.statistics = None
+        qos = QoSProfile(depth=100)
+        self.create_subscription(Vector3Stamped, "/pmv/residual", self._on_residual, qos)
+        self.create_subscription(DiagnosticArray, "/pmv/error_statistics", self._on_statistics, qos)
+
+    def _on_residual(self, message) -> None:
+        self.residual_count += 1
+        if self.residual_count % self._stride:
+            return
+        record = shim.attitude_angles_from_msg(message)
+        self.residuals.append((record.stamp_s, record.roll_rad, record.pitch_rad))
+        if len(self.residuals) >= self.max_points:
+            # Halve the resolution: memory stays bounded for any run length.
+            self.residuals = self.residuals[::2]
+            self._stride *= 2
+
+    def _on_statistics(self, message) -> None:
+        self.statistics = shim.error_statistics_from_msg(message)
+
+    def residual_array(self) -> np.ndarray:
+        """``(3, N)``: stamp (s), roll and pitch residual (rad)."""
+        return np.array(self.residuals, float).T.reshape(3, -1)
+
+
+class Pipeline:
+    """sensor_node + star_tracker_node + error_monitor_node (+ a report collector) in fast time.
+
+    Args:
+        config: a ``ros__parameters`` preset (YAML) for all nodes, or None for defaults.
+        overrides: parameters for every node, ``{name: value}`` (a node ignores the ones it does not declare).
+        isolated: keep the graph to this process (no discovery beyond it), so parallel runs cannot cross-talk.
+        collect: add the report collector.
+    """
+
+    def __init__(self, config: str | os.PathLike | None = None, overrides: dict | None = None,
+                 isolated: bool = True, collect: bool = True):
+        if isolated:
+            os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "OFF"
+        args = ["--ros-args"]
+        if config is not None:
+            path = Path(config)
+            if not path.is_file():
+                raise ValueError(f"config file {str(path)!r} does not exist")
+            args += ["--params-file", str(path)]
+        settings = {"use_sim_time": True, "sim.fast_time": True, **(overrides or {})}
+        for name, value in settings.items():
+            args += ["-p", f"{name}:={ros_value(value)}"]
+        self.context = rclpy.Context()
+        rclpy.init(args=args, context=self.context)
+        self.nodes = []
+        try:
+            self.sensor = self._add(SensorNode(external_drive=True, context=self.context))
+            self.star_tracker = self._add(StarTrackerNode(context=self.context))
+            self.monitor = self._add(ErrorMonitorNode(context=self.context))
+            self.collector = self._add(ReportCollector(context=self.context)) if collect else None
+            self.executor = SingleThreadedExecutor(context=self.context)
+            for node in self.nodes:
+                self.executor.add_node(node)
+        except BaseException:
+            self.close()
+            raise
+
+    def _add(self, node):
+        self.nodes.append(node)
+        return node
+
+    def drain(self, max_callbacks: int = 100_000) -> int:
+        """Run ready callbacks until none is ready; returns how many ran."""
+        ran = 0
+        while ran < max_callbacks:
+            try:
+                handler, _, _ = self.executor.wait_for_ready_callbacks(timeout_sec=0.0)
+            except TimeoutException:
+                break
+            handler()
+            if handler.exception() is not None:
+                raise handler.exception()
+            ran += 1
+        return ran
+
+    def step(self, ticks: int = 1) -> None:
+        """Advance the simulation by ``ticks`` sensor periods, draining the graph after each."""
+        for _ in range(ticks):
+            self.sensor.step()
+            self.drain()
+
+    def close(self) -> None:
+        """Destroy the nodes and shut the context down."""
+        if getattr(self, "executor", None) is not None:
+            self.executor.shutdown()
+        for node in self.nodes:
+            node.destroy_node()
+        self.nodes = []
+        if self.context.ok():
+            rclpy.shutdown(context=self.context)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()

@@ -1,0 +1,303 @@
+"""``sensor_node``: the PMV horizon sensor in a ROS 2 graph.
+
+Propagates the orbit on the ROS clock (or on its own simulation clock in
+fast-time mode, publishing ``/clock``), takes the body attitude from its own
+profile (published on ``/attitude/truth``) or follows the user's
+``/attitude/truth``, runs the four chords through the instrument model and
+publishes crossings, roll/pitch (corrected and uncorrected), odometry and
+health. All physics is in :mod:`pmv_ros.core`; all message layout in
+:mod:`pmv_msgs_shim`.
+
+QoS: outputs are reliable, keep-last 100 — deep enough for a fast-time
+pipeline that is drained every tick, bounded in memory.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+
+import numpy as np
+import rclpy
+from geometry_msgs.msg import PolygonStamped, QuaternionStamped, Vector3Stamped
+from diagnostic_msgs.msg import DiagnosticArray
+from nav_msgs.msg import Odometry
+from rclpy.clock import Clock, ClockType
+from rclpy.node import Node
+from rclpy.qos import QoSProfile
+from rosgraph_msgs.msg import Clock as ClockMsg
+
+import pmv_msgs_shim as shim
+from ..core.attitude_profile import AttitudeProfile
+from ..core.constants import ARCMIN_RAD, GRS80, SPHERE
+from ..core.orbit import CircularOrbit
+from ..core.sensor import ChordStatus, SensorConfig, SensorModel
+from ..core.geometry import CHORD_NAMES
+from .params import ParamSpec, ParameterError, declare, install_validation
+
+OUTPUT_QOS = QoSProfile(depth=100)
+
+#: Parameters of sensor_node (units in the names; YAML speaks km, deg, arcmin).
+PARAMS = (
+    ParamSpec("orbit.altitude_km", 500.0, "circular orbit altitude above the 6371 km mean radius", 150.0, 40000.0, unit="km"),
+    ParamSpec("orbit.inclination_deg", 74.5, "orbit inclination", 0.0, 180.0, unit="deg"),
+    ParamSpec("orbit.raan_deg", 0.0, "right ascension of the ascending node at epoch", -360.0, 360.0, unit="deg"),
+    ParamSpec("orbit.u0_deg", 0.0, "argument of latitude at the start of the run", -360.0, 360.0, unit="deg"),
+    ParamSpec("orbit.j2_node_drift", False, "apply the secular J2 drift of the node"),
+    ParamSpec("attitude.source", "profile", "profile: own attitude model published on /attitude/truth; "
+              "follow: take the attitude from /attitude/truth", choices=("profile", "follow")),
+    ParamSpec("attitude.roll_offset_arcmin", 0.0, "constant roll of the body", -2700.0, 2700.0, unit="arcmin"),
+    ParamSpec("attitude.pitch_offset_arcmin", 0.0, "constant pitch of the body", -2700.0, 2700.0, unit="arcmin"),
+    ParamSpec("attitude.yaw_offset_arcmin", 0.0, "constant yaw of the body", -2700.0, 2700.0, unit="arcmin"),
+    ParamSpec("attitude.roll_amplitude_arcmin", 0.0, "amplitude of the slow roll oscillation", 0.0, 2700.0, unit="arcmin"),
+    ParamSpec("attitude.pitch_amplitude_arcmin", 0.0, "amplitude of the slow pitch oscillation", 0.0, 2700.0, unit="arcmin"),
+    ParamSpec("attitude.oscillation_period_s", 600.0, "period of the slow oscillations", 1.0, 1e6, unit="s"),
+    ParamSpec("attitude.roll_drift_arcmin_per_h", 0.0, "roll drift", -600.0, 600.0, unit="arcmin/h"),
+    ParamSpec("attitude.pitch_drift_arcmin_per_h", 0.0, "pitch drift", -600.0, 600.0, unit="arcmin/h"),
+    ParamSpec("attitude.follow_timeout_s", 1.0, "in follow mode, truth older than this is stale", 0.01, 3600.0, unit="s"),
+    ParamSpec("sensor.rate_hz", 10.0, "output rate of the sensor", 0.1, 100.0, unit="Hz"),
+    ParamSpec("sensor.earth_model", "GRS80", "Earth figure for the horizon geometry", choices=("GRS80", "sphere")),
+    ParamSpec("sensor.layer_height_km", 40.0, "height of the emitting layer seen by the ideal detector", 0.0, 100.0,
+              unit="km"),
+    ParamSpec("sensor.oblateness_compensation", False, "subtract the closed-form oblateness model on board"),
+    ParamSpec("sim.fast_time", False, "run on an own simulation clock as fast as allowed and publish /clock"),
+    ParamSpec("sim.time_scale", 0.0, "fast time: multiple of real time (0 = as fast as the pipeline allows)",
+              0.0, 1e6),
+    ParamSpec("sim.start_time_s", 0.0, "fast time: simulation time at start", 0.0, 1e10, unit="s"),
+    ParamSpec("diagnostics_period_s", 1.0, "period of /diagnostics health reports", 0.1, 3600.0, unit="s"),
+    ParamSpec("seed", 0, "seed of every random process of the sensor", 0, 2**31 - 1),
+)
+
+#: Samples computed per call of the instrument model in fast time with the
+#: own attitude profile (amortises numpy overhead; the output is identical).
+FAST_TIME_BLOCK = 64
+
+
+def build_models(values: dict):
+    """Orbit, attitude profile and instrument model from parameter values; ValueError if inconsistent."""
+    orbit = CircularOrbit(
+        altitude_m=values["orbit.altitude_km"] * 1e3,
+        inclination_rad=math.radians(values["orbit.inclination_deg"]),
+        raan_rad=math.radians(values["orbit.raan_deg"]),
+        arg_latitude_at_epoch_rad=math.radians(values["orbit.u0_deg"]),
+        epoch_s=values["sim.start_time_s"] if values["sim.fast_time"] else values.get("_epoch_s", 0.0),
+        j2_node_drift=values["orbit.j2_node_drift"],
+    )
+    per_hour = ARCMIN_RAD / 3600.0
+    profile = AttitudeProfile(
+        roll_offset_rad=values["attitude.roll_offset_arcmin"] * ARCMIN_RAD,
+        pitch_offset_rad=values["attitude.pitch_offset_arcmin"] * ARCMIN_RAD,
+        yaw_offset_rad=values["attitude.yaw_offset_arcmin"] * ARCMIN_RAD,
+        roll_amplitude_rad=values["attitude.roll_amplitude_arcmin"] * ARCMIN_RAD,
+        pitch_amplitude_rad=values["attitude.pitch_amplitude_arcmin"] * ARCMIN_RAD,
+        oscillation_period_s=values["attitude.oscillation_period_s"],
+        roll_drift_rad_s=values["attitude.roll_drift_arcmin_per_h"] * per_hour,
+        pitch_drift_rad_s=values["attitude.pitch_drift_arcmin_per_h"] * per_hour,
+    )
+    config = SensorConfig(
+        ellipsoid=GRS80 if values["sensor.earth_model"] == "GRS80" else SPHERE,
+        ideal_layer_height_m=values["sensor.layer_height_km"] * 1e3,
+        oblateness_compensation=values["sensor.oblateness_compensation"],
+    )
+    return orbit, profile, SensorModel(orbit, config)
+
+
+class SensorNode(Node):
+    """The PMV sensor: orbit + attitude → 4-chord crossings and roll/pitch.
+
+    Args:
+        external_drive: fast time stepped by the caller through :meth:`step`
+            (``pmv simulate``) instead of by the node's own wall-clock timer.
+    """
+
+    def __init__(self, *, external_drive: bool = False, **kwargs):
+        super().__init__("sensor_node", **kwargs)
+        self._values = declare(self, PARAMS)
+        self._external_drive = external_drive
+        self._values["_epoch_s"] = self.get_clock().now().nanoseconds * 1e-9
+        self._rebuild(self._values)
+        install_validation(self, PARAMS, self._values, self._rebuild_live)
+
+        self._pub_crossings = self.create_publisher(PolygonStamped, "/pmv/horizon_crossings", OUTPUT_QOS)
+        self._pub_attitude = self.create_publisher(Vector3Stamped, "/pmv/attitude", OUTPUT_QOS)
+        self._pub_attitude_raw = self.create_publisher(Vector3Stamped, "/pmv/attitude_uncorrected", OUTPUT_QOS)
+        self._pub_odometry = self.create_publisher(Odometry, "/orbit/odometry", OUTPUT_QOS)
+        self._pub_diagnostics = self.create_publisher(DiagnosticArray, "/diagnostics", OUTPUT_QOS)
+        self._pub_truth = None
+        self._pub_clock = None
+        self._latest_truth = None  # (stamp_s, q) in follow mode
+        self._chord_problem_counts = np.zeros((len(ChordStatus), 4), int)
+        self._rejected = {}
+        self._samples_published = 0
+        self._last_diagnostics_s = -math.inf
+        self._pending = []  # precomputed fast-time samples
+        if self._values["attitude.source"] == "profile":
+            self._pub_truth = self.create_publisher(QuaternionStamped, "/attitude/truth", OUTPUT_QOS)
+        else:
+            self.create_subscription(QuaternionStamped, "/attitude/truth", self._on_truth, OUTPUT_QOS)
+
+        self._sim_time_s = self._values["sim.start_time_s"]
+        self._timer = None
+        if self._values["sim.fast_time"]:
+            self._pub_clock = self.create_publisher(ClockMsg, "/clock", OUTPUT_QOS)
+            if not external_drive:
+                self._start_fast_timer()
+        else:
+            self._timer = self.create_timer(1.0 / self._values["sensor.rate_hz"], self._on_real_time_tick)
+        self.get_logger().info(
+            f"sensor_node: H = {self._values['orbit.altitude_km']:g} km, i = {self._values['orbit.inclination_deg']:g}°, "
+            f"{self._values['sensor.rate_hz']:g} Hz, attitude from {self._values['attitude.source']}, "
+            f"{'fast time' if self._values['sim.fast_time'] else 'real time'}")
+
+    # -- parameters ---------------------------------------------------------------------------
+
+    def _rebuild(self, values: dict) -> None:
+        self._orbit, self._profile, self._model = build_models(values)
+
+    def _rebuild_live(self, values: dict) -> None:
+        for fixed in ("attitude.source", "sim.fast_time"):
+            if values[fixed] != self._values[fixed]:
+                raise ValueError(f"{fixed} cannot change while the node runs (restart the node to change it)")
+        if values["sim.fast_time"]:
+            values = dict(values, **{"sim.start_time_s": self._values["sim.start_time_s"]})
+        self._rebuild(values)
+        self._pending.clear()
+        if self._timer is not None and values["sensor.rate_hz"] != self._values["sensor.rate_hz"]:
+            self._timer.cancel()
+            self.destroy_timer(self._timer)
+            if values["sim.fast_time"]:
+                self._values["sensor.rate_hz"] = values["sensor.rate_hz"]
+                self._start_fast_timer()
+            else:
+                self._timer = self.create_timer(1.0 / values["sensor.rate_hz"], self._on_real_time_tick)
+
+    def _start_fast_timer(self) -> None:
+        scale = self._values["sim.time_scale"]
+        period = 0.0 if scale == 0.0 else 1.0 / (self._values["sensor.rate_hz"] * scale)
+        self._timer = self.create_timer(period, self.step, clock=Clock(clock_type=ClockType.STEADY_TIME))
+
+    # -- inputs ---------------------------------------------------------------------------------
+
+    def _on_truth(self, message: QuaternionStamped) -> None:
+        try:
+            record = shim.attitude_quaternion_from_msg(message)
+        except ValueError as error:
+            self._count_rejected(str(error))
+            return
+        self._latest_truth = record
+
+    def _count_rejected(self, reason: str) -> None:
+        self._rejected[reason] = self._rejected.get(reason, 0) + 1
+
+    # -- ticks ----------------------------------------------------------------------------------
+
+    @property
+    def sim_time_s(self) -> float:
+        """Current simulation time of the fast-time clock, s."""
+        return self._sim_time_s
+
+    def step(self) -> None:
+        """Fast time: advance the simulation clock by one sensor period and publish that sample."""
+        period = 1.0 / self._values["sensor.rate_hz"]
+        self._sim_time_s += period
+        self._pub_clock.publish(shim.clock_to_msg(self._sim_time_s))
+        if self._values["attitude.source"] == "profile":
+            if not self._pending:
+                times = self._sim_time_s + period * np.arange(FAST_TIME_BLOCK)
+                self._pending = self._sense_block(times, self._profile.quaternion(times))
+            self._publish_sample(*self._pending.pop(0))
+        else:
+            self._sense_following(self._sim_time_s)
+
+    def _on_real_time_tick(self) -> None:
+        now_s = self.get_clock().now().nanoseconds * 1e-9
+        if self._values["attitude.source"] == "profile":
+            times = np.array([now_s])
+            self._publish_sample(*self._sense_block(times, self._profile.quaternion(times))[0])
+        else:
+            self._sense_following(now_s)
+
+    def _sense_following(self, t_s: float) -> None:
+        truth = self._latest_truth
+        if truth is None or t_s - truth.stamp_s > self._values["attitude.follow_timeout_s"]:
+            self._count_rejected("no fresh /attitude/truth to follow")
+            self._maybe_publish_diagnostics(t_s)
+            return
+        q = np.asarray(truth.q_xyzw, float)[:, None]
+        self._publish_sample(*self._sense_block(np.array([t_s]), q)[0])
+
+    def _sense_block(self, times: np.ndarray, q: np.ndarray) -> list:
+        """Run the instrument for a block of samples; a list of per-sample tuples to publish."""
+        reading = self._model.sense(times, q)
+        position, velocity = self._orbit.state_eci(times)
+        return [(times[k], q[:, k], reading, k, position[:, k], velocity[:, k]) for k in range(times.size)]
+
+    def _publish_sample(self, t_s, q, reading, k, position, velocity) -> None:
+        if self._pub_truth is not None:
+            self._pub_truth.publish(shim.attitude_quaternion_to_msg(
+                shim.AttitudeQuaternion(stamp_s=t_s, frame_id=shim.ORBITAL_FRAME, q_xyzw=tuple(q))))
+        self._pub_odometry.publish(shim.orbit_state_to_msg(shim.OrbitState(
+            stamp_s=t_s, frame_id=shim.ECI_FRAME, child_frame_id=shim.BODY_FRAME,
+            position_m=tuple(position), velocity_m_s=tuple(velocity))))
+        self._pub_crossings.publish(shim.horizon_crossings_to_msg(shim.HorizonCrossings(
+            stamp_s=t_s, frame_id=shim.SENSOR_FRAME,
+            line_of_sight=reading.line_of_sight_sensor[:, :, k].T,
+            valid=tuple(reading.chord_valid[:, k]))))
+        self._pub_attitude.publish(shim.attitude_angles_to_msg(shim.AttitudeAngles(
+            stamp_s=t_s, frame_id=shim.SENSOR_FRAME,
+            roll_rad=float(reading.sensed_roll_rad[k]), pitch_rad=float(reading.sensed_pitch_rad[k]))))
+        self._pub_attitude_raw.publish(shim.attitude_angles_to_msg(shim.AttitudeAngles(
+            stamp_s=t_s, frame_id=shim.SENSOR_FRAME,
+            roll_rad=float(reading.sensed_roll_uncorrected_rad[k]),
+            pitch_rad=float(reading.sensed_pitch_uncorrected_rad[k]))))
+        status = reading.chord_status[:, k]
+        self._chord_problem_counts[status, np.arange(4)] += 1
+        self._samples_published += 1
+        self._maybe_publish_diagnostics(t_s, status)
+
+    def _maybe_publish_diagnostics(self, t_s: float, status=None) -> None:
+        if t_s - self._last_diagnostics_s < self._values["diagnostics_period_s"]:
+            return
+        self._last_diagnostics_s = t_s
+        problems = []
+        if status is not None:
+            for chord, code in zip(CHORD_NAMES, status):
+                if code != ChordStatus.VALID:
+                    problems.append(f"chord {chord}: {ChordStatus(int(code)).name.lower().replace('_', ' ')}")
+        values = {"samples_published": self._samples_published}
+        for code in ChordStatus:
+            if code != ChordStatus.VALID:
+                for chord, count in zip(CHORD_NAMES, self._chord_problem_counts[code]):
+                    if count:
+                        values[f"{code.name.lower()}_{chord}"] = int(count)
+        for reason, count in self._rejected.items():
+            values[f"rejected: {reason}"] = count
+        level = shim.Level.WARN if problems or self._rejected else shim.Level.OK
+        message = "; ".join(problems) if problems else ("all chords valid" if status is not None else "no sample")
+        self._pub_diagnostics.publish(shim.health_to_msg(shim.HealthReport(stamp_s=t_s, statuses=(shim.HealthStatus(
+            name="pmv_ros/sensor_node: horizon", level=level, message=message, hardware_id="pmv",
+            values=values),))))
+
+
+def main(args=None) -> int:
+    """Console script / ``ros2 run pmv_ros sensor_node``."""
+    rclpy.init(args=args)
+    node = None
+    try:
+        node = SensorNode()
+        rclpy.spin(node)
+    except ParameterError as error:
+        print(f"sensor_node: invalid parameter: {error}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        pass
+    finally:
+        if node is not None:
+            node.destroy_node()
+        if rclpy.ok():
+            rclpy.shutdown()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

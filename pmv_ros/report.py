@@ -1,0 +1,125 @@
+"""Report of a simulated run: final statistics as JSON and the plots a user looks at.
+
+Plots (PNG, matplotlib's Agg backend, no display needed):
+
+* ``residuals.png`` — roll and pitch residual (sensor − star tracker, arcmin)
+  against the argument of latitude, with the closed-form oblateness model
+  drawn over them, like the figures of the flight-test papers;
+* ``spectrum.png`` — amplitude of the residual at each harmonic k of the
+  orbital frequency (least squares over the whole record), with the monitor's
+  live k = 1, 2, 15–25 values marked (physics.md §5.1).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .core.constants import ARCMIN_RAD
+from .core.oblateness import closed_form_oblateness
+
+
+def harmonic_spectrum(t_s, values, period_s: float, max_k: int = 40):
+    """Amplitudes (units of ``values``) of harmonics k = 1 … max_k of 1/period, by least squares.
+
+    Works on uneven or gappy samples; the mean is fitted and dropped.
+    Returns ``(k, amplitude)``; NaN amplitudes if there are too few samples.
+    """
+    t = np.asarray(t_s, float)
+    y = np.asarray(values, float)
+    keep = np.isfinite(t) & np.isfinite(y)
+    t, y = t[keep], y[keep]
+    k = np.arange(1, max_k + 1)
+    if t.size < 2 * max_k + 1:
+        return k, np.full(k.size, np.nan)
+    phase = 2.0 * np.pi * np.outer(t, k) / period_s
+    design = np.hstack([np.ones((t.size, 1)), np.cos(phase), np.sin(phase)])
+    coefficients, *_ = np.linalg.lstsq(design, y, rcond=None)
+    return k, np.hypot(coefficients[1:max_k + 1], coefficients[max_k + 1:])
+
+
+def statistics_to_dict(statistics) -> dict:
+    """Final statistics (a shim ErrorStatistics) as plain JSON-ready data, arcmin for people."""
+    channels = {}
+    for channel in statistics.channels:
+        channels[channel.channel] = {
+            "count": channel.count,
+            "mean_arcmin": channel.mean_rad / ARCMIN_RAD,
+            "sigma_arcmin": channel.sigma_rad / ARCMIN_RAD,
+            "three_sigma_arcmin": channel.three_sigma_rad / ARCMIN_RAD,
+            "limit_low_arcmin": channel.limit_low_rad / ARCMIN_RAD,
+            "limit_high_arcmin": channel.limit_high_rad / ARCMIN_RAD,
+            "max_abs_arcmin": channel.max_abs_rad / ARCMIN_RAD,
+            "harmonics_arcmin": {str(k): v / ARCMIN_RAD for k, v in sorted(channel.harmonics_rad.items())},
+            "ground_sigma_m": channel.ground_sigma_m,
+            "ground_max_abs_m": channel.ground_max_abs_m,
+        }
+    return {"oblateness_removed": statistics.oblateness_removed, "channels": channels,
+            "counters": dict(statistics.counters)}
+
+
+def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_harmonics: dict | None = None) -> list:
+    """Write ``statistics.json``, ``residuals.png`` and ``spectrum.png`` into ``directory``; returns the paths.
+
+    Args:
+        directory: output folder (created).
+        summary: JSON-ready run summary (see ``pmv simulate``).
+        residuals: ``(3, N)`` stamp (s), roll and pitch residual (rad).
+        orbit: the :class:`~pmv_ros.core.orbit.CircularOrbit` flown (for u and the model).
+        live_harmonics: {channel: {k: amplitude_arcmin}} from the monitor, marked on the spectrum.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out = Path(directory)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = [out / "statistics.json", out / "residuals.png", out / "spectrum.png"]
+    paths[0].write_text(json.dumps(summary, indent=2, default=_json_default) + "\n")
+
+    t, roll, pitch = residuals
+    u_deg = np.degrees(np.mod(orbit.argument_of_latitude(t), 2.0 * math.pi))
+    model_u = np.linspace(0.0, 2.0 * math.pi, 721)
+    _, model_roll, model_pitch = closed_form_oblateness(model_u, orbit.altitude_m, orbit.inclination_rad)
+    figure, axes = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True)
+    for axis, values, model, name in ((axes[0], roll, model_roll, "roll"), (axes[1], pitch, model_pitch, "pitch")):
+        axis.plot(u_deg, values / ARCMIN_RAD, ".", markersize=1.5, alpha=0.5, label=f"{name} residual (sensor − star tracker)")
+        axis.plot(np.degrees(model_u), model / ARCMIN_RAD, "k-", linewidth=1.5, label="oblateness model (physics.md §2.1)")
+        axis.set_ylabel(f"{name}, arcmin")
+        axis.grid(True, alpha=0.3)
+        axis.legend(loc="upper right", fontsize=8)
+    axes[1].set_xlabel("argument of latitude u, deg")
+    axes[1].set_xlim(0, 360)
+    figure.suptitle(f"PMV residuals, H = {orbit.altitude_m / 1e3:g} km, i = {math.degrees(orbit.inclination_rad):g}°")
+    figure.tight_layout()
+    figure.savefig(paths[1], dpi=110)
+    plt.close(figure)
+
+    figure, axis = plt.subplots(figsize=(9, 4.5))
+    for values, name, marker in ((roll, "roll", "o"), (pitch, "pitch", "s")):
+        k, amplitude = harmonic_spectrum(t, values, orbit.period_s)
+        axis.plot(k, amplitude / ARCMIN_RAD, marker + "-", markersize=3, label=f"{name} (whole record)")
+        if live_harmonics and name in live_harmonics:
+            live = live_harmonics[name]
+            axis.plot([int(x) for x in live], list(live.values()), marker, markersize=8, fillstyle="none",
+                      label=f"{name}, monitor's last orbit")
+    axis.axvspan(15, 25, color="orange", alpha=0.12, label="k = 15…25: horizon radiance zones")
+    axis.set_xlabel("k = ω / Ω (harmonic of the orbital frequency)")
+    axis.set_ylabel("amplitude, arcmin")
+    axis.grid(True, alpha=0.3)
+    axis.legend(fontsize=8)
+    figure.suptitle("Harmonic amplitudes of the residual (physics.md §5.1)")
+    figure.tight_layout()
+    figure.savefig(paths[2], dpi=110)
+    plt.close(figure)
+    return paths
+
+
+def _json_default(value):
+    if isinstance(value, (np.floating, np.integer)):
+        return value.item()
+    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
