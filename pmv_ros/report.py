@@ -91,7 +91,7 @@ def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_ha
         axis.plot(np.degrees(model_u), model / ARCMIN_RAD, "k-", linewidth=1.5, label="oblateness model (physics.md §2.1)")
         axis.set_ylabel(f"{name}, arcmin")
         axis.grid(True, alpha=0.3)
-        axis.legend(loc="upper right", fontsize=8)
+        axis.legend(loc="best", fontsize=8, framealpha=0.9)
     axes[1].set_xlabel("argument of latitude u, deg")
     axes[1].set_xlim(0, 360)
     figure.suptitle(f"PMV residuals, H = {orbit.altitude_m / 1e3:g} km, i = {math.degrees(orbit.inclination_rad):g}°")

@@ -75,8 +75,8 @@ def run(args) -> int:
         rate = pipeline.sensor.get_parameter("sensor.rate_hz").value
         ticks = max(1, round(args.orbits * orbit.period_s * rate))
         bar = tqdm(total=ticks, unit="tick", file=sys.stderr, disable=args.quiet, dynamic_ncols=True,
-                   desc=f"{Path(args.config).stem} {args.orbits:g} orbit(s) at {rate:g} Hz")
-        refresh = max(1, ticks // 200)
+                   desc=f"{Path(args.config).stem} {args.orbits:g} orbit(s) at {rate:g} Hz", mininterval=1.0)
+        refresh = max(1, ticks // 100)
         for tick in range(ticks):
             pipeline.step()
             if (tick + 1) % refresh == 0:

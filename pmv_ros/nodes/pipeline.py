@@ -19,21 +19,13 @@ from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.executors import SingleThreadedExecutor, TimeoutException
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile
 
 import pmv_msgs_shim as shim
 from .error_monitor_node import ErrorMonitorNode
 from .sensor_node import SensorNode
 from .star_tracker_node import StarTrackerNode
-
-
-def ros_value(value) -> str:
-    """A Python value as a ``-p name:=value`` command-line literal."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, (list, tuple)):
-        return "[" + ",".join(ros_value(v) for v in value) + "]"
-    return str(value)
 
 
 class ReportCollector(Node):
@@ -90,16 +82,17 @@ class Pipeline:
                 raise ValueError(f"config file {str(path)!r} does not exist")
             args += ["--params-file", str(path)]
         settings = {"use_sim_time": True, "sim.fast_time": True, **(overrides or {})}
-        for name, value in settings.items():
-            args += ["-p", f"{name}:={ros_value(value)}"]
+        # Constructor overrides outrank the preset's node sections (a global -p would not).
         self.context = rclpy.Context()
         rclpy.init(args=args, context=self.context)
+        common = dict(context=self.context,
+                      parameter_overrides=[Parameter(name, value=value) for name, value in settings.items()])
         self.nodes = []
         try:
-            self.sensor = self._add(SensorNode(external_drive=True, context=self.context))
-            self.star_tracker = self._add(StarTrackerNode(context=self.context))
-            self.monitor = self._add(ErrorMonitorNode(context=self.context))
-            self.collector = self._add(ReportCollector(context=self.context)) if collect else None
+            self.sensor = self._add(SensorNode(external_drive=True, **common))
+            self.star_tracker = self._add(StarTrackerNode(**common))
+            self.monitor = self._add(ErrorMonitorNode(**common))
+            self.collector = self._add(ReportCollector(**common)) if collect else None
             self.executor = SingleThreadedExecutor(context=self.context)
             for node in self.nodes:
                 self.executor.add_node(node)
@@ -112,13 +105,22 @@ class Pipeline:
         return node
 
     def drain(self, max_callbacks: int = 100_000) -> int:
-        """Run ready callbacks until none is ready; returns how many ran."""
-        ran = 0
-        while ran < max_callbacks:
+        """Run ready callbacks until the graph is idle; returns how many ran.
+
+        With Fast DDS, a zero-timeout wait right after a take can report
+        nothing although more samples of that subscription are queued (the
+        data-available status is cleared by the take and raised again on the
+        following wait). So idle means two empty waits in a row; stopping at
+        the first one leaves messages behind and lets a backlog build up.
+        """
+        ran = empty = 0
+        while empty < 2 and ran < max_callbacks:
             try:
                 handler, _, _ = self.executor.wait_for_ready_callbacks(timeout_sec=0.0)
             except TimeoutException:
-                break
+                empty += 1
+                continue
+            empty = 0
             handler()
             if handler.exception() is not None:
                 raise handler.exception()

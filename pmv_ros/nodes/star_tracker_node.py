@@ -45,7 +45,7 @@ PARAMS = (
     ParamSpec("outage_start_s", [-1.0], "start of each scheduled outage after node start (negative: none)",
               -1.0, 1e9, unit="s"),
     ParamSpec("outage_duration_s", [0.0], "duration of each scheduled outage", 0.0, 1e9, unit="s"),
-    ParamSpec("max_truth_gap_s", 1.0, "no frame is interpolated across a truth gap longer than this",
+    ParamSpec("max_truth_gap_s", 5.0, "no frame is interpolated across a truth gap longer than this",
               0.001, 3600.0, unit="s"),
     ParamSpec("seed", 0, "seed of the noise and failures", 0, 2**31 - 1),
 )
