@@ -24,6 +24,9 @@ setup(
     entry_points={
         "console_scripts": [
             "pmv = pmv_ros.cli:main",
+            "sensor_node = pmv_ros.nodes.sensor_node:main",
+            "star_tracker_node = pmv_ros.nodes.star_tracker_node:main",
+            "error_monitor_node = pmv_ros.nodes.error_monitor_node:main",
         ],
     },
 )

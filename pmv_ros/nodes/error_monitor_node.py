@@ -18,7 +18,6 @@ from __future__ import annotations
 import math
 import sys
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
 from nav_msgs.msg import Odometry
@@ -28,7 +27,8 @@ from rclpy.qos import QoSProfile
 import pmv_msgs_shim as shim
 from ..core.constants import ARCMIN_RAD
 from ..core.monitor import ErrorMonitor, MonitorConfig, Status, orbit_angles_from_state
-from .params import ParamSpec, ParameterError, declare, install_validation
+from .launch import run_node
+from .params import ParamSpec, declare, install_validation
 
 QOS = QoSProfile(depth=100)
 
@@ -191,22 +191,7 @@ class ErrorMonitorNode(Node):
 
 def main(args=None) -> int:
     """Console script / ``ros2 run pmv_ros error_monitor_node``."""
-    rclpy.init(args=args)
-    node = None
-    try:
-        node = ErrorMonitorNode()
-        rclpy.spin(node)
-    except ParameterError as error:
-        print(f"error_monitor_node: invalid parameter: {error}", file=sys.stderr)
-        return 1
-    except KeyboardInterrupt:
-        pass
-    finally:
-        if node is not None:
-            node.destroy_node()
-        if rclpy.ok():
-            rclpy.shutdown()
-    return 0
+    return run_node(ErrorMonitorNode, "error_monitor_node", args)
 
 
 if __name__ == "__main__":

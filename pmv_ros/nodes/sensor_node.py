@@ -18,7 +18,6 @@ import math
 import sys
 
 import numpy as np
-import rclpy
 from geometry_msgs.msg import PolygonStamped, QuaternionStamped, Vector3Stamped
 from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Odometry
@@ -33,7 +32,8 @@ from ..core.constants import ARCMIN_RAD, GRS80, SPHERE
 from ..core.orbit import CircularOrbit
 from ..core.sensor import ChordStatus, SensorConfig, SensorModel
 from ..core.geometry import CHORD_NAMES
-from .params import ParamSpec, ParameterError, declare, install_validation
+from .launch import run_node
+from .params import ParamSpec, declare, install_validation
 
 OUTPUT_QOS = QoSProfile(depth=100)
 
@@ -281,22 +281,7 @@ class SensorNode(Node):
 
 def main(args=None) -> int:
     """Console script / ``ros2 run pmv_ros sensor_node``."""
-    rclpy.init(args=args)
-    node = None
-    try:
-        node = SensorNode()
-        rclpy.spin(node)
-    except ParameterError as error:
-        print(f"sensor_node: invalid parameter: {error}", file=sys.stderr)
-        return 1
-    except KeyboardInterrupt:
-        pass
-    finally:
-        if node is not None:
-            node.destroy_node()
-        if rclpy.ok():
-            rclpy.shutdown()
-    return 0
+    return run_node(SensorNode, "sensor_node", args)
 
 
 if __name__ == "__main__":

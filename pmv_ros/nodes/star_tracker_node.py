@@ -18,7 +18,6 @@ import sys
 from collections import deque
 
 import numpy as np
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import QuaternionStamped
 from rclpy.node import Node
@@ -28,7 +27,8 @@ from scipy.spatial.transform import Rotation, Slerp
 import pmv_msgs_shim as shim
 from ..core.constants import ARCSEC_RAD, GM_EARTH_M3_S2, EARTH_MEAN_RADIUS_M
 from ..core.star_tracker import Outcome, StarTracker, StarTrackerParameters, inertial_rate_of_nadir_pointing
-from .params import ParamSpec, ParameterError, declare, install_validation
+from .launch import run_node
+from .params import ParamSpec, declare, install_validation
 
 QOS = QoSProfile(depth=100)
 
@@ -146,22 +146,7 @@ class StarTrackerNode(Node):
 
 def main(args=None) -> int:
     """Console script / ``ros2 run pmv_ros star_tracker_node``."""
-    rclpy.init(args=args)
-    node = None
-    try:
-        node = StarTrackerNode()
-        rclpy.spin(node)
-    except ParameterError as error:
-        print(f"star_tracker_node: invalid parameter: {error}", file=sys.stderr)
-        return 1
-    except KeyboardInterrupt:
-        pass
-    finally:
-        if node is not None:
-            node.destroy_node()
-        if rclpy.ok():
-            rclpy.shutdown()
-    return 0
+    return run_node(StarTrackerNode, "star_tracker_node", args)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,604 @@
+"""Where the Sun and the Moon are, and whether one of them is in a chord's field.
+
+Sensor fault "bright body in a chord's field" (issue 6, item 3): while the Sun
+or the Moon is within a configurable angle of the part of a chord's scan that
+looks at space, the chord's crossing is unreliable. This module is the pure
+part of that check:
+
+1. time — the simulation clock (seconds since a run epoch) mapped to Julian
+   dates, the day of year and the Greenwich sidereal angle (:class:`Epoch`);
+2. ephemeris — low-precision analytic series for the geocentric Sun and Moon
+   (:func:`sun_position_eci_m`, :func:`moon_position_eci_m`) and their
+   directions from the spacecraft (parallax: ≈ 1° for the Moon at 500 km);
+3. the check — angular distance from a direction to each chord's swept arc
+   (:func:`angular_distance_to_scan_arc`), the Earth occultation, and both put
+   together for an orbit and attitude (:func:`bright_body_in_chords`).
+
+Frame: "ECI" here is the mean equator and mean equinox of date (precession
+applied, nutation ≤ 0.005° left out, as the low-precision series are).
+Vectors are ``(3,)`` or ``(3, N)``; per-chord arrays ``(4, ...)`` in the
+order +X, +Y, −X, −Y of :mod:`pmv_ros.core.geometry`.
+
+Time scales: the ephemerides take a Julian date in TT; a UTC date is within
+70 s of it, which moves the Moon by < 0.01°, below the series' accuracy, so
+either may be passed. The sidereal angle takes UT1, for which UTC
+(|UT1 − UTC| < 0.9 s, 0.004°) is used.
+
+Sources: the Sun — the Astronomical Almanac's low-precision formulas for the
+Sun (section C, "Low precision formulae for the Sun", ≈ 0.01° in 1950–2050);
+the Moon — the largest periodic terms of the ELP-2000/82 lunar theory
+(Chapront-Touzé & Chapront) as tabulated in J. Meeus, *Astronomical
+Algorithms*, 2nd ed., ch. 47; the sidereal angle — IAU 1982 GMST (Aoki et
+al. 1982) in Meeus's form, eq. 12.4; mean obliquity — IAU 1980 (Lieske et
+al. 1977), linear term.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from datetime import datetime, timezone
+
+import numpy as np
+
+from .constants import EARTH_MEAN_RADIUS_M
+from .geometry import CHORD_AZIMUTHS_RAD
+from .oblateness import sensor_axes_eci
+from .orbit import CircularOrbit, check_range
+
+# --------------------------------------------------------------------------
+# Constants (kept here rather than in constants.py while that file is being
+# edited by others; candidates to move there).
+# --------------------------------------------------------------------------
+
+#: Astronomical unit, m (IAU 2012 Resolution B2, exact).
+ASTRONOMICAL_UNIT_M = 149_597_870_700.0
+
+#: Seconds in a day.
+SECONDS_PER_DAY = 86400.0
+
+#: Julian date of the epoch J2000.0 (2000 January 1, 12h), days.
+JD_J2000 = 2451545.0
+
+#: Days in a Julian century.
+DAYS_PER_JULIAN_CENTURY = 36525.0
+
+#: Julian date of the Unix epoch 1970-01-01T00:00, days.
+JD_UNIX_EPOCH = 2440587.5
+
+#: TT − UTC, s: 32.184 s + 37 leap seconds, in force since 2017-01-01. Used
+#: for every date: before 2017 it is off by at most 37 s, which moves the
+#: Moon by 0.005°.
+TT_MINUS_UTC_S = 69.184
+
+#: Range of epochs accepted, Julian dates (1900-01-01 … 2100-01-01): the
+#: series are fitted around J2000 and degrade slowly outside 1950–2050.
+EPOCH_JD_MIN = 2415020.5
+EPOCH_JD_MAX = 2488069.5
+
+#: Mean Earth–Moon distance of the series, m (Meeus ch. 47).
+MOON_MEAN_DISTANCE_M = 385_000.56e3
+
+#: Names accepted by :func:`bright_body_in_chords`.
+BODY_NAMES = ("sun", "moon")
+
+_J2000_UTC = datetime(2000, 1, 1, 12, 0, 0, tzinfo=timezone.utc)
+_DEG = math.pi / 180.0
+
+
+# --------------------------------------------------------------------------
+# 1. Time
+# --------------------------------------------------------------------------
+
+def julian_date_from_utc(iso_string: str) -> float:
+    """Julian date (UTC scale), days, of an ISO 8601 time such as ``"2024-01-15T00:00:00Z"``.
+
+    A time with an offset (``+02:00``) is converted to UTC; a time without
+    one is taken as UTC. Leap seconds are not counted (a Julian date in the
+    UTC scale is a calendar label: every day is 86400 s).
+
+    Args:
+        iso_string: ISO 8601 date-time, e.g. ``"2024-01-15T00:00:00Z"``.
+
+    Raises:
+        ValueError: the string is not an ISO 8601 date-time.
+    """
+    if not isinstance(iso_string, str):
+        raise ValueError(f"UTC time must be an ISO 8601 string such as '2024-01-15T00:00:00Z', got {iso_string!r}")
+    try:
+        moment = datetime.fromisoformat(iso_string.strip())
+    except ValueError:
+        raise ValueError(f"UTC time {iso_string!r} is not an ISO 8601 date-time such as "
+                         "'2024-01-15T00:00:00Z'") from None
+    if moment.tzinfo is None:
+        moment = moment.replace(tzinfo=timezone.utc)
+    return JD_J2000 + (moment - _J2000_UTC).total_seconds() / SECONDS_PER_DAY
+
+
+def greenwich_mean_sidereal_angle(jd_ut1):
+    """Greenwich mean sidereal angle (IAU 1982 GMST), rad in [0, 2π).
+
+    The angle of the Greenwich meridian from the mean equinox of date, i.e.
+    from the x axis of the mean-of-date ECI frame used here. Meeus,
+    *Astronomical Algorithms*, eq. 12.4 (the Aoki et al. 1982 expression
+    referred to 0h UT):
+    θ = 280.46061837° + 360.98564736629° d + 0.000387933° T² − T³/38710000°,
+    d = JD − 2451545.0, T = d/36525.
+
+    Args:
+        jd_ut1: Julian date in UT1 (UTC will do: < 0.004°), days, array-like.
+    """
+    d = np.asarray(jd_ut1, float) - JD_J2000
+    t = d / DAYS_PER_JULIAN_CENTURY
+    # 360°·d is whole turns plus 360°·frac(d): keep the large part out of the sum.
+    degrees = (280.46061837 + 360.0 * np.mod(d, 1.0) + 0.98564736629 * d
+               + 0.000387933 * t**2 - t**3 / 38710000.0)
+    return np.mod(degrees, 360.0) * _DEG
+
+
+@dataclass(frozen=True)
+class Epoch:
+    """The run epoch: the UTC instant at simulation time 0.
+
+    Maps the simulation clock (s since the epoch) to the Julian dates the
+    ephemerides need, the day of year of the radiance climatology and the
+    Earth's rotation angle, so that all three agree with the Sun.
+
+    Args:
+        julian_date_utc: Julian date (UTC scale) at simulation time 0, days
+            (1900 … 2100). Use :meth:`from_utc` for an ISO string.
+    """
+
+    julian_date_utc: float
+
+    def __post_init__(self) -> None:
+        check_range("epoch Julian date (UTC)", self.julian_date_utc, EPOCH_JD_MIN, EPOCH_JD_MAX, " d")
+
+    @classmethod
+    def from_utc(cls, iso_string: str) -> "Epoch":
+        """The epoch at an ISO 8601 UTC time, e.g. ``"2024-01-15T00:00:00Z"``."""
+        return cls(julian_date_from_utc(iso_string))
+
+    def julian_date(self, t_s):
+        """Julian date (UTC scale) at simulation time ``t_s`` (s), days."""
+        return self.julian_date_utc + np.asarray(t_s, float) / SECONDS_PER_DAY
+
+    def julian_date_tt(self, t_s):
+        """Julian date in Terrestrial Time at simulation time ``t_s`` (s), days (TT − UTC = 69.184 s)."""
+        return self.julian_date_utc + (np.asarray(t_s, float) + TT_MINUS_UTC_S) / SECONDS_PER_DAY
+
+    def day_of_year(self, t_s):
+        """Fractional day of the UTC calendar year at ``t_s`` (s): 1.0 = 1 January 00:00.
+
+        The convention of :func:`pmv_ros.core.environment.horizon_radiance_climatology`;
+        restarts at 1.0 on each 1 January.
+        """
+        unix_days = self.julian_date(t_s) - JD_UNIX_EPOCH
+        finite = np.isfinite(unix_days)
+        whole_days = np.floor(np.where(finite, unix_days, 0.0)).astype(np.int64).astype("datetime64[D]")
+        year_start = whole_days.astype("datetime64[Y]").astype("datetime64[D]").astype(np.int64)
+        return np.where(finite, unix_days - year_start + 1.0, np.nan)[()]
+
+    def earth_rotation_angle(self, t_s):
+        """Angle of the Greenwich meridian from the ECI x axis at ``t_s`` (s), rad in [0, 2π).
+
+        IAU 1982 Greenwich mean sidereal time (:func:`greenwich_mean_sidereal_angle`),
+        which is referred to the mean equinox of date — the x axis of this
+        module's ECI frame (the IAU 2000 Earth Rotation Angle is referred to
+        the CIO instead and differs by the accumulated precession in right
+        ascension, ≈ 0.3° in 2024). For :func:`pmv_ros.core.orbit.eci_to_ecef`
+        pass ``angle_at_epoch_rad=epoch.earth_rotation_angle(0.0)``: its rate
+        differs from GMST's by 1e-11 rad/s (< 1e-4° a year).
+        """
+        return greenwich_mean_sidereal_angle(self.julian_date(t_s))
+
+
+# --------------------------------------------------------------------------
+# 2. Ephemerides
+# --------------------------------------------------------------------------
+
+def mean_obliquity(jd_tt):
+    """Mean obliquity of the ecliptic of date, rad: 23°26′21.448″ − 46.815″ T (IAU 1980, linear term).
+
+    Args:
+        jd_tt: Julian date (TT), days, array-like.
+    """
+    t = (np.asarray(jd_tt, float) - JD_J2000) / DAYS_PER_JULIAN_CENTURY
+    return (23.4392911 - 0.0130042 * t) * _DEG
+
+
+def _ecliptic_to_eci(longitude_rad, latitude_rad, distance, jd_tt):
+    """Cartesian ``(3[, N])`` in the mean equator/equinox of date from ecliptic-of-date spherical coordinates."""
+    eps = mean_obliquity(jd_tt)
+    cb = np.cos(latitude_rad)
+    x = cb * np.cos(longitude_rad)
+    y_ecl = cb * np.sin(longitude_rad)
+    z_ecl = np.sin(latitude_rad)
+    # Rotation about the equinox direction by −ε (ecliptic → equator).
+    y = np.cos(eps) * y_ecl - np.sin(eps) * z_ecl
+    z = np.sin(eps) * y_ecl + np.cos(eps) * z_ecl
+    return distance * np.array([x, y, z])
+
+
+def sun_position_eci_m(jd_tt):
+    """Geocentric position of the Sun, m, ``(3[, N])``, mean equator and equinox of date.
+
+    The Astronomical Almanac's low-precision Sun (≈ 0.01° in 1950–2050): a
+    Keplerian Earth orbit with the equation of centre to second order in the
+    eccentricity e = 0.0167 (2e = 1.915°, 5e²/4 = 0.020°), the mean
+    longitude including the annual aberration (−20.5″), latitude taken as 0:
+    n = JD − 2451545.0; L = 280.460° + 0.9856474° n; g = 357.528° + 0.9856003° n;
+    λ = L + 1.915° sin g + 0.020° sin 2g;
+    R = 1.00014 − 0.01671 cos g − 0.00014 cos 2g  au.
+    Against ERFA (epv00 plus aberration, precessed to date) over 1950–2050
+    the direction is within 0.011° (rms 0.003°), the distance within 1e-4 au.
+
+    Args:
+        jd_tt: Julian date (TT), days, scalar or ``(N,)``.
+    """
+    n = np.asarray(jd_tt, float) - JD_J2000
+    mean_longitude = (280.460 + 0.9856474 * n) * _DEG
+    mean_anomaly = (357.528 + 0.9856003 * n) * _DEG
+    longitude = mean_longitude + (1.915 * np.sin(mean_anomaly) + 0.020 * np.sin(2.0 * mean_anomaly)) * _DEG
+    distance_au = 1.00014 - 0.01671 * np.cos(mean_anomaly) - 0.00014 * np.cos(2.0 * mean_anomaly)
+    return _ecliptic_to_eci(longitude, 0.0 * n, distance_au * ASTRONOMICAL_UNIT_M, jd_tt)
+
+
+# Periodic terms of the Moon: multiples of the Delaunay arguments (D, M, M', F)
+# and amplitudes. From the ELP-2000/82 series as tabulated by Meeus (ch. 47,
+# tables 47.A and 47.B), kept down to ≈ 0.01° in longitude and latitude and
+# ≈ 80 km in distance. The named ones: equation of centre (0 0 1 0), evection
+# (2 0 −1 0), variation (2 0 0 0), annual equation (0 1 0 0), reduction to the
+# ecliptic (0 0 0 2), parallactic inequality (1 0 0 0).
+#                       D   M   M'  F   longitude 1e-6 deg   distance m
+_MOON_LONGITUDE_DISTANCE_TERMS = np.array([
+    (0, 0, 1, 0, 6288774, -20905355),
+    (2, 0, -1, 0, 1274027, -3699111),
+    (2, 0, 0, 0, 658314, -2955968),
+    (0, 0, 2, 0, 213618, -569925),
+    (0, 1, 0, 0, -185116, 48888),
+    (0, 0, 0, 2, -114332, -3149),
+    (2, 0, -2, 0, 58793, 246158),
+    (2, -1, -1, 0, 57066, -152138),
+    (2, 0, 1, 0, 53322, -170733),
+    (2, -1, 0, 0, 45758, -204586),
+    (0, 1, -1, 0, -40923, -129620),
+    (1, 0, 0, 0, -34720, 108743),
+    (0, 1, 1, 0, -30383, 104755),
+    (2, 0, 0, -2, 15327, 10321),
+    (0, 0, 1, 2, -12528, 0),
+    (0, 0, 1, -2, 10980, 79661),
+    (4, 0, -1, 0, 10675, -34782),
+    (0, 0, 3, 0, 10034, -23210),
+    (4, 0, -2, 0, 8548, -21636),
+    (2, 1, -1, 0, -7888, 24208),
+    (2, 1, 0, 0, -6766, 30824),
+    (1, 0, -1, 0, -5163, -8379),
+    (1, 1, 0, 0, 4987, -16675),
+    (2, -1, 1, 0, 4036, -12831),
+], dtype=float)
+#                       D   M   M'  F   latitude 1e-6 deg
+_MOON_LATITUDE_TERMS = np.array([
+    (0, 0, 0, 1, 5128122),
+    (0, 0, 1, 1, 280602),
+    (0, 0, 1, -1, 277693),
+    (2, 0, 0, -1, 173237),
+    (2, 0, -1, 1, 55413),
+    (2, 0, -1, -1, 46271),
+    (2, 0, 0, 1, 32573),
+    (0, 0, 2, 1, 17198),
+    (2, 0, 1, -1, 9266),
+    (0, 0, 2, -1, 8822),
+    (2, -1, 0, -1, 8216),
+], dtype=float)
+
+
+def _moon_fundamental_arguments(t):
+    """Mean longitude L′ and Delaunay arguments D, M, M′, F of date, rad (Meeus eqs. 47.1–47.5 to T²)."""
+    mean_longitude = 218.3164477 + 481267.88123421 * t - 0.0015786 * t**2
+    elongation = 297.8501921 + 445267.1114034 * t - 0.0018819 * t**2
+    sun_anomaly = 357.5291092 + 35999.0502909 * t - 0.0001536 * t**2
+    moon_anomaly = 134.9633964 + 477198.8675055 * t + 0.0087414 * t**2
+    node_distance = 93.2720950 + 483202.0175233 * t - 0.0036539 * t**2
+    return mean_longitude * _DEG, np.stack([elongation, sun_anomaly, moon_anomaly, node_distance]) * _DEG
+
+
+def _periodic_sum(terms, arguments, amplitude_column, eccentricity_factor, trig):
+    """Σ amplitude · E^|k_M| · trig(k · arguments) over the rows of ``terms``; arguments ``(4, ...)``."""
+    multiples = terms[:, :4]
+    phase = np.tensordot(multiples, arguments, axes=(1, 0))  # (terms, ...)
+    # Terms with the Sun's anomaly shrink with the Earth's orbital eccentricity.
+    weight = eccentricity_factor[None, ...] ** np.abs(multiples[:, 1]).reshape((-1,) + (1,) * (phase.ndim - 1))
+    amplitude = terms[:, amplitude_column].reshape((-1,) + (1,) * (phase.ndim - 1))
+    return np.sum(amplitude * weight * trig(phase), axis=0)
+
+
+def moon_position_eci_m(jd_tt):
+    """Geocentric position of the Moon, m, ``(3[, N])``, mean equator and equinox of date.
+
+    Ecliptic longitude λ = L′ + Σ l sin(·), latitude β = Σ b sin(·), distance
+    Δ = 385000.56 km + Σ r cos(·), with the largest periodic terms of
+    ELP-2000/82 as tabulated by Meeus (*Astronomical Algorithms*, ch. 47)
+    down to ≈ 0.01°. Against ERFA's moon98 (the full ch. 47 series) over
+    1950–2050 the direction is within 0.041° (rms 0.011°) and the distance
+    within 81 km (tests/test_ephemeris.py states how this was measured).
+
+    Args:
+        jd_tt: Julian date (TT), days, scalar or ``(N,)``.
+    """
+    t = (np.asarray(jd_tt, float) - JD_J2000) / DAYS_PER_JULIAN_CENTURY
+    mean_longitude, arguments = _moon_fundamental_arguments(t)
+    eccentricity_factor = np.asarray(1.0 - 0.002516 * t - 0.0000074 * t**2)
+    longitude = mean_longitude + 1e-6 * _DEG * _periodic_sum(
+        _MOON_LONGITUDE_DISTANCE_TERMS, arguments, 4, eccentricity_factor, np.sin)
+    distance = MOON_MEAN_DISTANCE_M + _periodic_sum(
+        _MOON_LONGITUDE_DISTANCE_TERMS, arguments, 5, eccentricity_factor, np.cos)
+    latitude = 1e-6 * _DEG * _periodic_sum(_MOON_LATITUDE_TERMS, arguments, 4, eccentricity_factor, np.sin)
+    return _ecliptic_to_eci(longitude, latitude, distance, jd_tt)
+
+
+def _unit(vectors):
+    return vectors / np.linalg.norm(vectors, axis=0)
+
+
+def _as_columns(a, b):
+    """``a`` and ``b`` (each ``(3,)`` or ``(3, N)``) broadcast to one shape along the trailing axes."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    if a.shape[:1] != (3,) or b.shape[:1] != (3,):
+        raise ValueError(f"vectors must be shaped (3,) or (3, N), got {a.shape} and {b.shape}")
+    if a.ndim < b.ndim:
+        a = a.reshape(a.shape + (1,) * (b.ndim - a.ndim))
+    elif b.ndim < a.ndim:
+        b = b.reshape(b.shape + (1,) * (a.ndim - b.ndim))
+    return np.broadcast_arrays(a, b)
+
+
+def sun_direction_eci(jd_tt):
+    """Unit vector from the Earth's centre to the Sun, ``(3[, N])``, ECI (mean of date).
+
+    Args:
+        jd_tt: Julian date (TT), days, scalar or ``(N,)``.
+    """
+    return _unit(sun_position_eci_m(jd_tt))
+
+
+def moon_direction_eci(jd_tt):
+    """Unit vector from the Earth's centre to the Moon, ``(3[, N])``, ECI (mean of date).
+
+    Args:
+        jd_tt: Julian date (TT), days, scalar or ``(N,)``.
+    """
+    return _unit(moon_position_eci_m(jd_tt))
+
+
+def sun_direction_from(position_eci_m, jd_tt):
+    """Unit vector from an observer to the Sun, ``(3[, N])``, ECI (parallax ≤ 10″ from low orbit).
+
+    Args:
+        position_eci_m: observer position, m, ``(3,)`` or ``(3, N)``.
+        jd_tt: Julian date (TT), days, scalar or ``(N,)``.
+    """
+    body, observer = _as_columns(sun_position_eci_m(jd_tt), position_eci_m)
+    return _unit(body - observer)
+
+
+def moon_direction_from(position_eci_m, jd_tt):
+    """Unit vector from an observer to the Moon, ``(3[, N])``, ECI, with the parallax (≈ 1° at 500 km).
+
+    Args:
+        position_eci_m: observer position, m, ``(3,)`` or ``(3, N)``.
+        jd_tt: Julian date (TT), days, scalar or ``(N,)``.
+    """
+    body, observer = _as_columns(moon_position_eci_m(jd_tt), position_eci_m)
+    return _unit(body - observer)
+
+
+_DIRECTION_FROM = {"sun": sun_direction_from, "moon": moon_direction_from}
+
+
+# --------------------------------------------------------------------------
+# 3. The check
+# --------------------------------------------------------------------------
+
+def angular_distance_to_scan_arc(direction_sensor, crossing_nadir_rad, scan_start_nadir_rad):
+    """Angle from a direction to each chord's swept arc of lines of sight, rad, ``(4, ...)``.
+
+    Chord k sweeps the great-circle arc of lines of sight at azimuth α_k
+    (:data:`pmv_ros.core.geometry.CHORD_AZIMUTHS_RAD`) with nadir angles
+    between the scan start θ₀ and the crossing angle. In coordinates along
+    the boresight b, the chord direction c_k and the chord-plane normal n_k,
+    the direction is p = (z, x, y) = (p·b, p·c_k, p·n_k); its projection on
+    the chord plane sits at the signed nadir angle ψ = atan2(x, z). If ψ lies
+    on the arc the distance is the angle to the plane, atan2(|y|, √(x² + z²));
+    otherwise it is the angle to the nearer end of the arc.
+
+    Args:
+        direction_sensor: ``(3,)`` or ``(3, N)`` direction in the sensor frame
+            (any length; need not be a unit vector).
+        crossing_nadir_rad: ``(4,)`` or ``(4, N)`` nadir angle where each chord
+            crosses the horizon, rad (one end of the arc).
+        scan_start_nadir_rad: ``(4,)`` or ``(4, N)`` scan start θ₀ of each
+            chord, rad (the other end).
+
+    Returns:
+        ``(4,)`` or ``(4, N)`` angles, rad; NaN where an end angle is NaN.
+    """
+    p = np.asarray(direction_sensor, float)
+    if p.shape[:1] != (3,):
+        raise ValueError(f"direction_sensor must be shaped (3,) or (3, N), got {p.shape}")
+    crossing = np.asarray(crossing_nadir_rad, float)
+    start = np.asarray(scan_start_nadir_rad, float)
+    for name, angles in (("crossing_nadir_rad", crossing), ("scan_start_nadir_rad", start)):
+        if angles.shape[:1] != (4,):
+            raise ValueError(f"{name} must be shaped (4,) or (4, N) (chords +X, +Y, −X, −Y), got {angles.shape}")
+    azimuth = CHORD_AZIMUTHS_RAD.reshape((4,) + (1,) * (p.ndim - 1))
+    x = np.cos(azimuth) * p[0] + np.sin(azimuth) * p[1]
+    y = -np.sin(azimuth) * p[0] + np.cos(azimuth) * p[1]
+    z = -p[2] + 0.0 * x
+    low, high = np.minimum(crossing, start), np.maximum(crossing, start)
+
+    def to_end(nadir):
+        # Angle between p and the line of sight (sin φ, cos φ, 0) in (x, z, y).
+        across = np.hypot(y, x * np.cos(nadir) - z * np.sin(nadir))
+        return np.arctan2(across, x * np.sin(nadir) + z * np.cos(nadir))
+
+    along = np.arctan2(x, z)
+    to_plane = np.arctan2(np.abs(y), np.hypot(x, z))
+    distance = np.where((along >= low) & (along <= high), to_plane, np.fmin(to_end(low), to_end(high)))
+    return np.where(np.isfinite(low) & np.isfinite(high), distance, np.nan)
+
+
+def _check_exclusion(name: str, exclusion_rad) -> float:
+    """The exclusion angle as float, rad, or ValueError naming it and the range 0 … π/2."""
+    return check_range(f"exclusion angle for {name}", exclusion_rad, 0.0, 0.5 * math.pi, " rad")
+
+
+def chords_seeing_body(body_direction_sensor, horizon_nadir_rad, scan_start_nadir_rad, exclusion_rad):
+    """Which chords have a bright body within ``exclusion_rad`` of their swept arc, ``(4[, N])`` bool.
+
+    The arc is the part of the scan the IFOV centre sweeps before the
+    crossing: from θ₀ down to the crossing angle (physics.md §1, §4 step 1).
+    The exclusion angle should cover the IFOV half-width γ (1.1°), the body's
+    own radius and the stray-light margin of the optics. NaN angles (no
+    horizon: the chord is already invalid) give False. Occultation by the
+    Earth is not looked at here (see :func:`occulted_by_earth`).
+
+    Args:
+        body_direction_sensor: ``(3,)`` or ``(3, N)`` body direction in the sensor frame.
+        horizon_nadir_rad: ``(4,)`` or ``(4, N)`` crossing nadir angle per chord, rad.
+        scan_start_nadir_rad: ``(4,)`` or ``(4, N)`` scan start θ₀ per chord, rad.
+        exclusion_rad: exclusion angle, rad (0 … π/2).
+
+    Raises:
+        ValueError: an exclusion angle out of range, or arrays of the wrong shape.
+    """
+    exclusion = _check_exclusion("the body", exclusion_rad)
+    distance = angular_distance_to_scan_arc(body_direction_sensor, horizon_nadir_rad, scan_start_nadir_rad)
+    return np.nan_to_num(distance, nan=np.inf) <= exclusion
+
+
+def occulted_by_earth(direction, position_m, earth_radius_m: float = EARTH_MEAN_RADIUS_M):
+    """Whether a direction seen from ``position_m`` points behind the Earth's disc (a sphere), bool.
+
+    True when the angle between the direction and the nadir is below the
+    Earth's angular radius asin(R/|r|). The body's own radius is not
+    counted: a body whose centre is just behind the limb counts as hidden.
+
+    Args:
+        direction: ``(3,)`` or ``(3, N)`` direction from the observer (any length), same frame as the position.
+        position_m: ``(3,)`` or ``(3, N)`` observer position from the Earth's centre, m.
+        earth_radius_m: radius of the occulting sphere, m (mean radius by default; raise
+            it to let the atmosphere occult too).
+
+    Returns:
+        bool, shaped like the broadcast trailing axes (``()`` or ``(N,)``).
+    """
+    radius = check_range("Earth radius for occultation", earth_radius_m / 1e3, 1000.0, 10000.0, " km") * 1e3
+    d, r = _as_columns(direction, position_m)
+    r_norm = np.linalg.norm(r, axis=0)
+    cos_to_nadir = -np.einsum("i...,i...->...", d, r) / (np.linalg.norm(d, axis=0) * r_norm)
+    with np.errstate(invalid="ignore"):
+        cos_limb = np.sqrt(1.0 - (radius / r_norm) ** 2)
+    return cos_to_nadir > cos_limb
+
+
+@dataclass(frozen=True)
+class BrightBodyCheck:
+    """Result of :func:`bright_body_in_chords` for N samples.
+
+    Fields:
+        bodies: names of the bodies checked, in order (e.g. ``("sun", "moon")``).
+        in_field: ``(B, 4, N)`` bool, body b is within its exclusion angle of
+            chord k's swept arc and not hidden by the Earth.
+        near_arc: ``(B, 4, N)`` bool, the same without the occultation test.
+        occulted: ``(B, N)`` bool, body b is behind the Earth's disc.
+        distance_rad: ``(B, 4, N)`` angle from body b to chord k's swept arc, rad (NaN: no horizon).
+        direction_sensor: ``(3, B, N)`` unit direction of each body from the spacecraft, sensor frame.
+    """
+
+    bodies: tuple
+    in_field: np.ndarray
+    near_arc: np.ndarray
+    occulted: np.ndarray
+    distance_rad: np.ndarray
+    direction_sensor: np.ndarray
+
+    @property
+    def blinded(self) -> np.ndarray:
+        """``(4, N)`` bool: some body is in the chord's field (the chord's reading is invalid)."""
+        return np.any(self.in_field, axis=0)
+
+    @property
+    def blinding_body(self) -> np.ndarray:
+        """``(4, N)`` int8: index into :attr:`bodies` of the first body in the chord's field, −1 for none."""
+        first = np.argmax(self.in_field, axis=0).astype(np.int8)
+        return np.where(self.blinded, first, np.int8(-1)).astype(np.int8)
+
+    def body(self, name: str) -> np.ndarray:
+        """``(4, N)`` bool: the named body is in the chord's field."""
+        return self.in_field[self.bodies.index(name)]
+
+
+def bright_body_in_chords(orbit: CircularOrbit, t_s, q_orbital_to_body, epoch: Epoch,
+                          horizon_nadir_rad, scan_start_nadir_rad, exclusion_rad,
+                          bodies=("sun", "moon"), earth_radius_m: float = EARTH_MEAN_RADIUS_M) -> BrightBodyCheck:
+    """Which chords see the Sun or the Moon in their field, for an orbit, times and attitudes.
+
+    The body directions come from the spacecraft (Moon parallax included),
+    go into the sensor frame through :func:`pmv_ros.core.oblateness.sensor_axes_eci`,
+    and are tested against each chord's swept arc
+    (:func:`angular_distance_to_scan_arc`); a body behind the Earth's disc
+    (:func:`occulted_by_earth`) cannot blind a chord.
+
+    Args:
+        orbit: the spacecraft orbit (its ECI is this module's mean-of-date frame).
+        t_s: simulation time(s), s, scalar or ``(N,)``.
+        q_orbital_to_body: ``(4[, N])`` attitude (x, y, z, w); None for zero attitude.
+        epoch: the run epoch (simulation time 0).
+        horizon_nadir_rad: ``(4, N)`` crossing nadir angle per chord, rad.
+        scan_start_nadir_rad: ``(4, N)`` or ``(4,)`` scan start θ₀ per chord, rad.
+        exclusion_rad: exclusion angle, rad (0 … π/2): one for all bodies, or
+            a mapping from body name to angle.
+        bodies: names from :data:`BODY_NAMES` to check, in order of precedence.
+        earth_radius_m: radius of the occulting sphere, m.
+
+    Raises:
+        ValueError: an unknown or repeated body, an exclusion angle out of range, or
+            arrays of the wrong shape.
+    """
+    bodies = tuple(bodies)
+    if not bodies or len(set(bodies)) != len(bodies) or any(b not in BODY_NAMES for b in bodies):
+        raise ValueError(f"bodies = {bodies!r} must be distinct names from {BODY_NAMES}")
+    if isinstance(exclusion_rad, Mapping):
+        missing = [b for b in bodies if b not in exclusion_rad]
+        if missing:
+            raise ValueError(f"exclusion angle missing for {missing}")
+        exclusions = [_check_exclusion(b, exclusion_rad[b]) for b in bodies]
+    else:
+        exclusions = [_check_exclusion(b, exclusion_rad) for b in bodies]
+
+    t = np.atleast_1d(np.asarray(t_s, float))
+    position, _ = orbit.state_eci(t)
+    axes = sensor_axes_eci(orbit, t, q_orbital_to_body)
+    jd_tt = epoch.julian_date_tt(t)
+
+    directions, occulted, distances = [], [], []
+    for name in bodies:  # a loop over at most two bodies, not over samples
+        direction_eci = _DIRECTION_FROM[name](position, jd_tt)
+        occulted.append(occulted_by_earth(direction_eci, position, earth_radius_m))
+        direction = np.einsum("ji...,j...->i...", axes, direction_eci)
+        directions.append(direction)
+        distances.append(angular_distance_to_scan_arc(direction, horizon_nadir_rad, scan_start_nadir_rad))
+    distance = np.stack(distances)
+    limit = np.array(exclusions).reshape((-1,) + (1,) * (distance.ndim - 1))
+    near = np.nan_to_num(distance, nan=np.inf) <= limit
+    hidden = np.stack(occulted)
+    return BrightBodyCheck(
+        bodies=bodies,
+        in_field=near & ~hidden[:, None, ...],
+        near_arc=near,
+        occulted=hidden,
+        distance_rad=distance,
+        direction_sensor=np.stack(directions, axis=1),
+    )
