@@ -17,7 +17,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PolygonStamped, QuaternionStamped, Vector3Stamped
 from nav_msgs.msg import Odometry
 from rosgraph_msgs.msg import Clock
-from rclpy.executors import SingleThreadedExecutor, TimeoutException
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
@@ -25,7 +25,7 @@ import pmv_msgs_shim as shim
 from pmv_ros.core.attitude import quaternion_from_roll_pitch_yaw, roll_pitch_yaw_from_quaternion
 from pmv_ros.core.constants import ARCMIN_RAD, ARCSEC_RAD, EARTH_MEAN_RADIUS_M
 from pmv_ros.nodes.error_monitor_node import ErrorMonitorNode
-from pmv_ros.nodes.pipeline import Pipeline
+from pmv_ros.nodes.pipeline import Pipeline, drain
 from pmv_ros.nodes.star_tracker_node import StarTrackerNode
 
 #: A star tracker that tells the exact truth: no noise, no random failures.
@@ -56,17 +56,7 @@ class Harness:
         return self.tester.create_publisher(message_type, topic, 100)
 
     def drain(self):
-        empty = 0
-        while empty < 2:
-            try:
-                handler, _, _ = self.executor.wait_for_ready_callbacks(timeout_sec=0.0)
-            except TimeoutException:
-                empty += 1
-                continue
-            empty = 0
-            handler()
-            if handler.exception() is not None:
-                raise handler.exception()
+        drain(self.executor)
 
     def close(self):
         self.executor.shutdown()

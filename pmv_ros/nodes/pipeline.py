@@ -28,6 +28,30 @@ from .sensor_node import SensorNode
 from .star_tracker_node import StarTrackerNode
 
 
+def drain(executor, max_callbacks: int = 100_000) -> int:
+    """Run an executor's ready callbacks until the graph is idle; returns how many ran.
+
+    With Fast DDS, a zero-timeout wait right after a take can report nothing
+    although more samples of that subscription are queued (the take clears
+    the data-available status; the following wait raises it again). So idle
+    means two empty waits in a row: stopping at the first one leaves messages
+    behind and lets a backlog build up tick after tick.
+    """
+    ran = empty = 0
+    while empty < 2 and ran < max_callbacks:
+        try:
+            handler, _, _ = executor.wait_for_ready_callbacks(timeout_sec=0.0)
+        except TimeoutException:
+            empty += 1
+            continue
+        empty = 0
+        handler()
+        if handler.exception() is not None:
+            raise handler.exception()
+        ran += 1
+    return ran
+
+
 class ReportCollector(Node):
     """Keeps what a report needs: residuals (decimated to a bounded count) and the latest statistics."""
 
@@ -105,27 +129,8 @@ class Pipeline:
         return node
 
     def drain(self, max_callbacks: int = 100_000) -> int:
-        """Run ready callbacks until the graph is idle; returns how many ran.
-
-        With Fast DDS, a zero-timeout wait right after a take can report
-        nothing although more samples of that subscription are queued (the
-        data-available status is cleared by the take and raised again on the
-        following wait). So idle means two empty waits in a row; stopping at
-        the first one leaves messages behind and lets a backlog build up.
-        """
-        ran = empty = 0
-        while empty < 2 and ran < max_callbacks:
-            try:
-                handler, _, _ = self.executor.wait_for_ready_callbacks(timeout_sec=0.0)
-            except TimeoutException:
-                empty += 1
-                continue
-            empty = 0
-            handler()
-            if handler.exception() is not None:
-                raise handler.exception()
-            ran += 1
-        return ran
+        """Run ready callbacks until the graph is idle (see :func:`drain`); returns how many ran."""
+        return drain(self.executor, max_callbacks)
 
     def step(self, ticks: int = 1) -> None:
         """Advance the simulation by ``ticks`` sensor periods, draining the graph after each."""

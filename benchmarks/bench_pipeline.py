@@ -1,0 +1,152 @@
+"""Fast-time throughput of the three-node pipeline against bare rclpy on this machine, in one run.
+
+Baseline: two bare nodes in one process, one executor, publishing small
+messages (geometry_msgs/Vector3Stamped) in bursts and draining the executor
+after each burst exactly as the pipeline does — the most this machine's
+rclpy moves in one process with that pattern.
+
+Pipeline: sensor_node + star_tracker_node + error_monitor_node (+ the report
+collector) on the Kondor preset, stepped in fast time at 10 Hz; messages
+published and callbacks run are counted by wrapping ``Publisher.publish``
+and by the drain itself.
+
+Prints both rates and their ratio (target ≥ 0.6), and the wall time of one
+Kondor orbit at 1 Hz output (target < 60 s). ``--json`` for scripts.
+
+    .venv/bin/python benchmarks/bench_pipeline.py [--ticks N] [--json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import tempfile
+import time
+from pathlib import Path
+
+os.environ.setdefault("ROS_LOG_DIR", tempfile.mkdtemp(prefix="pmv_bench_log_"))
+os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "OFF"
+
+import rclpy  # noqa: E402
+from geometry_msgs.msg import Vector3Stamped  # noqa: E402
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.node import Node  # noqa: E402
+from rclpy.publisher import Publisher  # noqa: E402
+
+from pmv_ros.nodes.pipeline import Pipeline, drain  # noqa: E402
+
+REPO = Path(__file__).resolve().parents[1]
+KONDOR = REPO / "config" / "kondor.yaml"
+
+
+class PublishCounter:
+    """Counts every Publisher.publish in the process while installed."""
+
+    def __init__(self):
+        self.count = 0
+        self._original = Publisher.publish
+
+    def __enter__(self):
+        original = self._original
+
+        def counted(publisher, message):
+            self.count += 1
+            return original(publisher, message)
+
+        Publisher.publish = counted
+        return self
+
+    def __exit__(self, *exc):
+        Publisher.publish = self._original
+
+
+def bare_rate(messages: int, burst: int) -> dict:
+    """Messages per second through bare rclpy: publish ``burst``, drain, repeat."""
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    sender, receiver = Node("bench_sender", context=context), Node("bench_receiver", context=context)
+    received = [0]
+
+    def count(_message):
+        received[0] += 1
+
+    publisher = sender.create_publisher(Vector3Stamped, "/bench", 100)
+    receiver.create_subscription(Vector3Stamped, "/bench", count, 100)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(sender)
+    executor.add_node(receiver)
+    message = Vector3Stamped()
+    drain(executor)
+    started = time.perf_counter()
+    for _ in range(messages // burst):
+        for _ in range(burst):
+            publisher.publish(message)
+        drain(executor)
+    wall = time.perf_counter() - started
+    executor.shutdown()
+    sender.destroy_node()
+    receiver.destroy_node()
+    rclpy.shutdown(context=context)
+    return {"messages": received[0], "wall_s": wall, "messages_per_s": received[0] / wall,
+            "lost": messages // burst * burst - received[0]}
+
+
+def pipeline_rate(ticks: int, rate_hz: float) -> dict:
+    """Fast-time rate of the full pipeline on the Kondor preset."""
+    with Pipeline(KONDOR, {"sensor.rate_hz": rate_hz}) as pipeline:
+        pipeline.step(20)  # warm-up: discovery, first truth
+        callbacks = 0
+        with PublishCounter() as published:
+            started = time.perf_counter()
+            for _ in range(ticks):
+                pipeline.sensor.step()
+                callbacks += pipeline.drain()
+            wall = time.perf_counter() - started
+        used = pipeline.monitor.monitor.counters["used"]
+    return {"ticks": ticks, "rate_hz": rate_hz, "wall_s": wall, "sim_s_per_wall_s": ticks / rate_hz / wall,
+            "published": published.count, "messages_per_s": published.count / wall,
+            "callbacks_per_s": callbacks / wall, "samples_used": used}
+
+
+def kondor_orbit_wall_s(rate_hz: float) -> dict:
+    """Wall time of one Kondor orbit in fast time at ``rate_hz`` output."""
+    with Pipeline(KONDOR, {"sensor.rate_hz": rate_hz}) as pipeline:
+        ticks = round(pipeline.sensor._orbit.period_s * rate_hz)
+        started = time.perf_counter()
+        pipeline.step(ticks)
+        wall = time.perf_counter() - started
+        used = pipeline.monitor.monitor.counters["used"]
+    return {"rate_hz": rate_hz, "ticks": ticks, "wall_s": wall, "samples_used": used}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--ticks", type=int, default=3000, help="pipeline ticks at 10 Hz (default 3000)")
+    parser.add_argument("--skip-orbit", action="store_true", help="skip the full Kondor orbit at 1 Hz")
+    parser.add_argument("--json", action="store_true")
+    args = parser.parse_args()
+
+    pipeline = pipeline_rate(args.ticks, 10.0)
+    burst = max(1, round(pipeline["published"] / args.ticks))
+    bare = bare_rate(20_000, burst)
+    result = {"bare": bare, "pipeline_10hz": pipeline,
+              "ratio_messages": pipeline["messages_per_s"] / bare["messages_per_s"]}
+    if not args.skip_orbit:
+        result["kondor_orbit_1hz"] = kondor_orbit_wall_s(1.0)
+    if args.json:
+        print(json.dumps(result, indent=2))
+        return
+    print(f"bare rclpy, one process, bursts of {burst}: {bare['messages_per_s']:8.0f} messages/s "
+          f"({bare['messages']} in {bare['wall_s']:.2f} s, lost {bare['lost']})")
+    print(f"pipeline, Kondor, 10 Hz fast time:  {pipeline['messages_per_s']:8.0f} messages/s published, "
+          f"{pipeline['callbacks_per_s']:.0f} callbacks/s, {pipeline['sim_s_per_wall_s']:.1f} simulated s per wall s")
+    print(f"ratio pipeline / bare (messages/s): {result['ratio_messages']:.2f}  (target ≥ 0.60)")
+    if "kondor_orbit_1hz" in result:
+        orbit = result["kondor_orbit_1hz"]
+        print(f"one Kondor orbit at 1 Hz output: {orbit['wall_s']:.1f} s wall for {orbit['ticks']} samples "
+              f"({orbit['samples_used']} used by the monitor)  (target < 60 s)")
+
+
+if __name__ == "__main__":
+    main()

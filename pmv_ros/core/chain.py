@@ -1,0 +1,925 @@
+"""The sensor's signal chain: one scan chord turns a horizon radiance profile into Gam and Del.
+
+physics.md §4, as named, ordered, pure stages (each usable and testable alone):
+
+1. :func:`scan_nadir_angles` — the IFOV centre steps inwards from the scan start
+   θ₀ at W = 2.46 °/ms in steps of dt = 0.01 ms;
+2. :func:`ifov_energy` — the horizon profile convolved with the IFOV
+   sensitivity (:func:`ifov_line_spread`, :func:`ifov_edge_response`);
+3. :func:`detector_lag` — the first-order lag T_p, the Duhamel sum of §4 step 3;
+4. :func:`comparator_times` — first crossings of J(1) = 0.33 J and J(2) = 0.67 J,
+   linearly interpolated between steps;
+5. :func:`gam_del` — Gam = t(1)·W, Del = (t(2) − t(1))·W;
+6. :func:`brightness_correction` — POP = F(Del), Gam′ = Gam − POP (the table
+   F itself lives in :mod:`pmv_ros.core.correction`);
+7. :func:`pair_angles` — β = ½(Gam(1) − Gam(2)) for a pair of opposite chords.
+
+:func:`sense_sampled_chords` runs stages 1–6 on any radiance profile given as a
+function of nadir angle (general, O(chords × scan samples × field)). The hot
+path is :func:`sense_horizon_chords`, described below.
+
+Geometry of a chord
+    A chord is described near its horizon by the hard-Earth horizon nadir
+    angle φ₀, the rate s = dh/dφ of tangent height with nadir angle there
+    (the slant range; (R + H)·cos φ₀ on a sphere) and the local Earth radius R.
+    These fix the *equivalent sphere* of the chord — orbit radius
+    ρ = √(R² + s²), nadir angles offset by φ₀ − atan(R/s) — which is exact on
+    a sphere (:func:`chord_tangent_height`, :func:`chord_ground_distance` and
+    their inverses). On the ellipsoid only the curvature term of h(φ) is
+    approximate: a radius off by 0.6 % (GRS80's meridian radius at the
+    equator against the mean R) moves the 60 km layer by ≈ 10 m, 0.01′.
+
+IFOV sensitivity (the documented choice)
+    A uniform circular field of full angle 2γ = 2.2°. Across the field the
+    horizon is treated as straight (the limb is a small circle of radius
+    φ₀ ≈ 68°; its curvature moves the limb by ≤ 0.25′ at the edge of the field,
+    the same on every chord, so it cancels in β and in the rig table). The
+    line-spread function along the scan is then the chord length of the disc,
+    w(a) = 2/(πγ²)·√(γ² − a²), normalised so that a field filled with radiance
+    B receives U = B (thresholds are absolute, in units of J).
+
+The fast chain: superposition of precomputed responses
+    Every stage up to the comparators is linear in radiance and invariant
+    under a shift of the scan, and the profile of physics.md §3 is a sum of a
+    few elementary shapes, each starting at some nadir angle φ_k:
+
+    * a step (the top of the CO₂ layer, B_a; a cloud-front jump ΔB),
+    * truncated powers (φ_k − θ)₊ and (φ_k − θ)₊² at each knot of the
+      window ramp — the ramp is piecewise linear in tangent height and the
+      tangent height is quadratic in angle across a segment, so the profile
+      is a continuous piecewise quadratic in angle,
+    * (φ₀ − θ)₊^p for p = ½, 1, 3/2, 2: the ground distance from the horizon
+      point, d(x) = R·(2 asin √(sin²(x/2) + κ sin x / 2) − x), κ = s/R,
+      least-squares fitted over x ≤ min(10°, φ₀/2) and tabulated against κ
+      (error < 40 m for κ < 1, i.e. orbits below ≈ 2500 km), carries a
+      gradient linear over the surface (Model B).
+
+    For each shape the response of stages 2–3 *at the discrete sample times*
+    (including the zero-order hold the Duhamel sum implies) is a fixed
+    function Y(u) of the offset u = φ_k − θ_v of the sample from the shape's
+    origin: Y = E − G with E the IFOV-convolved shape and
+    G(u) = Σ_i rⁱ [E(u − iΔ) − E(u − (i+1)Δ)], r = exp(−dt/T_p), Δ = W·dt.
+    These Y are tabulated once per :class:`ChainParameters` on a grid 16
+    times finer than Δ (:class:`ResponseTables`, ≈ 15 ms). A chord's output
+    at step v is then Σ_k a_k·Y_k(φ_k − θ₀ + vΔ): a few table look-ups, no
+    convolution and no recursion. The comparators search a coarse grid
+    (every 16th step, 18 points) from the step where the field first reaches
+    the window ramp — before that the output cannot exceed B_a < J(1) — and
+    bisect the bracket down to the two steps the comparator interpolates
+    between; chords not resolved in the first window continue window by
+    window to the end of the scan. The output is smooth on the scale of the
+    field and of T_p (≈ 90 and ≈ 160 steps), so a crossing can hide between
+    coarse points only if the output grazes a threshold by less than
+    ≈ 0.005 r.u. and falls back — a tangency, where the reading is
+    ill-conditioned anyway.
+
+    Speed (benchmarks/bench_chain.py, one core): ≈ 3·10⁵ chords/s in
+    batches of ≥ 10⁴ chords; a call costs ≈ 0.5 ms of fixed overhead, so
+    batch the chords of many time samples into one call.
+
+    Agreement with the literal loop program (tests/reference_chain.py):
+    within 0.05′ in Gam and Del (tests/test_chain.py).
+
+Reason codes (:class:`ChordStatus`, like python-sgp4's error table): a chord
+that cannot be sensed gives NaN and a non-zero code; array code never raises
+for bad samples.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import dataclass, field
+from functools import lru_cache
+
+import numpy as np
+from scipy.signal import fftconvolve, lfilter
+
+from .constants import EARTH_MEAN_RADIUS_M
+from .geometry import sphere_nadir_angle_of_height, sphere_tangent_height
+from .radiance import (
+    CO2_RADIANCE_RU,
+    CO2_TOP_HEIGHT_M,
+    LINEAR_RAMP,
+    MAX_LAYER_HEIGHT_M,
+    WINDOW_HEIGHT_M,
+    RampShape,
+)
+
+
+class ChordStatus(enum.IntEnum):
+    """Reason code of one chord's reading (0 = good; otherwise the outputs are NaN)."""
+
+    #: Both comparators fired; all outputs valid.
+    OK = 0
+    #: A per-chord input was NaN or outside its range (see :func:`sense_horizon_chords`).
+    INVALID_INPUT = 1
+    #: The field already saw the atmosphere at the scan start: the horizon lies outside the scan.
+    SCAN_STARTED_IN_ATMOSPHERE = 2
+    #: The output never exceeded J(1) within the scan (no horizon crossing found).
+    FIRST_THRESHOLD_NOT_REACHED = 3
+    #: J(1) was crossed but J(2) never was (the horizon too dark to measure Del).
+    SECOND_THRESHOLD_NOT_REACHED = 4
+
+
+@dataclass(frozen=True)
+class ChainParameters:
+    """Instrument and horizon parameters of the signal chain (physics.md §1, §3, §4). SI units.
+
+    The detector time constant is not published. It was fitted so that
+    Model A at 500 km reproduces the β column of the physics.md §4 table
+    (tools/calibrate_chain.py; values and residuals in
+    pmv_ros/data/chain_calibration.json): with the linear ramp,
+    T_p = 1.5685 ms gives β = 23.50′, 32.20′, 37.26′, 13.77′ against the
+    published 22.7′, 32′, 37.4′, 14.7′ (+3.5 %, +0.6 %, −0.4 %, −6.4 %;
+    RMS 3.7 %). The ramp shape is not constrained by that table: a
+    power-law ramp (1 − u)^p fits as well for any p in 0.25 … 4 (RMS
+    3.55 … 4.1 %; the joint optimum, p ≈ 0.3, gains 0.1 %), so the simplest
+    shape — linear in tangent height — is the default.
+
+    Args:
+        ifov_full_angle_rad: full angle 2γ of the instantaneous field of view (2.2°).
+        scan_rate_rad_s: radial scan rate W (2.46 °/ms).
+        time_step_s: simulation time step dt (0.01 ms).
+        max_steps: number of scan steps (2000).
+        detector_time_constant_s: T_p of the detector + electronics lag.
+        threshold_1_ru, threshold_2_ru: comparator thresholds J(1), J(2) (0.33 J, 0.67 J).
+        co2_radiance_ru: B_a of the CO₂ layer (0.3 J).
+        co2_top_height_m: top of the CO₂ layer (60 km).
+        window_height_m: nominal height h_w of the window emitting layer (40 km).
+        ramp: shape of the window-region ramp.
+    """
+
+    ifov_full_angle_rad: float = math.radians(2.2)
+    scan_rate_rad_s: float = math.radians(2.46) / 1e-3
+    time_step_s: float = 1e-5
+    max_steps: int = 2000
+    # Fitted by tools/calibrate_chain.py (see the class docstring).
+    detector_time_constant_s: float = 1.5685e-3
+    threshold_1_ru: float = 0.33
+    threshold_2_ru: float = 0.67
+    co2_radiance_ru: float = CO2_RADIANCE_RU
+    co2_top_height_m: float = CO2_TOP_HEIGHT_M
+    window_height_m: float = WINDOW_HEIGHT_M
+    ramp: RampShape = field(default=LINEAR_RAMP)
+
+    def __post_init__(self) -> None:
+        def check(name, low, high, unit="", scale=1.0):
+            value = getattr(self, name)
+            try:
+                number = float(value)
+            except (TypeError, ValueError):
+                raise ValueError(f"{name} must be a number, got {value!r}") from None
+            if not (math.isfinite(number) and low < number * scale <= high):
+                raise ValueError(f"{name} = {value!r} is outside the allowed range "
+                                 f"({low / scale:g}, {high / scale:g}]{unit}")
+
+        check("ifov_full_angle_rad", 0.0, math.radians(20.0), " rad")
+        check("scan_rate_rad_s", 0.0, 1e4, " rad/s")
+        check("time_step_s", 0.0, 1e-3, " s")
+        check("detector_time_constant_s", 0.0, 1.0, " s")
+        check("threshold_1_ru", 0.0, 100.0, " r.u.")
+        check("threshold_2_ru", 0.0, 100.0, " r.u.")
+        check("co2_top_height_m", 0.0, MAX_LAYER_HEIGHT_M, " m")
+        if not (isinstance(self.max_steps, (int, np.integer)) and 10 <= self.max_steps <= 100000):
+            raise ValueError(f"max_steps = {self.max_steps!r} is outside the allowed range 10 … 100000 (an integer)")
+        if not self.threshold_1_ru < self.threshold_2_ru:
+            raise ValueError(f"threshold_1_ru = {self.threshold_1_ru} must be below "
+                             f"threshold_2_ru = {self.threshold_2_ru}")
+        if not (math.isfinite(self.co2_radiance_ru) and 0.0 <= self.co2_radiance_ru < self.threshold_1_ru):
+            raise ValueError(f"co2_radiance_ru = {self.co2_radiance_ru} is outside the allowed range "
+                             f"[0, {self.threshold_1_ru}) r.u. (below the first threshold)")
+        if not (math.isfinite(self.window_height_m) and 0.0 <= self.window_height_m <= MAX_LAYER_HEIGHT_M):
+            raise ValueError(f"window_height_m = {self.window_height_m} is outside the allowed range "
+                             f"[0, {MAX_LAYER_HEIGHT_M:g}] m")
+        if not isinstance(self.ramp, RampShape):
+            raise ValueError(f"ramp must be a RampShape, got {type(self.ramp).__name__}")
+
+    @property
+    def ifov_half_angle_rad(self) -> float:
+        """γ, half the full angle of the field, rad."""
+        return 0.5 * self.ifov_full_angle_rad
+
+    @property
+    def step_angle_rad(self) -> float:
+        """Δ = W·dt, the scan angle of one time step, rad."""
+        return self.scan_rate_rad_s * self.time_step_s
+
+    @property
+    def lag_decay_per_step(self) -> float:
+        """r = exp(−dt/T_p), the lag's memory over one step."""
+        return math.exp(-self.time_step_s / self.detector_time_constant_s)
+
+
+DEFAULT_CHAIN_PARAMETERS = ChainParameters()
+
+
+# --------------------------------------------------------------------------------------------
+# Geometry of a chord near its horizon (the equivalent sphere)
+# --------------------------------------------------------------------------------------------
+
+def _equivalent_sphere(horizon_nadir_rad, tangent_height_rate_m, earth_radius_m):
+    """(ρ, nadir offset): orbit radius and angle offset of the chord's equivalent sphere."""
+    phi0 = np.asarray(horizon_nadir_rad, float)
+    s = np.asarray(tangent_height_rate_m, float)
+    r = np.asarray(earth_radius_m, float)
+    return np.hypot(r, s), phi0 - np.arctan2(r, s)
+
+
+def chord_tangent_height(nadir_angle_rad, horizon_nadir_rad, tangent_height_rate_m,
+                         earth_radius_m=EARTH_MEAN_RADIUS_M):
+    """Tangent height of a line of sight on a chord, m (negative inside the disc, see geometry.py).
+
+    Args:
+        nadir_angle_rad: nadir angle θ of the line of sight, rad.
+        horizon_nadir_rad: φ₀, the chord's hard-Earth horizon nadir angle, rad.
+        tangent_height_rate_m: s = dh/dφ at the horizon, m/rad (slant range).
+        earth_radius_m: local Earth radius R, m.
+    """
+    rho, offset = _equivalent_sphere(horizon_nadir_rad, tangent_height_rate_m, earth_radius_m)
+    return sphere_tangent_height(np.asarray(nadir_angle_rad, float) - offset, rho, earth_radius_m)
+
+
+def chord_nadir_of_height(height_m, horizon_nadir_rad, tangent_height_rate_m, earth_radius_m=EARTH_MEAN_RADIUS_M):
+    """Nadir angle of the line of sight grazing ``height_m`` on a chord, rad (inverse of the above)."""
+    rho, offset = _equivalent_sphere(horizon_nadir_rad, tangent_height_rate_m, earth_radius_m)
+    return sphere_nadir_angle_of_height(height_m, rho, earth_radius_m) + offset
+
+
+def _central_angle_inwards(inward_angle_rad, kappa):
+    """Central angle, rad, from the horizon point to where a line of sight x inside the limb hits.
+
+    Stable form of acos(cos x − κ sin x) − x (κ = s/R): the near
+    intersection of the equivalent sphere; NaN where x < 0.
+    """
+    x = np.asarray(inward_angle_rad, float)
+    with np.errstate(invalid="ignore"):
+        arg = np.sqrt(np.sin(0.5 * x) ** 2 + 0.5 * kappa * np.sin(x))
+        return np.where(x >= 0.0, 2.0 * np.arcsin(np.minimum(arg, 1.0)) - x, np.nan)
+
+
+def chord_ground_distance(nadir_angle_rad, horizon_nadir_rad, tangent_height_rate_m,
+                          earth_radius_m=EARTH_MEAN_RADIUS_M):
+    """Ground distance inwards from the horizon point to where a line of sight hits, m (NaN if it misses)."""
+    x = np.asarray(horizon_nadir_rad, float) - np.asarray(nadir_angle_rad, float)
+    kappa = np.asarray(tangent_height_rate_m, float) / np.asarray(earth_radius_m, float)
+    return np.asarray(earth_radius_m, float) * _central_angle_inwards(x, kappa)
+
+
+def chord_nadir_of_ground_distance(ground_distance_m, horizon_nadir_rad, tangent_height_rate_m,
+                                   earth_radius_m=EARTH_MEAN_RADIUS_M):
+    """Nadir angle, rad, of the line of sight hitting the ground ``ground_distance_m`` inside the horizon point."""
+    rho, offset = _equivalent_sphere(horizon_nadir_rad, tangent_height_rate_m, earth_radius_m)
+    r = np.asarray(earth_radius_m, float)
+    horizon_central = np.arctan2(np.asarray(tangent_height_rate_m, float), r)  # π/2 − φ₀ of the sphere
+    central = horizon_central - np.asarray(ground_distance_m, float) / r
+    return np.arctan2(r * np.sin(central), rho - r * np.cos(central)) + offset
+
+
+def tangent_height_rate_from_layer(horizon_nadir_rad, layer_nadir_rad, layer_height_m,
+                                   earth_radius_m=EARTH_MEAN_RADIUS_M):
+    """s = dh/dφ at the horizon, m/rad, from the nadir angles at which a chord grazes the surface and a layer.
+
+    Solves h = s·sin δ − R·(1 − cos δ), δ = φ_layer − φ₀ (the equivalent
+    sphere): exact on a sphere, and on the ellipsoid it makes the chord's
+    equivalent sphere pass exactly through both grazing angles — e.g. φ₀ and
+    φ(60 km) from :func:`pmv_ros.core.geometry.tangent_nadir_angles` with
+    ``height_m`` = 0 and 60 km. (A plain secant h/δ would be ≈ 3 % low at 60 km.)
+
+    Args:
+        horizon_nadir_rad: φ₀, rad.
+        layer_nadir_rad: nadir angle grazing the layer, rad (> φ₀).
+        layer_height_m: the layer's height, m (> 0).
+        earth_radius_m: local Earth radius R, m.
+    """
+    delta = np.asarray(layer_nadir_rad, float) - np.asarray(horizon_nadir_rad, float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return (np.asarray(layer_height_m, float) + earth_radius_m * (1.0 - np.cos(delta))) / np.sin(delta)
+
+
+def sphere_chord(altitude_m, earth_radius_m=EARTH_MEAN_RADIUS_M):
+    """(φ₀, s) of a chord at zero attitude over a sphere: asin(R/(R+H)), (R+H)·cos φ₀ (physics.md §2)."""
+    rho = earth_radius_m + np.asarray(altitude_m, float)
+    phi0 = np.arcsin(earth_radius_m / rho)
+    return phi0, rho * np.cos(phi0)
+
+
+def scan_start_nadir_angle(horizon_nadir_rad, tangent_height_rate_m, top_height_m=CO2_TOP_HEIGHT_M,
+                           params: ChainParameters = DEFAULT_CHAIN_PARAMETERS, earth_radius_m=EARTH_MEAN_RADIUS_M):
+    """θ₀ = φ₃ + γ: the scan start just outside the top of the emitting atmosphere, rad (physics.md §1).
+
+    Args:
+        horizon_nadir_rad, tangent_height_rate_m, earth_radius_m: the chord (see :func:`chord_tangent_height`).
+        top_height_m: height of the top of the atmosphere the scan must start above, m (60 km).
+        params: chain parameters (γ).
+    """
+    return chord_nadir_of_height(top_height_m, horizon_nadir_rad, tangent_height_rate_m,
+                                 earth_radius_m) + params.ifov_half_angle_rad
+
+
+# --------------------------------------------------------------------------------------------
+# Stage 1: the scan
+# --------------------------------------------------------------------------------------------
+
+def scan_nadir_angles(scan_start_nadir_rad, params: ChainParameters = DEFAULT_CHAIN_PARAMETERS, steps=None):
+    """Nadir angles θ_v = θ₀ − W·v·dt of the IFOV centre, rad (physics.md §4, step 1).
+
+    Args:
+        scan_start_nadir_rad: θ₀, rad, scalar or ``(N,)``.
+        params: W, dt and the number of steps.
+        steps: number of steps (default ``params.max_steps``).
+
+    Returns:
+        ``(steps,)`` or ``(N, steps)`` nadir angles, rad.
+    """
+    n = params.max_steps if steps is None else int(steps)
+    theta0 = np.asarray(scan_start_nadir_rad, float)
+    return theta0[..., None] - params.step_angle_rad * np.arange(n)
+
+
+# --------------------------------------------------------------------------------------------
+# Stage 2: the IFOV
+# --------------------------------------------------------------------------------------------
+
+def ifov_line_spread(offset_rad, params: ChainParameters = DEFAULT_CHAIN_PARAMETERS):
+    """Line-spread function of the uniform circular field along the scan, 1/rad: 2/(πγ²)·√(γ² − a²).
+
+    Args:
+        offset_rad: offset a from the field centre along the scan, rad.
+    """
+    gamma = params.ifov_half_angle_rad
+    a = np.asarray(offset_rad, float)
+    return 2.0 / (math.pi * gamma**2) * np.sqrt(np.clip(gamma**2 - a**2, 0.0, None))
+
+
+def _ifov_cumulative(offset_rad, gamma):
+    """∫ from −γ to a of the line-spread function (the share of the field below offset a)."""
+    z = np.clip(np.asarray(offset_rad, float) / gamma, -1.0, 1.0)
+    return 0.5 + (np.arcsin(z) + z * np.sqrt(1.0 - z * z)) / math.pi
+
+
+def _ifov_first_moment(offset_rad, gamma):
+    """∫ from −γ to a of a·w(a) da, rad."""
+    z = np.clip(np.asarray(offset_rad, float) / gamma, -1.0, 1.0)
+    return -2.0 * gamma / (3.0 * math.pi) * (1.0 - z * z) ** 1.5
+
+
+def ifov_edge_response(centre_inside_rad, params: ChainParameters = DEFAULT_CHAIN_PARAMETERS):
+    """Share of the field beyond a straight edge when the field centre is ``u`` inside it (closed form).
+
+    The energy a unit-radiance half-plane gives the uniform circular field:
+    ½ + (asin z + z√(1 − z²))/π with z = u/γ (the circular-segment area).
+
+    Args:
+        centre_inside_rad: u, how far the field centre is past the edge into the bright side, rad.
+    """
+    return _ifov_cumulative(centre_inside_rad, params.ifov_half_angle_rad)
+
+
+def _hat_kernel(spacing_rad, gamma):
+    """Weights K_l = ∫ w(a)·hat(a/δ − l) da, exact: IFOV convolution of a piecewise-linear profile."""
+    half = int(math.ceil(gamma / spacing_rad)) + 1
+    l = np.arange(-half, half + 1, dtype=float)
+    a = l * spacing_rad
+
+    def segment(lo, hi):
+        return (_ifov_cumulative(hi, gamma) - _ifov_cumulative(lo, gamma),
+                _ifov_first_moment(hi, gamma) - _ifov_first_moment(lo, gamma))
+
+    m0_left, m1_left = segment(a - spacing_rad, a)     # rising half of the hat
+    m0_right, m1_right = segment(a, a + spacing_rad)   # falling half
+    kernel = (m1_left / spacing_rad - (l - 1.0) * m0_left) + ((l + 1.0) * m0_right - m1_right / spacing_rad)
+    return kernel, half
+
+
+def ifov_energy(radiance_ru, sample_spacing_rad, params: ChainParameters = DEFAULT_CHAIN_PARAMETERS):
+    """Energy U the field receives, r.u., at every sample of a finely sampled profile (physics.md §4, step 2).
+
+    The profile is taken as piecewise linear between its samples and
+    convolved exactly with the line-spread function (:func:`ifov_line_spread`).
+
+    Args:
+        radiance_ru: ``(..., L)`` radiance samples along the scan, r.u., at
+            nadir angles decreasing by ``sample_spacing_rad`` (scan order).
+        sample_spacing_rad: δ, rad.
+        params: the field size.
+
+    Returns:
+        ``(..., L)`` energy with the field centred on each sample, r.u.
+        (samples within γ of either end see zero radiance beyond the ends).
+    """
+    kernel, half = _hat_kernel(sample_spacing_rad, params.ifov_half_angle_rad)
+    p = np.asarray(radiance_ru, float)
+    padded = np.pad(p, [(0, 0)] * (p.ndim - 1) + [(half, half)])
+    shape = (1,) * (p.ndim - 1) + (-1,)
+    return fftconvolve(padded, kernel[::-1].reshape(shape), mode="valid", axes=-1)
+
+
+# --------------------------------------------------------------------------------------------
+# Stage 3: the detector lag
+# --------------------------------------------------------------------------------------------
+
+def detector_lag(energy_ru, params: ChainParameters = DEFAULT_CHAIN_PARAMETERS):
+    """Detector output U_out at each step, r.u.: the first-order lag of physics.md §4, step 3.
+
+    The Duhamel sum U_out(t_v) = Σ_{j≤v} dU_j·(1 − exp(−(t_v − t_j)/T_p)),
+    dU_j = U_j − U_{j−1} (U_{−1} = 0: the detector is at rest before the scan)
+    equals U_v − z_v with z_v = r·z_{v−1} + dU_v, r = exp(−dt/T_p): the same
+    sum evaluated by recursion, O(steps) instead of O(steps²). As written, the
+    sum holds each step's energy until the next step (dU_v enters with weight
+    1 − exp(0) = 0 at t_v): even an instantaneous detector would read U_{v−1}
+    at t_v. The calibration of T_p absorbs this half-step-on-average delay.
+
+    Args:
+        energy_ru: ``(..., steps)`` energy U_v at the scan steps, r.u.
+        params: dt and T_p.
+    """
+    u = np.asarray(energy_ru, float)
+    du = np.diff(u, axis=-1, prepend=0.0)
+    z = lfilter([1.0], [1.0, -params.lag_decay_per_step], du, axis=-1)
+    return u - z
+
+
+# --------------------------------------------------------------------------------------------
+# Stage 4: the comparators
+# --------------------------------------------------------------------------------------------
+
+def _interpolated_crossing(output, threshold):
+    """Fractional step index of the first sample above ``threshold`` (linear interpolation), NaN if none."""
+    above = output > threshold
+    found = above.any(axis=-1)
+    v = np.argmax(above, axis=-1)
+    previous = np.take_along_axis(output, np.maximum(v - 1, 0)[..., None], axis=-1)[..., 0]
+    current = np.take_along_axis(output, v[..., None], axis=-1)[..., 0]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        # v = 0 cannot cross after the detector starts at rest; guard it anyway.
+        fraction = np.where(v > 0, (threshold - previous) / (current - previous), 0.0)
+    return np.where(found, v - 1 + fraction + (v == 0), np.nan)
+
+
+def comparator_times(output_ru, params: ChainParameters = DEFAULT_CHAIN_PARAMETERS):
+    """First times t(1), t(2) at which the output exceeds J(1), J(2), s (physics.md §4, step 4).
+
+    Linear interpolation between the last step at or below the threshold and
+    the first step above it; time is counted from the scan start (step 0).
+
+    Args:
+        output_ru: ``(..., steps)`` detector output, r.u.
+
+    Returns:
+        (t1_s, t2_s, status): NaN times and a :class:`ChordStatus` code where a
+        threshold is never exceeded.
+    """
+    y = np.asarray(output_ru, float)
+    t1 = _interpolated_crossing(y, params.threshold_1_ru) * params.time_step_s
+    t2 = _interpolated_crossing(y, params.threshold_2_ru) * params.time_step_s
+    status = np.where(np.isnan(t1), ChordStatus.FIRST_THRESHOLD_NOT_REACHED,
+                      np.where(np.isnan(t2), ChordStatus.SECOND_THRESHOLD_NOT_REACHED, ChordStatus.OK))
+    t2 = np.where(np.isnan(t1), np.nan, t2)
+    return t1, t2, status.astype(np.int8)
+
+
+# --------------------------------------------------------------------------------------------
+# Stages 5–7
+# --------------------------------------------------------------------------------------------
+
+def gam_del(t1_s, t2_s, params: ChainParameters = DEFAULT_CHAIN_PARAMETERS):
+    """Gam = t(1)·W and Del = (t(2) − t(1))·W, rad (physics.md §4, step 5)."""
+    t1 = np.asarray(t1_s, float)
+    return t1 * params.scan_rate_rad_s, (np.asarray(t2_s, float) - t1) * params.scan_rate_rad_s
+
+
+def brightness_correction(del_rad, correction=None):
+    """POP = F(Del), rad (physics.md §4, step 6); zero without a table.
+
+    Args:
+        del_rad: Del, rad.
+        correction: a callable F mapping Del (rad) to POP (rad), e.g. a
+            :class:`pmv_ros.core.correction.CorrectionTable`; None for no table.
+    """
+    d = np.asarray(del_rad, float)
+    if correction is None:
+        return np.where(np.isnan(d), np.nan, 0.0)
+    return np.asarray(correction(d), float)
+
+
+def pair_angles(gam_1_rad, gam_2_rad):
+    """β = ½(Gam(1) − Gam(2)), rad, for two opposite chords (physics.md §4, step 7).
+
+    Pass Gam for β, Gam′ for β′. A brighter chord 2 crosses earlier, so β > 0 for B(1) < B(2).
+    """
+    return 0.5 * (np.asarray(gam_1_rad, float) - np.asarray(gam_2_rad, float))
+
+
+@dataclass(frozen=True)
+class ChordReadings:
+    """What the chain reads on N chords; every array is ``(N,)``; angles in rad.
+
+    ``sensed_horizon_nadir_rad`` = θ₀ − Gam′ (brightness-corrected) and
+    ``sensed_horizon_nadir_uncorrected_rad`` = θ₀ − Gam are the nadir angles
+    at which the sensor places the horizon; compare with the true hard-Earth
+    horizon φ₀. NaN wherever ``status`` is not :attr:`ChordStatus.OK`.
+    """
+
+    gam_rad: np.ndarray
+    del_rad: np.ndarray
+    pop_rad: np.ndarray
+    gam_corrected_rad: np.ndarray
+    sensed_horizon_nadir_rad: np.ndarray
+    sensed_horizon_nadir_uncorrected_rad: np.ndarray
+    status: np.ndarray
+
+
+def _readings(scan_start, t1, t2, status, correction, params) -> ChordReadings:
+    gam, dele = gam_del(t1, t2, params)
+    bad = status != ChordStatus.OK
+    gam = np.where(bad, np.nan, gam)
+    dele = np.where(bad, np.nan, dele)
+    pop = brightness_correction(dele, correction)
+    gam_corrected = gam - pop
+    return ChordReadings(gam, dele, pop, gam_corrected, scan_start - gam_corrected, scan_start - gam,
+                         status.astype(np.int8))
+
+
+def sense_sampled_chords(radiance_of_nadir, scan_start_nadir_rad, params: ChainParameters = DEFAULT_CHAIN_PARAMETERS,
+                         correction=None, steps=None, oversampling: int = 16) -> ChordReadings:
+    """Stages 1–6 on any radiance profile, by sampling it: the general (slow) path.
+
+    Args:
+        radiance_of_nadir: vectorised callable, nadir angles ``(N, L)`` rad →
+            radiance r.u. (the horizon profile of each chord).
+        scan_start_nadir_rad: θ₀ per chord, rad, ``(N,)``.
+        params: chain parameters.
+        correction: the table F (see :func:`brightness_correction`).
+        steps: scan steps to simulate (default ``params.max_steps``).
+        oversampling: profile samples per scan step (edge positions are
+            resolved to about Δ/(2·oversampling)).
+    """
+    theta0 = np.atleast_1d(np.asarray(scan_start_nadir_rad, float))
+    n = params.max_steps if steps is None else int(steps)
+    spacing = params.step_angle_rad / oversampling
+    half = int(math.ceil(params.ifov_half_angle_rad / spacing)) + 1
+    offsets = spacing * np.arange(-half, n * oversampling + half)
+    nadir = theta0[:, None] - offsets
+    energy = ifov_energy(radiance_of_nadir(nadir), spacing, params)
+    energy_at_steps = energy[:, half:half + n * oversampling:oversampling]
+    t1, t2, status = comparator_times(detector_lag(energy_at_steps, params), params)
+    return _readings(theta0, t1, t2, status, correction, params)
+
+
+# --------------------------------------------------------------------------------------------
+# The fast chain
+# --------------------------------------------------------------------------------------------
+
+#: Table samples per scan step (the interpolation error is then < 0.001′).
+TABLE_OVERSAMPLING = 16
+#: Coarse-search stride, steps, and points per coarse window (288 steps: 99.5 % of crossings
+#: of a varied batch fall in the first window; the rest continue window by window).
+COARSE_STRIDE = 16
+COARSE_POINTS = 18
+#: Table look-ups per evaluation block (keeps the working set in cache).
+EVALUATION_CHUNK = 1 << 16
+#: Powers of the inward angle x that carry the ground distance d(x) (gradient over the surface).
+GROUND_DISTANCE_POWERS = (0.5, 1.0, 1.5, 2.0)
+#: Fit range of d(x): x ≤ 10° (and ≤ half the disc), rad.
+GROUND_DISTANCE_FIT_RAD = math.radians(10.0)
+
+# The elementary shapes, their table rows.
+_STEP, _LINEAR, _QUADRATIC, _SQRT, _POW15 = range(5)
+_SHAPE_POWER = {_LINEAR: 1.0, _QUADRATIC: 2.0, _SQRT: 0.5, _POW15: 1.5}
+
+
+class ResponseTables:
+    """Responses Y(u) of stages 2–3, sampled at scan steps, to the elementary profile shapes.
+
+    Row ``k`` of :attr:`values` is Y_k on the grid u_n = (n − n0)·δ,
+    δ = Δ/TABLE_OVERSAMPLING, for the shapes step, (x)₊, (x)₊², (x)₊^½,
+    (x)₊^{3/2} (x in rad inwards of the shape's origin). See the module
+    docstring for the construction.
+    """
+
+    def __init__(self, params: ChainParameters):
+        self.params = params
+        m = TABLE_OVERSAMPLING
+        self.spacing_rad = params.step_angle_rad / m
+        gamma = params.ifov_half_angle_rad
+        # Leading zeros: one step and a margin before the field touches the origin.
+        blocks_before = int(math.ceil((gamma + params.step_angle_rad) / params.step_angle_rad)) + 1
+        self.zero_index = blocks_before * m
+        length = (blocks_before + params.max_steps + 2) * m
+        u = (np.arange(length) - self.zero_index) * self.spacing_rad
+        energy = np.empty((5, length))
+        energy[_STEP] = ifov_edge_response(u, params)
+        kernel, half = _hat_kernel(self.spacing_rad, gamma)
+        xi = (np.arange(length + 2 * half) - self.zero_index - half) * self.spacing_rad
+        xi_pos = np.maximum(xi, 0.0)
+        for row, power in _SHAPE_POWER.items():
+            energy[row] = fftconvolve(xi_pos**power, kernel[::-1], mode="valid")
+        energy[:, u < -gamma - self.spacing_rad] = 0.0  # FFT round-off where the field sees nothing
+        # Detector lag at the sample times, for every sub-step phase at once:
+        # G[n] = r·G[n − m] + E[n] − E[n − m]  (rows of the reshaped array are whole steps).
+        blocks = energy.reshape(5, -1, m)
+        increments = np.diff(blocks, axis=1, prepend=0.0)
+        lagged = lfilter([1.0], [1.0, -params.lag_decay_per_step], increments, axis=1)
+        self.values = (energy - lagged.reshape(5, length))
+        self.length = length
+        # Flat table of value + i·(slope to the next entry): one gather per term and step.
+        slopes = np.diff(self.values, axis=1, append=self.values[:, -1:])
+        self.flat_complex = (self.values + 1j * slopes).ravel()
+
+    def response(self, shape: int, offset_rad):
+        """Y of one shape at offsets u (rad, field centre inwards of the origin), linear interpolation."""
+        f = np.asarray(offset_rad, float) / self.spacing_rad + self.zero_index
+        i = np.clip(np.floor(f).astype(np.int64), 0, self.length - 2)
+        frac = np.clip(f - i, 0.0, 1.0)
+        row = self.values[shape]
+        return row[i] + frac * (row[i + 1] - row[i])
+
+
+@lru_cache(maxsize=8)
+def response_tables(params: ChainParameters = DEFAULT_CHAIN_PARAMETERS) -> ResponseTables:
+    """The (cached) response tables of a parameter set; building one takes ≈ 20 ms."""
+    return ResponseTables(params)
+
+
+#: Range and resolution of the tabulated ground-distance fit, κ = s/R (LEO ≈ 0.2 … GEO ≈ 7).
+_KAPPA_RANGE = (0.02, 50.0)
+_KAPPA_SAMPLES = 4001
+
+
+def _ground_distance_fit(kappa):
+    """c_j with d(x)/R ≈ Σ c_j·x^p_j over 0 ≤ x ≤ min(10°, φ₀/2), φ₀ = atan(1/κ), per κ (x in rad).
+
+    Least squares on a grid of x dense near the horizon, where d(x) ∝ √x.
+    """
+    kappa = np.asarray(kappa, float)
+    fit_range = np.minimum(GROUND_DISTANCE_FIT_RAD, 0.5 * np.arctan2(1.0, kappa))
+    z = np.linspace(0.0, 1.0, 41) ** 2
+    powers = np.asarray(GROUND_DISTANCE_POWERS)
+    projector = np.linalg.pinv(z[:, None] ** powers[None, :])
+    target = _central_angle_inwards(fit_range[:, None] * z[None, :], kappa[:, None])
+    return (target @ projector.T) / fit_range[:, None] ** powers[None, :]
+
+
+@lru_cache(maxsize=1)
+def _ground_distance_table():
+    """The fit tabulated against log κ (the coefficients are smooth in κ; interpolation error < 1 m)."""
+    log_kappa = np.linspace(*np.log(_KAPPA_RANGE), _KAPPA_SAMPLES)
+    return log_kappa, _ground_distance_fit(np.exp(log_kappa))
+
+
+def _ground_distance_coefficients(kappa):
+    """Per chord, c_j of d(x)/R ≈ Σ c_j·x^p_j (interpolated in the table; κ clamped to its range)."""
+    log_kappa, table = _ground_distance_table()
+    x = np.log(np.clip(kappa, *_KAPPA_RANGE))
+    return np.stack([np.interp(x, log_kappa, table[:, j]) for j in range(table.shape[1])], axis=1)
+
+
+def _as_chords(value, n, name):
+    array = np.asarray(value, float)
+    try:
+        return np.broadcast_to(array, (n,)).astype(float, copy=True)
+    except ValueError:
+        raise ValueError(f"{name} has shape {array.shape}, which does not broadcast to the {n} chords") from None
+
+
+def sense_horizon_chords(horizon_nadir_rad, tangent_height_rate_m, disc_radiance_ru, *,
+                         scan_start_nadir_rad=None, gradient_ru_per_m=0.0, jump_ru=0.0, jump_distance_m=math.inf,
+                         window_height_m=None, co2_radiance_ru=None, co2_top_height_m=None,
+                         earth_radius_m=EARTH_MEAN_RADIUS_M, correction=None,
+                         params: ChainParameters = DEFAULT_CHAIN_PARAMETERS) -> ChordReadings:
+    """Gam, Del, Gam′ and the sensed horizon of N chords at once: the fast signal chain.
+
+    Every argument is a scalar or an ``(N,)`` array (broadcast together).
+    Bad values of a chord give NaN and :attr:`ChordStatus.INVALID_INPUT` for
+    that chord; nothing raises for bad samples.
+
+    Args:
+        horizon_nadir_rad: φ₀, the chord's hard-Earth horizon nadir angle, rad
+            (e.g. from :func:`pmv_ros.core.geometry.tangent_nadir_angles`), in (0, π/2].
+        tangent_height_rate_m: s = dh/dφ near the horizon, m/rad, > 0
+            ((R + H)·cos φ₀ on a sphere, ≈ the slant range; on the ellipsoid
+            use :func:`tangent_height_rate_from_layer` with the grazing angles
+            of 0 and 60 km, which places every layer to ≈ 2 m).
+        disc_radiance_ru: B_m, the Earth's radiance at the horizon point, r.u., > 0.
+        scan_start_nadir_rad: θ₀, rad; default: just outside this chord's
+            atmosphere, φ(max(h_CO₂, h_w)) + γ, as in the published program.
+            A fixed instrument angle is fine as long as the field sees nothing at the start.
+        gradient_ru_per_m: change of disc radiance per metre of ground distance
+            inwards from the horizon point, r.u./m (Model B).
+        jump_ru: radiance jump on the disc, r.u. (Model C), at
+        jump_distance_m: ground distance of the jump inwards from the horizon point, m (≥ 0).
+        window_height_m: h_w, m, in [0, 100 km] (default ``params.window_height_m``).
+        co2_radiance_ru: B_a, r.u., in [0, J(1)) (default ``params.co2_radiance_ru``).
+        co2_top_height_m: top of the CO₂ layer, m, in [0, 100 km] (default ``params.co2_top_height_m``).
+        earth_radius_m: local Earth radius R, m (the chord's curvature; mean radius by default).
+        correction: the brightness-correction table F (callable Del → POP, rad) or None.
+        params: chain parameters.
+
+    Returns:
+        :class:`ChordReadings` with ``(N,)`` arrays.
+    """
+    inputs = [horizon_nadir_rad, tangent_height_rate_m, disc_radiance_ru, gradient_ru_per_m, jump_ru,
+              jump_distance_m, earth_radius_m]
+    optional = [scan_start_nadir_rad, window_height_m, co2_radiance_ru, co2_top_height_m]
+    n = int(np.broadcast(*[np.asarray(a, float) for a in inputs + [o for o in optional if o is not None]]).size)
+    if n == 0:
+        empty = np.empty(0)
+        return ChordReadings(empty, empty, empty, empty, empty, empty, np.empty(0, np.int8))
+    phi0 = _as_chords(horizon_nadir_rad, n, "horizon_nadir_rad")
+    slope = _as_chords(tangent_height_rate_m, n, "tangent_height_rate_m")
+    b_m = _as_chords(disc_radiance_ru, n, "disc_radiance_ru")
+    gradient = _as_chords(gradient_ru_per_m, n, "gradient_ru_per_m")
+    jump = _as_chords(jump_ru, n, "jump_ru")
+    jump_d = _as_chords(jump_distance_m, n, "jump_distance_m")
+    radius = _as_chords(earth_radius_m, n, "earth_radius_m")
+    h_w = _as_chords(params.window_height_m if window_height_m is None else window_height_m, n, "window_height_m")
+    b_a = _as_chords(params.co2_radiance_ru if co2_radiance_ru is None else co2_radiance_ru, n, "co2_radiance_ru")
+    h_co2 = _as_chords(params.co2_top_height_m if co2_top_height_m is None else co2_top_height_m, n,
+                       "co2_top_height_m")
+
+    with np.errstate(invalid="ignore"):
+        valid = (np.isfinite(phi0) & (phi0 > 0.0) & (phi0 <= 0.5 * math.pi)
+                 & np.isfinite(slope) & (slope > 0.0) & np.isfinite(radius) & (radius > 0.0)
+                 & np.isfinite(b_m) & (b_m > 0.0) & np.isfinite(gradient) & np.isfinite(jump)
+                 & ~np.isnan(jump_d) & (jump_d >= 0.0)
+                 & (h_w >= 0.0) & (h_w <= MAX_LAYER_HEIGHT_M)
+                 & (b_a >= 0.0) & (b_a < params.threshold_1_ru)
+                 & (h_co2 >= 0.0) & (h_co2 <= MAX_LAYER_HEIGHT_M))
+    # Neutral stand-ins keep the arithmetic quiet on invalid chords; their results are discarded.
+    phi0[~valid], slope[~valid], radius[~valid], b_m[~valid] = 1.0, 2.5e6, EARTH_MEAN_RADIUS_M, 1.0
+    gradient[~valid], jump[~valid], jump_d[~valid], h_w[~valid] = 0.0, 0.0, math.inf, 40e3
+    b_a[~valid], h_co2[~valid] = 0.3, 60e3
+
+    h_top = np.maximum(h_co2, h_w)
+    phi_top = chord_nadir_of_height(h_top, phi0, slope, radius)
+    if scan_start_nadir_rad is None:
+        theta0 = phi_top + params.ifov_half_angle_rad
+    else:
+        theta0 = _as_chords(scan_start_nadir_rad, n, "scan_start_nadir_rad")
+        valid &= np.isfinite(theta0)
+        theta0[~valid] = phi_top[~valid] + params.ifov_half_angle_rad
+    status = np.where(valid, ChordStatus.OK, ChordStatus.INVALID_INPUT).astype(np.int8)
+    started_inside = valid & (phi_top > theta0 - params.ifov_half_angle_rad + 1e-12)
+    status[started_inside] = ChordStatus.SCAN_STARTED_IN_ATMOSPHERE
+
+    origins, coefficients, shapes = _profile_terms(phi0, slope, radius, b_m, gradient, jump, jump_d, h_w, b_a,
+                                                   phi_top, params)
+    tables = response_tables(params)
+    # Geometry with no real solution (e.g. a layer above the orbit of the equivalent sphere) is bad input.
+    finite = np.all(np.isfinite(origins) & np.isfinite(coefficients), axis=1)
+    status[(status == ChordStatus.OK) & ~finite] = ChordStatus.INVALID_INPUT
+    coefficients[~finite] = 0.0
+    origins[~finite] = 0.0
+    active = status == ChordStatus.OK
+    t1 = np.full(n, np.nan)
+    t2 = np.full(n, np.nan)
+    if active.any():
+        # The output stays ≤ B_a < J(1) until the field reaches the window ramp: start searching there.
+        phi_w = chord_nadir_of_height(h_w, phi0, slope, radius)
+        first_step = np.floor((theta0 - params.ifov_half_angle_rad - phi_w) / params.step_angle_rad)
+        first_step = np.clip(np.nan_to_num(first_step), 0, params.max_steps - 1).astype(np.int64)
+        idx = np.flatnonzero(active)
+        t1[idx], t2[idx] = _search_crossings(tables, origins[idx] - theta0[idx, None], coefficients[idx], shapes,
+                                             first_step[idx], params)
+    status[active & np.isnan(t1)] = ChordStatus.FIRST_THRESHOLD_NOT_REACHED
+    status[active & ~np.isnan(t1) & np.isnan(t2)] = ChordStatus.SECOND_THRESHOLD_NOT_REACHED
+    return _readings(theta0, t1, t2, status, correction, params)
+
+
+def _profile_terms(phi0, slope, radius, b_m, gradient, jump, jump_d, h_w, b_a, phi_top, params):
+    """Decompose each chord's profile into elementary shapes: origins (N, K), coefficients (N, K), shapes (K,).
+
+    Shapes whose coefficient is zero on every chord are dropped.
+    """
+    n = phi0.size
+    origins, coefficients, shapes = [], [], []
+
+    def add(shape, origin, coefficient):
+        if np.any(coefficient != 0.0):
+            origins.append(origin)
+            coefficients.append(coefficient)
+            shapes.append(shape)
+
+    # The top of the atmosphere: space → B_a (the CO₂ layer, or the top of the window layer if higher).
+    add(_STEP, phi_top, b_a.copy())
+
+    # The window ramp B_a + (B_m − B_a)·S(h/h_w), piecewise linear in h, knots from the top down.
+    knot_u = np.asarray(params.ramp.heights)[::-1]
+    knot_s = np.asarray(params.ramp.values)[::-1]
+    flat = h_w < 1.0  # a window layer at the surface: the ramp is a step at the horizon
+    heights = knot_u[None, :] * h_w[:, None]
+    knot_nadir = chord_nadir_of_height(heights, phi0[:, None], slope[:, None], radius[:, None])
+    knot_value = b_a[:, None] + (b_m - b_a)[:, None] * knot_s[None, :]
+    # On a segment, with ξ inwards of its upper knot: h ≈ h_k + A ξ − ½(R + h_mid) ξ²,
+    # exact at both knots; the profile is P_k + b (h − h_k), b = ΔP/Δh.
+    seg_length = knot_nadir[:, :-1] - knot_nadir[:, 1:]
+    seg_dh = heights[:, 1:] - heights[:, :-1]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        seg_b = np.where(seg_dh != 0.0, (knot_value[:, 1:] - knot_value[:, :-1]) / seg_dh, 0.0)
+        curvature = radius[:, None] + 0.5 * (heights[:, 1:] + heights[:, :-1])
+        seg_a = np.where(seg_length > 0.0, seg_dh / seg_length, 0.0) + 0.5 * curvature * seg_length
+    linear = seg_b * seg_a                      # dP/dξ at the segment's upper knot
+    quadratic = -0.5 * seg_b * curvature        # coefficient of ξ²
+    zeros = np.zeros((n, 1))
+    lin_before = np.hstack([zeros, linear + 2.0 * quadratic * seg_length])   # slope arriving at each knot
+    lin_after = np.hstack([linear, zeros])                                   # slope leaving it
+    quad_before = np.hstack([zeros, quadratic])
+    quad_after = np.hstack([quadratic, zeros])
+    jump_in_slope = np.where(flat[:, None], 0.0, lin_after - lin_before)
+    jump_in_curve = np.where(flat[:, None], 0.0, quad_after - quad_before)
+    for k in range(knot_u.size):
+        add(_LINEAR, knot_nadir[:, k], jump_in_slope[:, k])
+        add(_QUADRATIC, knot_nadir[:, k], jump_in_curve[:, k])
+    add(_STEP, phi0, np.where(flat, b_m - b_a, 0.0))
+
+    # The disc: a gradient along the surface, d(x) ≈ R Σ c_j x^p_j, and a jump.
+    if np.any(gradient != 0.0):
+        c = _ground_distance_coefficients(slope / radius) * (gradient * radius)[:, None]
+        for j, power in enumerate(GROUND_DISTANCE_POWERS):
+            shape = {0.5: _SQRT, 1.0: _LINEAR, 1.5: _POW15, 2.0: _QUADRATIC}[power]
+            add(shape, phi0, c[:, j])
+    if np.any(jump != 0.0):
+        jump_nadir = chord_nadir_of_ground_distance(np.where(np.isfinite(jump_d), jump_d, 0.0), phi0, slope, radius)
+        add(_STEP, jump_nadir, np.where(np.isfinite(jump_d), jump, 0.0))
+    return np.stack(origins, axis=1), np.stack(coefficients, axis=1), np.asarray(shapes)
+
+
+def _search_crossings(tables: ResponseTables, origin_offset, coefficients, shapes, first_step, params):
+    """First interpolated crossings of J(1) and J(2), in seconds from the scan start (NaN if none).
+
+    A coarse pass every COARSE_STRIDE steps finds, for each threshold, the
+    first coarse step above it; bisection then narrows the bracket (last
+    coarse step at or below, first above) to two adjacent steps, between
+    which the comparator interpolates linearly.
+
+    Args:
+        origin_offset: (N, K) φ_k − θ₀ of every term, rad.
+        coefficients: (N, K) term amplitudes.
+        shapes: (K,) table rows.
+        first_step: (N,) step at which to start the search.
+    """
+    m = TABLE_OVERSAMPLING
+    position = origin_offset / tables.spacing_rad + tables.zero_index
+    base = np.floor(position)
+    frac = position - base
+    # Table row offsets folded into the base index; int32 halves the index traffic.
+    base = (base + (shapes * tables.length)[None, :]).astype(np.int32)
+    row_start = np.broadcast_to((shapes * tables.length)[None, :], base.shape).astype(np.int32)
+    # Re(w·(value + i·slope)) with w = c − i·c·frac is c·(value + frac·slope): one gather per term.
+    weights = coefficients - 1j * (coefficients * frac)
+    last_step = params.max_steps - 1
+
+    def output(rows, steps):
+        """Detector output at integer steps ``steps`` (len(rows), P) of the chords ``rows``."""
+        result = np.empty(steps.shape)
+        k = base.shape[1]
+        chunk = max(1, EVALUATION_CHUNK // (k * steps.shape[1]))
+        for lo in range(0, rows.size, chunk):
+            r = rows[lo:lo + chunk]
+            index = base[r, :, None] + (m * steps[lo:lo + chunk, None, :]).astype(np.int32)
+            # Far before a term's origin its response is 0: clamp to the row's first (zero) entry.
+            np.maximum(index, row_start[r, :, None], out=index)
+            values = tables.flat_complex[index]
+            result[lo:lo + chunk] = np.einsum("nk,nkp->np", weights[r], values).real
+        return result
+
+    thresholds = (params.threshold_1_ru, params.threshold_2_ru)
+    n = first_step.size
+    coarse_found = [np.full(n, -1, np.int64), np.full(n, -1, np.int64)]
+    pending = np.arange(n)
+    start = first_step.astype(np.int64)
+    span = COARSE_STRIDE * np.arange(COARSE_POINTS)
+    while pending.size:
+        steps = start[pending, None] + span[None, :]
+        y = output(pending, np.minimum(steps, last_step))
+        y[steps > last_step] = -np.inf
+        for which, threshold in enumerate(thresholds):
+            todo = coarse_found[which][pending] < 0
+            above = y > threshold
+            hit = above.any(axis=1) & todo
+            coarse_found[which][pending[hit]] = steps[hit, np.argmax(above[hit], axis=1)]
+        # Continue, window by window, with chords for which a threshold is still unseen.
+        start[pending] += COARSE_STRIDE * COARSE_POINTS
+        unresolved = (coarse_found[0][pending] < 0) | (coarse_found[1][pending] < 0)
+        pending = pending[unresolved & (start[pending] <= last_step)]
+
+    times = []
+    for which, threshold in enumerate(thresholds):
+        time = np.full(n, np.nan)
+        rows = np.flatnonzero(coarse_found[which] >= 0)
+        if rows.size:
+            hi = coarse_found[which][rows]
+            lo = np.maximum(hi - COARSE_STRIDE, 0)
+            ends = output(rows, np.stack([lo, hi], axis=1))
+            y_lo, y_hi = ends[:, 0], ends[:, 1]
+            while np.any(hi - lo > 1):
+                mid = (lo + hi) // 2
+                y_mid = output(rows, mid[:, None])[:, 0]
+                move_hi = y_mid > threshold
+                hi, y_hi = np.where(move_hi, mid, hi), np.where(move_hi, y_mid, y_hi)
+                lo, y_lo = np.where(move_hi, lo, mid), np.where(move_hi, y_lo, y_mid)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                time[rows] = (lo + (threshold - y_lo) / (y_hi - y_lo)) * params.time_step_s
+        times.append(time)
+    return times[0], times[1]
