@@ -106,7 +106,7 @@ def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_ha
         if live_harmonics and name in live_harmonics:
             live = live_harmonics[name]
             axis.plot([int(x) for x in live], list(live.values()), marker, markersize=8, fillstyle="none",
-                      label=f"{name}, monitor's last orbit")
+                      label=f"{name}, monitor's last orbit (oblateness removed)")
     axis.axvspan(15, 25, color="orange", alpha=0.12, label="k = 15…25: horizon radiance zones")
     axis.set_xlabel("k = ω / Ω (harmonic of the orbital frequency)")
     axis.set_ylabel("amplitude, arcmin")

@@ -25,11 +25,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import chain
 from .attitude import true_roll_pitch
-from .constants import GRS80, Ellipsoid
+from .constants import EARTH_MEAN_RADIUS_M, GRS80, Ellipsoid
+from .environment import EnvironmentParameters, RadianceEnvironment
 from .geometry import CHORD_AZIMUTHS_RAD, chord_line_of_sight, roll_pitch_from_horizon_angles, tangent_nadir_angles
 from .oblateness import closed_form_oblateness, sensor_axes_eci
-from .orbit import CircularOrbit
+from .orbit import CircularOrbit, eci_to_ecef, geocentric_latitude_longitude
 
 #: Height of the top of the CO₂ layer, m (physics.md §3: ≈ 60 km).
 CO2_LAYER_TOP_M = 60e3
@@ -86,6 +88,129 @@ class SensorReading:
     def chord_valid(self) -> np.ndarray:
         """(4, N) bool: the chord reported a crossing."""
         return self.chord_status == ChordStatus.VALID
+
+
+#: How the chain's per-chord codes map onto the sensor's chord status.
+_CHAIN_STATUS = np.full(max(chain.ChordStatus) + 1, ChordStatus.NOT_DETECTED, np.int8)
+_CHAIN_STATUS[chain.ChordStatus.OK] = ChordStatus.VALID
+_CHAIN_STATUS[chain.ChordStatus.INVALID_INPUT] = ChordStatus.NO_HORIZON
+_CHAIN_STATUS[chain.ChordStatus.SCAN_STARTED_IN_ATMOSPHERE] = ChordStatus.NO_HORIZON
+
+
+@dataclass(frozen=True)
+class RadianceConfig:
+    """Where the horizon radiance seen by each chord comes from.
+
+    Args:
+        source: ``"uniform"`` — the same disc radiance and window height on
+            every chord (physics.md §3.1 Model A with B(1) = B(2)); or
+            ``"environment"`` — :class:`~pmv_ros.core.environment.RadianceEnvironment`
+            sampled on the rotating Earth at each chord's horizon point (disc
+            radiance, window-layer height) and at a point ``probe_distance_m``
+            further inside, which gives the chord's radiance gradient (Model B
+            and the weather of Model C as they occur in flight).
+        disc_radiance_ru: uniform source: B_m, r.u.
+        window_height_m: uniform source: h_w, m.
+        environment: parameters of the environment source.
+        probe_distance_m: ground distance inside the horizon of the gradient probe, m.
+        earth_rotation_at_epoch_rad: Greenwich angle at simulation time 0, rad.
+    """
+
+    source: str = "uniform"
+    disc_radiance_ru: float = 2.4
+    window_height_m: float = 40e3
+    environment: EnvironmentParameters = EnvironmentParameters()
+    probe_distance_m: float = 300e3
+    earth_rotation_at_epoch_rad: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.source not in ("uniform", "environment"):
+            raise ValueError(f"radiance source = {self.source!r} is not one of 'uniform', 'environment'")
+        if not (0.0 < self.disc_radiance_ru <= 10.0):
+            raise ValueError(f"disc_radiance_ru = {self.disc_radiance_ru} is outside the allowed range (0, 10] r.u.")
+        if not (0.0 <= self.window_height_m <= 100e3):
+            raise ValueError(f"window_height_m = {self.window_height_m} is outside the allowed range 0 … 100000 m")
+        if not (10e3 <= self.probe_distance_m <= 2000e3):
+            raise ValueError(f"probe_distance_m = {self.probe_distance_m} is outside the allowed range 10 … 2000 km")
+
+
+class ChainDetector:
+    """Detection by the signal chain of physics.md §4 (:func:`pmv_ros.core.chain.sense_horizon_chords`).
+
+    Per chord, the ellipsoid geometry gives the hard-Earth horizon φ₀ and the
+    grazing angle of the CO₂ top, hence dh/dφ; the radiance comes from
+    :class:`RadianceConfig`. The scan starts at a fixed instrument angle: the
+    CO₂ top of the nominal orbit over the mean sphere, plus γ, plus a margin
+    that covers oblateness (≈ 0.5° at 500 km) and attitude excursions.
+
+    Args:
+        altitude_m: nominal orbit altitude (for the scan start), m.
+        radiance: the radiance source.
+        correction: brightness-correction table F (None: no correction).
+        params: chain parameters.
+        scan_margin_rad: extra scan start beyond φ₃ + γ, rad.
+    """
+
+    def __init__(self, altitude_m: float, radiance: RadianceConfig | None = None, correction=None,
+                 params: chain.ChainParameters = chain.DEFAULT_CHAIN_PARAMETERS, scan_margin_rad: float = np.radians(3.0)):
+        if not (0.0 <= scan_margin_rad <= np.radians(20.0)):
+            raise ValueError(f"scan_margin_rad = {scan_margin_rad} is outside the allowed range 0 … 0.349 rad")
+        self.radiance = radiance or RadianceConfig()
+        self.correction = correction
+        self.params = params
+        phi0, slope = chain.sphere_chord(altitude_m)
+        self.scan_start_rad = float(chain.scan_start_nadir_angle(phi0, slope, CO2_LAYER_TOP_M, params)) + scan_margin_rad
+        self.environment = (RadianceEnvironment(self.radiance.environment)
+                            if self.radiance.source == "environment" else None)
+
+    def _chord_radiance(self, t_s, position_m, sensor_axes):
+        """Disc radiance description of each chord, each ``(4, N)``.
+
+        Returns (B_m r.u., gradient r.u./m, jump r.u., h_w m): the radiance at
+        the horizon point; the climatological change inwards, linear over the
+        surface (Model B); the weather difference between the probe point and
+        the horizon point as a jump at the probe distance (Model C: the paper
+        puts the jump ≈ R_x = 300 km inside the horizon). A weather gradient
+        extrapolated linearly across the ≈ 900 km of disc the IFOV covers
+        would instead drive the radiance to nonsense values.
+        """
+        shape = (4, np.size(t_s))
+        if self.environment is None:
+            return (np.full(shape, self.radiance.disc_radiance_ru), np.zeros(shape), np.zeros(shape),
+                    np.full(shape, self.radiance.window_height_m))
+        radius = np.linalg.norm(position_m, axis=0)
+        up = position_m / radius
+        # Chord directions ±X, ±Y of the sensor, made horizontal at the sub-satellite point.
+        chords = np.stack([sensor_axes[:, 0], sensor_axes[:, 1], -sensor_axes[:, 0], -sensor_axes[:, 1]], axis=1)
+        horizontal = chords - np.einsum("ikn,in->kn", chords, up)[None] * up[:, None]
+        horizontal /= np.linalg.norm(horizontal, axis=0)
+        # Spherical horizon: central angle acos(R/r) from the sub-satellite point; the probe further in.
+        horizon_angle = np.arccos(EARTH_MEAN_RADIUS_M / radius)
+        probe_angle = horizon_angle - self.radiance.probe_distance_m / EARTH_MEAN_RADIUS_M
+        eci = np.concatenate([np.cos(angle) * up[:, None] + np.sin(angle) * horizontal
+                              for angle in (horizon_angle, probe_angle)], axis=1)  # (3, 8, N)
+        t_points = np.broadcast_to(t_s, eci.shape[1:]).reshape(-1)
+        ecef = eci_to_ecef(eci.reshape(3, -1), t_points, self.radiance.earth_rotation_at_epoch_rad)
+        lat, lon = geocentric_latitude_longitude(ecef)
+        sample = self.environment.sample(lat, lon, t_points)
+        radiance = sample.horizon_radiance_ru.reshape(8, -1)
+        climate = self.environment.mean_radiance_ru(lat, t_points).reshape(8, -1)
+        gradient = (climate[4:] - climate[:4]) / self.radiance.probe_distance_m
+        jump = (radiance[4:] - climate[4:]) - (radiance[:4] - climate[:4])
+        return radiance[:4], gradient, jump, sample.window_height_m.reshape(8, -1)[:4]
+
+    def __call__(self, t_s, horizon_nadir_rad, co2_top_nadir_rad, position_m, sensor_axes):
+        """Corrected and uncorrected crossing nadir angles and statuses, each ``(4, N)``."""
+        shape = horizon_nadir_rad.shape
+        slope = chain.tangent_height_rate_from_layer(horizon_nadir_rad, co2_top_nadir_rad, CO2_LAYER_TOP_M)
+        disc, gradient, jump, window = self._chord_radiance(t_s, position_m, sensor_axes)
+        readings = chain.sense_horizon_chords(
+            horizon_nadir_rad.ravel(), slope.ravel(), disc.ravel(), scan_start_nadir_rad=self.scan_start_rad,
+            gradient_ru_per_m=gradient.ravel(), jump_ru=jump.ravel(), jump_distance_m=self.radiance.probe_distance_m,
+            window_height_m=window.ravel(), correction=self.correction, params=self.params)
+        return (readings.sensed_horizon_nadir_rad.reshape(shape),
+                readings.sensed_horizon_nadir_uncorrected_rad.reshape(shape),
+                _CHAIN_STATUS[readings.status].reshape(shape))
 
 
 class SensorModel:

@@ -30,7 +30,10 @@ import pmv_msgs_shim as shim
 from ..core.attitude_profile import AttitudeProfile
 from ..core.constants import ARCMIN_RAD, GRS80, SPHERE
 from ..core.orbit import CircularOrbit
-from ..core.sensor import ChordStatus, SensorConfig, SensorModel
+from ..core.correction import load_correction
+from ..core.environment import EnvironmentParameters
+from ..core.ephemeris import Epoch
+from ..core.sensor import ChainDetector, ChordStatus, RadianceConfig, SensorConfig, SensorModel
 from ..core.geometry import CHORD_NAMES
 from .launch import run_node
 from .params import ParamSpec, declare, install_validation
@@ -57,8 +60,31 @@ PARAMS = (
     ParamSpec("attitude.follow_timeout_s", 1.0, "in follow mode, truth older than this is stale", 0.01, 3600.0, unit="s"),
     ParamSpec("sensor.rate_hz", 10.0, "output rate of the sensor", 0.1, 100.0, unit="Hz"),
     ParamSpec("sensor.earth_model", "GRS80", "Earth figure for the horizon geometry", choices=("GRS80", "sphere")),
+    ParamSpec("sensor.detector", "chain", "chain: the signal chain of physics.md §4; ideal: the geometric horizon "
+              "of the emitting layer (geometry-only studies)", choices=("chain", "ideal")),
+    ParamSpec("sensor.correction", "calibrated", "brightness-correction table: calibrated (the rig table), none, "
+              "or the path of a CSV file del_arcmin,pop_arcmin"),
+    ParamSpec("sensor.scan_margin_deg", 3.0, "scan start beyond the CO2 top + half IFOV (covers oblateness and "
+              "attitude excursions)", 0.0, 20.0, unit="deg"),
     ParamSpec("sensor.layer_height_km", 40.0, "height of the emitting layer seen by the ideal detector", 0.0, 100.0,
               unit="km"),
+    ParamSpec("radiance.source", "uniform", "uniform: one disc radiance everywhere; environment: climatology, "
+              "weather and layer height on the rotating Earth", choices=("uniform", "environment")),
+    ParamSpec("radiance.disc_ru", 2.4, "uniform source: Earth disc radiance (1 r.u. = 2.5 mW/(cm2 sr))", 0.1, 10.0,
+              unit="r.u."),
+    ParamSpec("radiance.window_height_km", 40.0, "uniform source: height of the window emitting layer", 0.0, 100.0,
+              unit="km"),
+    ParamSpec("radiance.probe_distance_km", 300.0, "environment: ground distance inside the horizon where the "
+              "weather jump sits (physics.md §3.1 Model C)", 10.0, 2000.0, unit="km"),
+    ParamSpec("environment.climatology", True, "latitude/season climatology (off: uniform 2.4 r.u.)"),
+    ParamSpec("environment.weather", True, "correlated random weather field"),
+    ParamSpec("environment.height_variation", True, "varying window-layer height, 40 ± 20 km"),
+    ParamSpec("environment.relative_variability", 0.15, "weather: relative variability eta'", 0.0, 1.0),
+    ParamSpec("environment.correlation_radius_km", 700.0, "weather and height: correlation radius", 10.0, 6371.0,
+              unit="km"),
+    ParamSpec("environment.time_scale_h", 24.0, "weather and height: time scale of change", 0.01, 1e5, unit="h"),
+    ParamSpec("sim.epoch_utc", "2024-01-15T00:00:00Z", "UTC date and time at the start of the run (simulation "
+              "time 0 in fast time): sets the season and the Earth's rotation"),
     ParamSpec("sensor.oblateness_compensation", False, "subtract the closed-form oblateness model on board"),
     ParamSpec("sim.fast_time", False, "run on an own simulation clock as fast as allowed and publish /clock"),
     ParamSpec("sim.time_scale", 0.0, "fast time: multiple of real time (0 = as fast as the pipeline allows)",
@@ -99,7 +125,36 @@ def build_models(values: dict):
         ideal_layer_height_m=values["sensor.layer_height_km"] * 1e3,
         oblateness_compensation=values["sensor.oblateness_compensation"],
     )
-    return orbit, profile, SensorModel(orbit, config)
+    return orbit, profile, SensorModel(orbit, config, build_detector(values, orbit))
+
+
+def build_detector(values: dict, orbit: CircularOrbit):
+    """The horizon detector the parameters ask for (None for the ideal one); ValueError if inconsistent."""
+    if values["sensor.detector"] == "ideal":
+        return None
+    epoch = Epoch.from_utc(values["sim.epoch_utc"])
+    # The clock's zero: simulation time 0 in fast time, the node start in real time.
+    zero_s = orbit.epoch_s
+    environment = EnvironmentParameters(
+        climatology_enabled=values["environment.climatology"],
+        weather_enabled=values["environment.weather"],
+        height_variation_enabled=values["environment.height_variation"],
+        relative_variability=values["environment.relative_variability"],
+        correlation_radius_m=values["environment.correlation_radius_km"] * 1e3,
+        time_scale_s=values["environment.time_scale_h"] * 3600.0,
+        epoch_day_of_year=float(epoch.day_of_year(-zero_s)),
+        seed=values["seed"],
+    )
+    radiance = RadianceConfig(
+        source=values["radiance.source"],
+        disc_radiance_ru=values["radiance.disc_ru"],
+        window_height_m=values["radiance.window_height_km"] * 1e3,
+        environment=environment,
+        probe_distance_m=values["radiance.probe_distance_km"] * 1e3,
+        earth_rotation_at_epoch_rad=float(epoch.earth_rotation_angle(-zero_s)),
+    )
+    correction = load_correction(values["sensor.correction"], orbit.altitude_m)
+    return ChainDetector(orbit.altitude_m, radiance, correction, scan_margin_rad=math.radians(values["sensor.scan_margin_deg"]))
 
 
 class SensorNode(Node):
