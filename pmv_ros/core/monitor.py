@@ -308,20 +308,26 @@ def orbit_angles_from_state(position_eci_m, velocity_eci_m_s):
     For the oblateness model of a monitor fed from /orbit/odometry. u is the
     angle from the ascending node to r in the orbit plane (0 … 2π); for an
     equatorial orbit the node is undefined and u is measured from the ECI x axis.
+    Plain floats rather than numpy: it runs once per odometry message, where
+    numpy's per-call overhead on 3-vectors would dominate.
     """
-    r = np.asarray(position_eci_m, float).ravel()
-    v = np.asarray(velocity_eci_m_s, float).ravel()
-    h = np.cross(r, v)
-    h_norm = np.linalg.norm(h)
-    if not (np.all(np.isfinite(h)) and h_norm > 0.0):
+    rx, ry, rz = (float(c) for c in position_eci_m)
+    vx, vy, vz = (float(c) for c in velocity_eci_m_s)
+    hx, hy, hz = ry * vz - rz * vy, rz * vx - rx * vz, rx * vy - ry * vx
+    h_norm = math.sqrt(hx * hx + hy * hy + hz * hz)
+    if not (math.isfinite(h_norm) and h_norm > 0.0):
         raise ValueError("position and velocity must be finite and not parallel")
-    inclination = math.acos(max(-1.0, min(1.0, h[2] / h_norm)))
-    node = np.array([-h[1], h[0], 0.0])
-    if np.linalg.norm(node) < 1e-12 * h_norm:
-        node = np.array([1.0, 0.0, 0.0])
-    node = node / np.linalg.norm(node)
-    u = math.atan2(float(np.dot(np.cross(node, r), h / h_norm)), float(np.dot(node, r)))
-    return u % (2.0 * math.pi), inclination, float(np.linalg.norm(r)) - EARTH_MEAN_RADIUS_M
+    inclination = math.acos(max(-1.0, min(1.0, hz / h_norm)))
+    nx, ny = -hy, hx  # node direction: z × h
+    n_norm = math.hypot(nx, ny)
+    if n_norm < 1e-12 * h_norm:
+        nx, ny, n_norm = 1.0, 0.0, 1.0
+    nx, ny = nx / n_norm, ny / n_norm
+    # sin u = ((n × r) · h) / |h|, cos u = n · r
+    cx, cy, cz = ny * rz, -nx * rz, nx * ry - ny * rx
+    u = math.atan2((cx * hx + cy * hy + cz * hz) / h_norm, nx * rx + ny * ry)
+    radius = math.sqrt(rx * rx + ry * ry + rz * rz)
+    return u % (2.0 * math.pi), inclination, radius - EARTH_MEAN_RADIUS_M
 
 
 class ErrorMonitor:

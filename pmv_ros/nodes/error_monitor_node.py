@@ -21,16 +21,14 @@ import sys
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
 from nav_msgs.msg import Odometry
-from rclpy.node import Node
-from rclpy.qos import QoSProfile
 
 import pmv_msgs_shim as shim
+from .base import PmvNode
 from ..core.constants import ARCMIN_RAD
 from ..core.monitor import ErrorMonitor, MonitorConfig, Status, orbit_angles_from_state
 from .launch import run_node
 from .params import ParamSpec, declare, install_validation
 
-QOS = QoSProfile(depth=100)
 
 PARAMS = (
     ParamSpec("orbit.altitude_km", 500.0, "nominal orbit altitude (until /orbit/odometry arrives)", 150.0, 40000.0,
@@ -69,7 +67,7 @@ def build_monitor(values: dict) -> ErrorMonitor:
     ))
 
 
-class ErrorMonitorNode(Node):
+class ErrorMonitorNode(PmvNode):
     """Aligns the sensor with truth and publishes residuals and live statistics."""
 
     def __init__(self, **kwargs):
@@ -77,13 +75,12 @@ class ErrorMonitorNode(Node):
         self._values = declare(self, PARAMS)
         self._monitor = build_monitor(self._values)
         install_validation(self, PARAMS, self._values, self._rebuild)
-        self._pub_residual = self.create_publisher(Vector3Stamped, "/pmv/residual", QOS)
-        self._pub_statistics = self.create_publisher(DiagnosticArray, "/pmv/error_statistics", QOS)
-        self._pub_diagnostics = self.create_publisher(DiagnosticArray, "/diagnostics", QOS)
-        self.create_subscription(Vector3Stamped, "/pmv/attitude", self._on_sensor, QOS)
-        self._truth_subscription = self.create_subscription(
-            QuaternionStamped, "/star_tracker/attitude", self._on_truth, QOS)
-        self.create_subscription(Odometry, "/orbit/odometry", self._on_odometry, QOS)
+        self._pub_residual = self.publisher(Vector3Stamped, "/pmv/residual")
+        self._pub_statistics = self.publisher(DiagnosticArray, "/pmv/error_statistics")
+        self._pub_diagnostics = self.publisher(DiagnosticArray, "/diagnostics")
+        self.subscription(Vector3Stamped, "/pmv/attitude", self._on_sensor)
+        self._truth_subscription = self.subscription(QuaternionStamped, "/star_tracker/attitude", self._on_truth)
+        self.subscription(Odometry, "/orbit/odometry", self._on_odometry)
         self._orbit = None  # (stamp_s, u_rad, inclination_rad, altitude_m, mean_motion_rad_s)
         self._rejected_messages = {}
         self._next_statistics_s = None

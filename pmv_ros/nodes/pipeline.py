@@ -18,11 +18,10 @@ import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.executors import SingleThreadedExecutor, TimeoutException
-from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.qos import QoSProfile
 
 import pmv_msgs_shim as shim
+from .base import PmvNode
 from .error_monitor_node import ErrorMonitorNode
 from .sensor_node import SensorNode
 from .star_tracker_node import StarTrackerNode
@@ -52,7 +51,7 @@ def drain(executor, max_callbacks: int = 100_000) -> int:
     return ran
 
 
-class ReportCollector(Node):
+class ReportCollector(PmvNode):
     """Keeps what a report needs: residuals (decimated to a bounded count) and the latest statistics."""
 
     def __init__(self, max_points: int = 50_000, **kwargs):
@@ -62,9 +61,8 @@ class ReportCollector(Node):
         self.residual_count = 0
         self._stride = 1
         self.statistics = None
-        qos = QoSProfile(depth=100)
-        self.create_subscription(Vector3Stamped, "/pmv/residual", self._on_residual, qos)
-        self.create_subscription(DiagnosticArray, "/pmv/error_statistics", self._on_statistics, qos)
+        self.subscription(Vector3Stamped, "/pmv/residual", self._on_residual)
+        self.subscription(DiagnosticArray, "/pmv/error_statistics", self._on_statistics)
 
     def _on_residual(self, message) -> None:
         self.residual_count += 1
@@ -93,10 +91,12 @@ class Pipeline:
         overrides: parameters for every node, ``{name: value}`` (a node ignores the ones it does not declare).
         isolated: keep the graph to this process (no discovery beyond it), so parallel runs cannot cross-talk.
         collect: add the report collector.
+        lean: nodes without parameter services and default QoS-event handlers
+            (:class:`~pmv_ros.nodes.base.PmvNode`); the graph is private to the process.
     """
 
     def __init__(self, config: str | os.PathLike | None = None, overrides: dict | None = None,
-                 isolated: bool = True, collect: bool = True):
+                 isolated: bool = True, collect: bool = True, lean: bool = True):
         if isolated:
             os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "OFF"
         args = ["--ros-args"]
@@ -105,18 +105,24 @@ class Pipeline:
             if not path.is_file():
                 raise ValueError(f"config file {str(path)!r} does not exist")
             args += ["--params-file", str(path)]
-        settings = {"use_sim_time": True, "sim.fast_time": True, **(overrides or {})}
+        settings = {"sim.fast_time": True, **(overrides or {})}
         # Constructor overrides outrank the preset's node sections (a global -p would not).
         self.context = rclpy.Context()
         rclpy.init(args=args, context=self.context)
-        common = dict(context=self.context,
-                      parameter_overrides=[Parameter(name, value=value) for name, value in settings.items()])
+        def options(use_sim_time: bool) -> dict:
+            values = {**settings, "use_sim_time": use_sim_time}
+            return dict(context=self.context, lean=lean,
+                        parameter_overrides=[Parameter(name, value=value) for name, value in values.items()])
+
         self.nodes = []
         try:
-            self.sensor = self._add(SensorNode(external_drive=True, **common))
-            self.star_tracker = self._add(StarTrackerNode(**common))
-            self.monitor = self._add(ErrorMonitorNode(**common))
-            self.collector = self._add(ReportCollector(**common)) if collect else None
+            # The sensor is the clock: it stamps from its own simulation time and
+            # publishes /clock. The nodes it drives follow /clock (use_sim_time);
+            # the collector only records stamps and needs no clock.
+            self.sensor = self._add(SensorNode(external_drive=True, **options(False)))
+            self.star_tracker = self._add(StarTrackerNode(**options(True)))
+            self.monitor = self._add(ErrorMonitorNode(**options(True)))
+            self.collector = self._add(ReportCollector(**options(False))) if collect else None
             self.executor = SingleThreadedExecutor(context=self.context)
             for node in self.nodes:
                 self.executor.add_node(node)

@@ -22,11 +22,10 @@ from geometry_msgs.msg import PolygonStamped, QuaternionStamped, Vector3Stamped
 from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Odometry
 from rclpy.clock import Clock, ClockType
-from rclpy.node import Node
-from rclpy.qos import QoSProfile
 from rosgraph_msgs.msg import Clock as ClockMsg
 
 import pmv_msgs_shim as shim
+from .base import PmvNode
 from ..core.attitude_profile import AttitudeProfile
 from ..core.constants import ARCMIN_RAD, GRS80, SPHERE
 from ..core.orbit import CircularOrbit
@@ -38,7 +37,6 @@ from ..core.geometry import CHORD_NAMES
 from .launch import run_node
 from .params import ParamSpec, declare, install_validation
 
-OUTPUT_QOS = QoSProfile(depth=100)
 
 #: Parameters of sensor_node (units in the names; YAML speaks km, deg, arcmin).
 PARAMS = (
@@ -157,7 +155,7 @@ def build_detector(values: dict, orbit: CircularOrbit):
     return ChainDetector(orbit.altitude_m, radiance, correction, scan_margin_rad=math.radians(values["sensor.scan_margin_deg"]))
 
 
-class SensorNode(Node):
+class SensorNode(PmvNode):
     """The PMV sensor: orbit + attitude → 4-chord crossings and roll/pitch.
 
     Args:
@@ -173,11 +171,11 @@ class SensorNode(Node):
         self._rebuild(self._values)
         install_validation(self, PARAMS, self._values, self._rebuild_live)
 
-        self._pub_crossings = self.create_publisher(PolygonStamped, "/pmv/horizon_crossings", OUTPUT_QOS)
-        self._pub_attitude = self.create_publisher(Vector3Stamped, "/pmv/attitude", OUTPUT_QOS)
-        self._pub_attitude_raw = self.create_publisher(Vector3Stamped, "/pmv/attitude_uncorrected", OUTPUT_QOS)
-        self._pub_odometry = self.create_publisher(Odometry, "/orbit/odometry", OUTPUT_QOS)
-        self._pub_diagnostics = self.create_publisher(DiagnosticArray, "/diagnostics", OUTPUT_QOS)
+        self._pub_crossings = self.publisher(PolygonStamped, "/pmv/horizon_crossings")
+        self._pub_attitude = self.publisher(Vector3Stamped, "/pmv/attitude")
+        self._pub_attitude_raw = self.publisher(Vector3Stamped, "/pmv/attitude_uncorrected")
+        self._pub_odometry = self.publisher(Odometry, "/orbit/odometry")
+        self._pub_diagnostics = self.publisher(DiagnosticArray, "/diagnostics")
         self._pub_truth = None
         self._pub_clock = None
         self._latest_truth = None  # (stamp_s, q) in follow mode
@@ -187,14 +185,14 @@ class SensorNode(Node):
         self._last_diagnostics_s = -math.inf
         self._pending = []  # precomputed fast-time samples
         if self._values["attitude.source"] == "profile":
-            self._pub_truth = self.create_publisher(QuaternionStamped, "/attitude/truth", OUTPUT_QOS)
+            self._pub_truth = self.publisher(QuaternionStamped, "/attitude/truth")
         else:
-            self.create_subscription(QuaternionStamped, "/attitude/truth", self._on_truth, OUTPUT_QOS)
+            self.subscription(QuaternionStamped, "/attitude/truth", self._on_truth)
 
         self._sim_time_s = self._values["sim.start_time_s"]
         self._timer = None
         if self._values["sim.fast_time"]:
-            self._pub_clock = self.create_publisher(ClockMsg, "/clock", OUTPUT_QOS)
+            self._pub_clock = self.publisher(ClockMsg, "/clock")
             if not external_drive:
                 self._start_fast_timer()
         else:

@@ -20,17 +20,15 @@ from collections import deque
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import QuaternionStamped
-from rclpy.node import Node
-from rclpy.qos import QoSProfile
 from scipy.spatial.transform import Rotation, Slerp
 
 import pmv_msgs_shim as shim
+from .base import PmvNode
 from ..core.constants import ARCSEC_RAD, GM_EARTH_M3_S2, EARTH_MEAN_RADIUS_M
 from ..core.star_tracker import Outcome, StarTracker, StarTrackerParameters, inertial_rate_of_nadir_pointing
 from .launch import run_node
 from .params import ParamSpec, declare, install_validation
 
-QOS = QoSProfile(depth=100)
 
 PARAMS = (
     ParamSpec("orbit.altitude_km", 500.0, "orbit altitude (gives the orbital rate for the rate limit)",
@@ -65,7 +63,7 @@ def build_tracker(values: dict, start_s: float) -> StarTracker:
         outages=outages), seed=values["seed"])
 
 
-class StarTrackerNode(Node):
+class StarTrackerNode(PmvNode):
     """BOKZ-class star tracker fed with the true attitude."""
 
     def __init__(self, **kwargs):
@@ -74,10 +72,10 @@ class StarTrackerNode(Node):
         self._start_s = self.get_clock().now().nanoseconds * 1e-9
         self._tracker = build_tracker(self._values, self._start_s)
         install_validation(self, PARAMS, self._values, self._rebuild)
-        self._publisher = self.create_publisher(QuaternionStamped, "/star_tracker/attitude", QOS)
-        self._diagnostics = self.create_publisher(DiagnosticArray, "/diagnostics", QOS)
-        self.create_subscription(QuaternionStamped, "/attitude/truth", self._on_truth, QOS)
-        self._previous = None  # (stamp_s, Rotation)
+        self._publisher = self.publisher(QuaternionStamped, "/star_tracker/attitude")
+        self._diagnostics = self.publisher(DiagnosticArray, "/diagnostics")
+        self.subscription(QuaternionStamped, "/attitude/truth", self._on_truth)
+        self._previous = None  # (stamp_s, q_xyzw)
         self._next_frame_s = None
         self._queue = deque()  # (release_s, record), bounded by latency × rate
         self._outcomes = {outcome: 0 for outcome in Outcome}
@@ -98,7 +96,7 @@ class StarTrackerNode(Node):
             self._rejected[str(error)] = self._rejected.get(str(error), 0) + 1
             return
         t_s = truth.stamp_s
-        current = Rotation.from_quat(np.asarray(truth.q_xyzw, float))
+        current = truth.q_xyzw  # a Rotation is built only when a frame falls due (1 truth sample in 5 at 10 Hz)
         previous = self._previous
         if previous is not None and t_s <= previous[0]:
             self._rejected["stamp not increasing"] = self._rejected.get("stamp not increasing", 0) + 1
@@ -112,8 +110,9 @@ class StarTrackerNode(Node):
         if previous is not None:
             frames = np.arange(self._next_frame_s, t_s + 1e-12, period)
             if frames.size:
-                slerp = Slerp([previous[0], t_s], Rotation.concatenate([previous[1], current]))
-                relative = (current * previous[1].inv()).as_rotvec() / (t_s - previous[0])
+                pair = Rotation.from_quat(np.stack([previous[1], current]))
+                slerp = Slerp([previous[0], t_s], pair)
+                relative = (pair[1] * pair[0].inv()).as_rotvec() / (t_s - previous[0])
                 rate = inertial_rate_of_nadir_pointing(self._mean_motion(), relative)
                 q_frames = slerp(frames).as_quat().T
                 measured, outcomes = self._tracker.measure(frames, q_frames, np.full(frames.size, rate))
