@@ -19,7 +19,7 @@ $(STAMP): requirements.txt setup.py setup.cfg package.xml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/pmv oblateness --altitude-km 500 --inclination-deg 74.5
+	$(BIN)/pmv simulate --config config/kondor.yaml --orbits 1 --report report
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q

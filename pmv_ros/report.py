@@ -61,8 +61,11 @@ def statistics_to_dict(statistics) -> dict:
             "counters": dict(statistics.counters)}
 
 
-def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_harmonics: dict | None = None) -> list:
-    """Write ``statistics.json``, ``residuals.png`` and ``spectrum.png`` into ``directory``; returns the paths.
+def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_harmonics: dict | None = None) -> dict:
+    """Write ``statistics.json``, ``residuals.png`` and ``spectrum.png`` into ``directory``.
+
+    Returns the summary as written: the input plus ``residual_spectrum_arcmin``
+    (whole-record harmonics, oblateness kept) and ``report_files``.
 
     Args:
         directory: output folder (created).
@@ -79,9 +82,14 @@ def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_ha
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
     paths = [out / "statistics.json", out / "residuals.png", out / "spectrum.png"]
+    t, roll, pitch = residuals
+    spectra = {name: harmonic_spectrum(t, values, orbit.period_s) for name, values in (("roll", roll), ("pitch", pitch))}
+    summary = dict(summary, residual_spectrum_arcmin={
+        "note": "sensor − star tracker over the whole record, oblateness kept; amplitude at k = 1 … 40",
+        **{name: {int(k): float(a / ARCMIN_RAD) for k, a in zip(*spectrum)} for name, spectrum in spectra.items()}},
+        report_files=[str(p) for p in paths])
     paths[0].write_text(json.dumps(summary, indent=2, default=_json_default) + "\n")
 
-    t, roll, pitch = residuals
     u_deg = np.degrees(np.mod(orbit.argument_of_latitude(t), 2.0 * math.pi))
     model_u = np.linspace(0.0, 2.0 * math.pi, 721)
     _, model_roll, model_pitch = closed_form_oblateness(model_u, orbit.altitude_m, orbit.inclination_rad)
@@ -100,8 +108,8 @@ def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_ha
     plt.close(figure)
 
     figure, axis = plt.subplots(figsize=(9, 4.5))
-    for values, name, marker in ((roll, "roll", "o"), (pitch, "pitch", "s")):
-        k, amplitude = harmonic_spectrum(t, values, orbit.period_s)
+    for name, marker in (("roll", "o"), ("pitch", "s")):
+        k, amplitude = spectra[name]
         axis.plot(k, amplitude / ARCMIN_RAD, marker + "-", markersize=3, label=f"{name} (whole record)")
         if live_harmonics and name in live_harmonics:
             live = live_harmonics[name]
@@ -116,7 +124,7 @@ def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_ha
     figure.tight_layout()
     figure.savefig(paths[2], dpi=110)
     plt.close(figure)
-    return paths
+    return summary
 
 
 def _json_default(value):

@@ -100,8 +100,7 @@ def run(args) -> int:
         if args.report:
             live = {name: {int(k): v for k, v in c["harmonics_arcmin"].items()}
                     for name, c in result["channels"].items()}
-            paths = write_report(args.report, result, pipeline.collector.residual_array(), orbit, live)
-            result["report_files"] = [str(p) for p in paths]
+            result = write_report(args.report, result, pipeline.collector.residual_array(), orbit, live)
     if args.json:
         print_json(result)
         return 0
