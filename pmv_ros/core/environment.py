@@ -567,11 +567,13 @@ class HorizonEnvironmentSample:
         horizon_radiance_ru: radiance B_m of the lower atmosphere, r.u.
         window_height_m: height h_w of the window-emitting layer, m.
         co2_height_m: height of the CO₂ layer, m.
+        mean_radiance_ru: the radiance without weather (climatology or uniform), r.u.
     """
 
     horizon_radiance_ru: np.ndarray
     window_height_m: np.ndarray
     co2_height_m: np.ndarray
+    mean_radiance_ru: np.ndarray
 
 
 class RadianceEnvironment:
@@ -634,11 +636,11 @@ class RadianceEnvironment:
         lat, lon, t, shape = _flat_points(lat_rad, lon_rad, t_s)
         values = self._bank.evaluate(lat, lon, t) if self._bank is not None else None
         column = iter(range(len(self._fields)))
-        radiance = self.mean_radiance_ru(lat, t)
+        mean = self.mean_radiance_ru(lat, t) + 0.0 * lon
         if self.weather is not None:
-            radiance = self.weather.radiance_from_anomaly(radiance, values[:, next(column)])
+            radiance = self.weather.radiance_from_anomaly(mean, values[:, next(column)])
         else:
-            radiance = radiance + 0.0 * lon
+            radiance = mean
         heights = []
         for layer, constant_m in ((self.window_layer, self.parameters.window_height_mean_m),
                                   (self.co2_layer, self.parameters.co2_height_m)):
@@ -647,7 +649,7 @@ class RadianceEnvironment:
             else:
                 heights.append(constant_m + 0.0 * (lat + lon + t))
         return HorizonEnvironmentSample(_shaped(radiance, shape), _shaped(heights[0], shape),
-                                        _shaped(heights[1], shape))
+                                        _shaped(heights[1], shape), _shaped(mean, shape))
 
     def horizon_radiance_ru(self, lat_rad, lon_rad, t_s):
         """Horizon radiance B_m with climatology and weather, r.u.
