@@ -9,18 +9,9 @@ import numpy as np
 import pytest
 
 from pmv_ros.cli import main
+from published import KONDOR_ALTITUDE_KM, KONDOR_INCLINATION_DEG, KONDOR_OBLATENESS_TABLE
 
-# physics.md §2.1, Kondor (H = 500 km, i = 74.5°): u_deg, meridional′, pitch′, roll′ — a quarter orbit.
-KONDOR_TABLE = [
-    (0, 0.0, 0.0, 0.0),
-    (15, 4.7, 4.6, -1.3),
-    (30, 8.3, 7.9, -2.4),
-    (45, 9.7, 9.1, -3.4),
-    (60, 8.9, 7.9, -4.2),
-    (75, 6.9, 4.5, -4.7),
-    (90, 4.9, 0.0, -4.9),
-]
-KONDOR_ALTITUDE_KM, KONDOR_INCLINATION_DEG = 500.0, 74.5
+KONDOR_TABLE = KONDOR_OBLATENESS_TABLE  # physics.md §2.1, Kondor, a quarter orbit
 
 # Our closed form deviates from the printed table by ≤ 0.2′ per component (the
 # table is printed to 0.1′, and its R/ellipsoid roundings are not published), so

@@ -23,17 +23,9 @@ from pmv_ros.core.geometry import (
 )
 from pmv_ros.core.oblateness import closed_form_oblateness, oblateness_error, sensed_roll_pitch, sensor_axes_eci
 from pmv_ros.core.orbit import CircularOrbit
+from published import KONDOR_OBLATENESS_TABLE
 
-# physics.md §2.1, Kondor, H = 500 km, i = 74.5°: u, meridional, pitch, roll (arcmin).
-KONDOR_TABLE = [
-    (0, 0.0, 0.0, 0.0),
-    (15, 4.7, 4.6, -1.3),
-    (30, 8.3, 7.9, -2.4),
-    (45, 9.7, 9.1, -3.4),
-    (60, 8.9, 7.9, -4.2),
-    (75, 6.9, 4.5, -4.7),
-    (90, 4.9, 0.0, -4.9),
-]
+KONDOR_TABLE = KONDOR_OBLATENESS_TABLE  # physics.md §2.1, Kondor, a quarter orbit
 KONDOR = CircularOrbit(500e3, math.radians(74.5))
 
 

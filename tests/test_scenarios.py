@@ -8,6 +8,7 @@ import pytest
 
 from pmv_ros.core.constants import ARCMIN_RAD
 from pmv_ros.core.scenarios import model_a, model_b, model_c, model_d, run_pair, scenario
+from published import MODEL_A_TABLE
 
 
 def arcmin(value_rad: float) -> float:
@@ -15,12 +16,7 @@ def arcmin(value_rad: float) -> float:
 
 
 # physics.md §4 table (Model A at 500 km): B(1), B(2) in r.u.; β, β′ in arcmin.
-PHYSICS_MD_SECTION_4_TABLE = [
-    (1.0, 2.0, 22.7, 0.1),
-    (1.0, 3.0, 32.0, 0.14),
-    (1.0, 4.0, 37.4, 0.8),
-    (2.0, 4.0, 14.7, 0.66),
-]
+PHYSICS_MD_SECTION_4_TABLE = MODEL_A_TABLE
 
 
 @pytest.mark.parametrize("b1, b2, published_beta, published_corrected", PHYSICS_MD_SECTION_4_TABLE)
