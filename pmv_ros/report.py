@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from .core.constants import ARCMIN_RAD
+from .cli.common import finite_json
 from .core.oblateness import closed_form_oblateness
 
 
@@ -88,7 +89,8 @@ def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_ha
         "note": "sensor − star tracker over the whole record, oblateness kept; amplitude at k = 1 … 40",
         **{name: {int(k): float(a / ARCMIN_RAD) for k, a in zip(*spectrum)} for name, spectrum in spectra.items()}},
         report_files=[str(p) for p in paths])
-    paths[0].write_text(json.dumps(summary, indent=2, default=_json_default) + "\n")
+    # Strict JSON: NaN (e.g. harmonics before a full orbit) becomes null, as in `--json` output.
+    paths[0].write_text(json.dumps(finite_json(summary), indent=2, default=_json_default, allow_nan=False) + "\n")
 
     u_deg = np.degrees(np.mod(orbit.argument_of_latitude(t), 2.0 * math.pi))
     model_u = np.linspace(0.0, 2.0 * math.pi, 721)

@@ -40,16 +40,17 @@ def add_json_flag(parser: argparse.ArgumentParser) -> None:
 
 def print_json(payload: dict) -> None:
     """Print ``payload`` as one JSON object (NaN becomes null)."""
-    print(json.dumps(_finite(payload), indent=None, separators=(",", ":")))
+    print(json.dumps(finite_json(payload), indent=None, separators=(",", ":"), allow_nan=False))
 
 
-def _finite(value):
+def finite_json(value):
+    """``value`` with every non-finite float (NaN, ±Inf) replaced by None, for strict JSON."""
     if isinstance(value, float) and not math.isfinite(value):
         return None
     if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
+        return {k: finite_json(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [_finite(v) for v in value]
+        return [finite_json(v) for v in value]
     return value
 
 
