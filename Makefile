@@ -24,6 +24,7 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
 
+# Tests marked `long` at full length: the 24 h soak (≈ 20 min) and 60 s of 50 Hz load; figures printed.
 test-long: $(STAMP)
 	$(BIN)/python -m pytest -q -m long --run-long
 

@@ -390,6 +390,16 @@ class ErrorMonitor:
         return len(self._truth_t)
 
     @property
+    def latest_truth_stamp_s(self) -> float | None:
+        """Stamp of the latest accepted truth sample since the last alignment reset, s (None: none yet)."""
+        return self._last_stamp["truth"]
+
+    @property
+    def latest_sensor_stamp_s(self) -> float | None:
+        """Stamp of the latest accepted sensor sample since the last alignment reset, s (None: none yet)."""
+        return self._last_stamp["sensor"]
+
+    @property
     def pending_count(self) -> int:
         """Sensor samples waiting for truth (≤ max_pending)."""
         return len(self._pending)

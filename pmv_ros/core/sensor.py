@@ -9,9 +9,15 @@ its physics reads):
 2. detection — the horizon crossing each chord reports: the signal chain of
    physics.md §4 under the radiance environment, or an ideal detector that
    reports the geometric horizon of the emitting layer (``detector=None``);
-3. pair angles — roll from the ±Y pair, pitch from the ±X pair
-   (:func:`pmv_ros.core.geometry.roll_pitch_from_horizon_angles`);
-4. optional on-board oblateness compensation with the closed-form model
+3. validity — a chord whose half-plane has no horizon, whose scan found no
+   crossing, or whose swept arc has the Sun or the Moon within the exclusion
+   angle (:func:`pmv_ros.core.ephemeris.bright_body_in_chords`) reports no
+   crossing (NaN) and says why (:class:`ChordStatus`);
+4. pair angles — roll from the ±Y pair, pitch from the ±X pair
+   (:func:`pmv_ros.core.geometry.roll_pitch_from_horizon_angles`): a lost
+   chord takes its own pair's angle with it (NaN), never the other one, and
+   nothing is fabricated from three chords;
+5. optional on-board oblateness compensation with the closed-form model
    (physics.md §2.1), off by default as flown.
 
 True and sensed quantities are kept apart: ``true_*`` is what an ideal
@@ -29,12 +35,24 @@ from . import chain
 from .attitude import true_roll_pitch
 from .constants import EARTH_MEAN_RADIUS_M, GRS80, Ellipsoid
 from .environment import EnvironmentParameters, RadianceEnvironment
+from .ephemeris import Epoch, bright_body_in_chords
 from .geometry import CHORD_AZIMUTHS_RAD, chord_line_of_sight, roll_pitch_from_horizon_angles, tangent_nadir_angles
 from .oblateness import closed_form_oblateness, sensor_axes_eci
 from .orbit import CircularOrbit, eci_to_ecef, geocentric_latitude_longitude
 
 #: Height of the top of the CO₂ layer, m (physics.md §3: ≈ 60 km).
 CO2_LAYER_TOP_M = 60e3
+
+#: Bodies that blind a chord, in the order of :attr:`SensorReading.blinding_body`.
+BRIGHT_BODIES = ("sun", "moon")
+
+#: Default exclusion angle of the Sun or the Moon from a chord's swept arc, rad:
+#: the IFOV half-width γ = 1.1° (physics.md §4) + the body's radius ≈ 0.27°
+#: + a stray-light margin of ≈ 1.6° for the optics, rounded to 3°.
+DEFAULT_BRIGHT_BODY_EXCLUSION_RAD = float(np.radians(3.0))
+
+#: Default scan start beyond the CO₂ top + γ, rad (covers oblateness ≈ 0.5° at 500 km and attitude excursions).
+DEFAULT_SCAN_MARGIN_RAD = float(np.radians(3.0))
 
 
 class ChordStatus(enum.IntEnum):
@@ -43,7 +61,7 @@ class ChordStatus(enum.IntEnum):
     VALID = 0
     NO_HORIZON = 1  #: the chord's half-plane has no horizon (large attitude excursion)
     NOT_DETECTED = 2  #: the signal chain found no crossing within the scan
-    SUN_OR_MOON = 3  #: a bright body in the chord's field
+    SUN_OR_MOON = 3  #: the Sun or the Moon within the exclusion angle of the chord's swept arc
 
 
 @dataclass(frozen=True)
@@ -56,15 +74,37 @@ class SensorConfig:
             geometric horizon is reported, m.
         oblateness_compensation: subtract the closed-form oblateness model
             on board (physics.md §2.1); off by default, as flown.
+        bright_body_exclusion_rad: a chord is invalid (``SUN_OR_MOON``)
+            while the Sun or the Moon, not hidden by the Earth, is within
+            this angle of the arc its IFOV centre sweeps from the scan start
+            to the horizon, rad (0 … π/4; 0 switches the check off). See
+            :data:`DEFAULT_BRIGHT_BODY_EXCLUSION_RAD`.
+        epoch: the UTC instant at time 0 of the clock that :meth:`SensorModel.sense`
+            is given (required when the exclusion is on: it places the Sun and the Moon).
+        scan_start_nadir_rad: scan start θ₀ of the bright-body arc, rad;
+            None: the detector's, or the nominal one of the orbit
+            (:func:`nominal_scan_start_nadir_rad`) for the ideal detector.
     """
 
     ellipsoid: Ellipsoid = GRS80
     ideal_layer_height_m: float = 40e3
     oblateness_compensation: bool = False
+    bright_body_exclusion_rad: float = 0.0
+    epoch: Epoch | None = None
+    scan_start_nadir_rad: float | None = None
 
     def __post_init__(self) -> None:
         if not (0.0 <= self.ideal_layer_height_m <= 100e3):
             raise ValueError(f"ideal_layer_height_m = {self.ideal_layer_height_m} is outside the allowed range 0 … 100000 m")
+        exclusion = float(self.bright_body_exclusion_rad)
+        if not (np.isfinite(exclusion) and 0.0 <= exclusion <= np.pi / 4):
+            raise ValueError(f"bright_body_exclusion_rad = {self.bright_body_exclusion_rad} is outside the allowed "
+                             f"range 0 … {np.pi / 4:.4f} rad")
+        if exclusion > 0.0 and self.epoch is None:
+            raise ValueError("bright_body_exclusion_rad > 0 needs the epoch (UTC at time 0) to place the Sun and Moon")
+        if self.scan_start_nadir_rad is not None and not (0.0 < self.scan_start_nadir_rad < np.pi / 2):
+            raise ValueError(f"scan_start_nadir_rad = {self.scan_start_nadir_rad} is outside the allowed range "
+                             f"(0, {np.pi / 2:.4f}) rad")
 
 
 @dataclass(frozen=True)
@@ -83,11 +123,28 @@ class SensorReading:
     sensed_pitch_uncorrected_rad: np.ndarray  #: (N,)
     true_roll_rad: np.ndarray  #: (N,) what an ideal sensor reads for the true attitude
     true_pitch_rad: np.ndarray  #: (N,)
+    #: (4, N) index into :data:`BRIGHT_BODIES` of the body that blinds the chord, −1 for none
+    blinding_body: np.ndarray | None = None
 
     @property
     def chord_valid(self) -> np.ndarray:
         """(4, N) bool: the chord reported a crossing."""
         return self.chord_status == ChordStatus.VALID
+
+
+def nominal_scan_start_nadir_rad(altitude_m: float, scan_margin_rad: float = DEFAULT_SCAN_MARGIN_RAD,
+                                 params: chain.ChainParameters = chain.DEFAULT_CHAIN_PARAMETERS) -> float:
+    """Fixed scan start θ₀ of the instrument, rad: CO₂ top of the nominal orbit over the mean sphere + γ + margin.
+
+    Args:
+        altitude_m: nominal orbit altitude, m.
+        scan_margin_rad: extra start beyond φ₃ + γ, rad (0 … 20°).
+        params: chain parameters (γ).
+    """
+    if not (0.0 <= scan_margin_rad <= np.radians(20.0)):
+        raise ValueError(f"scan_margin_rad = {scan_margin_rad} is outside the allowed range 0 … 0.349 rad")
+    phi0, slope = chain.sphere_chord(altitude_m)
+    return float(chain.scan_start_nadir_angle(phi0, slope, CO2_LAYER_TOP_M, params)) + scan_margin_rad
 
 
 #: How the chain's per-chord codes map onto the sensor's chord status.
@@ -152,14 +209,12 @@ class ChainDetector:
     """
 
     def __init__(self, altitude_m: float, radiance: RadianceConfig | None = None, correction=None,
-                 params: chain.ChainParameters = chain.DEFAULT_CHAIN_PARAMETERS, scan_margin_rad: float = np.radians(3.0)):
-        if not (0.0 <= scan_margin_rad <= np.radians(20.0)):
-            raise ValueError(f"scan_margin_rad = {scan_margin_rad} is outside the allowed range 0 … 0.349 rad")
+                 params: chain.ChainParameters = chain.DEFAULT_CHAIN_PARAMETERS,
+                 scan_margin_rad: float = DEFAULT_SCAN_MARGIN_RAD):
         self.radiance = radiance or RadianceConfig()
         self.correction = correction
         self.params = params
-        phi0, slope = chain.sphere_chord(altitude_m)
-        self.scan_start_rad = float(chain.scan_start_nadir_angle(phi0, slope, CO2_LAYER_TOP_M, params)) + scan_margin_rad
+        self.scan_start_rad = nominal_scan_start_nadir_rad(altitude_m, scan_margin_rad, params)
         self.environment = (RadianceEnvironment(self.radiance.environment)
                             if self.radiance.source == "environment" else None)
 
@@ -194,7 +249,7 @@ class ChainDetector:
         lat, lon = geocentric_latitude_longitude(ecef)
         sample = self.environment.sample(lat, lon, t_points)
         radiance = sample.horizon_radiance_ru.reshape(8, -1)
-        climate = self.environment.mean_radiance_ru(lat, t_points).reshape(8, -1)
+        climate = sample.mean_radiance_ru.reshape(8, -1)
         gradient = (climate[4:] - climate[:4]) / self.radiance.probe_distance_m
         jump = (radiance[4:] - climate[4:]) - (radiance[:4] - climate[:4])
         return radiance[:4], gradient, jump, sample.window_height_m.reshape(8, -1)[:4]
@@ -228,6 +283,11 @@ class SensorModel:
         self.orbit = orbit
         self.config = config or SensorConfig()
         self.detector = detector
+        if self.config.scan_start_nadir_rad is not None:
+            self.scan_start_rad = self.config.scan_start_nadir_rad
+        else:
+            self.scan_start_rad = getattr(detector, "scan_start_rad", None) or nominal_scan_start_nadir_rad(
+                orbit.altitude_m)
 
     def _ideal_detection(self, position, axes):
         horizon = tangent_nadir_angles(position, axes, self.config.ellipsoid, self.config.ideal_layer_height_m)
@@ -245,6 +305,7 @@ class SensorModel:
         q = np.asarray(q_orbital_to_body, float).reshape(4, -1)
         position, _ = self.orbit.state_eci(t)
         axes = sensor_axes_eci(self.orbit, t, q)
+        horizon = None
         if self.detector is None:
             corrected, uncorrected, status = self._ideal_detection(position, axes)
         else:
@@ -252,6 +313,11 @@ class SensorModel:
             co2_top = tangent_nadir_angles(position, axes, self.config.ellipsoid, CO2_LAYER_TOP_M)
             corrected, uncorrected, status = self.detector(t, horizon, co2_top, position, axes)
             status = np.where(np.isfinite(horizon), status, ChordStatus.NO_HORIZON).astype(np.int8)
+        blinding = np.full(status.shape, -1, np.int8)
+        if self.config.bright_body_exclusion_rad > 0.0:
+            if horizon is None:
+                horizon = tangent_nadir_angles(position, axes, self.config.ellipsoid, 0.0)
+            status, blinding = self._exclude_bright_bodies(t, q, horizon, status)
         valid = status == ChordStatus.VALID
         corrected = np.where(valid, corrected, np.nan)
         uncorrected = np.where(valid, uncorrected, np.nan)
@@ -278,4 +344,19 @@ class SensorModel:
             sensed_pitch_uncorrected_rad=pitch_raw,
             true_roll_rad=np.atleast_1d(true_roll),
             true_pitch_rad=np.atleast_1d(true_pitch),
+            blinding_body=blinding,
         )
+
+    def _exclude_bright_bodies(self, t, q, horizon_nadir_rad, status):
+        """Statuses with SUN_OR_MOON where a body is in a chord's field, and which body, each ``(4, N)``.
+
+        The arc is the hard-Earth horizon to the scan start: the part of the
+        scan that looks at space (a body below it is behind the Earth). A
+        chord that has no horizon keeps NO_HORIZON — the body is not why.
+        """
+        check = bright_body_in_chords(self.orbit, t, q, self.config.epoch, horizon_nadir_rad,
+                                      np.full_like(horizon_nadir_rad, self.scan_start_rad),
+                                      self.config.bright_body_exclusion_rad, bodies=BRIGHT_BODIES)
+        blinded = check.blinded & (status != ChordStatus.NO_HORIZON)
+        return (np.where(blinded, ChordStatus.SUN_OR_MOON, status).astype(np.int8),
+                np.where(blinded, check.blinding_body, -1).astype(np.int8))

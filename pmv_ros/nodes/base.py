@@ -1,18 +1,25 @@
-"""What the pmv_ros nodes share: QoS, and a lean mode for the in-process fast-time pipeline."""
+"""What the pmv_ros nodes share: QoS, the parameter type gate, and a lean mode for the in-process pipeline."""
 
 from __future__ import annotations
 
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.event_handler import EventHandler, PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
 
-#: Every pmv_ros topic: reliable, keep-last 100. Deep enough for a fast-time
-#: pipeline drained every tick, bounded in memory whatever the run length.
-QOS = QoSProfile(depth=100)
+from .params import coerce_parameters
+
+#: Every pmv_ros topic: reliable, keep-last 100 (publishers and subscriptions).
+#: At the highest sensor rate (100 Hz) that is one second of messages per
+#: topic; a subscriber that falls further behind loses the oldest, it never
+#: makes the publisher wait or a queue grow. The in-process pipeline drains
+#: the graph after every tick, so its queues hold a handful of messages.
+QOS_DEPTH = 100
+QOS = QoSProfile(depth=QOS_DEPTH)
 
 
 class PmvNode(Node):
-    """A node with the project's QoS and an optional lean mode.
+    """A node with the project's QoS, a parameter type gate and an optional lean mode.
 
     Args:
         name: node name.
@@ -22,12 +29,20 @@ class PmvNode(Node):
             executor re-examines on every wait; dropping them almost doubles
             the fast-time rate. Parameters still work through
             ``set_parameters`` in-process, with the same validation.
+
+    Parameter updates (in-process ``set_parameters`` and the parameter
+    services alike) pass :func:`pmv_ros.nodes.params.coerce_parameters` first:
+    a value of the wrong type or out of range is refused with a reason that
+    names the value and what is allowed, and an integer for a floating-point
+    parameter is taken as a float. The specs come from
+    :func:`pmv_ros.nodes.params.install_validation`.
     """
 
     def __init__(self, name: str, *, lean: bool = False, **kwargs):
         if lean:
             kwargs.setdefault("start_parameter_services", False)
             kwargs.setdefault("enable_rosout", False)  # logs still reach the console and the log file
+        self.parameter_specs = {}  # name → ParamSpec, filled by install_validation
         super().__init__(name, **kwargs)
         self._lean = lean
         self._detached = []
@@ -46,6 +61,32 @@ class PmvNode(Node):
             self.add_waitable(waitable)
         self._detached = []
         return super().destroy_node()
+
+    # -- parameters ---------------------------------------------------------------------------
+
+    def _gate(self, parameters):
+        checked, problem = coerce_parameters(self.parameter_specs, parameters)
+        if problem:
+            self.get_logger().warning(f"rejected parameter update: {problem}")
+        return checked, problem
+
+    def set_parameters(self, parameter_list):
+        """Set parameters one by one (rclpy semantics), each through the type gate first."""
+        results = []
+        for parameter in parameter_list:
+            checked, problem = self._gate([parameter])
+            results.append(SetParametersResult(successful=False, reason=problem) if problem
+                           else super().set_parameters(checked)[0])
+        return results
+
+    def set_parameters_atomically(self, parameter_list):
+        """Set parameters all or none (what the parameter services call), through the type gate first."""
+        checked, problem = self._gate(parameter_list)
+        if problem:
+            return SetParametersResult(successful=False, reason=problem)
+        return super().set_parameters_atomically(checked)
+
+    # -- topics -------------------------------------------------------------------------------
 
     def publisher(self, message_type, topic: str):
         """A publisher with the project QoS."""

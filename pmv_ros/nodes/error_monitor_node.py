@@ -9,8 +9,41 @@ this node only converts and wires.
 
 Statistics are driven by the sample stamps, so the node behaves the same on
 the wall clock and on a fast-time ``/clock``; a 1 Hz node-clock timer times
-out samples waiting for truth when nothing arrives at all. QoS: reliable,
-keep-last 100 on every topic; memory is bounded by the monitor's caps.
+out samples waiting for truth when nothing arrives at all and publishes
+``/diagnostics``. QoS: reliable, keep-last 100 on every topic; memory is
+bounded by the monitor's caps (truth history, pending queue, harmonic ring).
+
+Bad input is dropped before it touches any state and counted per reason
+(``rejected_<stream>_<reason>`` on ``/diagnostics``): non-finite values, far
+from unit quaternions (near-unit ones are normalised), zero, future,
+duplicate and backward stamps, and messages the shim cannot read
+(``rejected_<stream>_unreadable``). Only accepted sensor samples drive the
+statistics schedule, so a stream with bad messages gives the statistics of
+the same stream without them.
+
+Discontinuities — what the node does:
+
+* Star-tracker outage, however long (hours): sensor samples wait at most
+  ``max_truth_wait_s`` for truth, then are counted ``skipped_stale_truth``;
+  none is compared with truth interpolated across the gap
+  (``max_truth_gap_s``). ``/diagnostics`` says how long truth has been
+  missing. When truth returns, alignment resumes by itself; the running
+  statistics carry on, the harmonics wait for a full orbit without a large
+  hole.
+* A node restarted on the same clock (stamps continue forward after a gap):
+  the same — a gap, then alignment resumes.
+* A clock jump back by more than ``clock_jump_s`` — of the node clock or of a
+  stream's stamps (simulation restarted, a node restarted on a new clock,
+  stamps start over): the alignment is reset (truth history dropped,
+  waiting samples counted ``skipped_reset``, harmonic ring cleared, the
+  statistics schedule restarts), so nothing is interpolated or fitted
+  across the discontinuity; counted ``clock_jumps``/``alignment_resets``.
+  The running statistics — sums over residuals that were each valid —
+  carry on. Messages of the old timeline still in flight are then in the
+  future and rejected.
+* A clock jump forward: samples across it are skipped (truth gap) and the
+  alignment continues on the new stamps.
+* A parameter change rebuilds the monitor: the statistics start over.
 """
 
 from __future__ import annotations
@@ -25,9 +58,9 @@ from nav_msgs.msg import Odometry
 import pmv_msgs_shim as shim
 from .base import PmvNode
 from ..core.constants import ARCMIN_RAD
-from ..core.monitor import ErrorMonitor, MonitorConfig, Status, orbit_angles_from_state
+from ..core.monitor import SENSOR_REJECTIONS, ErrorMonitor, MonitorConfig, Status, orbit_angles_from_state
 from .launch import run_node
-from .params import ParamSpec, declare, install_validation
+from .params import ParamSpec, ParameterError, declare, install_validation
 
 
 PARAMS = (
@@ -73,7 +106,10 @@ class ErrorMonitorNode(PmvNode):
     def __init__(self, **kwargs):
         super().__init__("error_monitor_node", **kwargs)
         self._values = declare(self, PARAMS)
-        self._monitor = build_monitor(self._values)
+        try:
+            self._monitor = build_monitor(self._values)
+        except ValueError as error:  # a combination the ranges cannot check
+            raise ParameterError(str(error)) from None
         install_validation(self, PARAMS, self._values, self._rebuild)
         self._pub_residual = self.publisher(Vector3Stamped, "/pmv/residual")
         self._pub_statistics = self.publisher(DiagnosticArray, "/pmv/error_statistics")
@@ -82,9 +118,11 @@ class ErrorMonitorNode(PmvNode):
         self._truth_subscription = self.subscription(QuaternionStamped, "/star_tracker/attitude", self._on_truth)
         self.subscription(Odometry, "/orbit/odometry", self._on_odometry)
         self._orbit = None  # (stamp_s, u_rad, inclination_rad, altitude_m, mean_motion_rad_s)
-        self._rejected_messages = {}
+        self._rejected_messages = dict.fromkeys(
+            (f"rejected_{stream}_unreadable" for stream in ("sensor", "truth", "odometry")), 0)
         self._next_statistics_s = None
         self._last_statistics = None
+        self._rejected_reported = 0
         self.create_timer(1.0, self._on_timer)
 
     def _rebuild(self, values: dict) -> None:
@@ -96,8 +134,9 @@ class ErrorMonitorNode(PmvNode):
         now = self.get_clock().now().nanoseconds * 1e-9
         return now if now > 0.0 else None
 
-    def _reject(self, reason: str) -> None:
-        self._rejected_messages[reason] = self._rejected_messages.get(reason, 0) + 1
+    def _reject(self, stream: str) -> None:
+        """Count a message of ``stream`` the shim could not read (fixed keys: memory stays bounded)."""
+        self._rejected_messages[f"rejected_{stream}_unreadable"] += 1
 
     # -- inputs ------------------------------------------------------------------------------------
 
@@ -105,8 +144,8 @@ class ErrorMonitorNode(PmvNode):
         try:
             state = shim.orbit_state_from_msg(message)
             u, inclination, altitude = orbit_angles_from_state(state.position_m, state.velocity_m_s)
-        except ValueError as error:
-            self._reject(f"odometry: {error}")
+        except ValueError:
+            self._reject("odometry")
             return
         radius = float(sum(x * x for x in state.position_m)) ** 0.5
         speed = float(sum(x * x for x in state.velocity_m_s)) ** 0.5
@@ -115,24 +154,27 @@ class ErrorMonitorNode(PmvNode):
     def _on_truth(self, message: QuaternionStamped) -> None:
         try:
             record = shim.attitude_quaternion_from_msg(message)
-        except ValueError as error:
-            self._reject(f"truth: {error}")
+        except ValueError:
+            self._reject("truth")
             return
         self._handle(self._monitor.add_truth_quaternion(record.stamp_s, record.q_xyzw, now_s=self._now_s()))
 
     def _on_sensor(self, message: Vector3Stamped) -> None:
         try:
             record = shim.attitude_angles_from_msg(message)
-        except ValueError as error:
-            self._reject(f"sensor: {error}")
+        except ValueError:
+            self._reject("sensor")
             return
         orbit = {}
         if self._orbit is not None and abs(record.stamp_s - self._orbit[0]) <= self._values["odometry_timeout_s"]:
             stamp, u, inclination, altitude, rate = self._orbit
             orbit = dict(u_rad=u + rate * (record.stamp_s - stamp), inclination_rad=inclination, altitude_m=altitude)
-        self._handle(self._monitor.add_sensor(record.stamp_s, record.roll_rad, record.pitch_rad,
-                                              now_s=self._now_s(), **orbit))
-        self._maybe_publish_statistics(record.stamp_s)
+        outcomes = self._monitor.add_sensor(record.stamp_s, record.roll_rad, record.pitch_rad,
+                                            now_s=self._now_s(), **orbit)
+        self._handle(outcomes)
+        # A rejected sample (a zero or future stamp, say) must not move the statistics schedule.
+        if not any(outcome.status in SENSOR_REJECTIONS for outcome in outcomes):
+            self._maybe_publish_statistics(record.stamp_s)
 
     def _handle(self, outcomes) -> None:
         for outcome in outcomes:
@@ -169,16 +211,23 @@ class ErrorMonitorNode(PmvNode):
         counters = self._monitor.counters
         skipped = {k: v for k, v in counters.items() if k.startswith("skipped_") and v}
         rejected = {k: v for k, v in counters.items() if k.startswith("rejected_") and v}
-        rejected.update({f"rejected message: {k}": v for k, v in self._rejected_messages.items()})
+        rejected.update({k: v for k, v in self._rejected_messages.items() if v})
         problems = []
+        latest_truth = self._monitor.latest_truth_stamp_s
         if counters["truth_received"] == 0:
             problems.append("no star-tracker truth received yet")
-        if self._monitor.pending_count:
-            problems.append(f"{self._monitor.pending_count} sensor samples waiting for truth")
-        if rejected:
+        elif now is not None and latest_truth is not None and now - latest_truth > self._values["max_truth_wait_s"]:
+            problems.append(f"no star-tracker truth for {now - latest_truth:.0f} s")
+        # Samples waiting for truth are normal (the star tracker's latency); an outage shows as truth age above.
+        rejected_total = sum(rejected.values())
+        if rejected_total > self._rejected_reported:
             problems.append("rejected input messages")
+        self._rejected_reported = rejected_total
         level = shim.Level.WARN if problems else shim.Level.OK
-        values = {"used": counters["used"], **skipped, **rejected}
+        values = {"used": counters["used"], **skipped, **rejected,
+                  **{k: counters[k] for k in ("truth_quaternions_normalised", "clock_jumps", "alignment_resets")
+                     if counters[k]},
+                  "pending": self._monitor.pending_count, "truth_buffer": self._monitor.truth_buffer_length}
         self._pub_diagnostics.publish(shim.health_to_msg(shim.HealthReport(
             stamp_s=now or 0.0, statuses=(shim.HealthStatus(
                 name="pmv_ros/error_monitor_node", level=level,

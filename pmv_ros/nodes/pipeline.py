@@ -109,30 +109,57 @@ class Pipeline:
         # Constructor overrides outrank the preset's node sections (a global -p would not).
         self.context = rclpy.Context()
         rclpy.init(args=args, context=self.context)
-        def options(use_sim_time: bool) -> dict:
-            values = {**settings, "use_sim_time": use_sim_time}
-            return dict(context=self.context, lean=lean,
-                        parameter_overrides=[Parameter(name, value=value) for name, value in values.items()])
-
+        self._settings, self._lean = settings, lean
         self.nodes = []
+        self.executor = None
         try:
+            self.executor = SingleThreadedExecutor(context=self.context)
             # The sensor is the clock: it stamps from its own simulation time and
             # publishes /clock. The nodes it drives follow /clock (use_sim_time);
             # the collector only records stamps and needs no clock.
-            self.sensor = self._add(SensorNode(external_drive=True, **options(False)))
-            self.star_tracker = self._add(StarTrackerNode(**options(True)))
-            self.monitor = self._add(ErrorMonitorNode(**options(True)))
-            self.collector = self._add(ReportCollector(**options(False))) if collect else None
-            self.executor = SingleThreadedExecutor(context=self.context)
-            for node in self.nodes:
-                self.executor.add_node(node)
+            self.sensor = self.start_node("sensor")
+            self.star_tracker = self.start_node("star_tracker")
+            self.monitor = self.start_node("monitor")
+            self.collector = self._add(ReportCollector(**self._options(False))) if collect else None
         except BaseException:
             self.close()
             raise
 
+    #: The pipeline's nodes by role: (class, follows /clock, constructor arguments).
+    ROLES = {"sensor": (SensorNode, False, {"external_drive": True}),
+             "star_tracker": (StarTrackerNode, True, {}),
+             "monitor": (ErrorMonitorNode, True, {})}
+
+    def _options(self, use_sim_time: bool, overrides: dict | None = None) -> dict:
+        values = {**self._settings, **(overrides or {}), "use_sim_time": use_sim_time}
+        return dict(context=self.context, lean=self._lean,
+                    parameter_overrides=[Parameter(name, value=value) for name, value in values.items()])
+
     def _add(self, node):
         self.nodes.append(node)
+        self.executor.add_node(node)
         return node
+
+    def start_node(self, role: str, overrides: dict | None = None):
+        """Create the node of ``role`` (see :attr:`ROLES`) as a freshly started process would be; returns it.
+
+        With :meth:`stop_node`, this restarts a node in a running pipeline
+        (fault tests): the new node has no memory of the old one; a new
+        sensor starts its simulation clock again at ``sim.start_time_s``.
+        ``overrides`` are added to the pipeline's parameters for this node.
+        """
+        node_class, use_sim_time, arguments = self.ROLES[role]
+        node = self._add(node_class(**arguments, **self._options(use_sim_time, overrides)))
+        setattr(self, role, node)
+        return node
+
+    def stop_node(self, role: str) -> None:
+        """Destroy the node of ``role``, as if its process ended; the others keep running."""
+        node = getattr(self, role)
+        self.executor.remove_node(node)
+        self.nodes.remove(node)
+        node.destroy_node()
+        setattr(self, role, None)
 
     def drain(self, max_callbacks: int = 100_000) -> int:
         """Run ready callbacks until the graph is idle (see :func:`drain`); returns how many ran."""

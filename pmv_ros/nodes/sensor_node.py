@@ -8,6 +8,20 @@ publishes crossings, roll/pitch (corrected and uncorrected), odometry and
 health. All physics is in :mod:`pmv_ros.core`; all message layout in
 :mod:`pmv_msgs_shim`.
 
+Chord faults (issue 6): a chord whose half-plane has no horizon (a large
+attitude excursion), whose scan found no crossing, or that has the Sun or the
+Moon within ``sensor.bright_body_exclusion_deg`` of its swept arc is invalid:
+its point on ``/pmv/horizon_crossings`` is NaN, and the angle of its pair
+(roll for ±Y, pitch for ±X) is NaN on ``/pmv/attitude`` — the other pair's
+angle is still published. ``/diagnostics`` names the chord and the cause
+(and the body) as soon as the condition starts and again when it ends; the
+chord is used again by itself as soon as it is valid.
+
+Follow mode validates ``/attitude/truth``: non-finite or far-from-unit
+quaternions, zero, future, duplicate and backward stamps are dropped and
+counted per reason on ``/diagnostics`` (a stamp older than the latest by more
+than ``attitude.follow_timeout_s`` is a restarted source and accepted).
+
 QoS: outputs are reliable, keep-last 100 — deep enough for a fast-time
 pipeline that is drained every tick, bounded in memory.
 """
@@ -31,11 +45,13 @@ from ..core.constants import ARCMIN_RAD, GRS80, SPHERE
 from ..core.orbit import CircularOrbit
 from ..core.correction import load_correction
 from ..core.environment import EnvironmentParameters
-from ..core.ephemeris import Epoch
-from ..core.sensor import ChainDetector, ChordStatus, RadianceConfig, SensorConfig, SensorModel
+from ..core.ephemeris import SECONDS_PER_DAY, Epoch
+from ..core.monitor import Status, validate_quaternion
+from ..core.sensor import (BRIGHT_BODIES, ChainDetector, ChordStatus, RadianceConfig, SensorConfig, SensorModel,
+                           nominal_scan_start_nadir_rad)
 from ..core.geometry import CHORD_NAMES
 from .launch import run_node
-from .params import ParamSpec, declare, install_validation
+from .params import ParamSpec, ParameterError, declare, install_validation
 
 
 #: Parameters of sensor_node (units in the names; YAML speaks km, deg, arcmin).
@@ -53,17 +69,23 @@ PARAMS = (
     ParamSpec("attitude.roll_amplitude_arcmin", 0.0, "amplitude of the slow roll oscillation", 0.0, 2700.0, unit="arcmin"),
     ParamSpec("attitude.pitch_amplitude_arcmin", 0.0, "amplitude of the slow pitch oscillation", 0.0, 2700.0, unit="arcmin"),
     ParamSpec("attitude.oscillation_period_s", 600.0, "period of the slow oscillations", 1.0, 1e6, unit="s"),
-    ParamSpec("attitude.roll_drift_arcmin_per_h", 0.0, "roll drift", -600.0, 600.0, unit="arcmin/h"),
-    ParamSpec("attitude.pitch_drift_arcmin_per_h", 0.0, "pitch drift", -600.0, 600.0, unit="arcmin/h"),
+    ParamSpec("attitude.roll_drift_arcmin_per_h", 0.0, "linear drift of the body roll with time", -600.0, 600.0,
+              unit="arcmin/h"),
+    ParamSpec("attitude.pitch_drift_arcmin_per_h", 0.0, "linear drift of the body pitch with time", -600.0, 600.0,
+              unit="arcmin/h"),
     ParamSpec("attitude.follow_timeout_s", 1.0, "in follow mode, truth older than this is stale", 0.01, 3600.0, unit="s"),
     ParamSpec("sensor.rate_hz", 10.0, "output rate of the sensor", 0.1, 100.0, unit="Hz"),
     ParamSpec("sensor.earth_model", "GRS80", "Earth figure for the horizon geometry", choices=("GRS80", "sphere")),
     ParamSpec("sensor.detector", "chain", "chain: the signal chain of physics.md §4; ideal: the geometric horizon "
               "of the emitting layer (geometry-only studies)", choices=("chain", "ideal")),
     ParamSpec("sensor.correction", "calibrated", "brightness-correction table: calibrated (the rig table), none, "
-              "or the path of a CSV file del_arcmin,pop_arcmin"),
+              "or the path of a CSV file del_arcmin,pop_arcmin",
+              constraints="calibrated, none, or the path of a readable CSV file with columns del_arcmin,pop_arcmin"),
     ParamSpec("sensor.scan_margin_deg", 3.0, "scan start beyond the CO2 top + half IFOV (covers oblateness and "
               "attitude excursions)", 0.0, 20.0, unit="deg"),
+    ParamSpec("sensor.bright_body_exclusion_deg", 3.0, "a chord is invalid while the Sun or the Moon is within this "
+              "angle of its swept arc (IFOV half-width 1.1 + body radius 0.27 + stray-light margin); 0: no check",
+              0.0, 45.0, unit="deg"),
     ParamSpec("sensor.layer_height_km", 40.0, "height of the emitting layer seen by the ideal detector", 0.0, 100.0,
               unit="km"),
     ParamSpec("radiance.source", "uniform", "uniform: one disc radiance everywhere; environment: climatology, "
@@ -82,7 +104,8 @@ PARAMS = (
               unit="km"),
     ParamSpec("environment.time_scale_h", 24.0, "weather and height: time scale of change", 0.01, 1e5, unit="h"),
     ParamSpec("sim.epoch_utc", "2024-01-15T00:00:00Z", "UTC date and time at the start of the run (simulation "
-              "time 0 in fast time): sets the season and the Earth's rotation"),
+              "time 0 in fast time): sets the season, the Earth's rotation and where the Sun and Moon are",
+              constraints="an ISO 8601 date-time such as 2024-01-15T00:00:00Z, 1900 … 2100"),
     ParamSpec("sensor.oblateness_compensation", False, "subtract the closed-form oblateness model on board"),
     ParamSpec("sim.fast_time", False, "run on an own simulation clock as fast as allowed and publish /clock"),
     ParamSpec("sim.time_scale", 0.0, "fast time: multiple of real time (0 = as fast as the pipeline allows)",
@@ -92,9 +115,20 @@ PARAMS = (
     ParamSpec("seed", 0, "seed of every random process of the sensor", 0, 2**31 - 1),
 )
 
+#: | |q| − 1 | up to which a followed truth quaternion is normalised; beyond it is rejected.
+QUATERNION_NORM_TOLERANCE = 0.01
+
 #: Samples computed per call of the instrument model in fast time with the
 #: own attitude profile (amortises numpy overhead; the output is identical).
 FAST_TIME_BLOCK = 64
+
+
+def parse_epoch(iso_string: str) -> Epoch:
+    """The run epoch from ``sim.epoch_utc``; ValueError naming the parameter if it is not a date-time in range."""
+    try:
+        return Epoch.from_utc(iso_string)
+    except ValueError as error:
+        raise ValueError(f"sim.epoch_utc: {error}") from None
 
 
 def build_models(values: dict):
@@ -118,19 +152,27 @@ def build_models(values: dict):
         roll_drift_rad_s=values["attitude.roll_drift_arcmin_per_h"] * per_hour,
         pitch_drift_rad_s=values["attitude.pitch_drift_arcmin_per_h"] * per_hour,
     )
+    epoch = parse_epoch(values["sim.epoch_utc"])  # parsed whatever the detector: a bad date is refused now
+    # The clock's zero: simulation time 0 in fast time, the node start in real time.
+    clock_epoch = Epoch(epoch.julian_date_utc - orbit.epoch_s / SECONDS_PER_DAY)
+    detector = build_detector(values, orbit)
     config = SensorConfig(
         ellipsoid=GRS80 if values["sensor.earth_model"] == "GRS80" else SPHERE,
         ideal_layer_height_m=values["sensor.layer_height_km"] * 1e3,
         oblateness_compensation=values["sensor.oblateness_compensation"],
+        bright_body_exclusion_rad=math.radians(values["sensor.bright_body_exclusion_deg"]),
+        epoch=clock_epoch,
+        scan_start_nadir_rad=None if detector is not None else nominal_scan_start_nadir_rad(
+            orbit.altitude_m, math.radians(values["sensor.scan_margin_deg"])),
     )
-    return orbit, profile, SensorModel(orbit, config, build_detector(values, orbit))
+    return orbit, profile, SensorModel(orbit, config, detector)
 
 
 def build_detector(values: dict, orbit: CircularOrbit):
     """The horizon detector the parameters ask for (None for the ideal one); ValueError if inconsistent."""
     if values["sensor.detector"] == "ideal":
         return None
-    epoch = Epoch.from_utc(values["sim.epoch_utc"])
+    epoch = parse_epoch(values["sim.epoch_utc"])
     # The clock's zero: simulation time 0 in fast time, the node start in real time.
     zero_s = orbit.epoch_s
     environment = EnvironmentParameters(
@@ -151,7 +193,10 @@ def build_detector(values: dict, orbit: CircularOrbit):
         probe_distance_m=values["radiance.probe_distance_km"] * 1e3,
         earth_rotation_at_epoch_rad=float(epoch.earth_rotation_angle(-zero_s)),
     )
-    correction = load_correction(values["sensor.correction"], orbit.altitude_m)
+    try:
+        correction = load_correction(values["sensor.correction"], orbit.altitude_m)
+    except ValueError as error:
+        raise ValueError(f"sensor.correction: {error}") from None
     return ChainDetector(orbit.altitude_m, radiance, correction, scan_margin_rad=math.radians(values["sensor.scan_margin_deg"]))
 
 
@@ -168,7 +213,10 @@ class SensorNode(PmvNode):
         self._values = declare(self, PARAMS)
         self._external_drive = external_drive
         self._values["_epoch_s"] = self.get_clock().now().nanoseconds * 1e-9
-        self._rebuild(self._values)
+        try:
+            self._rebuild(self._values)
+        except ValueError as error:  # a combination, a date or a file the ranges cannot check
+            raise ParameterError(str(error)) from None
         install_validation(self, PARAMS, self._values, self._rebuild_live)
 
         self._pub_crossings = self.publisher(PolygonStamped, "/pmv/horizon_crossings")
@@ -178,11 +226,13 @@ class SensorNode(PmvNode):
         self._pub_diagnostics = self.publisher(DiagnosticArray, "/diagnostics")
         self._pub_truth = None
         self._pub_clock = None
-        self._latest_truth = None  # (stamp_s, q) in follow mode
+        self._latest_truth = None  # (stamp_s, unit q) in follow mode
         self._chord_problem_counts = np.zeros((len(ChordStatus), 4), int)
-        self._rejected = {}
+        self._rejected = {}  # reason → count (fixed set of reasons: bounded)
+        self._rejected_reported = 0
         self._samples_published = 0
         self._last_diagnostics_s = -math.inf
+        self._last_condition = ()  # what the last /diagnostics said, to report changes at once
         self._pending = []  # precomputed fast-time samples
         if self._values["attitude.source"] == "profile":
             self._pub_truth = self.publisher(QuaternionStamped, "/attitude/truth")
@@ -231,13 +281,36 @@ class SensorNode(PmvNode):
 
     # -- inputs ---------------------------------------------------------------------------------
 
+    def _now_s(self) -> float:
+        """Now on the sensor's own clock: simulation time in fast time, the node clock otherwise."""
+        if self._values["sim.fast_time"]:
+            return self._sim_time_s
+        return self.get_clock().now().nanoseconds * 1e-9
+
     def _on_truth(self, message: QuaternionStamped) -> None:
+        """Follow mode: keep the latest valid truth; drop and count bad messages."""
         try:
             record = shim.attitude_quaternion_from_msg(message)
-        except ValueError as error:
-            self._count_rejected(str(error))
+        except ValueError:  # negative or non-finite stamp
+            self._count_rejected(f"rejected_truth_{Status.ZERO_STAMP.value}")
             return
-        self._latest_truth = record
+        q, status, _ = validate_quaternion(record.q_xyzw, QUATERNION_NORM_TOLERANCE)
+        t_s, timeout = record.stamp_s, self._values["attitude.follow_timeout_s"]
+        latest = self._latest_truth
+        if status is Status.OK:
+            if t_s <= 0.0:
+                status = Status.ZERO_STAMP
+            elif t_s > self._now_s() + timeout:
+                status = Status.FUTURE_STAMP
+            elif latest is not None and t_s == latest[0]:
+                status = Status.DUPLICATE
+            elif latest is not None and latest[0] - timeout <= t_s < latest[0]:
+                # Older by more than the timeout: the source restarted on a new clock; take it.
+                status = Status.BACKWARDS
+        if status is not Status.OK:
+            self._count_rejected(f"rejected_truth_{status.value}")
+            return
+        self._latest_truth = (t_s, q)
 
     def _count_rejected(self, reason: str) -> None:
         self._rejected[reason] = self._rejected.get(reason, 0) + 1
@@ -272,12 +345,11 @@ class SensorNode(PmvNode):
 
     def _sense_following(self, t_s: float) -> None:
         truth = self._latest_truth
-        if truth is None or t_s - truth.stamp_s > self._values["attitude.follow_timeout_s"]:
-            self._count_rejected("no fresh /attitude/truth to follow")
+        if truth is None or abs(t_s - truth[0]) > self._values["attitude.follow_timeout_s"]:
+            self._count_rejected("skipped_no_fresh_truth")
             self._maybe_publish_diagnostics(t_s)
             return
-        q = np.asarray(truth.q_xyzw, float)[:, None]
-        self._publish_sample(*self._sense_block(np.array([t_s]), q)[0])
+        self._publish_sample(*self._sense_block(np.array([t_s]), truth[1][:, None])[0])
 
     def _sense_block(self, times: np.ndarray, q: np.ndarray) -> list:
         """Run the instrument for a block of samples; a list of per-sample tuples to publish."""
@@ -306,27 +378,50 @@ class SensorNode(PmvNode):
         status = reading.chord_status[:, k]
         self._chord_problem_counts[status, np.arange(4)] += 1
         self._samples_published += 1
-        self._maybe_publish_diagnostics(t_s, status)
+        self._maybe_publish_diagnostics(t_s, status, reading.blinding_body[:, k])
 
-    def _maybe_publish_diagnostics(self, t_s: float, status=None) -> None:
-        if t_s - self._last_diagnostics_s < self._values["diagnostics_period_s"]:
+    def _chord_problems(self, status, blinding) -> list[str]:
+        """One phrase per invalid chord: which chord, and why."""
+        problems = []
+        for chord, code, body in zip(CHORD_NAMES, status, blinding):
+            if code == ChordStatus.SUN_OR_MOON:
+                problems.append(f"chord {chord}: {BRIGHT_BODIES[body]} in the field of view (within "
+                                f"{self._values['sensor.bright_body_exclusion_deg']:g} deg)")
+            elif code == ChordStatus.NO_HORIZON:
+                problems.append(f"chord {chord}: no horizon in the scan")
+            elif code == ChordStatus.NOT_DETECTED:
+                problems.append(f"chord {chord}: no crossing detected")
+        return problems
+
+    def _maybe_publish_diagnostics(self, t_s: float, status=None, blinding=None) -> None:
+        """Publish /diagnostics every diagnostics_period_s, and at once when the chords' condition changes."""
+        condition = () if status is None else (tuple(status.tolist()), tuple(blinding.tolist()))
+        due = (t_s - self._last_diagnostics_s >= self._values["diagnostics_period_s"]
+               or t_s < self._last_diagnostics_s)  # the clock went back: a new run
+        if not due and condition == self._last_condition:
             return
         self._last_diagnostics_s = t_s
-        problems = []
-        if status is not None:
-            for chord, code in zip(CHORD_NAMES, status):
-                if code != ChordStatus.VALID:
-                    problems.append(f"chord {chord}: {ChordStatus(int(code)).name.lower().replace('_', ' ')}")
+        self._last_condition = condition
+        problems = [] if status is None else self._chord_problems(status, blinding)
         values = {"samples_published": self._samples_published}
+        if status is not None:
+            values.update({f"chord_{chord}": ChordStatus(int(code)).name.lower()
+                           for chord, code in zip(CHORD_NAMES, status)})
         for code in ChordStatus:
             if code != ChordStatus.VALID:
                 for chord, count in zip(CHORD_NAMES, self._chord_problem_counts[code]):
                     if count:
                         values[f"{code.name.lower()}_{chord}"] = int(count)
-        for reason, count in self._rejected.items():
-            values[f"rejected: {reason}"] = count
-        level = shim.Level.WARN if problems or self._rejected else shim.Level.OK
-        message = "; ".join(problems) if problems else ("all chords valid" if status is not None else "no sample")
+        values.update(self._rejected)
+        rejected_total = sum(n for reason, n in self._rejected.items() if reason.startswith("rejected_"))
+        fresh_rejections = rejected_total > self._rejected_reported
+        self._rejected_reported = rejected_total
+        if status is None:
+            problems.append("no sample: no fresh /attitude/truth to follow")
+        elif fresh_rejections:
+            problems.append("rejected /attitude/truth messages")
+        level = shim.Level.WARN if problems else shim.Level.OK
+        message = "; ".join(problems) if problems else "all chords valid"
         self._pub_diagnostics.publish(shim.health_to_msg(shim.HealthReport(stamp_s=t_s, statuses=(shim.HealthStatus(
             name="pmv_ros/sensor_node: horizon", level=level, message=message, hardware_id="pmv",
             values=values),))))

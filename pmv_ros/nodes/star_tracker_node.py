@@ -8,7 +8,23 @@ the frame time and released ``latency_s`` later. Nothing is published for a
 frame without attitude; ``/diagnostics`` says why.
 
 Frames are driven by the truth stream, so the node runs the same on the wall
-clock and on a fast-time ``/clock``. QoS: reliable, keep-last 100.
+clock and on a fast-time ``/clock``. QoS: reliable, keep-last 100; the
+release queue holds at most ``latency_s × rate_hz`` frames.
+
+Bad input (issue 6): a truth message with a non-finite or far-from-unit
+quaternion, a zero, future (beyond ``future_tolerance_s`` of the node clock),
+duplicate or backward stamp is dropped and counted per reason on
+``/diagnostics``; a near-unit quaternion is normalised. None of them moves
+the frame grid, so the frames published are those of the clean stream.
+
+Discontinuities: a truth gap longer than ``max_truth_gap_s`` (the sensor
+stopped, or was restarted and continues on the same clock) restarts the frame
+grid at the next truth sample — nothing is interpolated across it. A stamp
+that goes back by more than ``clock_jump_s`` (the simulation or the sensor
+restarted on a new clock) starts a new timeline: frames of the old one still
+waiting for release are dropped (counted), the grid restarts. No truth
+arriving for longer than ``max_truth_gap_s`` (by the node clock) is reported
+on ``/diagnostics`` as a stale input.
 """
 
 from __future__ import annotations
@@ -25,9 +41,17 @@ from scipy.spatial.transform import Rotation, Slerp
 import pmv_msgs_shim as shim
 from .base import PmvNode
 from ..core.constants import ARCSEC_RAD, GM_EARTH_M3_S2, EARTH_MEAN_RADIUS_M
+from ..core.monitor import Status, validate_quaternion
 from ..core.star_tracker import Outcome, StarTracker, StarTrackerParameters, inertial_rate_of_nadir_pointing
 from .launch import run_node
-from .params import ParamSpec, declare, install_validation
+from .params import ParamSpec, ParameterError, declare, install_validation
+
+#: | |q| − 1 | up to which a truth quaternion is normalised; beyond it is rejected.
+QUATERNION_NORM_TOLERANCE = 0.01
+
+#: Reasons a truth message is dropped (the /diagnostics keys are rejected_truth_<reason>).
+TRUTH_REJECTIONS = (Status.NON_FINITE, Status.BAD_QUATERNION, Status.ZERO_STAMP, Status.FUTURE_STAMP,
+                    Status.DUPLICATE, Status.BACKWARDS)
 
 
 PARAMS = (
@@ -44,6 +68,10 @@ PARAMS = (
               -1.0, 1e9, unit="s"),
     ParamSpec("outage_duration_s", [0.0], "duration of each scheduled outage", 0.0, 1e9, unit="s"),
     ParamSpec("max_truth_gap_s", 5.0, "no frame is interpolated across a truth gap longer than this",
+              0.001, 3600.0, unit="s"),
+    ParamSpec("clock_jump_s", 1.0, "a truth stamp going back by more than this starts a new timeline "
+              "(simulation or sensor restarted); less is a backward stamp and rejected", 0.001, 3600.0, unit="s"),
+    ParamSpec("future_tolerance_s", 1.0, "truth stamps later than the node clock by more than this are rejected",
               0.001, 3600.0, unit="s"),
     ParamSpec("seed", 0, "seed of the noise and failures", 0, 2**31 - 1),
 )
@@ -70,7 +98,10 @@ class StarTrackerNode(PmvNode):
         super().__init__("star_tracker_node", **kwargs)
         self._values = declare(self, PARAMS)
         self._start_s = self.get_clock().now().nanoseconds * 1e-9
-        self._tracker = build_tracker(self._values, self._start_s)
+        try:
+            self._tracker = build_tracker(self._values, self._start_s)
+        except ValueError as error:  # a combination the ranges cannot check
+            raise ParameterError(str(error)) from None
         install_validation(self, PARAMS, self._values, self._rebuild)
         self._publisher = self.publisher(QuaternionStamped, "/star_tracker/attitude")
         self._diagnostics = self.publisher(DiagnosticArray, "/diagnostics")
@@ -79,9 +110,15 @@ class StarTrackerNode(PmvNode):
         self._next_frame_s = None
         self._queue = deque()  # (release_s, record), bounded by latency × rate
         self._outcomes = {outcome: 0 for outcome in Outcome}
-        self._rejected = {}
+        self._counters = {f"rejected_truth_{reason.value}": 0 for reason in TRUTH_REJECTIONS}
+        self._counters.update(truth_quaternions_normalised=0, clock_jumps=0, frames_dropped_at_clock_jump=0)
+        self._rejected_reported = 0
         self._last_outcome = Outcome.OK
         self._last_diagnostics_s = -math.inf
+        # Stale input: no truth for a while is reported even though no truth callback runs.
+        # Measured by arrival on the node clock, so a source whose stamps are on another clock is not "stale".
+        self._last_arrival_s = None
+        self.create_timer(1.0, self._on_timer)
 
     def _rebuild(self, values: dict) -> None:
         self._tracker = build_tracker(values, self._start_s)
@@ -89,18 +126,53 @@ class StarTrackerNode(PmvNode):
     def _mean_motion(self) -> float:
         return math.sqrt(GM_EARTH_M3_S2 / (EARTH_MEAN_RADIUS_M + self._values["orbit.altitude_km"] * 1e3) ** 3)
 
+    def _now_s(self) -> float | None:
+        now = self.get_clock().now().nanoseconds * 1e-9
+        return now if now > 0.0 else None  # sim time before the first /clock: unknown
+
+    def _check_stamp(self, t_s: float) -> Status:
+        """Validate a truth stamp; a jump back by more than clock_jump_s starts a new timeline."""
+        if t_s <= 0.0:
+            return Status.ZERO_STAMP
+        now = self._now_s()
+        if now is not None and t_s > now + self._values["future_tolerance_s"]:
+            return Status.FUTURE_STAMP
+        previous = self._previous
+        if previous is not None:
+            if t_s == previous[0]:
+                return Status.DUPLICATE
+            if t_s < previous[0] - self._values["clock_jump_s"]:
+                self._new_timeline()
+            elif t_s < previous[0]:
+                return Status.BACKWARDS
+        return Status.OK
+
+    def _new_timeline(self) -> None:
+        """The truth clock went back: forget the old timeline (frames not yet released are dropped)."""
+        self._counters["clock_jumps"] += 1
+        self._counters["frames_dropped_at_clock_jump"] += len(self._queue)
+        self._queue.clear()
+        self._previous = None
+        self._next_frame_s = None
+        self._last_diagnostics_s = -math.inf
+
     def _on_truth(self, message: QuaternionStamped) -> None:
         try:
             truth = shim.attitude_quaternion_from_msg(message)
-        except ValueError as error:
-            self._rejected[str(error)] = self._rejected.get(str(error), 0) + 1
+        except ValueError:  # a negative or non-finite stamp
+            self._counters[f"rejected_truth_{Status.ZERO_STAMP.value}"] += 1
             return
+        self._last_arrival_s = self._now_s()
         t_s = truth.stamp_s
-        current = truth.q_xyzw  # a Rotation is built only when a frame falls due (1 truth sample in 5 at 10 Hz)
-        previous = self._previous
-        if previous is not None and t_s <= previous[0]:
-            self._rejected["stamp not increasing"] = self._rejected.get("stamp not increasing", 0) + 1
+        q, status, normalised = validate_quaternion(truth.q_xyzw, QUATERNION_NORM_TOLERANCE)
+        if status is Status.OK:
+            status = self._check_stamp(t_s)
+        if status is not Status.OK:
+            self._counters[f"rejected_truth_{status.value}"] += 1
             return
+        self._counters["truth_quaternions_normalised"] += normalised
+        current = q  # a Rotation is built only when a frame falls due (1 truth sample in 5 at 10 Hz)
+        previous = self._previous
         self._previous = (t_s, current)
         period = 1.0 / self._values["rate_hz"]
         if previous is None or self._next_frame_s is None or t_s - previous[0] > self._values["max_truth_gap_s"]:
@@ -132,15 +204,40 @@ class StarTrackerNode(PmvNode):
         if t_s - self._last_diagnostics_s < 1.0:
             return
         self._last_diagnostics_s = t_s
-        outage = self._last_outcome != Outcome.OK
+        problems = []
+        if self._last_outcome != Outcome.OK:
+            problems.append(f"star-tracker outage: {self._last_outcome.name.lower().replace('_', ' ')}")
+        self._publish_diagnostics(t_s, problems)
+
+    def _on_timer(self) -> None:
+        """Report a stale input: no truth for longer than max_truth_gap_s (nothing else would say so)."""
+        now = self._now_s()
+        if now is None:
+            return
+        last = self._start_s if self._last_arrival_s is None else self._last_arrival_s
+        if now - last > self._values["max_truth_gap_s"]:
+            what = "received" if self._last_arrival_s is None else f"for {now - last:.0f} s"
+            self._publish_diagnostics(now, [f"no /attitude/truth {what} (stale input)"])
+
+    def _publish_diagnostics(self, t_s: float, problems: list) -> None:
         values = {f"frames_{o.name.lower()}": n for o, n in self._outcomes.items()}
-        values.update({f"rejected: {reason}": n for reason, n in self._rejected.items()})
-        message = (f"star-tracker outage: {self._last_outcome.name.lower().replace('_', ' ')}" if outage
-                   else "attitude available")
-        level = shim.Level.WARN if outage or self._rejected else shim.Level.OK
+        values.update(self._counters)
+        values["release_queue"] = len(self._queue)
+        rejected = sum(self._counters[f"rejected_truth_{reason.value}"] for reason in TRUTH_REJECTIONS)
+        if rejected > self._rejected_reported:
+            problems = problems + ["rejected /attitude/truth messages"]
+        self._rejected_reported = rejected
+        level = shim.Level.WARN if problems else shim.Level.OK
         self._diagnostics.publish(shim.health_to_msg(shim.HealthReport(stamp_s=t_s, statuses=(shim.HealthStatus(
-            name="pmv_ros/star_tracker_node", level=level, message=message, hardware_id="star_tracker",
-            values=values),))))
+            name="pmv_ros/star_tracker_node", level=level, message="; ".join(problems) or "attitude available",
+            hardware_id="star_tracker", values=values),))))
+
+    @property
+    def counters(self) -> dict:
+        """Frame outcomes and input counters (a copy), as on /diagnostics."""
+        values = {f"frames_{o.name.lower()}": n for o, n in self._outcomes.items()}
+        values.update(self._counters)
+        return values
 
 
 def main(args=None) -> int:
