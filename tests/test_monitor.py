@@ -106,7 +106,7 @@ def test_bad_samples_are_dropped_or_normalised_and_counted_per_reason():
     monitor.add_truth_quaternion(52.0, q * 1.005, now_s=now)         # near-unit: normalised and used
     monitor.add_truth_quaternion(53.0, q * 1.5, now_s=now)           # far from unit norm
     monitor.add_truth_quaternion(54.0, [0.0, math.inf, 0.0, 1.0], now_s=now)
-    outcomes = monitor.add_sensor(51.0, math.nan, 0.0, now_s=now)
+    outcomes = monitor.add_sensor(51.0, math.inf, 0.0, now_s=now)  # malformed (NaN alone means a lost chord pair)
     outcomes += monitor.add_sensor(0.0, 0.0, 0.0, now_s=now)
     outcomes += monitor.add_sensor(52.0, 0.01, -0.02, now_s=now)     # against the normalised quaternion
     outcomes += monitor.add_sensor(52.0, 0.01, -0.02, now_s=now)     # duplicate
@@ -238,3 +238,25 @@ def test_orbit_angles_from_an_eci_state():
 def test_bad_configuration_raises_naming_the_value(options, word):
     with pytest.raises(ValueError, match=word):
         MonitorConfig(**options)
+
+
+def test_a_lost_chord_pair_keeps_the_other_angle():
+    # The sensor sends NaN for the angle of a pair that lost a chord (Sun in the field,
+    # no horizon); the other angle is still a measurement and must count.
+    monitor = ErrorMonitor(MonitorConfig(orbital_period_s=6000.0, remove_oblateness=False))
+    for k in range(1, 31):
+        monitor.add_truth(float(k), 0.0, 0.0)
+    outcomes = []
+    for k in range(1, 21):
+        roll = math.nan if k > 10 else 0.002
+        pitch = math.nan if k == 20 else -0.001
+        outcomes += monitor.add_sensor(k + 0.5, roll, pitch)
+    counters = monitor.counters
+    assert counters["used"] == 19 and counters["used_one_angle"] == 9
+    assert counters["skipped_no_valid_angle"] == 1
+    assert sum(v for k, v in counters.items() if k.startswith("rejected_")) == 0
+    summary = monitor.summary()
+    assert summary.channel("roll").count == 10 and summary.channel("roll").mean_rad == pytest.approx(0.002)
+    assert summary.channel("pitch").count == 19 and summary.channel("pitch").mean_rad == pytest.approx(-0.001)
+    assert summary.channel("meridional").count == 10
+    assert [o.status for o in outcomes].count(Status.NO_VALID_ANGLE) == 1

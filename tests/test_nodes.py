@@ -91,6 +91,12 @@ def test_sensor_reads_a_constant_body_roll_of_30_arcmin():
         pipeline.executor.add_node(probe)
         pipeline.nodes.append(probe)
         pipeline.step(600)  # five minutes, a twentieth of an orbit
+        statistics = pipeline.monitor.monitor.summary()
+    # The monitor knows the model was removed on board and does not subtract it again:
+    # doing so would leave ≈ −2.5′ of pitch over u = 0…19° (the model rises to ≈ 5′ there).
+    assert statistics.channel("pitch").count > 550
+    assert abs(statistics.channel("pitch").mean_rad) / ARCMIN_RAD < 0.3
+    assert abs(statistics.channel("roll").mean_rad) / ARCMIN_RAD < 0.3
     roll = np.array([m.vector.x for m in got]) / ARCMIN_RAD
     pitch = np.array([m.vector.y for m in got]) / ARCMIN_RAD
     assert len(got) == 600

@@ -83,6 +83,7 @@ class Status(str, Enum):
     STALE_TRUTH = "stale_truth"            # no truth covering the stamp arrived within max_truth_wait_s
     PENDING_OVERFLOW = "pending_overflow"  # pushed out of a full pending queue
     RESET = "reset"                        # still pending when a discontinuity reset the alignment
+    NO_VALID_ANGLE = "no_valid_angle"      # the sensor reported neither roll nor pitch (both chord pairs lost)
     # Validation of an incoming sample (either stream).
     NON_FINITE = "non_finite"              # NaN/Inf stamp or value
     ZERO_STAMP = "zero_stamp"              # stamp 0 (unset header) or negative
@@ -93,7 +94,7 @@ class Status(str, Enum):
 
 
 #: Reasons a valid sensor sample could not be aligned with truth.
-SKIP_REASONS = (Status.NO_TRUTH, Status.TOO_OLD, Status.TRUTH_GAP, Status.STALE_TRUTH,
+SKIP_REASONS = (Status.NO_VALID_ANGLE, Status.NO_TRUTH, Status.TOO_OLD, Status.TRUTH_GAP, Status.STALE_TRUTH,
                 Status.PENDING_OVERFLOW, Status.RESET)
 
 #: Reasons an incoming sample is rejected, per stream.
@@ -106,7 +107,8 @@ def _counter_names() -> tuple[str, ...]:
     names += [f"skipped_{reason.value}" for reason in SKIP_REASONS]
     names += [f"rejected_sensor_{reason.value}" for reason in SENSOR_REJECTIONS]
     names += [f"rejected_truth_{reason.value}" for reason in TRUTH_REJECTIONS]
-    names += ["truth_quaternions_normalised", "used_without_oblateness_model", "clock_jumps", "alignment_resets"]
+    names += ["used_one_angle", "truth_quaternions_normalised", "used_without_oblateness_model", "clock_jumps",
+              "alignment_resets"]
     return tuple(names)
 
 
@@ -422,8 +424,16 @@ class ErrorMonitor:
         return outcomes
 
     def _check(self, stream: str, t_s: float, values, now_s) -> tuple[Status, list[Outcome]]:
-        """Validate a sample of ``stream``; a clock jump resets the alignment and accepts the sample."""
-        if not (math.isfinite(t_s) and all(math.isfinite(v) for v in values)):
+        """Validate a sample of ``stream``; a clock jump resets the alignment and accepts the sample.
+
+        A sensor angle may be NaN — the sensor's word for "that chord pair is
+        lost" (Sun in a chord, no horizon); ±Inf is malformed. Truth must be complete.
+        """
+        if stream == "sensor":
+            malformed = any(math.isinf(v) for v in values)
+        else:
+            malformed = not all(math.isfinite(v) for v in values)
+        if not math.isfinite(t_s) or malformed:
             return Status.NON_FINITE, []
         if t_s <= 0.0:
             return Status.ZERO_STAMP, []
@@ -533,6 +543,8 @@ class ErrorMonitor:
             self._counters[f"rejected_sensor_{status.value}"] += 1
             return outcomes + [Outcome(t_s, status)] + self._expire(now_s)
         self._last_stamp["sensor"] = t_s
+        if math.isnan(roll_rad) and math.isnan(pitch_rad):
+            return outcomes + [self._skip(t_s, Status.NO_VALID_ANGLE)] + self._expire(now_s)
         altitude = self.config.altitude_m if altitude_m is None else float(altitude_m)
         model_roll, model_pitch = self._oblateness(u_rad, altitude, inclination_rad,
                                                    oblateness_roll_rad, oblateness_pitch_rad)
@@ -597,6 +609,9 @@ class ErrorMonitor:
     def _account(self, entry: _Pending, residual_roll: float, residual_pitch: float) -> Outcome:
         """Update both statistics sets and the ring with one residual; return the outcome."""
         self._counters["used"] += 1
+        if math.isnan(residual_roll) or math.isnan(residual_pitch):
+            # One chord pair lost: the other angle counts; the meridional value does not exist.
+            self._counters["used_one_angle"] += 1
         roll_kept = residual_roll - self.config.roll_offset_rad
         pitch_kept = residual_pitch - self.config.pitch_offset_rad
         has_model = math.isfinite(entry.oblateness_roll_rad) and math.isfinite(entry.oblateness_pitch_rad)
@@ -609,18 +624,25 @@ class ErrorMonitor:
         grounds = {}
         if math.isfinite(entry.altitude_m) and entry.altitude_m > 0.0:
             for key in (True, False):
-                if math.isfinite(rows[key][0]):
-                    # Cross-track goes with roll, along-track with pitch, circular with meridional.
-                    error = nadir_ground_error(rows[key][0], rows[key][1], entry.altitude_m)
-                    grounds[key] = (error.cross_track_m, error.along_track_m, error.circular_m)
+                if key and not has_model:
+                    continue
+                # Cross-track goes with roll, along-track with pitch, circular with meridional;
+                # a lost angle gives NaN in its own component (and in the circular one) only.
+                roll_value, pitch_value = rows[key][0], rows[key][1]
+                error = nadir_ground_error(0.0 if math.isnan(roll_value) else roll_value,
+                                           0.0 if math.isnan(pitch_value) else pitch_value, entry.altitude_m)
+                grounds[key] = (math.nan if math.isnan(roll_value) else error.cross_track_m,
+                                math.nan if math.isnan(pitch_value) else error.along_track_m,
+                                math.nan if math.isnan(rows[key][2]) else error.circular_m)
         for key, values in rows.items():
-            if not math.isfinite(values[0]):
+            if key and not has_model:
                 continue
             target = self._sets[key]
             for stats, value in zip(target.angles, values):
-                stats.update(value)
-            if key in grounds:
-                for stats, value in zip(target.ground, grounds[key]):
+                if math.isfinite(value):
+                    stats.update(value)
+            for stats, value in zip(target.ground, grounds.get(key, ())):
+                if math.isfinite(value):
                     stats.update(value)
         self._ring.add(entry.stamp_s, rows[True] + rows[False])
         primary = self.config.remove_oblateness

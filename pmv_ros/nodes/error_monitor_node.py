@@ -69,6 +69,8 @@ PARAMS = (
     ParamSpec("orbit.inclination_deg", 74.5, "nominal inclination (until /orbit/odometry arrives)", 0.0, 180.0,
               unit="deg"),
     ParamSpec("remove_oblateness", True, "report statistics with the closed-form oblateness model removed"),
+    ParamSpec("sensor.oblateness_compensation", False, "the sensor already subtracts the oblateness model on "
+              "board, so the monitor must not subtract it again (share it with the sensor in the /** section)"),
     ParamSpec("max_truth_gap_s", 2.0, "never interpolate truth across a gap longer than this", 0.001, 3600.0, unit="s"),
     ParamSpec("max_truth_wait_s", 10.0, "give a sensor sample up when no truth covers it after this long",
               0.01, 3600.0, unit="s"),
@@ -169,6 +171,9 @@ class ErrorMonitorNode(PmvNode):
         if self._orbit is not None and abs(record.stamp_s - self._orbit[0]) <= self._values["odometry_timeout_s"]:
             stamp, u, inclination, altitude, rate = self._orbit
             orbit = dict(u_rad=u + rate * (record.stamp_s - stamp), inclination_rad=inclination, altitude_m=altitude)
+        if self._values["sensor.oblateness_compensation"]:
+            # Removed on board already: the model left in the sensor's output is zero.
+            orbit.update(oblateness_roll_rad=0.0, oblateness_pitch_rad=0.0)
         outcomes = self._monitor.add_sensor(record.stamp_s, record.roll_rad, record.pitch_rad,
                                             now_s=self._now_s(), **orbit)
         self._handle(outcomes)

@@ -41,10 +41,10 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 import pmv_msgs_shim as shim
 from .base import PmvNode
 from ..core.attitude_profile import AttitudeProfile
-from ..core.constants import ARCMIN_RAD, GRS80, SPHERE
+from ..core.constants import ARCMIN_RAD, EARTH_ROTATION_RATE_RAD_S, GRS80, SPHERE
 from ..core.orbit import CircularOrbit
 from ..core.correction import load_correction
-from ..core.environment import EnvironmentParameters
+from ..core.environment import YEAR_DAYS, EnvironmentParameters
 from ..core.ephemeris import SECONDS_PER_DAY, Epoch
 from ..core.monitor import Status, validate_quaternion
 from ..core.sensor import (BRIGHT_BODIES, ChainDetector, ChordStatus, RadianceConfig, SensorConfig, SensorModel,
@@ -102,7 +102,8 @@ PARAMS = (
     ParamSpec("environment.relative_variability", 0.15, "weather: relative variability eta'", 0.0, 1.0),
     ParamSpec("environment.correlation_radius_km", 700.0, "weather and height: correlation radius", 10.0, 6371.0,
               unit="km"),
-    ParamSpec("environment.time_scale_h", 24.0, "weather and height: time scale of change", 0.01, 1e5, unit="h"),
+    ParamSpec("environment.time_scale_h", 24.0, "weather and height: time scale of change", 1.0 / 60.0, 1e5,
+              unit="h"),
     ParamSpec("sim.epoch_utc", "2024-01-15T00:00:00Z", "UTC date and time at the start of the run (simulation "
               "time 0 in fast time): sets the season, the Earth's rotation and where the Sun and Moon are",
               constraints="an ISO 8601 date-time such as 2024-01-15T00:00:00Z, 1900 … 2100"),
@@ -110,7 +111,8 @@ PARAMS = (
     ParamSpec("sim.fast_time", False, "run on an own simulation clock as fast as allowed and publish /clock"),
     ParamSpec("sim.time_scale", 0.0, "fast time: multiple of real time (0 = as fast as the pipeline allows)",
               0.0, 1e6),
-    ParamSpec("sim.start_time_s", 0.0, "fast time: simulation time at start", 0.0, 1e10, unit="s"),
+    ParamSpec("sim.start_time_s", 0.0, "fast time: simulation time at start (message stamps end at 2^31 s)",
+              0.0, 2.0e9, unit="s"),
     ParamSpec("diagnostics_period_s", 1.0, "period of /diagnostics health reports", 0.1, 3600.0, unit="s"),
     ParamSpec("seed", 0, "seed of every random process of the sensor", 0, 2**31 - 1),
 )
@@ -173,8 +175,12 @@ def build_detector(values: dict, orbit: CircularOrbit):
     if values["sensor.detector"] == "ideal":
         return None
     epoch = parse_epoch(values["sim.epoch_utc"])
-    # The clock's zero: simulation time 0 in fast time, the node start in real time.
+    # The clock reads orbit.epoch_s at the start of the run (0 in fast time, the node start
+    # in real time); anchor season and Earth rotation there exactly. (Stepping the epoch back
+    # by a real-time clock of ≈ 1.8e9 s would let the GRS80 and GMST rates drift apart by ≈ 0.9°.)
     zero_s = orbit.epoch_s
+    day_at_clock_zero = (float(epoch.day_of_year(0.0)) - zero_s / SECONDS_PER_DAY) % YEAR_DAYS
+    rotation_at_clock_zero = float(epoch.earth_rotation_angle(0.0)) - EARTH_ROTATION_RATE_RAD_S * zero_s
     environment = EnvironmentParameters(
         climatology_enabled=values["environment.climatology"],
         weather_enabled=values["environment.weather"],
@@ -182,7 +188,7 @@ def build_detector(values: dict, orbit: CircularOrbit):
         relative_variability=values["environment.relative_variability"],
         correlation_radius_m=values["environment.correlation_radius_km"] * 1e3,
         time_scale_s=values["environment.time_scale_h"] * 3600.0,
-        epoch_day_of_year=float(epoch.day_of_year(-zero_s)),
+        epoch_day_of_year=day_at_clock_zero,
         seed=values["seed"],
     )
     radiance = RadianceConfig(
@@ -191,7 +197,7 @@ def build_detector(values: dict, orbit: CircularOrbit):
         window_height_m=values["radiance.window_height_km"] * 1e3,
         environment=environment,
         probe_distance_m=values["radiance.probe_distance_km"] * 1e3,
-        earth_rotation_at_epoch_rad=float(epoch.earth_rotation_angle(-zero_s)),
+        earth_rotation_at_epoch_rad=rotation_at_clock_zero % (2.0 * math.pi),
     )
     try:
         correction = load_correction(values["sensor.correction"], orbit.altitude_m)
@@ -244,7 +250,7 @@ class SensorNode(PmvNode):
         if self._values["sim.fast_time"]:
             self._pub_clock = self.publisher(ClockMsg, "/clock")
             if not external_drive:
-                self._start_fast_timer()
+                self._start_fast_timer(self._values)
         else:
             self._timer = self.create_timer(1.0 / self._values["sensor.rate_hz"], self._on_real_time_tick)
         self.get_logger().info(
@@ -265,18 +271,18 @@ class SensorNode(PmvNode):
             values = dict(values, **{"sim.start_time_s": self._values["sim.start_time_s"]})
         self._rebuild(values)
         self._pending.clear()
-        if self._timer is not None and values["sensor.rate_hz"] != self._values["sensor.rate_hz"]:
+        timing = ("sensor.rate_hz", "sim.time_scale")
+        if self._timer is not None and any(values[name] != self._values[name] for name in timing):
             self._timer.cancel()
             self.destroy_timer(self._timer)
             if values["sim.fast_time"]:
-                self._values["sensor.rate_hz"] = values["sensor.rate_hz"]
-                self._start_fast_timer()
+                self._start_fast_timer(values)
             else:
                 self._timer = self.create_timer(1.0 / values["sensor.rate_hz"], self._on_real_time_tick)
 
-    def _start_fast_timer(self) -> None:
-        scale = self._values["sim.time_scale"]
-        period = 0.0 if scale == 0.0 else 1.0 / (self._values["sensor.rate_hz"] * scale)
+    def _start_fast_timer(self, values: dict) -> None:
+        scale = values["sim.time_scale"]
+        period = 0.0 if scale == 0.0 else 1.0 / (values["sensor.rate_hz"] * scale)
         self._timer = self.create_timer(period, self.step, clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     # -- inputs ---------------------------------------------------------------------------------
