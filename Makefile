@@ -31,6 +31,7 @@ test-long: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_chain.py
 	$(BIN)/python benchmarks/bench_pipeline.py
+	$(BIN)/python benchmarks/bench_environment.py
 
 clean:
 	rm -rf $(VENV) build install log .ros_log report *.egg-info

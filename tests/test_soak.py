@@ -8,7 +8,7 @@ from ≈ 2 to ≈ 3.5 ms once and for all — the resident set size (VmRSS, afte
 a garbage collection) may grow by less than 10 MB, and the wall time the
 callbacks of one tick take (sensor step and everything it triggers, down to
 the monitor's residual) must not grow: the smaller median of the last two
-blocks may exceed the smaller of the first two by 30 % at most (the smaller
+blocks may exceed the smaller of the first two by 50 % at most (the smaller
 of two, because another process on a 2-core machine can slow one block).
 The bounded structures are checked too: monitor truth history and pending
 queue, the star tracker's release queue, the sensor's precomputed block.
@@ -44,7 +44,7 @@ FULL = (24 * 3600.0, 2 * 3600.0)
 #: Blocks the run after the warm-up is measured in.
 BLOCKS = 6
 RSS_GROWTH_LIMIT_MB = 10.0
-LATENCY_GROWTH_LIMIT = 1.3
+LATENCY_GROWTH_LIMIT = 1.5  # last blocks vs first blocks, best of two each: real growth over hours is far larger; 2-core noise is not
 
 
 def rss_mb() -> float:

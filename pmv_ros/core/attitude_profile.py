@@ -63,17 +63,3 @@ class AttitudeProfile:
     def quaternion(self, t_s):
         """Orientation of the body in the orbital frame (x, y, z, w), ``(4[, N])``."""
         return quaternion_from_roll_pitch_yaw(*self.roll_pitch_yaw(t_s))
-
-    def relative_rate_rad_s(self, t_s):
-        """Angular rate relative to the orbital frame (small-angle: the Euler-angle rates), ``(3[, N])`` rad/s.
-
-        Used only for the star tracker's rate limit, where arcsecond-level
-        accuracy of the rate is not needed.
-        """
-        t = np.asarray(t_s, float)
-        wave_rate = np.cos(self._phase(t)) * 2.0 * np.pi / self.oscillation_period_s
-        # Euler-angle rates with the signs of the convention (angles describe
-        # the orbital frame seen from the body): negate to get body rates.
-        return -np.array([self.roll_amplitude_rad * wave_rate + self.roll_drift_rad_s,
-                          self.pitch_amplitude_rad * wave_rate + self.pitch_drift_rad_s,
-                          self.yaw_amplitude_rad * wave_rate + self.yaw_drift_rad_s + 0.0 * t])
