@@ -23,3 +23,19 @@ def pytest_addoption(parser):
 def run_long(request) -> bool:
     """True when the full-length soak/stress runs were asked for (--run-long)."""
     return bool(request.config.getoption("--run-long"))
+
+
+@pytest.fixture
+def harness():
+    """Make ``Harness(node_class, overrides, **node_arguments)`` objects; all are closed after the test."""
+    from node_harness import Harness
+
+    made = []
+
+    def make(node_class, overrides, **node_arguments):
+        made.append(Harness(node_class, overrides, **node_arguments))
+        return made[-1]
+
+    yield make
+    for item in made:
+        item.close()

@@ -21,12 +21,9 @@ import math
 
 import numpy as np
 import pytest
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PolygonStamped, QuaternionStamped, Vector3Stamped
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
-from rclpy.parameter import Parameter
 from rosgraph_msgs.msg import Clock
 
 import pmv_msgs_shim as shim
@@ -35,7 +32,7 @@ from pmv_ros.core.constants import ARCMIN_RAD, EARTH_MEAN_RADIUS_M
 from pmv_ros.core.ephemeris import Epoch, moon_direction_eci, sun_direction_from
 from pmv_ros.core.sensor import BRIGHT_BODIES, ChordStatus
 from pmv_ros.nodes.error_monitor_node import ErrorMonitorNode
-from pmv_ros.nodes.pipeline import Pipeline, drain
+from pmv_ros.nodes.pipeline import Pipeline
 from pmv_ros.nodes.sensor_node import PARAMS as SENSOR_PARAMS
 from pmv_ros.nodes.sensor_node import SensorNode, build_models
 from pmv_ros.nodes.star_tracker_node import StarTrackerNode
@@ -52,51 +49,6 @@ SUNRISE = {"sim.epoch_utc": "2024-03-20T03:06:00Z", "orbit.raan_deg": 0.0, "orbi
 
 
 # ------------------------------------------------------------------------------------------------ helpers
-
-class Harness:
-    """One node under test, a tester node with publishers and recorders, one executor, one context."""
-
-    def __init__(self, node_class, overrides: dict, **node_arguments):
-        self.context = rclpy.Context()
-        rclpy.init(context=self.context)
-        self.node = node_class(context=self.context, **node_arguments, parameter_overrides=[
-            Parameter(name, value=value) for name, value in overrides.items()])
-        self.tester = Node("tester", context=self.context)
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self.executor.add_node(self.tester)
-        self.received = {}
-
-    def record(self, message_type, topic):
-        self.received[topic] = []
-        self.tester.create_subscription(message_type, topic, self.received[topic].append, 100)
-        return self.received[topic]
-
-    def publisher(self, message_type, topic):
-        return self.tester.create_publisher(message_type, topic, 100)
-
-    def drain(self):
-        drain(self.executor)
-
-    def close(self):
-        self.executor.shutdown()
-        self.node.destroy_node()
-        self.tester.destroy_node()
-        rclpy.shutdown(context=self.context)
-
-
-@pytest.fixture
-def harness():
-    made = []
-
-    def make(node_class, overrides, **node_arguments):
-        made.append(Harness(node_class, overrides, **node_arguments))
-        return made[-1]
-
-    yield make
-    for item in made:
-        item.close()
-
 
 def probe(pipeline: Pipeline, topics: dict) -> dict:
     """Record ``{topic: message type}`` of a pipeline into lists; returns ``{topic: list}``."""

@@ -12,12 +12,10 @@ import math
 
 import numpy as np
 import pytest
-import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PolygonStamped, QuaternionStamped, Vector3Stamped
 from nav_msgs.msg import Odometry
 from rosgraph_msgs.msg import Clock
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
@@ -25,57 +23,13 @@ import pmv_msgs_shim as shim
 from pmv_ros.core.attitude import quaternion_from_roll_pitch_yaw, roll_pitch_yaw_from_quaternion
 from pmv_ros.core.constants import ARCMIN_RAD, ARCSEC_RAD, EARTH_MEAN_RADIUS_M
 from pmv_ros.nodes.error_monitor_node import ErrorMonitorNode
-from pmv_ros.nodes.pipeline import Pipeline, drain
+from pmv_ros.nodes.pipeline import Pipeline
 from pmv_ros.nodes.star_tracker_node import StarTrackerNode
 
 #: A star tracker that tells the exact truth: no noise, no random failures.
 PERFECT_TRACKER = {"noise_cross_arcsec": 0.0, "noise_boresight_arcsec": 0.0, "random_failure_probability": 0.0}
 #: Spherical Earth, uniform horizon: no methodical error at all.
 IDEAL_EARTH = {"sensor.earth_model": "sphere", "remove_oblateness": False}
-
-
-class Harness:
-    """One context, one executor, a test node with publishers/recorders, and the node under test."""
-
-    def __init__(self, node_class, overrides: dict):
-        self.context = rclpy.Context()
-        rclpy.init(context=self.context)
-        self.node = node_class(context=self.context, parameter_overrides=[
-            Parameter(name, value=value) for name, value in overrides.items()])
-        self.tester = Node("tester", context=self.context)
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self.executor.add_node(self.tester)
-        self.received = {}
-
-    def record(self, message_type, topic):
-        self.received[topic] = []
-        self.tester.create_subscription(message_type, topic, self.received[topic].append, 100)
-
-    def publisher(self, message_type, topic):
-        return self.tester.create_publisher(message_type, topic, 100)
-
-    def drain(self):
-        drain(self.executor)
-
-    def close(self):
-        self.executor.shutdown()
-        self.node.destroy_node()
-        self.tester.destroy_node()
-        rclpy.shutdown(context=self.context)
-
-
-@pytest.fixture
-def harness():
-    made = []
-
-    def make(node_class, **overrides):
-        made.append(Harness(node_class, overrides))
-        return made[-1]
-
-    yield make
-    for item in made:
-        item.close()
 
 
 def test_sensor_reads_a_constant_body_roll_of_30_arcmin():
@@ -158,7 +112,7 @@ def test_sensor_topics_types_frames_and_units():
 
 
 def test_star_tracker_node_alone(harness):
-    h = harness(StarTrackerNode, **{"rate_hz": 2.0, "latency_s": 0.3, "noise_cross_arcsec": 3.0,
+    h = harness(StarTrackerNode, {"rate_hz": 2.0, "latency_s": 0.3, "noise_cross_arcsec": 3.0,
                                     "noise_boresight_arcsec": 20.0, "random_failure_probability": 0.0})
     h.record(QuaternionStamped, "/star_tracker/attitude")
     truth = h.publisher(QuaternionStamped, "/attitude/truth")
@@ -185,7 +139,7 @@ def test_star_tracker_node_alone(harness):
 
 
 def test_star_tracker_gives_nothing_above_its_rate_limit(harness):
-    h = harness(StarTrackerNode, **{"rate_hz": 2.0, "latency_s": 0.0, "random_failure_probability": 0.0})
+    h = harness(StarTrackerNode, {"rate_hz": 2.0, "latency_s": 0.0, "random_failure_probability": 0.0})
     h.record(QuaternionStamped, "/star_tracker/attitude")
     h.record(DiagnosticArray, "/diagnostics")
     truth = h.publisher(QuaternionStamped, "/attitude/truth")
@@ -201,7 +155,7 @@ def test_star_tracker_gives_nothing_above_its_rate_limit(harness):
 
 def test_error_monitor_node_alone(harness):
     # On simulation time, as in a fast-time run: the node's clock is the test's /clock.
-    h = harness(ErrorMonitorNode, **{"remove_oblateness": False, "statistics_rate_hz": 1.0, "use_sim_time": True})
+    h = harness(ErrorMonitorNode, {"remove_oblateness": False, "statistics_rate_hz": 1.0, "use_sim_time": True})
     h.record(Vector3Stamped, "/pmv/residual")
     h.record(DiagnosticArray, "/pmv/error_statistics")
     sensor = h.publisher(Vector3Stamped, "/pmv/attitude")
