@@ -135,7 +135,6 @@ def vertical_from_horizon_angles(horizon_nadir_rad):
     return nadir / np.linalg.norm(nadir, axis=0)
 
 
-
 def roll_pitch_from_horizon_angles(horizon_nadir_rad):
     """Roll and pitch, rad, read from the four horizon nadir angles, each pair on its own.
 
@@ -177,19 +176,6 @@ def sphere_tangent_height(nadir_angle_rad, orbit_radius_m, earth_radius_m):
 def sphere_nadir_angle_of_height(height_m, orbit_radius_m, earth_radius_m):
     """Nadir angle whose line of sight grazes the height ``height_m`` over a sphere, rad: asin((R + h)/(R + H))."""
     return np.arcsin((earth_radius_m + np.asarray(height_m, float)) / orbit_radius_m)
-
-
-def sphere_ground_central_angle(nadir_angle_rad, orbit_radius_m, earth_radius_m):
-    """Earth central angle from the sub-satellite point to where a line of sight meets a sphere, rad.
-
-    The near intersection: the line of sight arrives at the ground at the
-    emission angle η = asin((R + H)/R · sin φ) from the local vertical, and the
-    central angle is η − φ. NaN where the line of sight misses the sphere.
-    """
-    phi = np.asarray(nadir_angle_rad, float)
-    with np.errstate(invalid="ignore"):
-        emission = np.arcsin(orbit_radius_m / earth_radius_m * np.sin(phi))
-    return emission - phi
 
 
 def ellipsoid_line_of_sight(position_m, line_of_sight, ellipsoid: Ellipsoid = GRS80, height_m=0.0):
