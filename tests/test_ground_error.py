@@ -82,3 +82,21 @@ def test_closed_form_nadir_path_matches_the_general_chain():
         assert np.allclose(a, b, rtol=1e-9, atol=1e-6)
     scalar = nadir_ground_error(ARCMIN_RAD, 0.0, 500e3)
     assert isinstance(scalar.circular_m, float) and scalar.cross_track_m == pytest.approx(-145.4, abs=0.1)
+
+
+def test_one_sample_path_matches_the_array_path():
+    # Plain floats take a math-only path (the monitor's per-residual call); it must give the array
+    # path's numbers, including NaN when the line of sight misses the Earth.
+    rng = np.random.default_rng(12)
+    roll, pitch = rng.uniform(-0.3, 0.3, (2, 300))
+    roll[:5] = 1.2  # far off nadir from a high orbit: no intersection
+    altitude = rng.uniform(300e3, 36000e3, 300)
+    height = rng.choice([0.0, 5e3], 300)
+    arrays = nadir_ground_error(roll, pitch, altitude, target_height_m=height)
+    for k in range(roll.size):
+        one = nadir_ground_error(float(roll[k]), float(pitch[k]), float(altitude[k]), float(height[k]))
+        assert all(isinstance(value, float) for value in one)
+        np.testing.assert_allclose(one, [component[k] for component in arrays], rtol=1e-12, atol=1e-9)
+    assert any(math.isnan(nadir_ground_error(float(r), 0.0, 36000e3).circular_m) for r in roll[:5])
+    with pytest.raises(ValueError, match="altitude"):
+        nadir_ground_error(0.0, 0.0, -1.0)

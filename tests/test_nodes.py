@@ -218,3 +218,17 @@ def test_bad_parameter_update_is_rejected_and_the_node_keeps_publishing():
         assert pipeline.collector.residual_count > before
         # a good update is taken
         assert sensor.set_parameters([Parameter("attitude.roll_offset_arcmin", value=7.0)])[0].successful
+
+
+def test_pipeline_runs_blas_on_one_thread_and_restores_it():
+    # On two cores, OpenBLAS threads contend with the executor and the DDS threads and slow a
+    # block of sensor samples several-fold (nodes/base.py); the pipeline limits BLAS while it lives.
+    from threadpoolctl import threadpool_info
+
+    def blas_threads():
+        return [pool["num_threads"] for pool in threadpool_info() if pool["user_api"] == "blas"]
+
+    before = blas_threads()
+    with Pipeline(None, {"sensor.rate_hz": 10.0}):
+        assert blas_threads() and all(n == 1 for n in blas_threads())
+    assert blas_threads() == before

@@ -93,6 +93,20 @@ def test_roll_pitch_reading_inverts_the_convention_at_zero_yaw():
     np.testing.assert_allclose(true_roll_pitch(q), [roll, pitch], atol=1e-12)
 
 
+def test_one_quaternion_reads_like_the_array_path():
+    # A single quaternion takes a rotation-free path (the monitor converts every star-tracker
+    # sample that way); it must read what the array path reads, for any attitude and either sign of q.
+    rng = np.random.default_rng(5)
+    q = rng.normal(size=(4, 500))
+    q /= np.linalg.norm(q, axis=0)
+    roll, pitch = true_roll_pitch(q)
+    for k in range(q.shape[1]):
+        for sign in (1.0, -1.0):
+            one = true_roll_pitch(sign * q[:, k])
+            assert all(isinstance(value, float) for value in one)
+            np.testing.assert_allclose(one, [roll[k], pitch[k]], atol=1e-12)
+
+
 def test_yaw_alone_is_not_observable():
     q = quaternion_from_roll_pitch_yaw(0.0, 0.0, math.radians(25.0))
     np.testing.assert_allclose(true_roll_pitch(q), [0.0, 0.0], atol=1e-12)

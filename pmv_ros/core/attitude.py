@@ -38,6 +38,8 @@ Quaternions
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from scipy.spatial.transform import Rotation
 
@@ -95,5 +97,18 @@ def roll_pitch_from_nadir(nadir_sensor):
 
 
 def true_roll_pitch(q_orbital_to_body):
-    """Roll and pitch an ideal sensor would read for this attitude (the truth to compare against), rad."""
-    return roll_pitch_from_nadir(nadir_in_body(q_orbital_to_body))
+    """Roll and pitch an ideal sensor would read for this attitude (the truth to compare against), rad.
+
+    One quaternion gives two floats, computed without building a rotation (the
+    monitor converts every star-tracker sample); arrays ``(4, N)`` give arrays.
+    """
+    q = np.asarray(q_orbital_to_body, float)
+    if q.shape == (4,):
+        norm = math.sqrt(float(q @ q))
+        if not (math.isfinite(norm) and norm > 0.0):
+            raise ValueError(f"quaternion {q.tolist()} has no direction (zero or non-finite norm)")
+        x, y, z, w = (float(c) for c in q / norm)
+        # Nadir in the body frame: −(third row of the body-axes matrix Aᵀ).
+        n0, n1, n2 = -2.0 * (x * z - w * y), -2.0 * (y * z + w * x), -(1.0 - 2.0 * (x * x + y * y))
+        return math.atan2(n1, -n2), math.atan2(-n0, math.hypot(n1, n2))
+    return roll_pitch_from_nadir(nadir_in_body(q))

@@ -18,6 +18,7 @@ positive roll to −Y.
 
 from __future__ import annotations
 
+import math
 from typing import Iterable, NamedTuple
 
 import numpy as np
@@ -126,6 +127,8 @@ def nadir_ground_error(roll_rad, pitch_rad, altitude_m, target_height_m=0.0) -> 
         altitude_m: spacecraft altitude H above the mean radius, m.
         target_height_m: height h₁ of the imaged surface above the mean radius, m.
     """
+    if all(type(value) is float for value in (roll_rad, pitch_rad, altitude_m, target_height_m)):
+        return _nadir_ground_error_scalar(roll_rad, pitch_rad, altitude_m, target_height_m)
     roll, pitch = np.asarray(roll_rad, float), np.asarray(pitch_rad, float)
     altitude = np.asarray(altitude_m, float)
     if np.any(altitude <= 0.0):
@@ -146,6 +149,25 @@ def nadir_ground_error(roll_rad, pitch_rad, altitude_m, target_height_m=0.0) -> 
     if along_track.ndim == 0:
         return GroundError(float(along_track), float(cross_track), float(circular))
     return GroundError(along_track, cross_track, circular)
+
+
+def _nadir_ground_error_scalar(roll: float, pitch: float, altitude: float, target_height: float) -> GroundError:
+    """:func:`nadir_ground_error` for one sample in plain floats (the monitor calls it per residual)."""
+    if not altitude > 0.0:
+        raise ValueError(f"altitude must be positive, got {altitude} m")
+    radius = EARTH_MEAN_RADIUS_M + target_height
+    spacecraft_z = EARTH_MEAN_RADIUS_M + altitude
+    cos_roll = math.cos(roll)
+    half_b = spacecraft_z * -cos_roll * math.cos(pitch)
+    discriminant = half_b * half_b - (spacecraft_z - radius) * (spacecraft_z + radius)
+    distance = -half_b - math.sqrt(discriminant) if discriminant >= 0.0 else math.nan
+    if not distance > 0.0:
+        return GroundError(math.nan, math.nan, math.nan)
+    along_sine = distance * cos_roll * math.sin(pitch) / radius
+    cross_sine = -distance * math.sin(roll) / radius
+    along = radius * math.asin(along_sine) if abs(along_sine) <= 1.0 else math.nan
+    cross = radius * math.asin(cross_sine) if abs(cross_sine) <= 1.0 else math.nan
+    return GroundError(along, cross, math.hypot(along, cross))
 
 
 def combine_in_quadrature(errors: Iterable[GroundError]) -> GroundError:

@@ -294,6 +294,17 @@ def validate_quaternion(q_xyzw, tolerance: float):
     Non-finite components give NON_FINITE; a norm further than ``tolerance``
     from 1 gives BAD_QUATERNION; otherwise the quaternion is normalised.
     """
+    if isinstance(q_xyzw, np.ndarray) and q_xyzw.shape == (4,):
+        q_xyzw = q_xyzw.tolist()
+    if isinstance(q_xyzw, (list, tuple)) and len(q_xyzw) == 4:
+        # One quaternion (every truth sample): plain arithmetic, one array at the end.
+        components = [float(c) for c in q_xyzw]
+        if not all(math.isfinite(c) for c in components):
+            return None, Status.NON_FINITE, False
+        norm = math.sqrt(sum(c * c for c in components))
+        if abs(norm - 1.0) > tolerance:
+            return None, Status.BAD_QUATERNION, False
+        return np.array(components) / norm, Status.OK, abs(norm - 1.0) > 1e-9
     q = np.asarray(q_xyzw, float).ravel()
     if q.size != 4 or not np.all(np.isfinite(q)):
         return None, Status.NON_FINITE, False

@@ -6,8 +6,22 @@ from rcl_interfaces.msg import SetParametersResult
 from rclpy.event_handler import EventHandler, PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
+from threadpoolctl import ThreadpoolController
 
 from .params import coerce_parameters
+
+
+def single_threaded_blas():
+    """Run BLAS (numpy's matrix products) on one thread in this process; returns the limiter.
+
+    The nodes' numerics are small products (the radiance environment's
+    spectral synthesis is the largest). Left to itself OpenBLAS splits them
+    over every core, where on a 2-core machine its threads contend with the
+    executor, the DDS threads and any other busy process: a block of sensor
+    samples then took 4–10× longer than on one thread. Call
+    ``restore_original_limits()`` on the result to undo it.
+    """
+    return ThreadpoolController().limit(limits=1, user_api="blas")
 
 #: Every pmv_ros topic: reliable, keep-last 100 (publishers and subscriptions).
 #: At the highest sensor rate (100 Hz) that is one second of messages per

@@ -21,7 +21,7 @@ from rclpy.executors import SingleThreadedExecutor, TimeoutException
 from rclpy.parameter import Parameter
 
 import pmv_msgs_shim as shim
-from .base import PmvNode
+from .base import PmvNode, single_threaded_blas
 from .error_monitor_node import ErrorMonitorNode
 from .sensor_node import SensorNode
 from .star_tracker_node import StarTrackerNode
@@ -112,6 +112,7 @@ class Pipeline:
         self._settings, self._lean = settings, lean
         self.nodes = []
         self.executor = None
+        self._blas_limit = single_threaded_blas()  # undone in close()
         try:
             self.executor = SingleThreadedExecutor(context=self.context)
             # The sensor is the clock: it stamps from its own simulation time and
@@ -180,6 +181,9 @@ class Pipeline:
         self.nodes = []
         if self.context.ok():
             rclpy.shutdown(context=self.context)
+        if getattr(self, "_blas_limit", None) is not None:
+            self._blas_limit.restore_original_limits()
+            self._blas_limit = None
 
     def __enter__(self):
         return self

@@ -36,7 +36,7 @@ from collections import deque
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import QuaternionStamped
-from scipy.spatial.transform import Rotation, Slerp
+from scipy.spatial.transform import Rotation
 
 import pmv_msgs_shim as shim
 from .base import PmvNode
@@ -179,14 +179,16 @@ class StarTrackerNode(PmvNode):
             # First sample, or a gap in the truth: restart the frame grid here, never interpolate across.
             self._next_frame_s = math.ceil(t_s / period) * period
             previous = None
-        if previous is not None:
+        if previous is not None and self._next_frame_s <= t_s + 1e-12:
             frames = np.arange(self._next_frame_s, t_s + 1e-12, period)
             if frames.size:
                 pair = Rotation.from_quat(np.stack([previous[1], current]))
-                slerp = Slerp([previous[0], t_s], pair)
-                relative = (pair[1] * pair[0].inv()).as_rotvec() / (t_s - previous[0])
+                turn = (pair[1] * pair[0].inv()).as_rotvec()  # orbital components
+                relative = turn / (t_s - previous[0])
                 rate = inertial_rate_of_nadir_pointing(self._mean_motion(), relative)
-                q_frames = slerp(frames).as_quat().T
+                # Slerp: a constant-rate turn from the previous truth to this one.
+                fraction = (frames - previous[0]) / (t_s - previous[0])
+                q_frames = (Rotation.from_rotvec(np.outer(fraction, turn)) * pair[0]).as_quat().T
                 measured, outcomes = self._tracker.measure(frames, q_frames, np.full(frames.size, rate))
                 for k, outcome in enumerate(outcomes):
                     self._outcomes[Outcome(int(outcome))] += 1
