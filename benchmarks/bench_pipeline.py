@@ -14,16 +14,18 @@ and by the drain itself.
 
 Graph floor (a diagnosis, not a target): the pipeline's graph without its
 work — four lean nodes with the same topics, message types, subscriptions,
-timers and /clock followers, publishing prebuilt messages at the pipeline's
-per-tick counts, callbacks doing nothing. Its rate over the bare rate is the
+timers and /clock followers, the same messages per tick published from the
+same places (the tracker's and the monitor's from their callbacks), but
+prebuilt, and callbacks doing nothing else. Its rate over the bare rate is the
 most any pipeline with this graph could reach; the rest of the gap is the
 physics, the star tracker and the statistics.
 
-The measurements alternate over ``--rounds`` rounds (bare, default, pipeline,
-then again), and each rate is the best of its rounds: on a 2-core machine a
-busy neighbour process slows whichever measurement it overlaps, and the best
-of several is the rate this machine can do. The ratio is of the best rates;
-the per-round ratios are printed beside it.
+The measurements alternate over ``--rounds`` rounds (pipeline, bare with lean
+nodes, bare with default nodes, graph floor, then again), and each rate is the
+best of its rounds: on a 2-core machine a busy neighbour process slows
+whichever measurement it overlaps, and the best of several is the rate this
+machine can do. The ratio is of the best rates; the per-round ratios are
+printed beside it.
 
 Prints both rates and their ratio (target ≥ 0.6), and the wall time of one
 Kondor orbit at 1 Hz output (target < 60 s). ``--json`` for scripts.
@@ -116,8 +118,15 @@ def bare_rate(messages: int, burst: int, lean: bool) -> dict:
             "lost": messages // burst * burst - received[0]}
 
 
-def graph_floor_rate(ticks: int) -> dict:
-    """Messages per second through the pipeline's graph with no work in it (see the module docstring)."""
+def graph_floor_rate(ticks: int, rate_hz: float = 10.0) -> dict:
+    """Messages per second through the pipeline's graph with no work in it (see the module docstring).
+
+    The messages flow as in the pipeline: the sensor publishes /clock and its
+    outputs; the tracker publishes a frame from its truth callback every 5th
+    sample (2 Hz at 10 Hz); the monitor publishes a residual from its
+    attitude callback and statistics every 10th; each of the three publishes
+    /diagnostics once a simulated second. Every message is a prebuilt one.
+    """
     context = rclpy.Context()
     rclpy.init(context=context)
 
@@ -127,53 +136,77 @@ def graph_floor_rate(ticks: int) -> dict:
 
     sensor, tracker, monitor, collector = (node("floor_sensor", False), node("floor_tracker", True),
                                            node("floor_monitor", True), node("floor_collector", False))
+    report = DiagnosticArray(status=[DiagnosticStatus(values=[KeyValue(key=f"k{i}", value="0") for i in range(20)])])
+    crossings = PolygonStamped()
+    crossings.polygon.points = [Point32() for _ in range(4)]
+    frame, residual = QuaternionStamped(), Vector3Stamped()
+    tracker_output = tracker.publisher(QuaternionStamped, "/star_tracker/attitude")
+    tracker_health = tracker.publisher(DiagnosticArray, "/diagnostics")
+    residuals = monitor.publisher(Vector3Stamped, "/pmv/residual")
+    statistics = monitor.publisher(DiagnosticArray, "/pmv/error_statistics")
+    monitor_health = monitor.publisher(DiagnosticArray, "/diagnostics")
+    received = {"truth": 0, "attitude": 0}
+
+    def on_truth(_message):
+        received["truth"] += 1
+        if received["truth"] % 5 == 0:
+            tracker_output.publish(frame)
+        if received["truth"] % 10 == 0:
+            tracker_health.publish(report)
+
+    def on_attitude(_message):
+        received["attitude"] += 1
+        residuals.publish(residual)
+        if received["attitude"] % 10 == 0:
+            statistics.publish(report)
+            monitor_health.publish(report)
 
     def nothing(_message=None):
         return None
 
-    for subscriber, message_type, topic in ((tracker, QuaternionStamped, "/attitude/truth"),
-                                            (monitor, Vector3Stamped, "/pmv/attitude"),
-                                            (monitor, QuaternionStamped, "/star_tracker/attitude"),
-                                            (monitor, Odometry, "/orbit/odometry"),
-                                            (collector, Vector3Stamped, "/pmv/residual"),
-                                            (collector, DiagnosticArray, "/pmv/error_statistics")):
-        subscriber.subscription(message_type, topic, nothing)
+    for subscriber, message_type, topic, callback in (
+            (tracker, QuaternionStamped, "/attitude/truth", on_truth),
+            (monitor, Vector3Stamped, "/pmv/attitude", on_attitude),
+            (monitor, QuaternionStamped, "/star_tracker/attitude", nothing),
+            (monitor, Odometry, "/orbit/odometry", nothing),
+            (collector, Vector3Stamped, "/pmv/residual", nothing),
+            (collector, DiagnosticArray, "/pmv/error_statistics", nothing)):
+        subscriber.subscription(message_type, topic, callback)
     tracker.create_timer(1.0, nothing)
     monitor.create_timer(1.0, nothing)
-    crossings = PolygonStamped()
-    crossings.polygon.points = [Point32() for _ in range(4)]
-    report = DiagnosticArray(status=[DiagnosticStatus(values=[KeyValue(key=f"k{i}", value="0") for i in range(20)])])
-    every_tick = [(sensor.publisher(m.__class__, topic), m) for topic, m in (
+    sensor_outputs = [(sensor.publisher(message.__class__, topic), message) for topic, message in (
         ("/attitude/truth", QuaternionStamped()), ("/orbit/odometry", Odometry()),
         ("/pmv/horizon_crossings", crossings), ("/pmv/attitude", Vector3Stamped()),
         ("/pmv/attitude_uncorrected", Vector3Stamped()))]
-    every_tick.append((monitor.publisher(Vector3Stamped, "/pmv/residual"), Vector3Stamped()))
+    sensor_health = sensor.publisher(DiagnosticArray, "/diagnostics")
     clock = sensor.publisher(Clock, "/clock")
-    tracker_output = tracker.publisher(QuaternionStamped, "/star_tracker/attitude")
-    every_second = [(sensor.publisher(DiagnosticArray, "/diagnostics"), report),
-                    (monitor.publisher(DiagnosticArray, "/pmv/error_statistics"), report)]
     executor = SingleThreadedExecutor(context=context)
     for each in (sensor, tracker, monitor, collector):
         executor.add_node(each)
-    drain(executor)
-    published = 0
-    started = time.perf_counter()
-    for tick in range(ticks):
-        tick_clock = Clock()
-        tick_clock.clock.sec = tick + 1
-        clock.publish(tick_clock)
-        batch = every_tick + ([(tracker_output, QuaternionStamped())] if tick % 5 == 0 else []) \
-            + (every_second if tick % 10 == 0 else [])
-        for publisher, message in batch:
+
+    def tick(k):
+        now = Clock()
+        now.clock.sec, now.clock.nanosec = divmod(round((k + 1) * 1e9 / rate_hz), 1_000_000_000)
+        clock.publish(now)
+        for publisher, message in sensor_outputs:
             publisher.publish(message)
-        published += 1 + len(batch)
+        if k % 10 == 0:
+            sensor_health.publish(report)
         drain(executor)
-    wall = time.perf_counter() - started
+
+    for k in range(20):  # warm-up, as the pipeline's
+        tick(k)
+    with PublishCounter() as published:
+        started = time.perf_counter()
+        for k in range(20, 20 + ticks):
+            tick(k)
+        wall = time.perf_counter() - started
     executor.shutdown()
     for each in (sensor, tracker, monitor, collector):
         each.destroy_node()
     rclpy.shutdown(context=context)
-    return {"ticks": ticks, "published": published, "wall_s": wall, "messages_per_s": published / wall}
+    return {"ticks": ticks, "published": published.count, "wall_s": wall,
+            "messages_per_s": published.count / wall}
 
 
 def pipeline_rate(ticks: int, rate_hz: float) -> dict:

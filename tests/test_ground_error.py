@@ -98,5 +98,9 @@ def test_one_sample_path_matches_the_array_path():
         assert all(isinstance(value, float) for value in one)
         np.testing.assert_allclose(one, [component[k] for component in arrays], rtol=1e-12, atol=1e-9)
     assert any(math.isnan(nadir_ground_error(float(r), 0.0, 36000e3).circular_m) for r in roll[:5])
+    for bad in ((math.inf, 0.0, 500e3), (0.0, math.nan, 500e3), (0.0, 0.0, math.nan)):
+        assert all(math.isnan(value) for value in nadir_ground_error(*bad))
+        with np.errstate(invalid="ignore"):  # the array path warns on cos(inf), then gives NaN
+            assert all(np.isnan(value) for value in nadir_ground_error(*(np.array([v]) for v in bad)))
     with pytest.raises(ValueError, match="altitude"):
         nadir_ground_error(0.0, 0.0, -1.0)

@@ -229,6 +229,12 @@ def test_pipeline_runs_blas_on_one_thread_and_restores_it():
         return [pool["num_threads"] for pool in threadpool_info() if pool["user_api"] == "blas"]
 
     before = blas_threads()
-    with Pipeline(None, {"sensor.rate_hz": 10.0}):
+    first = Pipeline(None, {"sensor.rate_hz": 10.0})
+    try:
         assert blas_threads() and all(n == 1 for n in blas_threads())
+        with Pipeline(None, {"sensor.rate_hz": 10.0}):
+            pass
+        assert all(n == 1 for n in blas_threads())  # the first pipeline still holds the limit
+    finally:
+        first.close()
     assert blas_threads() == before

@@ -153,8 +153,10 @@ def nadir_ground_error(roll_rad, pitch_rad, altitude_m, target_height_m=0.0) -> 
 
 def _nadir_ground_error_scalar(roll: float, pitch: float, altitude: float, target_height: float) -> GroundError:
     """:func:`nadir_ground_error` for one sample in plain floats (the monitor calls it per residual)."""
-    if not altitude > 0.0:
+    if altitude <= 0.0:
         raise ValueError(f"altitude must be positive, got {altitude} m")
+    if not all(math.isfinite(value) for value in (roll, pitch, altitude, target_height)):
+        return GroundError(math.nan, math.nan, math.nan)
     radius = EARTH_MEAN_RADIUS_M + target_height
     spacecraft_z = EARTH_MEAN_RADIUS_M + altitude
     cos_roll = math.cos(roll)

@@ -11,17 +11,37 @@ from threadpoolctl import ThreadpoolController
 from .params import coerce_parameters
 
 
-def single_threaded_blas():
-    """Run BLAS (numpy's matrix products) on one thread in this process; returns the limiter.
+_blas_holders = 0
+_blas_limiter = None
+
+
+def hold_single_threaded_blas() -> None:
+    """Run BLAS (numpy's matrix products) on one thread in this process until the last holder releases it.
 
     The nodes' numerics are small products (the radiance environment's
     spectral synthesis is the largest). Left to itself OpenBLAS splits them
     over every core, where on a 2-core machine its threads contend with the
     executor, the DDS threads and any other busy process: a block of sensor
-    samples then took 4–10× longer than on one thread. Call
-    ``restore_original_limits()`` on the result to undo it.
+    samples then took 4–10× longer than on one thread. Holders are counted,
+    so pipelines that overlap in one process restore the original setting
+    only when the last of them is released.
     """
-    return ThreadpoolController().limit(limits=1, user_api="blas")
+    global _blas_holders, _blas_limiter
+    if _blas_holders == 0:
+        _blas_limiter = ThreadpoolController().limit(limits=1, user_api="blas")
+    _blas_holders += 1
+
+
+def release_single_threaded_blas() -> None:
+    """Undo one :func:`hold_single_threaded_blas`; the last release restores the original BLAS threads."""
+    global _blas_holders, _blas_limiter
+    if _blas_holders == 0:
+        return
+    _blas_holders -= 1
+    if _blas_holders == 0:
+        _blas_limiter.restore_original_limits()
+        _blas_limiter = None
+
 
 #: Every pmv_ros topic: reliable, keep-last 100 (publishers and subscriptions).
 #: At the highest sensor rate (100 Hz) that is one second of messages per

@@ -8,7 +8,7 @@ import rclpy
 from rclpy.executors import ExternalShutdownException
 from rclpy.impl.implementation_singleton import rclpy_implementation
 
-from .base import single_threaded_blas
+from .base import hold_single_threaded_blas
 from .params import ParameterError
 
 
@@ -25,7 +25,7 @@ def run_node(factory, name: str, args=None) -> int:
         print(f"{name}: cannot start: {error}", file=sys.stderr)
         return 1
     node = None
-    single_threaded_blas()  # for the life of the process
+    hold_single_threaded_blas()  # for the life of the process
     try:
         node = factory()
         rclpy.spin(node)

@@ -21,7 +21,7 @@ from rclpy.executors import SingleThreadedExecutor, TimeoutException
 from rclpy.parameter import Parameter
 
 import pmv_msgs_shim as shim
-from .base import PmvNode, single_threaded_blas
+from .base import PmvNode, hold_single_threaded_blas, release_single_threaded_blas
 from .error_monitor_node import ErrorMonitorNode
 from .sensor_node import SensorNode
 from .star_tracker_node import StarTrackerNode
@@ -112,7 +112,8 @@ class Pipeline:
         self._settings, self._lean = settings, lean
         self.nodes = []
         self.executor = None
-        self._blas_limit = single_threaded_blas()  # undone in close()
+        hold_single_threaded_blas()  # released in close()
+        self._holds_blas = True
         try:
             self.executor = SingleThreadedExecutor(context=self.context)
             # The sensor is the clock: it stamps from its own simulation time and
@@ -174,16 +175,18 @@ class Pipeline:
 
     def close(self) -> None:
         """Destroy the nodes and shut the context down."""
-        if getattr(self, "executor", None) is not None:
-            self.executor.shutdown()
-        for node in self.nodes:
-            node.destroy_node()
-        self.nodes = []
-        if self.context.ok():
-            rclpy.shutdown(context=self.context)
-        if getattr(self, "_blas_limit", None) is not None:
-            self._blas_limit.restore_original_limits()
-            self._blas_limit = None
+        try:
+            if getattr(self, "executor", None) is not None:
+                self.executor.shutdown()
+            for node in self.nodes:
+                node.destroy_node()
+            self.nodes = []
+            if self.context.ok():
+                rclpy.shutdown(context=self.context)
+        finally:
+            if getattr(self, "_holds_blas", False):
+                self._holds_blas = False
+                release_single_threaded_blas()
 
     def __enter__(self):
         return self

@@ -380,7 +380,7 @@ class SensorNode(PmvNode):
             reading.sensed_roll_uncorrected_rad.tolist(),
             reading.sensed_pitch_uncorrected_rad.tolist(),
             status.T.tolist(),
-            (np.zeros_like(status) if blinding is None else blinding).T.tolist(),
+            (np.full_like(status, -1) if blinding is None else blinding).T.tolist(),
             position.T.tolist(),
             velocity.T.tolist(),
         )
