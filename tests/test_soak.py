@@ -8,8 +8,9 @@ from ≈ 2 to ≈ 3.5 ms once and for all — the resident set size (VmRSS, afte
 a garbage collection) may grow by less than 10 MB, and the wall time the
 callbacks of one tick take (sensor step and everything it triggers, down to
 the monitor's residual) must not grow: the smaller median of the last two
-blocks may exceed the smaller of the first two by 50 % at most (the smaller
-of two, because another process on a 2-core machine can slow one block).
+blocks may exceed the smaller of the first two by a factor of 2 at most (the
+smaller of two, and the factor, because the machine's speed drifts by up to
+1.6× for tens of seconds).
 The bounded structures are checked too: monitor truth history and pending
 queue, the star tracker's release queue, the sensor's precomputed block.
 
@@ -44,7 +45,11 @@ FULL = (24 * 3600.0, 2 * 3600.0)
 #: Blocks the run after the warm-up is measured in.
 BLOCKS = 6
 RSS_GROWTH_LIMIT_MB = 10.0
-LATENCY_GROWTH_LIMIT = 1.5  # last blocks vs first blocks, best of two each: real growth over hours is far larger; 2-core noise is not
+#: Last blocks against first blocks, best of two each. These virtual machines change speed by up to
+#: 1.6× for tens of seconds (measured: block medians 5.7 → 9.0 ms and 8.3 → 5.1 ms within one short
+#: run, no change in the code path), so 1.5 failed on noise; growth from an unbounded structure
+#: over hours is far larger than 2×.
+LATENCY_GROWTH_LIMIT = 2.0
 
 
 def rss_mb() -> float:
