@@ -14,7 +14,8 @@ and by the drain itself.
 
 Graph floor (a diagnosis, not a target): the pipeline's graph without its
 work — four lean nodes with the same topics, message types, subscriptions,
-timers and /clock followers, the same messages per tick published from the
+timers and simulation time (set in-process, as the pipeline does), the same
+messages per tick published from the
 same places (the tracker's and the monitor's from their callbacks), but
 prebuilt, and callbacks doing nothing else. Its rate over the bare rate is the
 most any pipeline with this graph could reach; the rest of the gap is the
@@ -52,6 +53,7 @@ from nav_msgs.msg import Odometry  # noqa: E402
 from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.parameter import Parameter  # noqa: E402
 from rclpy.publisher import Publisher  # noqa: E402
+from rclpy.time_source import TimeSource  # noqa: E402
 from rosgraph_msgs.msg import Clock  # noqa: E402
 
 from pmv_ros.nodes.base import PmvNode  # noqa: E402
@@ -121,8 +123,9 @@ def bare_rate(messages: int, burst: int, lean: bool) -> dict:
 def graph_floor_rate(ticks: int, rate_hz: float = 10.0) -> dict:
     """Messages per second through the pipeline's graph with no work in it (see the module docstring).
 
-    The messages flow as in the pipeline: the sensor publishes /clock and its
-    outputs; the tracker publishes a frame from its truth callback every 5th
+    The messages flow as in the pipeline: the sensor publishes /clock (nobody
+    in the process takes it: the tracker and the monitor follow a time source
+    the tick sets) and its outputs; the tracker publishes a frame from its truth callback every 5th
     sample (2 Hz at 10 Hz); the monitor publishes a residual from its
     attitude callback and statistics every 10th; each of the three publishes
     /diagnostics once a simulated second. Every message is a prebuilt one.
@@ -130,9 +133,12 @@ def graph_floor_rate(ticks: int, rate_hz: float = 10.0) -> dict:
     context = rclpy.Context()
     rclpy.init(context=context)
 
-    def node(name, use_sim_time):
-        return PmvNode(name, lean=True, context=context,
-                       parameter_overrides=[Parameter("use_sim_time", value=use_sim_time)])
+    sim_time = TimeSource()  # as the pipeline's: set by each tick, no /clock subscription
+    sim_time.ros_time_is_active = True
+
+    def node(name, follows_sim_time):
+        return PmvNode(name, lean=True, context=context, time_source=sim_time if follows_sim_time else None,
+                       parameter_overrides=[Parameter("use_sim_time", value=False)])
 
     sensor, tracker, monitor, collector = (node("floor_sensor", False), node("floor_tracker", True),
                                            node("floor_monitor", True), node("floor_collector", False))
@@ -188,6 +194,7 @@ def graph_floor_rate(ticks: int, rate_hz: float = 10.0) -> dict:
         now = Clock()
         now.clock.sec, now.clock.nanosec = divmod(round((k + 1) * 1e9 / rate_hz), 1_000_000_000)
         clock.publish(now)
+        sim_time.clock_callback(now)
         for publisher, message in sensor_outputs:
             publisher.publish(message)
         if k % 10 == 0:
@@ -217,8 +224,7 @@ def pipeline_rate(ticks: int, rate_hz: float) -> dict:
         with PublishCounter() as published:
             started = time.perf_counter()
             for _ in range(ticks):
-                pipeline.sensor.step()
-                callbacks += pipeline.drain()
+                callbacks += pipeline.step()
             wall = time.perf_counter() - started
         used = pipeline.monitor.monitor.counters["used"]
     return {"ticks": ticks, "rate_hz": rate_hz, "wall_s": wall, "sim_s_per_wall_s": ticks / rate_hz / wall,

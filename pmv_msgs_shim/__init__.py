@@ -23,9 +23,18 @@ from .conversions import (
     horizon_crossings_to_msg,
     orbit_state_from_msg,
     orbit_state_to_msg,
+    read_attitude_angles,
+    read_attitude_quaternion,
+    read_orbit_state,
     time_from_msg,
     time_to_msg,
     to_msg,
+    write_attitude_angles,
+    write_attitude_quaternion,
+    write_clock,
+    write_horizon_crossings,
+    write_orbit_state,
+    write_stamp,
 )
 from .records import (
     BODY_FRAME,
@@ -43,6 +52,8 @@ from .records import (
     HorizonCrossings,
     Level,
     OrbitState,
+    check_stamp,
+    checked_lines_of_sight,
 )
 
 __all__ = [
@@ -54,4 +65,7 @@ __all__ = [
     "attitude_quaternion_to_msg", "clock_from_msg", "clock_to_msg", "error_statistics_from_msg",
     "error_statistics_to_msg", "health_from_msg", "health_to_msg", "horizon_crossings_from_msg",
     "horizon_crossings_to_msg", "orbit_state_from_msg", "orbit_state_to_msg", "time_from_msg", "time_to_msg", "to_msg",
+    "check_stamp", "checked_lines_of_sight", "read_attitude_angles", "read_attitude_quaternion", "read_orbit_state",
+    "write_attitude_angles", "write_attitude_quaternion", "write_clock", "write_horizon_crossings",
+    "write_orbit_state", "write_stamp",
 ]

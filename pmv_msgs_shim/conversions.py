@@ -25,6 +25,15 @@ Wire layouts
                             floats ("nan" where there is no value yet).
     /diagnostics            DiagnosticArray of :class:`HealthStatus`.
     /clock                  rosgraph_msgs/Clock: simulation time.
+
+Writers and readers for the hot paths
+    ``write_<record>(msg, stamp_s, frame_id, …)`` fills a message in place
+    from plain values and returns it, so a publisher at 10 Hz or in fast time
+    can reuse one message per topic (rclpy serialises at ``publish``, so the
+    next write cannot touch what was sent). ``read_<record>(msg)`` returns the
+    plain values a ``*_from_msg`` record would hold, with the same stamp check,
+    without building the record. The record functions are built on them, so
+    both give the same wire layout.
 """
 
 from __future__ import annotations
@@ -51,6 +60,7 @@ from .records import (
     HorizonCrossings,
     Level,
     OrbitState,
+    check_stamp,
 )
 
 #: One arc minute in radians (the same value as pmv_ros.core.constants.ARCMIN_RAD).
@@ -67,8 +77,7 @@ _INT32_MAX = 2**31 - 1
 
 # ----------------------------------------------------------------------------- time
 
-def time_to_msg(stamp_s: float) -> Time:
-    """builtin_interfaces/Time from seconds (rounded to the nanosecond); 0 ≤ stamp < 2³¹ s."""
+def _split_stamp(stamp_s: float) -> tuple[int, int]:
     stamp = float(stamp_s)
     if not (math.isfinite(stamp) and 0.0 <= stamp < _INT32_MAX + 1):
         raise ValueError(f"stamp_s = {stamp_s} is outside the allowed range [0, 2^31) s")
@@ -76,7 +85,19 @@ def time_to_msg(stamp_s: float) -> Time:
     nanoseconds = round((stamp - seconds) * 1e9)
     if nanoseconds >= 1_000_000_000:
         seconds, nanoseconds = seconds + 1, nanoseconds - 1_000_000_000
-    return Time(sec=int(seconds), nanosec=int(nanoseconds))
+    return int(seconds), int(nanoseconds)
+
+
+def time_to_msg(stamp_s: float) -> Time:
+    """builtin_interfaces/Time from seconds (rounded to the nanosecond); 0 ≤ stamp < 2³¹ s."""
+    seconds, nanoseconds = _split_stamp(stamp_s)
+    return Time(sec=seconds, nanosec=nanoseconds)
+
+
+def write_stamp(msg: Time, stamp_s: float) -> Time:
+    """Set a builtin_interfaces/Time in place from seconds (as :func:`time_to_msg`); returns it."""
+    msg.sec, msg.nanosec = _split_stamp(stamp_s)
+    return msg
 
 
 def time_from_msg(msg: Time) -> float:
@@ -86,7 +107,13 @@ def time_from_msg(msg: Time) -> float:
 
 def clock_to_msg(stamp_s: float) -> Clock:
     """rosgraph_msgs/Clock for /clock (fast-time simulation), from seconds."""
-    return Clock(clock=time_to_msg(stamp_s))
+    return write_clock(Clock(), stamp_s)
+
+
+def write_clock(msg: Clock, stamp_s: float) -> Clock:
+    """Fill a rosgraph_msgs/Clock in place (see "Writers" above); returns it."""
+    write_stamp(msg.clock, stamp_s)
+    return msg
 
 
 def clock_from_msg(msg: Clock) -> float:
@@ -95,17 +122,32 @@ def clock_from_msg(msg: Clock) -> float:
 
 
 def _header(msg, stamp_s: float, frame_id: str) -> None:
-    msg.header.stamp = time_to_msg(stamp_s)
-    msg.header.frame_id = frame_id
+    header = msg.header
+    write_stamp(header.stamp, stamp_s)
+    header.frame_id = frame_id
 
 
 # --------------------------------------------------------------- horizon crossings
 
 def horizon_crossings_to_msg(record: HorizonCrossings) -> PolygonStamped:
     """PolygonStamped of the 4 chord crossings; invalid chords as NaN points."""
-    msg = PolygonStamped()
-    _header(msg, record.stamp_s, record.frame_id)
-    msg.polygon.points = [Point32(x=float(v[0]), y=float(v[1]), z=float(v[2])) for v in record.line_of_sight]
+    return write_horizon_crossings(PolygonStamped(), record.stamp_s, record.frame_id, record.line_of_sight.tolist())
+
+
+def write_horizon_crossings(msg: PolygonStamped, stamp_s: float, frame_id: str, line_of_sight) -> PolygonStamped:
+    """Fill a PolygonStamped in place (see "Writers" above); returns it.
+
+    ``line_of_sight``: 4 rows (x, y, z) of floats, chords +X, +Y, −X, −Y, NaN
+    rows for invalid chords — as :class:`HorizonCrossings` holds them
+    (:func:`~pmv_msgs_shim.records.checked_lines_of_sight` makes them).
+    """
+    _header(msg, stamp_s, frame_id)
+    points = msg.polygon.points
+    if len(points) != 4:
+        points = [Point32() for _ in range(4)]
+        msg.polygon.points = points
+    for point, (x, y, z) in zip(points, line_of_sight):
+        point.x, point.y, point.z = float(x), float(y), float(z)
     return msg
 
 
@@ -123,9 +165,16 @@ def horizon_crossings_from_msg(msg: PolygonStamped) -> HorizonCrossings:
 
 def attitude_angles_to_msg(record: AttitudeAngles) -> Vector3Stamped:
     """Vector3Stamped with x = roll, y = pitch (rad), z = 0 (yaw is not observable)."""
-    msg = Vector3Stamped()
-    _header(msg, record.stamp_s, record.frame_id)
-    msg.vector.x, msg.vector.y, msg.vector.z = record.roll_rad, record.pitch_rad, 0.0
+    return write_attitude_angles(Vector3Stamped(), record.stamp_s, record.frame_id, record.roll_rad,
+                                 record.pitch_rad)
+
+
+def write_attitude_angles(msg: Vector3Stamped, stamp_s: float, frame_id: str, roll_rad: float,
+                          pitch_rad: float) -> Vector3Stamped:
+    """Fill a Vector3Stamped in place (see "Writers" above); returns it."""
+    _header(msg, stamp_s, frame_id)
+    vector = msg.vector
+    vector.x, vector.y, vector.z = float(roll_rad), float(pitch_rad), 0.0
     return msg
 
 
@@ -134,12 +183,23 @@ def attitude_angles_from_msg(msg: Vector3Stamped) -> AttitudeAngles:
     return AttitudeAngles(time_from_msg(msg.header.stamp), msg.header.frame_id, msg.vector.x, msg.vector.y)
 
 
+def read_attitude_angles(msg: Vector3Stamped) -> tuple[float, float, float]:
+    """(stamp_s, roll_rad, pitch_rad) of a Vector3Stamped, checked as :class:`AttitudeAngles` checks them."""
+    vector = msg.vector
+    return check_stamp(time_from_msg(msg.header.stamp)), vector.x, vector.y
+
+
 def attitude_quaternion_to_msg(record: AttitudeQuaternion) -> QuaternionStamped:
     """QuaternionStamped of the body orientation in ``record.frame_id``."""
-    msg = QuaternionStamped()
-    _header(msg, record.stamp_s, record.frame_id)
-    x, y, z, w = (float(c) for c in record.q_xyzw)
-    msg.quaternion.x, msg.quaternion.y, msg.quaternion.z, msg.quaternion.w = x, y, z, w
+    return write_attitude_quaternion(QuaternionStamped(), record.stamp_s, record.frame_id, record.q_xyzw.tolist())
+
+
+def write_attitude_quaternion(msg: QuaternionStamped, stamp_s: float, frame_id: str, q_xyzw) -> QuaternionStamped:
+    """Fill a QuaternionStamped in place from (x, y, z, w) (see "Writers" above); returns it."""
+    _header(msg, stamp_s, frame_id)
+    quaternion = msg.quaternion
+    x, y, z, w = q_xyzw
+    quaternion.x, quaternion.y, quaternion.z, quaternion.w = float(x), float(y), float(z), float(w)
     return msg
 
 
@@ -149,16 +209,33 @@ def attitude_quaternion_from_msg(msg: QuaternionStamped) -> AttitudeQuaternion:
     return AttitudeQuaternion(time_from_msg(msg.header.stamp), msg.header.frame_id, [q.x, q.y, q.z, q.w])
 
 
+def read_attitude_quaternion(msg: QuaternionStamped) -> tuple[float, tuple]:
+    """(stamp_s, (x, y, z, w)) of a QuaternionStamped, checked as :class:`AttitudeQuaternion` checks them."""
+    q = msg.quaternion
+    return check_stamp(time_from_msg(msg.header.stamp)), (q.x, q.y, q.z, q.w)
+
+
 # -------------------------------------------------------------------------- orbit
 
 def orbit_state_to_msg(record: OrbitState) -> Odometry:
     """Odometry with position and velocity in ``record.frame_id``; orientation identity, covariances zero."""
-    msg = Odometry()
-    _header(msg, record.stamp_s, record.frame_id)
-    msg.child_frame_id = record.child_frame_id
+    return write_orbit_state(Odometry(), record.stamp_s, record.frame_id, record.child_frame_id,
+                             record.position_m.tolist(), record.velocity_m_s.tolist())
+
+
+def write_orbit_state(msg: Odometry, stamp_s: float, frame_id: str, child_frame_id: str, position_m,
+                      velocity_m_s) -> Odometry:
+    """Fill an Odometry in place from position and velocity (x, y, z) (see "Writers" above); returns it.
+
+    Only the header, the child frame, the position and the linear velocity are
+    written: a message made by ``Odometry()`` keeps its identity orientation
+    and zero covariances, and this function never touches them.
+    """
+    _header(msg, stamp_s, frame_id)
+    msg.child_frame_id = child_frame_id
     position, velocity = msg.pose.pose.position, msg.twist.twist.linear
-    position.x, position.y, position.z = (float(c) for c in record.position_m)
-    velocity.x, velocity.y, velocity.z = (float(c) for c in record.velocity_m_s)
+    position.x, position.y, position.z = (float(c) for c in position_m)
+    velocity.x, velocity.y, velocity.z = (float(c) for c in velocity_m_s)
     return msg
 
 
@@ -167,6 +244,12 @@ def orbit_state_from_msg(msg: Odometry) -> OrbitState:
     p, v = msg.pose.pose.position, msg.twist.twist.linear
     return OrbitState(time_from_msg(msg.header.stamp), msg.header.frame_id, msg.child_frame_id,
                       [p.x, p.y, p.z], [v.x, v.y, v.z])
+
+
+def read_orbit_state(msg: Odometry) -> tuple[float, tuple, tuple]:
+    """(stamp_s, position_m, velocity_m_s) of an Odometry, checked as :class:`OrbitState` checks them."""
+    p, v = msg.pose.pose.position, msg.twist.twist.linear
+    return check_stamp(time_from_msg(msg.header.stamp)), (p.x, p.y, p.z), (v.x, v.y, v.z)
 
 
 # ------------------------------------------------------------------- diagnostics
@@ -211,7 +294,7 @@ def _channel_values(channel: ChannelStatistics, oblateness_removed: bool) -> lis
 def error_statistics_to_msg(record: ErrorStatistics) -> DiagnosticArray:
     """DiagnosticArray for /pmv/error_statistics: a status per channel, then the counters (layout above)."""
     msg = DiagnosticArray()
-    msg.header.stamp = time_to_msg(record.stamp_s)
+    write_stamp(msg.header.stamp, record.stamp_s)
     statuses = [_status(STATISTICS_STATUS_PREFIX + c.channel, c.level, c.message, record.hardware_id,
                         _channel_values(c, record.oblateness_removed)) for c in record.channels]
     counters = record.counters
@@ -261,7 +344,7 @@ def error_statistics_from_msg(msg: DiagnosticArray) -> ErrorStatistics:
 def health_to_msg(record: HealthReport) -> DiagnosticArray:
     """DiagnosticArray for /diagnostics."""
     msg = DiagnosticArray()
-    msg.header.stamp = time_to_msg(record.stamp_s)
+    write_stamp(msg.header.stamp, record.stamp_s)
     msg.status = [_status(s.name, s.level, s.message, s.hardware_id, s.values) for s in record.statuses]
     return msg
 

@@ -34,7 +34,8 @@ CHANNELS = ("roll", "pitch", "meridional")
 UNIT_VECTOR_TOLERANCE = 1e-4
 
 
-def _check_stamp(stamp_s: float) -> float:
+def check_stamp(stamp_s: float) -> float:
+    """The stamp as a float; ValueError unless it is finite and ≥ 0 (what every record requires)."""
     stamp = float(stamp_s)
     if not (math.isfinite(stamp) and stamp >= 0.0):
         raise ValueError(f"stamp_s = {stamp_s} must be finite and ≥ 0")
@@ -47,6 +48,29 @@ def _frozen_array(values, shape, name, dtype=float) -> np.ndarray:
         raise ValueError(f"{name} must have shape {shape}, got {array.shape}")
     array.flags.writeable = False
     return array
+
+
+def checked_lines_of_sight(line_of_sight, valid) -> np.ndarray:
+    """Lines of sight as :class:`HorizonCrossings` holds them, for one scan or a block of scans.
+
+    Args:
+        line_of_sight: ``(..., 4, 3)`` vectors, chords +X, +Y, −X, −Y.
+        valid: ``(..., 4)`` bools: the chord saw a horizon.
+
+    Returns:
+        A new float array of the same shape with the rows of invalid chords
+        set to NaN; ValueError if a valid row is not a unit vector.
+    """
+    vectors = np.array(line_of_sight, dtype=float)
+    valid = np.asarray(valid, bool)
+    if vectors.shape[-2:] != (4, 3) or valid.shape != vectors.shape[:-1]:
+        raise ValueError(f"line_of_sight must have shape (..., 4, 3) and valid (..., 4), "
+                         f"got {vectors.shape} and {valid.shape}")
+    vectors[~valid] = np.nan
+    norms = np.linalg.norm(vectors[valid], axis=-1)
+    if not np.all(np.abs(norms - 1.0) <= UNIT_VECTOR_TOLERANCE):
+        raise ValueError(f"valid lines of sight must be unit vectors, got norms {norms}")
+    return vectors
 
 
 @dataclass(frozen=True, eq=False)
@@ -67,15 +91,12 @@ class HorizonCrossings:
     valid: np.ndarray = field(default_factory=lambda: np.zeros(4, bool))
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "stamp_s", _check_stamp(self.stamp_s))
+        object.__setattr__(self, "stamp_s", check_stamp(self.stamp_s))
         valid = _frozen_array(self.valid, (4,), "valid", bool)
         vectors = np.array(self.line_of_sight, dtype=float)
         if vectors.shape != (4, 3):
             raise ValueError(f"line_of_sight must have shape (4, 3), got {vectors.shape}")
-        vectors[~valid] = np.nan
-        norms = np.linalg.norm(vectors[valid], axis=1)
-        if not np.all(np.abs(norms - 1.0) <= UNIT_VECTOR_TOLERANCE):
-            raise ValueError(f"valid lines of sight must be unit vectors, got norms {norms}")
+        vectors = checked_lines_of_sight(vectors, valid)
         vectors.flags.writeable = False
         object.__setattr__(self, "valid", valid)
         object.__setattr__(self, "line_of_sight", vectors)
@@ -94,7 +115,7 @@ class AttitudeAngles:
     pitch_rad: float = 0.0
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "stamp_s", _check_stamp(self.stamp_s))
+        object.__setattr__(self, "stamp_s", check_stamp(self.stamp_s))
         object.__setattr__(self, "roll_rad", float(self.roll_rad))
         object.__setattr__(self, "pitch_rad", float(self.pitch_rad))
 
@@ -112,7 +133,7 @@ class AttitudeQuaternion:
     q_xyzw: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 0.0, 1.0]))
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "stamp_s", _check_stamp(self.stamp_s))
+        object.__setattr__(self, "stamp_s", check_stamp(self.stamp_s))
         object.__setattr__(self, "q_xyzw", _frozen_array(self.q_xyzw, (4,), "q_xyzw"))
 
 
@@ -132,7 +153,7 @@ class OrbitState:
     velocity_m_s: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "stamp_s", _check_stamp(self.stamp_s))
+        object.__setattr__(self, "stamp_s", check_stamp(self.stamp_s))
         object.__setattr__(self, "position_m", _frozen_array(self.position_m, (3,), "position_m"))
         object.__setattr__(self, "velocity_m_s", _frozen_array(self.velocity_m_s, (3,), "velocity_m_s"))
 
@@ -206,7 +227,7 @@ class ErrorStatistics:
     hardware_id: str = "pmv"
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "stamp_s", _check_stamp(self.stamp_s))
+        object.__setattr__(self, "stamp_s", check_stamp(self.stamp_s))
         channels = tuple(self.channels)
         names = [c.channel for c in channels]
         if len(set(names)) != len(names):
@@ -266,5 +287,5 @@ class HealthReport:
     statuses: tuple = ()
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "stamp_s", _check_stamp(self.stamp_s))
+        object.__setattr__(self, "stamp_s", check_stamp(self.stamp_s))
         object.__setattr__(self, "statuses", tuple(self.statuses))

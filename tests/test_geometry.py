@@ -49,6 +49,17 @@ def test_closed_form_reproduces_kondor_table_meridional_column():
     np.testing.assert_allclose(roll / ARCMIN_RAD, [row[3] for row in KONDOR_TABLE], atol=0.3)
 
 
+def test_closed_form_for_one_position_is_the_array_path_in_floats():
+    # The monitor evaluates the model once per sample in plain floats; the array path is the reference.
+    u = np.linspace(-7.0, 7.0, 301)
+    for altitude, inclination in ((500e3, math.radians(74.5)), (835e3, math.radians(98.8)), (500e3, 0.0)):
+        arrays = closed_form_oblateness(u, altitude, inclination)
+        for k in range(0, u.size, 5):
+            one = closed_form_oblateness(float(u[k]), altitude, inclination)
+            assert all(type(value) is float for value in one)
+            np.testing.assert_allclose(one, [column[k] for column in arrays], rtol=1e-12, atol=1e-15)
+
+
 @pytest.mark.parametrize("altitude_km, inclination_deg", [(500, 74.5), (835, 98.8), (500, 30.0), (835, 51.6)])
 def test_closed_form_agrees_with_ray_geometry_over_full_orbits(altitude_km, inclination_deg):
     # 0.5′ is the bound for the approximation; it holds with margin

@@ -238,3 +238,22 @@ def test_pipeline_runs_blas_on_one_thread_and_restores_it():
     finally:
         first.close()
     assert blas_threads() == before
+
+
+def test_pipeline_nodes_follow_the_sensor_time_without_taking_clock():
+    # In one process the tracker and the monitor follow the sensor's simulation time through the
+    # pipeline's time source; /clock is still published for anything outside, but no pipeline node takes it.
+    with Pipeline(None, {"sensor.rate_hz": 10.0, "sim.start_time_s": 1000.0}) as pipeline:
+        followers = (pipeline.star_tracker, pipeline.monitor)
+        pipeline.step(25)
+        for node in followers:
+            assert node.get_clock().now().nanoseconds == round(pipeline.sensor.sim_time_s * 1e9)
+            assert all(sub.topic_name != "/clock" for sub in node.subscriptions)
+        assert pipeline.sensor.count_subscribers("/clock") == 0
+        # A restarted node starts on the simulation time, not the wall clock.
+        pipeline.stop_node("monitor")
+        monitor = pipeline.start_node("monitor")
+        assert monitor.get_clock().now().nanoseconds == round(pipeline.sensor.sim_time_s * 1e9)
+        pipeline.step(30)
+        assert monitor.get_clock().now().nanoseconds == round(pipeline.sensor.sim_time_s * 1e9)
+        assert monitor.monitor.counters["used"] > 0

@@ -6,12 +6,17 @@ import math
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from pmv_ros.core.attitude import (
     nadir_in_body,
+    quaternion_conjugate,
     quaternion_from_roll_pitch_yaw,
+    quaternion_from_rotation_vector,
+    quaternion_product,
     roll_pitch_from_nadir,
     roll_pitch_yaw_from_quaternion,
+    rotation_vector_from_quaternion,
     true_roll_pitch,
 )
 from pmv_ros.core.orbit import CircularOrbit, eci_to_ecef, geocentric_latitude_longitude
@@ -110,3 +115,37 @@ def test_one_quaternion_reads_like_the_array_path():
 def test_yaw_alone_is_not_observable():
     q = quaternion_from_roll_pitch_yaw(0.0, 0.0, math.radians(25.0))
     np.testing.assert_allclose(true_roll_pitch(q), [0.0, 0.0], atol=1e-12)
+
+
+def test_quaternion_algebra_matches_scipy_rotations_for_tuples_and_arrays():
+    # The star tracker composes its frames with these (one frame at a time, in plain floats);
+    # scipy's Rotation is the reference. Rotation angles from 0 through the small-angle series
+    # (below 1e-3 rad) to large ones.
+    rng = np.random.default_rng(17)
+    a, b = rng.normal(size=(4, 300)), rng.normal(size=(4, 300))
+    a /= np.linalg.norm(a, axis=0)
+    b /= np.linalg.norm(b, axis=0)
+    product = quaternion_product(a, b)
+    reference = (Rotation.from_quat(a.T) * Rotation.from_quat(b.T)).as_quat().T
+    np.testing.assert_allclose(product * np.sign(np.sum(product * reference, axis=0)), reference, atol=1e-15)
+    axes = rng.normal(size=(3, 300))
+    axes /= np.linalg.norm(axes, axis=0)
+    angles = np.concatenate([[0.0, 1e-12, 1e-6, 9.99e-4, 1e-3, 1.001e-3], rng.uniform(0.0, np.pi, 294)])
+    vectors = axes * angles
+    q = quaternion_from_rotation_vector(vectors)
+    np.testing.assert_allclose(q, Rotation.from_rotvec(vectors.T).as_quat().T, atol=1e-15)
+    back = rotation_vector_from_quaternion(q)
+    np.testing.assert_allclose(back, Rotation.from_quat(q.T).as_rotvec().T, atol=1e-14)
+    np.testing.assert_allclose(back, vectors, atol=1e-14)
+    np.testing.assert_allclose(rotation_vector_from_quaternion(-q), vectors, atol=1e-14)  # q and −q: one rotation
+    np.testing.assert_allclose(quaternion_product(quaternion_conjugate(a), a), np.tile([[0], [0], [0], [1.0]], 300),
+                               atol=1e-15)
+    for k in range(0, 300, 7):  # one quaternion as a tuple of floats: the same numbers, no arrays
+        one = quaternion_product(tuple(a[:, k].tolist()), tuple(b[:, k].tolist()))
+        assert type(one) is tuple and all(type(c) is float for c in one)
+        np.testing.assert_allclose(one, product[:, k], atol=1e-16)
+        one_q = quaternion_from_rotation_vector(tuple(vectors[:, k].tolist()))
+        assert type(one_q) is tuple
+        np.testing.assert_allclose(one_q, q[:, k], atol=1e-16)
+        np.testing.assert_allclose(rotation_vector_from_quaternion(one_q), back[:, k], atol=1e-15)
+        np.testing.assert_allclose(quaternion_conjugate(one_q), quaternion_conjugate(q[:, k]), atol=0)

@@ -9,7 +9,9 @@ import sys
 import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
-from geometry_msgs.msg import PolygonStamped, Vector3Stamped
+from geometry_msgs.msg import PolygonStamped, QuaternionStamped, Vector3Stamped
+from nav_msgs.msg import Odometry
+from rosgraph_msgs.msg import Clock
 
 from pmv_msgs_shim import (
     ARCMIN_RAD,
@@ -29,10 +31,19 @@ from pmv_msgs_shim import (
     error_statistics_from_msg,
     health_from_msg,
     horizon_crossings_from_msg,
+    checked_lines_of_sight,
     orbit_state_from_msg,
+    read_attitude_angles,
+    read_attitude_quaternion,
+    read_orbit_state,
     time_from_msg,
     time_to_msg,
     to_msg,
+    write_attitude_angles,
+    write_attitude_quaternion,
+    write_clock,
+    write_horizon_crossings,
+    write_orbit_state,
 )
 
 
@@ -122,6 +133,74 @@ def test_attitude_quaternion_and_orbit_state_round_trip():
     back = orbit_state_from_msg(msg)
     assert np.array_equal(back.position_m, state.position_m) and np.array_equal(back.velocity_m_s, state.velocity_m_s)
     assert (back.stamp_s, back.frame_id, back.child_frame_id) == (9.0, "eci", "body")
+
+
+def test_writers_fill_a_reused_message_exactly_as_the_record_functions_build_one():
+    # The hot paths reuse one message per topic: whatever the message held before, a write
+    # must leave it equal to what the record function builds from the same values.
+    rng = np.random.default_rng(11)
+    vectors = rng.normal(size=(4, 3))
+    vectors /= np.linalg.norm(vectors, axis=1)[:, None]
+    crossings = HorizonCrossings(12.5, "pmv_sensor", vectors, [True, True, False, True])
+    angles = AttitudeAngles(12.5, "pmv_sensor", 2.5e-4, -1.25e-4)
+    quaternion = AttitudeQuaternion(12.5, "orbital", [0.1, -0.2, 0.3, math.sqrt(1 - 0.14)])
+    state = OrbitState(12.5, "eci", "body", [6871e3, 1.5, -2.0], [0.1, 7612.0, 3.3])
+    reused = {"crossings": PolygonStamped(), "angles": Vector3Stamped(), "quaternion": QuaternionStamped(),
+              "state": Odometry(), "clock": Clock()}
+    for round_ in range(2):  # the second round writes over the first one's values
+        stamp = 12.5 + round_
+        crossings_now = HorizonCrossings(stamp, "pmv_sensor", crossings.line_of_sight, crossings.valid)
+        assert write_horizon_crossings(reused["crossings"], stamp, "pmv_sensor",
+                                       crossings_now.line_of_sight.tolist()) is reused["crossings"]
+        written = horizon_crossings_from_msg(reused["crossings"])
+        built = horizon_crossings_from_msg(to_msg(crossings_now))
+        assert written.stamp_s == built.stamp_s and np.array_equal(written.valid, built.valid)
+        assert np.array_equal(written.line_of_sight, built.line_of_sight, equal_nan=True)
+        assert write_attitude_angles(reused["angles"], stamp, "pmv_sensor", angles.roll_rad * (1 + round_),
+                                     angles.pitch_rad) == to_msg(AttitudeAngles(stamp, "pmv_sensor",
+                                                                                angles.roll_rad * (1 + round_),
+                                                                                angles.pitch_rad))
+        assert write_attitude_quaternion(reused["quaternion"], stamp, "orbital", quaternion.q_xyzw.tolist()) == \
+            to_msg(AttitudeQuaternion(stamp, "orbital", quaternion.q_xyzw))
+        assert write_orbit_state(reused["state"], stamp, "eci", "body", state.position_m.tolist(),
+                                 state.velocity_m_s.tolist()) == \
+            to_msg(OrbitState(stamp, "eci", "body", state.position_m, state.velocity_m_s))
+        assert write_clock(reused["clock"], stamp) == Clock(clock=time_to_msg(stamp))
+    with pytest.raises(ValueError, match="stamp"):
+        write_attitude_angles(Vector3Stamped(), -1.0, "pmv_sensor", 0.0, 0.0)
+
+
+def test_readers_return_what_the_records_hold_and_check_the_stamp():
+    quaternion = AttitudeQuaternion(3.25, "orbital", [0.1, -0.2, 0.3, math.sqrt(1 - 0.14)])
+    stamp, q = read_attitude_quaternion(to_msg(quaternion))
+    assert stamp == 3.25 and q == tuple(quaternion.q_xyzw.tolist())
+    assert read_attitude_angles(to_msg(AttitudeAngles(3.25, "pmv_sensor", 1e-3, -2e-3))) == (3.25, 1e-3, -2e-3)
+    state = OrbitState(3.25, "eci", "body", [6871e3, 1.5, -2.0], [0.1, 7612.0, 3.3])
+    assert read_orbit_state(to_msg(state)) == (3.25, (6871e3, 1.5, -2.0), (0.1, 7612.0, 3.3))
+    negative = Vector3Stamped()
+    negative.header.stamp.sec = -5
+    for read in (read_attitude_angles, attitude_angles_from_msg):
+        with pytest.raises(ValueError, match="stamp"):
+            read(negative)
+
+
+def test_lines_of_sight_of_a_block_are_checked_like_one_record():
+    rng = np.random.default_rng(3)
+    block = rng.normal(size=(6, 4, 3))
+    block /= np.linalg.norm(block, axis=2)[:, :, None]
+    valid = rng.random((6, 4)) > 0.3
+    original = block.copy()
+    checked = checked_lines_of_sight(block, valid)
+    for k in range(6):
+        one = HorizonCrossings(1.0, "pmv_sensor", block[k], valid[k]).line_of_sight
+        assert np.array_equal(checked[k], one, equal_nan=True)
+    assert np.isnan(checked[~valid]).all() and np.array_equal(block, original)  # a new array: the input stays
+    block[2, 1] *= 1.01
+    valid[2, 1] = True
+    with pytest.raises(ValueError, match="unit"):
+        checked_lines_of_sight(block, valid)
+    with pytest.raises(ValueError, match="shape"):
+        checked_lines_of_sight(block[:, :3], valid[:, :3])
 
 
 def _statistics_record():

@@ -121,6 +121,46 @@ def test_orbit_ring_recovers_known_amplitudes_with_fixed_memory():
     assert np.all(np.isnan(ring.amplitudes())) and ring.nbytes == size
 
 
+def test_orbit_ring_sums_per_bin_whatever_the_order_and_when_it_is_read():
+    # The bin being filled is summed in floats and written back later: reading the harmonics
+    # mid-bin, a late sample for an earlier bin and NaN channels must not change what is fitted.
+    period, n_bins = 640.0, 64
+    rng = np.random.default_rng(8)
+    t = np.sort(rng.uniform(0.0, 2.6 * period, 4000))
+    late = rng.choice(t.size - 50, 40, replace=False)
+    order = np.arange(t.size)
+    for k in late:  # a few samples arrive 20 samples late (still inside the ring)
+        order = np.insert(np.delete(order, np.where(order == k)[0]), np.where(order == k + 20)[0][0] + 1, k)
+    values = np.column_stack([synthetic(t, {1: 2.0, 3: 0.5}), synthetic(t, {2: 1.0}), rng.normal(size=t.size)])
+    values[rng.random(t.size) < 0.1, 2] = np.nan
+    read_while_adding, read_at_end = OrbitRing(period, 3, n_bins), OrbitRing(period, 3, n_bins)
+    for i, k in enumerate(order):
+        assert read_while_adding.add(t[k], list(values[k])) == read_at_end.add(t[k], values[k])
+        if i % 37 == 0:
+            read_while_adding.amplitudes(harmonics=(1, 2))
+    result = read_at_end.amplitudes(harmonics=(1, 2, 3))
+    np.testing.assert_array_equal(read_while_adding.amplitudes(harmonics=(1, 2, 3)), result)
+    # The same fit from sums made here, sample by sample, over the last n_bins bins.
+    width = period / n_bins
+    last = math.floor(t.max() / width)
+    sums = {}
+    for k in order:
+        b = math.floor(t[k] / width)
+        if b > last - n_bins:
+            for c in range(3):
+                if np.isfinite(values[k, c]):
+                    entry = sums.setdefault((b, c), [0, 0.0, 0.0])
+                    entry[0] += 1
+                    entry[1] += t[k] - t[order[0]]
+                    entry[2] += values[k, c]
+    for c in range(3):
+        bins = sorted(b for b, channel in sums if channel == c)
+        mean_time = np.array([sums[b, c][1] / sums[b, c][0] for b in bins])
+        means = np.array([sums[b, c][2] / sums[b, c][0] for b in bins])
+        expected = harmonic_amplitudes(2.0 * math.pi / period * mean_time, means, (1, 2, 3))
+        np.testing.assert_allclose(result[:, c], expected, rtol=1e-9, atol=1e-12)
+
+
 def test_orbit_ring_rejects_bad_configuration():
     with pytest.raises(ValueError, match="n_bins"):
         OrbitRing(PERIOD_S, 1, n_bins=16)

@@ -11,6 +11,8 @@ Signs follow :mod:`pmv_ros.core.attitude` (the published convention).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .attitude import body_axes_in_orbital, roll_pitch_from_nadir
@@ -93,6 +95,8 @@ def closed_form_oblateness(u_rad, altitude_m, inclination_rad, ellipsoid: Ellips
     Returns:
         (meridional_rad, roll_rad, pitch_rad) shaped like ``u_rad``.
     """
+    if all(type(value) is float for value in (u_rad, altitude_m, inclination_rad)):
+        return _closed_form_oblateness_scalar(u_rad, altitude_m, inclination_rad, ellipsoid, mean_radius_m)
     u = np.asarray(u_rad, float)
     r, h = mean_radius_m, float(altitude_m)
     horizon_nadir = np.arcsin(r / (r + h))
@@ -104,3 +108,17 @@ def closed_form_oblateness(u_rad, altitude_m, inclination_rad, ellipsoid: Ellips
     meridional = 0.5 * (np.arctan((r1 - r) / slant) - np.arctan((r2 - r) / slant))
     b_angle = np.arctan2(np.cos(inclination_rad), np.sin(inclination_rad) * np.cos(u))
     return meridional, -meridional * np.sin(b_angle), meridional * np.cos(b_angle)
+
+
+def _closed_form_oblateness_scalar(u: float, h: float, inclination: float, ellipsoid: Ellipsoid,
+                                   r: float) -> tuple[float, float, float]:
+    """:func:`closed_form_oblateness` for one orbit position in plain floats (the monitor calls it per sample)."""
+    a, b = ellipsoid.a_m, ellipsoid.b_m
+    subsatellite_lat = math.asin(math.sin(inclination) * math.sin(u))
+    offset = 0.5 * math.pi - math.asin(r / (r + h))
+    slant = math.sqrt(h * (2.0 * r + h))
+    r1, r2 = (a * b / math.hypot(b * math.cos(lat), a * math.sin(lat))
+              for lat in (subsatellite_lat - offset, subsatellite_lat + offset))
+    meridional = 0.5 * (math.atan((r1 - r) / slant) - math.atan((r2 - r) / slant))
+    b_angle = math.atan2(math.cos(inclination), math.sin(inclination) * math.cos(u))
+    return meridional, -meridional * math.sin(b_angle), meridional * math.cos(b_angle)

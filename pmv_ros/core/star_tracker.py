@@ -17,8 +17,8 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
+from .attitude import quaternion_from_rotation_vector, quaternion_product
 from .constants import ARCSEC_RAD
 
 
@@ -109,6 +109,8 @@ class StarTracker:
             (q_measured, outcome): quaternions ``(4[, N])`` (NaN where there is no
             output) and :class:`Outcome` codes shaped like ``t_s``.
         """
+        if np.ndim(t_s) == 0:
+            return self._measure_one(float(t_s), q_orbital_to_body, float(inertial_rate_rad_s))
         t = np.atleast_1d(np.asarray(t_s, float))
         q_true = np.asarray(q_orbital_to_body, float).reshape(4, -1)
         q_true = np.broadcast_to(q_true, (4, t.size))
@@ -131,14 +133,42 @@ class StarTracker:
 
         q_safe = np.where(finite, q_true / np.where(finite, norm, 1.0), np.array([[0.0], [0.0], [0.0], [1.0]]))
         # Noise is a small rotation in the tracker frame, applied on the body side.
-        error_body = Rotation.from_rotvec((self._tracker_axes @ noise).T)
-        measured = (Rotation.from_quat(q_safe.T) * error_body).as_quat().T
+        error_body = quaternion_from_rotation_vector(self._tracker_axes @ noise)
+        measured = quaternion_product(q_safe, error_body)
         # Keep the sign of the true quaternion (q and −q are the same attitude).
         measured *= np.where(np.sum(measured * q_safe, axis=0) < 0.0, -1.0, 1.0)
         measured[:, outcome != Outcome.OK] = np.nan
-        if np.ndim(t_s) == 0:
-            return measured[:, 0], Outcome(int(outcome[0]))
         return measured, outcome
+
+    def _measure_one(self, t_s: float, q_orbital_to_body, rate_rad_s: float):
+        """:meth:`measure` for one frame in plain floats (the node measures one 2 Hz frame at a time).
+
+        The same random draws, in the same order, as the array path for one frame.
+        """
+        p = self.parameters
+        noise = self._rng.standard_normal((3, 1))[:, 0].tolist()
+        failed = bool(self._rng.random(1)[0] < p.random_failure_probability)
+        q = [float(c) for c in np.asarray(q_orbital_to_body, float).ravel()]
+        norm = math.sqrt(sum(c * c for c in q))
+        finite = all(math.isfinite(c) for c in q) and norm > 0.5
+        if not finite:
+            outcome = Outcome.INVALID_TRUTH
+        elif any(start <= t_s < end for start, end in p.outages):
+            outcome = Outcome.SCHEDULED_OUTAGE
+        elif rate_rad_s > p.max_rate_rad_s:
+            outcome = Outcome.RATE_TOO_HIGH
+        else:
+            outcome = Outcome.RANDOM_FAILURE if failed else Outcome.OK
+        if outcome is not Outcome.OK:
+            return np.full(4, np.nan), outcome
+        sigma = (p.noise_cross_rad, p.noise_cross_rad, p.noise_boresight_rad)
+        scaled = [n * s for n, s in zip(noise, sigma)]
+        error_tracker = tuple(sum(a * n for a, n in zip(row, scaled)) for row in self._tracker_axes.tolist())
+        q_true = tuple(c / norm for c in q)
+        measured = quaternion_product(q_true, quaternion_from_rotation_vector(error_tracker))
+        if sum(m * c for m, c in zip(measured, q_true)) < 0.0:
+            measured = tuple(-m for m in measured)
+        return np.array(measured), outcome
 
 
 def inertial_rate_of_nadir_pointing(mean_motion_rad_s: float, relative_rate_rad_s=None):
@@ -146,10 +176,13 @@ def inertial_rate_of_nadir_pointing(mean_motion_rad_s: float, relative_rate_rad_
 
     The orbital frame turns at the mean motion n about its Y axis; a body
     rotating relative to it at ``relative_rate_rad_s`` ``(3[, N])`` (orbital
-    components) adds to that vectorially.
+    components) adds to that vectorially. A tuple of three floats gives a float.
     """
     if relative_rate_rad_s is None:
         return float(mean_motion_rad_s)
+    if isinstance(relative_rate_rad_s, tuple):  # one rate, plain floats
+        x, y, z = relative_rate_rad_s
+        return math.sqrt(x * x + (y + mean_motion_rad_s) ** 2 + z * z)
     w = np.asarray(relative_rate_rad_s, float).copy()
     # The radial unit vector Z turns towards the velocity X at the rate n:
     # dZ/dt = n·X = ω × Z with ω = n·Y (Y = Z × X, the orbit normal).

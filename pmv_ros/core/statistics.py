@@ -253,35 +253,60 @@ class OrbitRing:
         self._first_bin = None
         self._latest_bin = None
         self._time_origin_s = None
+        # The bin being filled, as Python floats: (absolute bin, slot, counts, time sums, value sums).
+        # Written back to the arrays when another bin is touched or the arrays are read.
+        self._open = None
 
     @property
     def nbytes(self) -> int:
         """Memory held by the ring's arrays, bytes (constant for the ring's life)."""
         return sum(a.nbytes for a in (self._bin_index, self._count, self._time_sum, self._value_sum))
 
+    def _flush(self) -> None:
+        """Write the bin being filled back to the arrays."""
+        if self._open is not None:
+            _, slot, count, time_sum, value_sum = self._open
+            self._count[slot] = count
+            self._time_sum[slot] = time_sum
+            self._value_sum[slot] = value_sum
+            self._open = None
+
     def add(self, t_s: float, values) -> bool:
-        """Add one sample at time ``t_s`` (s); NaN channels are skipped. False if older than the ring."""
+        """Add one sample at time ``t_s`` (s); NaN channels are skipped. False if older than the ring.
+
+        Samples arrive some ten per bin, so the bin being filled is summed in
+        Python floats and written to the arrays once, when the next bin starts.
+        """
+        t_s = float(t_s)
         if self._time_origin_s is None:
             # Time sums relative to the first stamp keep the bin means exact for large stamps.
-            self._time_origin_s = float(t_s)
+            self._time_origin_s = t_s
         absolute = math.floor(t_s / self.bin_width_s)
         if self._latest_bin is not None and absolute <= self._latest_bin - self.n_bins:
             return False
-        slot = absolute % self.n_bins
-        if self._bin_index[slot] != absolute:
-            if self._bin_index[slot] > absolute:
-                return False
-            self._bin_index[slot] = absolute
-            self._count[slot] = 0.0
-            self._time_sum[slot] = 0.0
-            self._value_sum[slot] = 0.0
-        row = np.asarray(values, float).ravel()
-        if row.size != self.n_channels:
-            raise ValueError(f"expected {self.n_channels} values, got {row.size}")
-        finite = np.isfinite(row)
-        self._count[slot, finite] += 1.0
-        self._time_sum[slot, finite] += t_s - self._time_origin_s
-        self._value_sum[slot, finite] += row[finite]
+        row = values if isinstance(values, (list, tuple)) else np.asarray(values, float).ravel().tolist()
+        if len(row) != self.n_channels:
+            raise ValueError(f"expected {self.n_channels} values, got {len(row)}")
+        if self._open is None or self._open[0] != absolute:
+            self._flush()
+            slot = absolute % self.n_bins
+            if self._bin_index[slot] != absolute:
+                if self._bin_index[slot] > absolute:
+                    return False
+                self._bin_index[slot] = absolute
+                self._count[slot] = 0.0
+                self._time_sum[slot] = 0.0
+                self._value_sum[slot] = 0.0
+            self._open = (absolute, slot, self._count[slot].tolist(), self._time_sum[slot].tolist(),
+                          self._value_sum[slot].tolist())
+        _, _, count, time_sum, value_sum = self._open
+        offset = t_s - self._time_origin_s
+        for channel, value in enumerate(row):
+            value = float(value)
+            if math.isfinite(value):
+                count[channel] += 1.0
+                time_sum[channel] += offset
+                value_sum[channel] += value
         if self._first_bin is None:
             self._first_bin = absolute
         self._latest_bin = absolute if self._latest_bin is None else max(self._latest_bin, absolute)
@@ -298,6 +323,7 @@ class OrbitRing:
         result = np.full((len(harmonics), self.n_channels), np.nan)
         if not self.full_orbit:
             return result
+        self._flush()
         in_orbit = self._bin_index > self._latest_bin - self.n_bins
         omega = TWO_PI / self.period_s
         masks = [in_orbit & (self._count[:, c] > 0) for c in range(self.n_channels)]

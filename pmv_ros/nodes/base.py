@@ -63,6 +63,12 @@ class PmvNode(Node):
             executor re-examines on every wait; dropping them almost doubles
             the fast-time rate. Parameters still work through
             ``set_parameters`` in-process, with the same validation.
+        time_source: for the in-process pipeline: a ``rclpy.time_source.TimeSource``
+            that the process drives itself (``clock_callback``). The node's clock
+            follows it — simulation time, as with ``use_sim_time`` — without a
+            /clock subscription of its own: nodes that share the process learn
+            the time from the pipeline, not through DDS. Pass ``use_sim_time``
+            False with it (the node's own time source must stay off).
 
     Parameter updates (in-process ``set_parameters`` and the parameter
     services alike) pass :func:`pmv_ros.nodes.params.coerce_parameters` first:
@@ -72,12 +78,15 @@ class PmvNode(Node):
     :func:`pmv_ros.nodes.params.install_validation`.
     """
 
-    def __init__(self, name: str, *, lean: bool = False, **kwargs):
+    def __init__(self, name: str, *, lean: bool = False, time_source=None, **kwargs):
         if lean:
             kwargs.setdefault("start_parameter_services", False)
             kwargs.setdefault("enable_rosout", False)  # logs still reach the console and the log file
         self.parameter_specs = {}  # name → ParamSpec, filled by install_validation
         super().__init__(name, **kwargs)
+        if time_source is not None:
+            # Before a subclass reads its clock: the node starts on the pipeline's simulation time.
+            time_source.attach_clock(self.get_clock())
         self._lean = lean
         self._detached = []
         if lean:

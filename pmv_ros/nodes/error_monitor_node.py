@@ -114,6 +114,7 @@ class ErrorMonitorNode(PmvNode):
             raise ParameterError(str(error)) from None
         install_validation(self, PARAMS, self._values, self._rebuild)
         self._pub_residual = self.publisher(Vector3Stamped, "/pmv/residual")
+        self._out_residual = Vector3Stamped()
         self._pub_statistics = self.publisher(DiagnosticArray, "/pmv/error_statistics")
         self._pub_diagnostics = self.publisher(DiagnosticArray, "/diagnostics")
         self.subscription(Vector3Stamped, "/pmv/attitude", self._on_sensor)
@@ -144,49 +145,49 @@ class ErrorMonitorNode(PmvNode):
 
     def _on_odometry(self, message: Odometry) -> None:
         try:
-            state = shim.orbit_state_from_msg(message)
-            u, inclination, altitude = orbit_angles_from_state(state.position_m, state.velocity_m_s)
+            stamp_s, position, velocity = shim.read_orbit_state(message)
+            u, inclination, altitude = orbit_angles_from_state(position, velocity)
         except ValueError:
             self._reject("odometry")
             return
-        radius = float(sum(x * x for x in state.position_m)) ** 0.5
-        speed = float(sum(x * x for x in state.velocity_m_s)) ** 0.5
-        self._orbit = (state.stamp_s, u, inclination, altitude, speed / radius)
+        radius = math.sqrt(sum(x * x for x in position))
+        speed = math.sqrt(sum(x * x for x in velocity))
+        self._orbit = (stamp_s, u, inclination, altitude, speed / radius)
 
     def _on_truth(self, message: QuaternionStamped) -> None:
         try:
-            record = shim.attitude_quaternion_from_msg(message)
+            stamp_s, q_xyzw = shim.read_attitude_quaternion(message)
         except ValueError:
             self._reject("truth")
             return
-        self._handle(self._monitor.add_truth_quaternion(record.stamp_s, record.q_xyzw, now_s=self._now_s()))
+        self._handle(self._monitor.add_truth_quaternion(stamp_s, q_xyzw, now_s=self._now_s()))
 
     def _on_sensor(self, message: Vector3Stamped) -> None:
         try:
-            record = shim.attitude_angles_from_msg(message)
+            stamp_s, roll_rad, pitch_rad = shim.read_attitude_angles(message)
         except ValueError:
             self._reject("sensor")
             return
         orbit = {}
-        if self._orbit is not None and abs(record.stamp_s - self._orbit[0]) <= self._values["odometry_timeout_s"]:
+        if self._orbit is not None and abs(stamp_s - self._orbit[0]) <= self._values["odometry_timeout_s"]:
             stamp, u, inclination, altitude, rate = self._orbit
-            orbit = dict(u_rad=u + rate * (record.stamp_s - stamp), inclination_rad=inclination, altitude_m=altitude)
+            orbit = dict(u_rad=u + rate * (stamp_s - stamp), inclination_rad=inclination, altitude_m=altitude)
         if self._values["sensor.oblateness_compensation"]:
             # Removed on board already: the model left in the sensor's output is zero.
             orbit.update(oblateness_roll_rad=0.0, oblateness_pitch_rad=0.0)
-        outcomes = self._monitor.add_sensor(record.stamp_s, record.roll_rad, record.pitch_rad,
-                                            now_s=self._now_s(), **orbit)
+        outcomes = self._monitor.add_sensor(stamp_s, roll_rad, pitch_rad, now_s=self._now_s(), **orbit)
         self._handle(outcomes)
         # A rejected sample (a zero or future stamp, say) must not move the statistics schedule.
         if not any(outcome.status in SENSOR_REJECTIONS for outcome in outcomes):
-            self._maybe_publish_statistics(record.stamp_s)
+            self._maybe_publish_statistics(stamp_s)
 
     def _handle(self, outcomes) -> None:
         for outcome in outcomes:
             if outcome.status is Status.OK:
-                self._pub_residual.publish(shim.attitude_angles_to_msg(shim.AttitudeAngles(
-                    stamp_s=outcome.stamp_s, frame_id=shim.SENSOR_FRAME,
-                    roll_rad=outcome.residual_roll_rad, pitch_rad=outcome.residual_pitch_rad)))
+                # One message, filled in place for every residual (rclpy serialises at publish).
+                self._pub_residual.publish(shim.write_attitude_angles(
+                    self._out_residual, outcome.stamp_s, shim.SENSOR_FRAME,
+                    outcome.residual_roll_rad, outcome.residual_pitch_rad))
 
     # -- outputs -----------------------------------------------------------------------------------
 

@@ -19,6 +19,8 @@ from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.executors import SingleThreadedExecutor, TimeoutException
 from rclpy.parameter import Parameter
+from rclpy.time_source import TimeSource
+from rosgraph_msgs.msg import Clock as ClockMsg
 
 import pmv_msgs_shim as shim
 from .base import PmvNode, hold_single_threaded_blas, release_single_threaded_blas
@@ -60,7 +62,8 @@ class ReportCollector(PmvNode):
         self.residuals = []  # (stamp_s, roll_rad, pitch_rad)
         self.residual_count = 0
         self._stride = 1
-        self.statistics = None
+        self._statistics_msg = None
+        self._statistics = None
         self.subscription(Vector3Stamped, "/pmv/residual", self._on_residual)
         self.subscription(DiagnosticArray, "/pmv/error_statistics", self._on_statistics)
 
@@ -76,7 +79,15 @@ class ReportCollector(PmvNode):
             self._stride *= 2
 
     def _on_statistics(self, message) -> None:
-        self.statistics = shim.error_statistics_from_msg(message)
+        # Read when asked for: the progress display wants a few per second, the monitor publishes more.
+        self._statistics_msg, self._statistics = message, None
+
+    @property
+    def statistics(self):
+        """The latest /pmv/error_statistics as :class:`pmv_msgs_shim.ErrorStatistics` (None before the first)."""
+        if self._statistics is None and self._statistics_msg is not None:
+            self._statistics = shim.error_statistics_from_msg(self._statistics_msg)
+        return self._statistics
 
     def residual_array(self) -> np.ndarray:
         """``(3, N)``: stamp (s), roll and pitch residual (rad)."""
@@ -114,11 +125,17 @@ class Pipeline:
         self.executor = None
         hold_single_threaded_blas()  # released in close()
         self._holds_blas = True
+        # The sensor is the clock: it stamps from its own simulation time and
+        # publishes /clock for anything outside. The nodes it drives in this
+        # process follow that time through one time source that step() sets
+        # (simulation time, as with use_sim_time, without a /clock subscription
+        # each: two fewer messages taken per tick). The collector only records
+        # stamps and needs no clock.
+        self._sim_time = TimeSource()  # attached to no node: it never subscribes to /clock
+        self._sim_time.ros_time_is_active = True
+        self._clock_msg = ClockMsg()
         try:
             self.executor = SingleThreadedExecutor(context=self.context)
-            # The sensor is the clock: it stamps from its own simulation time and
-            # publishes /clock. The nodes it drives follow /clock (use_sim_time);
-            # the collector only records stamps and needs no clock.
             self.sensor = self.start_node("sensor")
             self.star_tracker = self.start_node("star_tracker")
             self.monitor = self.start_node("monitor")
@@ -127,14 +144,14 @@ class Pipeline:
             self.close()
             raise
 
-    #: The pipeline's nodes by role: (class, follows /clock, constructor arguments).
+    #: The pipeline's nodes by role: (class, on the simulation time, constructor arguments).
     ROLES = {"sensor": (SensorNode, False, {"external_drive": True}),
              "star_tracker": (StarTrackerNode, True, {}),
              "monitor": (ErrorMonitorNode, True, {})}
 
-    def _options(self, use_sim_time: bool, overrides: dict | None = None) -> dict:
-        values = {**self._settings, **(overrides or {}), "use_sim_time": use_sim_time}
-        return dict(context=self.context, lean=self._lean,
+    def _options(self, sim_time: bool, overrides: dict | None = None) -> dict:
+        values = {**self._settings, **(overrides or {}), "use_sim_time": False}
+        return dict(context=self.context, lean=self._lean, time_source=self._sim_time if sim_time else None,
                     parameter_overrides=[Parameter(name, value=value) for name, value in values.items()])
 
     def _add(self, node):
@@ -150,8 +167,8 @@ class Pipeline:
         sensor starts its simulation clock again at ``sim.start_time_s``.
         ``overrides`` are added to the pipeline's parameters for this node.
         """
-        node_class, use_sim_time, arguments = self.ROLES[role]
-        node = self._add(node_class(**arguments, **self._options(use_sim_time, overrides)))
+        node_class, sim_time, arguments = self.ROLES[role]
+        node = self._add(node_class(**arguments, **self._options(sim_time, overrides)))
         setattr(self, role, node)
         return node
 
@@ -167,11 +184,14 @@ class Pipeline:
         """Run ready callbacks until the graph is idle (see :func:`drain`); returns how many ran."""
         return drain(self.executor, max_callbacks)
 
-    def step(self, ticks: int = 1) -> None:
-        """Advance the simulation by ``ticks`` sensor periods, draining the graph after each."""
+    def step(self, ticks: int = 1) -> int:
+        """Advance the simulation by ``ticks`` sensor periods, draining the graph after each; returns callbacks run."""
+        ran = 0
         for _ in range(ticks):
             self.sensor.step()
-            self.drain()
+            self._sim_time.clock_callback(shim.write_clock(self._clock_msg, self.sensor.sim_time_s))
+            ran += self.drain()
+        return ran
 
     def close(self) -> None:
         """Destroy the nodes and shut the context down."""

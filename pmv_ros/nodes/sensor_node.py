@@ -243,6 +243,9 @@ class SensorNode(PmvNode):
         self._last_diagnostics_s = -math.inf
         self._last_condition = ()  # what the last /diagnostics said, to report changes at once
         self._pending = deque()  # precomputed fast-time samples
+        # One message per topic, filled in place for every sample (rclpy serialises at publish).
+        self._out = dict(truth=QuaternionStamped(), odometry=Odometry(), crossings=PolygonStamped(),
+                         attitude=Vector3Stamped(), attitude_raw=Vector3Stamped(), clock=ClockMsg())
         if self._values["attitude.source"] == "profile":
             self._pub_truth = self.publisher(QuaternionStamped, "/attitude/truth")
         else:
@@ -335,7 +338,7 @@ class SensorNode(PmvNode):
         """Fast time: advance the simulation clock by one sensor period and publish that sample."""
         period = 1.0 / self._values["sensor.rate_hz"]
         self._sim_time_s += period
-        self._pub_clock.publish(shim.clock_to_msg(self._sim_time_s))
+        self._pub_clock.publish(shim.write_clock(self._out["clock"], self._sim_time_s))
         if self._values["attitude.source"] == "profile":
             if not self._pending:
                 times = self._sim_time_s + period * np.arange(FAST_TIME_BLOCK)
@@ -370,11 +373,13 @@ class SensorNode(PmvNode):
         position, velocity = self._orbit.state_eci(times)
         status = reading.chord_status
         blinding = reading.blinding_body
+        valid = (status == ChordStatus.VALID).T
+        # What a HorizonCrossings record would hold (NaN rows for invalid chords), checked for the whole block.
+        line_of_sight = shim.checked_lines_of_sight(reading.line_of_sight_sensor.transpose(2, 1, 0), valid)
         columns = (
             times.tolist(),
             q.T.tolist(),
-            reading.line_of_sight_sensor.transpose(2, 1, 0).tolist(),
-            (status == ChordStatus.VALID).T.tolist(),
+            line_of_sight.tolist(),
             reading.sensed_roll_rad.tolist(),
             reading.sensed_pitch_rad.tolist(),
             reading.sensed_roll_uncorrected_rad.tolist(),
@@ -386,20 +391,18 @@ class SensorNode(PmvNode):
         )
         return list(zip(*columns))
 
-    def _publish_sample(self, t_s, q, line_of_sight, valid, roll, pitch, roll_raw, pitch_raw, status, blinding,
+    def _publish_sample(self, t_s, q, line_of_sight, roll, pitch, roll_raw, pitch_raw, status, blinding,
                         position, velocity) -> None:
+        out = self._out
         if self._pub_truth is not None:
-            self._pub_truth.publish(shim.attitude_quaternion_to_msg(
-                shim.AttitudeQuaternion(stamp_s=t_s, frame_id=shim.ORBITAL_FRAME, q_xyzw=q)))
-        self._pub_odometry.publish(shim.orbit_state_to_msg(shim.OrbitState(
-            stamp_s=t_s, frame_id=shim.ECI_FRAME, child_frame_id=shim.BODY_FRAME,
-            position_m=position, velocity_m_s=velocity)))
-        self._pub_crossings.publish(shim.horizon_crossings_to_msg(shim.HorizonCrossings(
-            stamp_s=t_s, frame_id=shim.SENSOR_FRAME, line_of_sight=line_of_sight, valid=valid)))
-        self._pub_attitude.publish(shim.attitude_angles_to_msg(shim.AttitudeAngles(
-            stamp_s=t_s, frame_id=shim.SENSOR_FRAME, roll_rad=roll, pitch_rad=pitch)))
-        self._pub_attitude_raw.publish(shim.attitude_angles_to_msg(shim.AttitudeAngles(
-            stamp_s=t_s, frame_id=shim.SENSOR_FRAME, roll_rad=roll_raw, pitch_rad=pitch_raw)))
+            self._pub_truth.publish(shim.write_attitude_quaternion(out["truth"], t_s, shim.ORBITAL_FRAME, q))
+        self._pub_odometry.publish(shim.write_orbit_state(out["odometry"], t_s, shim.ECI_FRAME, shim.BODY_FRAME,
+                                                          position, velocity))
+        self._pub_crossings.publish(shim.write_horizon_crossings(out["crossings"], t_s, shim.SENSOR_FRAME,
+                                                                 line_of_sight))
+        self._pub_attitude.publish(shim.write_attitude_angles(out["attitude"], t_s, shim.SENSOR_FRAME, roll, pitch))
+        self._pub_attitude_raw.publish(shim.write_attitude_angles(out["attitude_raw"], t_s, shim.SENSOR_FRAME,
+                                                                  roll_raw, pitch_raw))
         for chord, code in enumerate(status):
             self._chord_problem_counts[code][chord] += 1
         self._samples_published += 1

@@ -36,10 +36,11 @@ from collections import deque
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import QuaternionStamped
-from scipy.spatial.transform import Rotation
 
 import pmv_msgs_shim as shim
 from .base import PmvNode
+from ..core.attitude import (quaternion_conjugate, quaternion_from_rotation_vector, quaternion_product,
+                              rotation_vector_from_quaternion)
 from ..core.constants import ARCSEC_RAD, GM_EARTH_M3_S2, EARTH_MEAN_RADIUS_M
 from ..core.monitor import Status, validate_quaternion
 from ..core.star_tracker import Outcome, StarTracker, StarTrackerParameters, inertial_rate_of_nadir_pointing
@@ -108,7 +109,8 @@ class StarTrackerNode(PmvNode):
         self.subscription(QuaternionStamped, "/attitude/truth", self._on_truth)
         self._previous = None  # (stamp_s, q_xyzw)
         self._next_frame_s = None
-        self._queue = deque()  # (release_s, record), bounded by latency × rate
+        self._queue = deque()  # (release_s, frame_s, q_xyzw), bounded by latency × rate
+        self._out = QuaternionStamped()  # filled in place for every frame (rclpy serialises at publish)
         self._outcomes = {outcome: 0 for outcome in Outcome}
         self._counters = {f"rejected_truth_{reason.value}": 0 for reason in TRUTH_REJECTIONS}
         self._counters.update(truth_quaternions_normalised=0, clock_jumps=0, frames_dropped_at_clock_jump=0)
@@ -130,11 +132,11 @@ class StarTrackerNode(PmvNode):
         now = self.get_clock().now().nanoseconds * 1e-9
         return now if now > 0.0 else None  # sim time before the first /clock: unknown
 
-    def _check_stamp(self, t_s: float) -> Status:
-        """Validate a truth stamp; a jump back by more than clock_jump_s starts a new timeline."""
+    def _check_stamp(self, t_s: float, now: float | None) -> Status:
+        """Validate a truth stamp against the node clock ``now`` (s, None: unknown); a jump back by more than
+        clock_jump_s starts a new timeline."""
         if t_s <= 0.0:
             return Status.ZERO_STAMP
-        now = self._now_s()
         if now is not None and t_s > now + self._values["future_tolerance_s"]:
             return Status.FUTURE_STAMP
         previous = self._previous
@@ -158,20 +160,19 @@ class StarTrackerNode(PmvNode):
 
     def _on_truth(self, message: QuaternionStamped) -> None:
         try:
-            truth = shim.attitude_quaternion_from_msg(message)
+            t_s, q_xyzw = shim.read_attitude_quaternion(message)
         except ValueError:  # a negative or non-finite stamp
             self._counters[f"rejected_truth_{Status.ZERO_STAMP.value}"] += 1
             return
-        self._last_arrival_s = self._now_s()
-        t_s = truth.stamp_s
-        q, status, normalised = validate_quaternion(truth.q_xyzw, QUATERNION_NORM_TOLERANCE)
+        now_s = self._last_arrival_s = self._now_s()
+        q, status, normalised = validate_quaternion(q_xyzw, QUATERNION_NORM_TOLERANCE)
         if status is Status.OK:
-            status = self._check_stamp(t_s)
+            status = self._check_stamp(t_s, now_s)
         if status is not Status.OK:
             self._counters[f"rejected_truth_{status.value}"] += 1
             return
         self._counters["truth_quaternions_normalised"] += normalised
-        current = q  # a Rotation is built only when a frame falls due (1 truth sample in 5 at 10 Hz)
+        current = q
         previous = self._previous
         self._previous = (t_s, current)
         period = 1.0 / self._values["rate_hz"]
@@ -180,26 +181,27 @@ class StarTrackerNode(PmvNode):
             self._next_frame_s = math.ceil(t_s / period) * period
             previous = None
         if previous is not None and self._next_frame_s <= t_s + 1e-12:
-            frames = np.arange(self._next_frame_s, t_s + 1e-12, period)
-            if frames.size:
-                pair = Rotation.from_quat(np.stack([previous[1], current]))
-                turn = (pair[1] * pair[0].inv()).as_rotvec()  # orbital components
-                relative = turn / (t_s - previous[0])
-                rate = inertial_rate_of_nadir_pointing(self._mean_motion(), relative)
-                # Slerp: a constant-rate turn from the previous truth to this one.
-                fraction = (frames - previous[0]) / (t_s - previous[0])
-                q_frames = (Rotation.from_rotvec(np.outer(fraction, turn)) * pair[0]).as_quat().T
-                measured, outcomes = self._tracker.measure(frames, q_frames, np.full(frames.size, rate))
-                for k, outcome in enumerate(outcomes):
-                    self._outcomes[Outcome(int(outcome))] += 1
-                    self._last_outcome = Outcome(int(outcome))
+            frames = np.arange(self._next_frame_s, t_s + 1e-12, period).tolist()
+            if frames:
+                # The turn from the previous truth to this one (orbital components), in plain floats.
+                q_previous, dt = tuple(previous[1].tolist()), t_s - previous[0]
+                turn = rotation_vector_from_quaternion(quaternion_product(tuple(current.tolist()),
+                                                                          quaternion_conjugate(q_previous)))
+                rate = inertial_rate_of_nadir_pointing(self._mean_motion(), tuple(w / dt for w in turn))
+                for frame_s in frames:
+                    # Slerp: a constant-rate turn from the previous truth to this one.
+                    fraction = (frame_s - previous[0]) / dt
+                    q_frame = quaternion_product(quaternion_from_rotation_vector(tuple(fraction * w for w in turn)),
+                                                 q_previous)
+                    measured, outcome = self._tracker.measure(frame_s, q_frame, rate)
+                    self._outcomes[outcome] += 1
+                    self._last_outcome = outcome
                     if outcome == Outcome.OK:
-                        self._queue.append((frames[k] + self._values["latency_s"], shim.AttitudeQuaternion(
-                            stamp_s=float(frames[k]), frame_id=shim.ORBITAL_FRAME,
-                            q_xyzw=tuple(measured[:, k]))))
+                        self._queue.append((frame_s + self._values["latency_s"], frame_s, measured.tolist()))
                 self._next_frame_s = frames[-1] + period
         while self._queue and self._queue[0][0] <= t_s + 1e-9:
-            self._publisher.publish(shim.attitude_quaternion_to_msg(self._queue.popleft()[1]))
+            _, frame_s, q_measured = self._queue.popleft()
+            self._publisher.publish(shim.write_attitude_quaternion(self._out, frame_s, shim.ORBITAL_FRAME, q_measured))
         self._maybe_publish_diagnostics(t_s)
 
     def _maybe_publish_diagnostics(self, t_s: float) -> None:
