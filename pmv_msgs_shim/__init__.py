@@ -32,6 +32,8 @@ from .conversions import (
     write_attitude_angles,
     write_attitude_quaternion,
     write_clock,
+    write_error_statistics,
+    write_health,
     write_horizon_crossings,
     write_orbit_state,
     write_stamp,
@@ -66,6 +68,7 @@ __all__ = [
     "error_statistics_to_msg", "health_from_msg", "health_to_msg", "horizon_crossings_from_msg",
     "horizon_crossings_to_msg", "orbit_state_from_msg", "orbit_state_to_msg", "time_from_msg", "time_to_msg", "to_msg",
     "check_stamp", "checked_lines_of_sight", "read_attitude_angles", "read_attitude_quaternion", "read_orbit_state",
-    "write_attitude_angles", "write_attitude_quaternion", "write_clock", "write_horizon_crossings",
+    "write_attitude_angles", "write_attitude_quaternion", "write_clock", "write_error_statistics", "write_health",
+    "write_horizon_crossings",
     "write_orbit_state", "write_stamp",
 ]

@@ -266,9 +266,28 @@ def _number(value: float) -> str:
     return repr(float(value))
 
 
-def _status(name: str, level: Level, message: str, hardware_id: str, values) -> DiagnosticStatus:
-    return DiagnosticStatus(level=_level_to_msg(level), name=name, message=message, hardware_id=hardware_id,
-                            values=[KeyValue(key=str(k), value=str(v)) for k, v in values])
+def _write_statuses(msg: DiagnosticArray, stamp_s: float, statuses) -> DiagnosticArray:
+    """Fill a DiagnosticArray from (name, level, message, hardware_id, [(key, value), …]) tuples.
+
+    The message's own DiagnosticStatus and KeyValue objects are reused where
+    the counts match (the same keys come back at every publication), and made
+    anew where they do not.
+    """
+    write_stamp(msg.header.stamp, stamp_s)
+    targets = msg.status
+    if len(targets) != len(statuses):
+        targets = [DiagnosticStatus() for _ in statuses]
+        msg.status = targets
+    for target, (name, level, message, hardware_id, values) in zip(targets, statuses):
+        target.level, target.name, target.message, target.hardware_id = (_level_to_msg(level), name, message,
+                                                                         hardware_id)
+        pairs = target.values
+        if len(pairs) != len(values):
+            pairs = [KeyValue() for _ in values]
+            target.values = pairs
+        for pair, (key, value) in zip(pairs, values):
+            pair.key, pair.value = str(key), str(value)
+    return msg
 
 
 def _channel_values(channel: ChannelStatistics, oblateness_removed: bool) -> list[tuple[str, str]]:
@@ -293,20 +312,22 @@ def _channel_values(channel: ChannelStatistics, oblateness_removed: bool) -> lis
 
 def error_statistics_to_msg(record: ErrorStatistics) -> DiagnosticArray:
     """DiagnosticArray for /pmv/error_statistics: a status per channel, then the counters (layout above)."""
-    msg = DiagnosticArray()
-    write_stamp(msg.header.stamp, record.stamp_s)
-    statuses = [_status(STATISTICS_STATUS_PREFIX + c.channel, c.level, c.message, record.hardware_id,
-                        _channel_values(c, record.oblateness_removed)) for c in record.channels]
+    return write_error_statistics(DiagnosticArray(), record)
+
+
+def write_error_statistics(msg: DiagnosticArray, record: ErrorStatistics) -> DiagnosticArray:
+    """Fill a DiagnosticArray in place for /pmv/error_statistics (see "Writers" above); returns it."""
+    statuses = [(STATISTICS_STATUS_PREFIX + c.channel, c.level, c.message, record.hardware_id,
+                 _channel_values(c, record.oblateness_removed)) for c in record.channels]
     counters = record.counters
     used = counters.get("used", 0)
     skipped = sum(v for k, v in counters.items() if k.startswith("skipped_"))
     rejected = sum(v for k, v in counters.items() if k.startswith("rejected_"))
-    statuses.append(_status(SAMPLES_STATUS_NAME, Level.OK if used else Level.WARN,
-                            f"{used} used, {skipped} skipped, {rejected} rejected", record.hardware_id,
-                            [(k, str(v)) for k, v in counters.items()]
-                            + [("oblateness_removed", "true" if record.oblateness_removed else "false")]))
-    msg.status = statuses
-    return msg
+    statuses.append((SAMPLES_STATUS_NAME, Level.OK if used else Level.WARN,
+                     f"{used} used, {skipped} skipped, {rejected} rejected", record.hardware_id,
+                     [(k, str(v)) for k, v in counters.items()]
+                     + [("oblateness_removed", "true" if record.oblateness_removed else "false")]))
+    return _write_statuses(msg, record.stamp_s, statuses)
 
 
 def error_statistics_from_msg(msg: DiagnosticArray) -> ErrorStatistics:
@@ -343,10 +364,13 @@ def error_statistics_from_msg(msg: DiagnosticArray) -> ErrorStatistics:
 
 def health_to_msg(record: HealthReport) -> DiagnosticArray:
     """DiagnosticArray for /diagnostics."""
-    msg = DiagnosticArray()
-    write_stamp(msg.header.stamp, record.stamp_s)
-    msg.status = [_status(s.name, s.level, s.message, s.hardware_id, s.values) for s in record.statuses]
-    return msg
+    return write_health(DiagnosticArray(), record)
+
+
+def write_health(msg: DiagnosticArray, record: HealthReport) -> DiagnosticArray:
+    """Fill a DiagnosticArray in place for /diagnostics (see "Writers" above); returns it."""
+    return _write_statuses(msg, record.stamp_s, [(s.name, s.level, s.message, s.hardware_id, s.values)
+                                                 for s in record.statuses])
 
 
 def health_from_msg(msg: DiagnosticArray) -> HealthReport:

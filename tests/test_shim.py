@@ -42,6 +42,8 @@ from pmv_msgs_shim import (
     write_attitude_angles,
     write_attitude_quaternion,
     write_clock,
+    write_error_statistics,
+    write_health,
     write_horizon_crossings,
     write_orbit_state,
 )
@@ -263,6 +265,24 @@ def test_error_statistics_from_a_monitor_summary():
 
 def error_statistics_from_msg_status(msg, channel):
     return next(s for s in msg.status if s.name == STATISTICS_STATUS_PREFIX + channel).values
+
+
+def test_diagnostics_writers_reuse_a_message_whatever_it_held():
+    # /diagnostics and /pmv/error_statistics reuse one message each: statuses and keys that
+    # change in number between publications must come out as a fresh message would.
+    first = HealthReport(5.0, (HealthStatus("a", Level.WARN, "one", "hw", {"k1": "1", "k2": "2", "k3": "3"}),
+                               HealthStatus("b", Level.OK, "two", "hw", {"x": "y"})))
+    second = HealthReport(6.0, (HealthStatus("c", Level.ERROR, "three", "hw2", {"k1": "9"}),))
+    third = HealthReport(7.0, (HealthStatus("d", Level.OK, "four", "hw3", {"z1": "7"}),))
+    reused = DiagnosticArray()
+    for report in (first, second, third, first):
+        assert write_health(reused, report) is reused
+        assert reused == to_msg(report)
+        assert health_from_msg(reused) == report
+    statistics = _statistics_record()
+    reused = write_health(DiagnosticArray(), first)
+    for record in (statistics, ErrorStatistics(101.0, statistics.channels[:1], {"used": 3}, True)):
+        assert write_error_statistics(reused, record) == to_msg(record)
 
 
 def test_health_round_trip_and_dispatch_errors():

@@ -114,7 +114,9 @@ class ErrorMonitorNode(PmvNode):
             raise ParameterError(str(error)) from None
         install_validation(self, PARAMS, self._values, self._rebuild)
         self._pub_residual = self.publisher(Vector3Stamped, "/pmv/residual")
-        self._out_residual = Vector3Stamped()
+        # Filled in place for every publication (rclpy serialises at publish).
+        self._out_residual, self._out_statistics, self._out_diagnostics = (Vector3Stamped(), DiagnosticArray(),
+                                                                           DiagnosticArray())
         self._pub_statistics = self.publisher(DiagnosticArray, "/pmv/error_statistics")
         self._pub_diagnostics = self.publisher(DiagnosticArray, "/diagnostics")
         self.subscription(Vector3Stamped, "/pmv/attitude", self._on_sensor)
@@ -202,7 +204,7 @@ class ErrorMonitorNode(PmvNode):
     def publish_statistics(self, stamp_s: float) -> shim.ErrorStatistics:
         """Publish the current statistics on /pmv/error_statistics (and return them)."""
         statistics = shim.ErrorStatistics.from_summary(self._monitor.summary(), stamp_s)
-        self._pub_statistics.publish(shim.error_statistics_to_msg(statistics))
+        self._pub_statistics.publish(shim.write_error_statistics(self._out_statistics, statistics))
         self._last_statistics = statistics
         return statistics
 
@@ -234,7 +236,7 @@ class ErrorMonitorNode(PmvNode):
                   **{k: counters[k] for k in ("truth_quaternions_normalised", "clock_jumps", "alignment_resets")
                      if counters[k]},
                   "pending": self._monitor.pending_count, "truth_buffer": self._monitor.truth_buffer_length}
-        self._pub_diagnostics.publish(shim.health_to_msg(shim.HealthReport(
+        self._pub_diagnostics.publish(shim.write_health(self._out_diagnostics, shim.HealthReport(
             stamp_s=now or 0.0, statuses=(shim.HealthStatus(
                 name="pmv_ros/error_monitor_node", level=level,
                 message="; ".join(problems) if problems else "aligned with truth",

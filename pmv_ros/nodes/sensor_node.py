@@ -245,7 +245,8 @@ class SensorNode(PmvNode):
         self._pending = deque()  # precomputed fast-time samples
         # One message per topic, filled in place for every sample (rclpy serialises at publish).
         self._out = dict(truth=QuaternionStamped(), odometry=Odometry(), crossings=PolygonStamped(),
-                         attitude=Vector3Stamped(), attitude_raw=Vector3Stamped(), clock=ClockMsg())
+                         attitude=Vector3Stamped(), attitude_raw=Vector3Stamped(), clock=ClockMsg(),
+                         diagnostics=DiagnosticArray())
         if self._values["attitude.source"] == "profile":
             self._pub_truth = self.publisher(QuaternionStamped, "/attitude/truth")
         else:
@@ -450,9 +451,9 @@ class SensorNode(PmvNode):
             problems.append("rejected /attitude/truth messages")
         level = shim.Level.WARN if problems else shim.Level.OK
         message = "; ".join(problems) if problems else "all chords valid"
-        self._pub_diagnostics.publish(shim.health_to_msg(shim.HealthReport(stamp_s=t_s, statuses=(shim.HealthStatus(
-            name="pmv_ros/sensor_node: horizon", level=level, message=message, hardware_id="pmv",
-            values=values),))))
+        report = shim.HealthReport(stamp_s=t_s, statuses=(shim.HealthStatus(
+            name="pmv_ros/sensor_node: horizon", level=level, message=message, hardware_id="pmv", values=values),))
+        self._pub_diagnostics.publish(shim.write_health(self._out["diagnostics"], report))
 
 
 def main(args=None) -> int:

@@ -110,7 +110,8 @@ class StarTrackerNode(PmvNode):
         self._previous = None  # (stamp_s, q_xyzw)
         self._next_frame_s = None
         self._queue = deque()  # (release_s, frame_s, q_xyzw), bounded by latency × rate
-        self._out = QuaternionStamped()  # filled in place for every frame (rclpy serialises at publish)
+        # Filled in place for every publication (rclpy serialises at publish).
+        self._out, self._out_diagnostics = QuaternionStamped(), DiagnosticArray()
         self._outcomes = {outcome: 0 for outcome in Outcome}
         self._counters = {f"rejected_truth_{reason.value}": 0 for reason in TRUTH_REJECTIONS}
         self._counters.update(truth_quaternions_normalised=0, clock_jumps=0, frames_dropped_at_clock_jump=0)
@@ -232,9 +233,10 @@ class StarTrackerNode(PmvNode):
             problems = problems + ["rejected /attitude/truth messages"]
         self._rejected_reported = rejected
         level = shim.Level.WARN if problems else shim.Level.OK
-        self._diagnostics.publish(shim.health_to_msg(shim.HealthReport(stamp_s=t_s, statuses=(shim.HealthStatus(
+        report = shim.HealthReport(stamp_s=t_s, statuses=(shim.HealthStatus(
             name="pmv_ros/star_tracker_node", level=level, message="; ".join(problems) or "attitude available",
-            hardware_id="star_tracker", values=values),))))
+            hardware_id="star_tracker", values=values),))
+        self._diagnostics.publish(shim.write_health(self._out_diagnostics, report))
 
     @property
     def counters(self) -> dict:
