@@ -440,6 +440,30 @@ def test_following_sensor_drops_bad_truth_and_reads_the_clean_attitude(harness):
         assert int(report[f"rejected_truth_{reason}"]) == rejected // 6, reason
 
 
+def test_following_sensor_on_the_wall_clock_takes_truth_stamped_now(harness):
+    # Real time (no fast time): "now" for the future-stamp check is the node clock, so truth
+    # stamped now is read, and truth stamped a minute ahead is dropped as a future stamp.
+    h = harness(SensorNode, {"attitude.source": "follow", "sim.fast_time": False, "sensor.rate_hz": 1.0,
+                             "sensor.detector": "ideal"})
+    attitude = h.record(Vector3Stamped, "/pmv/attitude")
+    diagnostics = h.record(DiagnosticArray, "/diagnostics")
+    truth = h.publisher(QuaternionStamped, "/attitude/truth")
+    q = np.array(quaternion_from_roll_pitch_yaw(10 * ARCMIN_RAD, -4 * ARCMIN_RAD, 0.0))
+    for _ in range(3):
+        now_s = h.node.get_clock().now().nanoseconds * 1e-9
+        truth.publish(quaternion_msg(now_s + 60.0, q))
+        truth.publish(quaternion_msg(now_s, q))
+        h.drain()
+        h.node._on_real_time_tick()  # the 1 Hz timer's work, without waiting for it
+        h.drain()
+    assert len(attitude) == 3
+    np.testing.assert_allclose([[m.vector.x, m.vector.y] for m in attitude],
+                               [[10 * ARCMIN_RAD, -4 * ARCMIN_RAD]] * 3, atol=0.05 * ARCMIN_RAD)
+    # /diagnostics comes once a second or when the chords change: the first report already counts the first.
+    report = values_of(health(diagnostics, "pmv_ros/sensor_node")[-1][1])
+    assert int(report["rejected_truth_future_stamp"]) >= 1 and "skipped_no_fresh_truth" not in report
+
+
 # ---------------------------------------------------------------------- 4. truth outages and discontinuities
 
 def test_hours_long_star_tracker_outage_neither_stalls_nor_invents_truth():

@@ -257,3 +257,15 @@ def test_pipeline_nodes_follow_the_sensor_time_without_taking_clock():
         pipeline.step(30)
         assert monitor.get_clock().now().nanoseconds == round(pipeline.sensor.sim_time_s * 1e9)
         assert monitor.monitor.counters["used"] > 0
+
+
+@pytest.mark.parametrize("rate_hz, time_scale, block", [(10.0, 0.0, 512), (10.0, 1.0, 512), (10.0, 20.0, 50),
+                                                        (10.0, 1000.0, 16)])
+def test_paced_fast_time_computes_blocks_no_longer_than_a_tick(rate_hz, time_scale, block):
+    # As fast as possible: blocks of 512 (cheapest per sample). Paced: a block must fit in one
+    # tick period, or /clock would stop for the tens of ms a block of 512 takes.
+    # 10 Hz × 20 = a 5 ms tick: 50 samples at the sizing cost of 100 µs each.
+    with Pipeline(None, {"sensor.rate_hz": rate_hz, "sim.time_scale": time_scale}) as pipeline:
+        assert pipeline.sensor.fast_time_block == block
+        pipeline.step(1)
+        assert len(pipeline.sensor._pending) == block - 1

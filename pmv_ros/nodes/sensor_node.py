@@ -127,6 +127,12 @@ QUATERNION_NORM_TOLERANCE = 0.01
 #: change discards the block.
 FAST_TIME_BLOCK = 512
 
+#: Paced fast time (sim.time_scale > 0): a block should take no longer than one
+#: tick period, or /clock stops while it is computed (512 samples: ≈ 20–45 ms).
+#: Blocks are sized with this cost per sample, the slow end of what these
+#: machines do, and kept between 16 samples and FAST_TIME_BLOCK.
+PACED_SAMPLE_COST_S = 100e-6
+
 
 def parse_epoch(iso_string: str) -> Epoch:
     """The run epoch from ``sim.epoch_utc``; ValueError naming the parameter if it is not a date-time in range."""
@@ -342,11 +348,20 @@ class SensorNode(PmvNode):
         self._pub_clock.publish(shim.write_clock(self._out["clock"], self._sim_time_s))
         if self._values["attitude.source"] == "profile":
             if not self._pending:
-                times = self._sim_time_s + period * np.arange(FAST_TIME_BLOCK)
+                times = self._sim_time_s + period * np.arange(self.fast_time_block)
                 self._pending = deque(self._sense_block(times, self._profile.quaternion(times)))
             self._publish_sample(*self._pending.popleft())
         else:
             self._sense_following(self._sim_time_s)
+
+    @property
+    def fast_time_block(self) -> int:
+        """Samples the instrument model computes per call in fast time (see PACED_SAMPLE_COST_S)."""
+        scale = self._values["sim.time_scale"]
+        if scale == 0.0:
+            return FAST_TIME_BLOCK
+        tick_s = 1.0 / (self._values["sensor.rate_hz"] * scale)
+        return max(16, min(FAST_TIME_BLOCK, int(tick_s / PACED_SAMPLE_COST_S)))
 
     def _on_real_time_tick(self) -> None:
         now_s = self.get_clock().now().nanoseconds * 1e-9
