@@ -182,6 +182,22 @@ def test_value_at_a_point_does_not_depend_on_the_batch():
     np.testing.assert_allclose(separately, whole.horizon_radiance_ru, atol=1e-5)
 
 
+def test_radiance_without_the_layers_is_the_same_radiance():
+    # The sensor's probe points inside the horizon need the radiance only; skipping the
+    # layer-height synthesis there must not move it (float32 synthesis: 1e-5 r.u.).
+    env = RadianceEnvironment(EnvironmentParameters(seed=4))
+    rng = np.random.default_rng(12)
+    lat, lon = random_points(rng, 3000)
+    t = rng.uniform(0.0, 2.0 * DAY_S, 3000)
+    full, radiance_only = env.sample(lat, lon, t), env.sample(lat, lon, t, layers=False)
+    np.testing.assert_allclose(radiance_only.horizon_radiance_ru, full.horizon_radiance_ru, atol=1e-5)
+    np.testing.assert_array_equal(radiance_only.mean_radiance_ru, full.mean_radiance_ru)
+    assert np.all(np.isnan(radiance_only.window_height_m)) and np.all(np.isnan(radiance_only.co2_height_m))
+    calm = RadianceEnvironment(EnvironmentParameters(weather_enabled=False, seed=4))
+    np.testing.assert_array_equal(calm.sample(lat, lon, t, layers=False).horizon_radiance_ru,
+                                  calm.sample(lat, lon, t).horizon_radiance_ru)
+
+
 # --------------------------------------------------------------------------
 # Layer heights
 # --------------------------------------------------------------------------

@@ -605,6 +605,8 @@ class RadianceEnvironment:
                                     self.window_layer and self.window_layer.gaussian_field,
                                     self.co2_layer and self.co2_layer.gaussian_field) if f is not None]
         self._bank = _SpectralBank([f.components for f in self._fields]) if self._fields else None
+        # The weather alone, for points where only the radiance is wanted (sample(layers=False)).
+        self._weather_bank = _SpectralBank([self.weather.anomaly_field.components]) if self.weather else None
 
     def day_of_year(self, t_s):
         """Day of year at simulation time ``t_s`` (s): epoch day + t/86400, days."""
@@ -621,7 +623,7 @@ class RadianceEnvironment:
             return horizon_radiance_climatology(lat_rad, self.day_of_year(t_s))
         return self.parameters.uniform_radiance_ru + 0.0 * (np.asarray(lat_rad, float) + np.asarray(t_s, float))
 
-    def sample(self, lat_rad, lon_rad, t_s) -> HorizonEnvironmentSample:
+    def sample(self, lat_rad, lon_rad, t_s, *, layers: bool = True) -> HorizonEnvironmentSample:
         """Everything the horizon profile needs at points and times (see :class:`HorizonEnvironmentSample`).
 
         One pass: the random fields share the trigonometry of the points and
@@ -632,9 +634,13 @@ class RadianceEnvironment:
             lat_rad: geocentric latitude, rad (Earth-fixed).
             lon_rad: longitude, rad (Earth-fixed).
             t_s: simulation time, s.
+            layers: False for points where only the radiance is wanted (the
+                sensor's probe points inside the horizon): the layer-height
+                fields are not evaluated and the heights come back NaN.
         """
         lat, lon, t, shape = _flat_points(lat_rad, lon_rad, t_s)
-        values = self._bank.evaluate(lat, lon, t) if self._bank is not None else None
+        bank = self._bank if layers else self._weather_bank
+        values = bank.evaluate(lat, lon, t) if bank is not None else None
         column = iter(range(len(self._fields)))
         mean = self.mean_radiance_ru(lat, t) + 0.0 * lon
         if self.weather is not None:
@@ -644,7 +650,9 @@ class RadianceEnvironment:
         heights = []
         for layer, constant_m in ((self.window_layer, self.parameters.window_height_mean_m),
                                   (self.co2_layer, self.parameters.co2_height_m)):
-            if layer is not None:
+            if not layers:
+                heights.append(np.full(lat.shape, np.nan))
+            elif layer is not None:
                 heights.append(layer.height_from_gaussian(values[:, next(column)]))
             else:
                 heights.append(constant_m + 0.0 * (lat + lon + t))

@@ -247,12 +247,18 @@ class ChainDetector:
         t_points = np.broadcast_to(t_s, eci.shape[1:]).reshape(-1)
         ecef = eci_to_ecef(eci.reshape(3, -1), t_points, self.radiance.earth_rotation_at_epoch_rad)
         lat, lon = geocentric_latitude_longitude(ecef)
-        sample = self.environment.sample(lat, lon, t_points)
-        radiance = sample.horizon_radiance_ru.reshape(8, -1)
-        climate = sample.mean_radiance_ru.reshape(8, -1)
-        gradient = (climate[4:] - climate[:4]) / self.radiance.probe_distance_m
-        jump = (radiance[4:] - climate[4:]) - (radiance[:4] - climate[:4])
-        return radiance[:4], gradient, jump, sample.window_height_m.reshape(8, -1)[:4]
+        # The layer heights matter at the horizon points only: the probe points take the radiance alone.
+        horizon_points = 4 * np.size(t_s)
+        at_horizon = self.environment.sample(lat[:horizon_points], lon[:horizon_points], t_points[:horizon_points])
+        at_probe = self.environment.sample(lat[horizon_points:], lon[horizon_points:], t_points[horizon_points:],
+                                           layers=False)
+        radiance = at_horizon.horizon_radiance_ru.reshape(4, -1)
+        climate = at_horizon.mean_radiance_ru.reshape(4, -1)
+        probe_radiance = at_probe.horizon_radiance_ru.reshape(4, -1)
+        probe_climate = at_probe.mean_radiance_ru.reshape(4, -1)
+        gradient = (probe_climate - climate) / self.radiance.probe_distance_m
+        jump = (probe_radiance - probe_climate) - (radiance - climate)
+        return radiance, gradient, jump, at_horizon.window_height_m.reshape(4, -1)
 
     def __call__(self, t_s, horizon_nadir_rad, co2_top_nadir_rad, position_m, sensor_axes):
         """Corrected and uncorrected crossing nadir angles and statuses, each ``(4, N)``."""
