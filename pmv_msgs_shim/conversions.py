@@ -32,8 +32,8 @@ Writers and readers for the hot paths
     can reuse one message per topic (rclpy serialises at ``publish``, so the
     next write cannot touch what was sent). ``read_<record>(msg)`` returns the
     plain values a ``*_from_msg`` record would hold, with the same stamp check,
-    without building the record. The record functions are built on them, so
-    both give the same wire layout.
+    without building the record. The ``*_to_msg`` record functions are built
+    on the writers, so both give the same wire layout.
 """
 
 from __future__ import annotations
@@ -141,6 +141,8 @@ def write_horizon_crossings(msg: PolygonStamped, stamp_s: float, frame_id: str, 
     rows for invalid chords — as :class:`HorizonCrossings` holds them
     (:func:`~pmv_msgs_shim.records.checked_lines_of_sight` makes them).
     """
+    if len(line_of_sight) != 4:
+        raise ValueError(f"horizon crossings need 4 lines of sight (chords +X, +Y, -X, -Y), got {len(line_of_sight)}")
     _header(msg, stamp_s, frame_id)
     points = msg.polygon.points
     if len(points) != 4:

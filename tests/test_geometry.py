@@ -58,6 +58,12 @@ def test_closed_form_for_one_position_is_the_array_path_in_floats():
             one = closed_form_oblateness(float(u[k]), altitude, inclination)
             assert all(type(value) is float for value in one)
             np.testing.assert_allclose(one, [column[k] for column in arrays], rtol=1e-12, atol=1e-15)
+    # Input no orbit has (an altitude below the surface, say, from odometry in km): NaN, as the array path.
+    with np.errstate(invalid="ignore"):
+        for u, altitude, inclination in ((1.0, -5000.0, 1.3), (math.inf, 500e3, 1.3), (1.0, math.nan, 1.3)):
+            one = closed_form_oblateness(u, altitude, inclination)
+            assert all(type(value) is float and math.isnan(value) for value in one)
+            assert np.all(np.isnan(closed_form_oblateness(np.array([u]), altitude, inclination)))
 
 
 @pytest.mark.parametrize("altitude_km, inclination_deg", [(500, 74.5), (835, 98.8), (500, 30.0), (835, 51.6)])

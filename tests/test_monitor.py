@@ -260,3 +260,16 @@ def test_a_lost_chord_pair_keeps_the_other_angle():
     assert summary.channel("pitch").count == 19 and summary.channel("pitch").mean_rad == pytest.approx(-0.001)
     assert summary.channel("meridional").count == 10
     assert [o.status for o in outcomes].count(Status.NO_VALID_ANGLE) == 1
+
+
+def test_an_orbit_below_the_surface_gives_no_model_rather_than_an_error():
+    # Odometry in km instead of m puts the spacecraft ~6,000 km under the surface: the sample
+    # must still count (without the oblateness model and the ground error), not stop the monitor.
+    monitor = ErrorMonitor(MonitorConfig.for_orbit(KONDOR_ALTITUDE_M, KONDOR_INCLINATION))
+    for k in range(1, 6):
+        monitor.add_truth(float(k), 0.0, 0.0)
+    outcomes = monitor.add_sensor(2.5, 1e-4, -1e-4, u_rad=0.3, altitude_m=-6.36e6, inclination_rad=1.3)
+    assert [o.status for o in outcomes] == [Status.OK]
+    assert math.isnan(outcomes[0].roll_rad) and math.isnan(outcomes[0].cross_track_m)
+    assert monitor.counters["used_without_oblateness_model"] == 1
+    assert monitor.summary(oblateness_removed=False).channel("roll").count == 1

@@ -24,6 +24,7 @@ from pmv_ros.core.attitude import quaternion_from_roll_pitch_yaw, roll_pitch_yaw
 from pmv_ros.core.constants import ARCMIN_RAD, ARCSEC_RAD, EARTH_MEAN_RADIUS_M
 from pmv_ros.nodes.error_monitor_node import ErrorMonitorNode
 from pmv_ros.nodes.pipeline import Pipeline
+from pmv_ros.nodes.sensor_node import SensorNode
 from pmv_ros.nodes.star_tracker_node import StarTrackerNode
 
 #: A star tracker that tells the exact truth: no noise, no random failures.
@@ -136,6 +137,31 @@ def test_star_tracker_node_alone(harness):
     assert 2.1 < np.std(angles[:, 0] - roll) / ARCSEC_RAD < 3.9
     assert 2.1 < np.std(angles[:, 1] - pitch) / ARCSEC_RAD < 3.9
     assert 14.0 < np.std(angles[:, 2]) / ARCSEC_RAD < 26.0
+
+
+def test_star_tracker_frames_between_sparse_truth_take_the_draws_of_one_call(harness):
+    # Truth at 1 Hz, frames at 2 Hz: two or three frames fall due per truth sample. They are
+    # measured in one call, so the seeded noise and failures are those of the model's array path.
+    from pmv_ros.core.star_tracker import StarTracker, StarTrackerParameters
+
+    options = {"rate_hz": 2.0, "latency_s": 0.0, "random_failure_probability": 0.2, "seed": 7}
+    h = harness(StarTrackerNode, options)
+    h.record(QuaternionStamped, "/star_tracker/attitude")
+    truth = h.publisher(QuaternionStamped, "/attitude/truth")
+    q = quaternion_from_roll_pitch_yaw(10 * ARCMIN_RAD, -4 * ARCMIN_RAD, 0.0)
+    for k in range(1, 21):
+        truth.publish(shim.attitude_quaternion_to_msg(shim.AttitudeQuaternion(float(k), shim.ORBITAL_FRAME, q)))
+        h.drain()
+    model = StarTracker(StarTrackerParameters(random_failure_probability=0.2), seed=7)
+    expected = []
+    for frames in [np.array([1.0, 1.5, 2.0])] + [np.array([k - 0.5, k]) for k in range(3, 21)]:
+        measured, outcomes = model.measure(frames, np.tile(q[:, None], frames.size), np.full(frames.size, 1e-3))
+        expected += [(t, measured[:, i]) for i, t in enumerate(frames) if outcomes[i] == 0]
+    got = [shim.attitude_quaternion_from_msg(m) for m in h.received["/star_tracker/attitude"]]
+    assert 20 < len(got) == len(expected) < 39  # some frames failed, and the same ones
+    for record, (stamp, quaternion) in zip(got, expected):
+        assert record.stamp_s == stamp
+        np.testing.assert_allclose(record.q_xyzw, quaternion, atol=1e-14)
 
 
 def test_star_tracker_gives_nothing_above_its_rate_limit(harness):
@@ -261,11 +287,14 @@ def test_pipeline_nodes_follow_the_sensor_time_without_taking_clock():
 
 @pytest.mark.parametrize("rate_hz, time_scale, block", [(10.0, 0.0, 512), (10.0, 1.0, 512), (10.0, 20.0, 50),
                                                         (10.0, 1000.0, 16)])
-def test_paced_fast_time_computes_blocks_no_longer_than_a_tick(rate_hz, time_scale, block):
-    # As fast as possible: blocks of 512 (cheapest per sample). Paced: a block must fit in one
-    # tick period, or /clock would stop for the tens of ms a block of 512 takes.
+def test_paced_fast_time_computes_blocks_no_longer_than_a_tick(harness, rate_hz, time_scale, block):
+    # As fast as possible: blocks of 512 (cheapest per sample). Paced by the node's own timer: a
+    # block must fit in one tick, or /clock would stop for the tens of ms a block of 512 takes.
     # 10 Hz × 20 = a 5 ms tick: 50 samples at the sizing cost of 100 µs each.
+    h = harness(SensorNode, {"sensor.rate_hz": rate_hz, "sim.fast_time": True, "sim.time_scale": time_scale})
+    assert h.node.fast_time_block == block
+    h.node.step()
+    assert len(h.node._pending) == block - 1
+    # Stepped by the in-process pipeline nothing is paced: always the big block.
     with Pipeline(None, {"sensor.rate_hz": rate_hz, "sim.time_scale": time_scale}) as pipeline:
-        assert pipeline.sensor.fast_time_block == block
-        pipeline.step(1)
-        assert len(pipeline.sensor._pending) == block - 1
+        assert pipeline.sensor.fast_time_block == 512

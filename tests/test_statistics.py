@@ -161,6 +161,17 @@ def test_orbit_ring_sums_per_bin_whatever_the_order_and_when_it_is_read():
         np.testing.assert_allclose(result[:, c], expected, rtol=1e-9, atol=1e-12)
 
 
+def test_orbit_ring_takes_none_as_a_missing_value_and_any_array_shape():
+    with_none, with_nan = OrbitRing(640.0, 2, 64), OrbitRing(640.0, 2, 64)
+    for k in range(2000):
+        t = 0.5 * k
+        value = math.sin(2.0 * math.pi * t / 640.0)
+        assert with_none.add(t, [value, None if k % 3 else value]) == with_nan.add(
+            t, np.array([[value], [math.nan if k % 3 else value]]))
+    np.testing.assert_array_equal(with_none.amplitudes(harmonics=(1, 2)), with_nan.amplitudes(harmonics=(1, 2)))
+    assert with_none.amplitudes(harmonics=(1,))[0, 0] == pytest.approx(1.0, rel=1e-3)
+
+
 def test_orbit_ring_rejects_bad_configuration():
     with pytest.raises(ValueError, match="n_bins"):
         OrbitRing(PERIOD_S, 1, n_bins=16)

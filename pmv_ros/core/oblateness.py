@@ -96,6 +96,8 @@ def closed_form_oblateness(u_rad, altitude_m, inclination_rad, ellipsoid: Ellips
         (meridional_rad, roll_rad, pitch_rad) shaped like ``u_rad``.
     """
     if all(type(value) is float for value in (u_rad, altitude_m, inclination_rad)):
+        if not (math.isfinite(u_rad) and math.isfinite(inclination_rad) and 0.0 < altitude_m < math.inf):
+            return math.nan, math.nan, math.nan  # what the array path gives (without its warnings)
         return _closed_form_oblateness_scalar(u_rad, altitude_m, inclination_rad, ellipsoid, mean_radius_m)
     u = np.asarray(u_rad, float)
     r, h = mean_radius_m, float(altitude_m)

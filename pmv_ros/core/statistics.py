@@ -284,7 +284,9 @@ class OrbitRing:
         absolute = math.floor(t_s / self.bin_width_s)
         if self._latest_bin is not None and absolute <= self._latest_bin - self.n_bins:
             return False
-        row = values if isinstance(values, (list, tuple)) else np.asarray(values, float).ravel().tolist()
+        if not (isinstance(values, (list, tuple)) and all(type(value) is float for value in values)):
+            values = np.asarray(values, float).ravel().tolist()  # None → NaN, nested lists flattened
+        row = values
         if len(row) != self.n_channels:
             raise ValueError(f"expected {self.n_channels} values, got {len(row)}")
         if self._open is None or self._open[0] != absolute:
@@ -302,7 +304,6 @@ class OrbitRing:
         _, _, count, time_sum, value_sum = self._open
         offset = t_s - self._time_origin_s
         for channel, value in enumerate(row):
-            value = float(value)
             if math.isfinite(value):
                 count[channel] += 1.0
                 time_sum[channel] += offset

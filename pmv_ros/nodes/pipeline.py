@@ -127,19 +127,18 @@ class Pipeline:
         self._holds_blas = True
         # The sensor is the clock: it stamps from its own simulation time and
         # publishes /clock for anything outside. The nodes it drives in this
-        # process follow that time through one time source that step() sets
+        # process follow that time through time sources that step() sets
         # (simulation time, as with use_sim_time, without a /clock subscription
         # each: two fewer messages taken per tick). The collector only records
         # stamps and needs no clock.
-        self._sim_time = TimeSource()  # attached to no node: it never subscribes to /clock
-        self._sim_time.ros_time_is_active = True
-        self._clock_msg = ClockMsg()
+        self._time_sources = {}  # role → the rclpy TimeSource its node follows
+        self._clock_msg = ClockMsg()  # the simulation time last set
         try:
             self.executor = SingleThreadedExecutor(context=self.context)
             self.sensor = self.start_node("sensor")
             self.star_tracker = self.start_node("star_tracker")
             self.monitor = self.start_node("monitor")
-            self.collector = self._add(ReportCollector(**self._options(False))) if collect else None
+            self.collector = self._add(ReportCollector(**self._options(None))) if collect else None
         except BaseException:
             self.close()
             raise
@@ -149,9 +148,9 @@ class Pipeline:
              "star_tracker": (StarTrackerNode, True, {}),
              "monitor": (ErrorMonitorNode, True, {})}
 
-    def _options(self, sim_time: bool, overrides: dict | None = None) -> dict:
+    def _options(self, time_source: TimeSource | None, overrides: dict | None = None) -> dict:
         values = {**self._settings, **(overrides or {}), "use_sim_time": False}
-        return dict(context=self.context, lean=self._lean, time_source=self._sim_time if sim_time else None,
+        return dict(context=self.context, lean=self._lean, time_source=time_source,
                     parameter_overrides=[Parameter(name, value=value) for name, value in values.items()])
 
     def _add(self, node):
@@ -168,7 +167,14 @@ class Pipeline:
         ``overrides`` are added to the pipeline's parameters for this node.
         """
         node_class, sim_time, arguments = self.ROLES[role]
-        node = self._add(node_class(**arguments, **self._options(sim_time, overrides)))
+        source = None
+        if sim_time:
+            source = TimeSource()  # attached to no node: it never subscribes to /clock
+            source.ros_time_is_active = True
+            source.clock_callback(self._clock_msg)  # started mid-run: on the current simulation time
+        node = self._add(node_class(**arguments, **self._options(source, overrides)))
+        if source is not None:
+            self._time_sources[role] = source
         setattr(self, role, node)
         return node
 
@@ -178,6 +184,7 @@ class Pipeline:
         self.executor.remove_node(node)
         self.nodes.remove(node)
         node.destroy_node()
+        self._time_sources.pop(role, None)
         setattr(self, role, None)
 
     def drain(self, max_callbacks: int = 100_000) -> int:
@@ -189,7 +196,9 @@ class Pipeline:
         ran = 0
         for _ in range(ticks):
             self.sensor.step()
-            self._sim_time.clock_callback(shim.write_clock(self._clock_msg, self.sensor.sim_time_s))
+            shim.write_clock(self._clock_msg, self.sensor.sim_time_s)
+            for source in self._time_sources.values():
+                source.clock_callback(self._clock_msg)
             ran += self.drain()
         return ran
 

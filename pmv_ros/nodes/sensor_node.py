@@ -356,9 +356,13 @@ class SensorNode(PmvNode):
 
     @property
     def fast_time_block(self) -> int:
-        """Samples the instrument model computes per call in fast time (see PACED_SAMPLE_COST_S)."""
+        """Samples the instrument model computes per call in fast time (see PACED_SAMPLE_COST_S).
+
+        Stepped by a caller (the in-process pipeline) or as fast as possible:
+        FAST_TIME_BLOCK; paced by the node's own timer: no longer than a tick.
+        """
         scale = self._values["sim.time_scale"]
-        if scale == 0.0:
+        if scale == 0.0 or self._external_drive:
             return FAST_TIME_BLOCK
         tick_s = 1.0 / (self._values["sensor.rate_hz"] * scale)
         return max(16, min(FAST_TIME_BLOCK, int(tick_s / PACED_SAMPLE_COST_S)))

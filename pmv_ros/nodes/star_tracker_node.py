@@ -189,12 +189,16 @@ class StarTrackerNode(PmvNode):
                 turn = rotation_vector_from_quaternion(quaternion_product(tuple(current.tolist()),
                                                                           quaternion_conjugate(q_previous)))
                 rate = inertial_rate_of_nadir_pointing(self._mean_motion(), tuple(w / dt for w in turn))
-                for frame_s in frames:
-                    # Slerp: a constant-rate turn from the previous truth to this one.
-                    fraction = (frame_s - previous[0]) / dt
-                    q_frame = quaternion_product(quaternion_from_rotation_vector(tuple(fraction * w for w in turn)),
-                                                 q_previous)
-                    measured, outcome = self._tracker.measure(frame_s, q_frame, rate)
+                # Slerp: a constant-rate turn from the previous truth to this one.
+                q_frames = [quaternion_product(quaternion_from_rotation_vector(
+                    tuple((frame_s - previous[0]) / dt * w for w in turn)), q_previous) for frame_s in frames]
+                if len(frames) == 1:  # the usual case: one frame per truth sample at most
+                    results = [self._tracker.measure(frames[0], q_frames[0], rate)]
+                else:  # one call for all: the same random draws, in the same order, as for any N
+                    measured, outcomes = self._tracker.measure(np.array(frames), np.array(q_frames).T,
+                                                               np.full(len(frames), rate))
+                    results = [(measured[:, k], Outcome(int(code))) for k, code in enumerate(outcomes)]
+                for frame_s, (measured, outcome) in zip(frames, results):
                     self._outcomes[outcome] += 1
                     self._last_outcome = outcome
                     if outcome == Outcome.OK:
