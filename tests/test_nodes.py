@@ -207,6 +207,28 @@ def test_error_monitor_node_alone(harness):
     assert statistics.channel("roll").sigma_rad < 1e-9
 
 
+def test_monitor_warns_when_odometry_flies_another_orbit_than_its_parameters(harness):
+    # The harmonic ring's period comes from orbit.altitude_km; odometry from an 835 km orbit
+    # (period ≈ 6,080 s) against the default 500 km (≈ 5,677 s) must not pass silently.
+    h = harness(ErrorMonitorNode, {"use_sim_time": True})
+    h.record(DiagnosticArray, "/diagnostics")
+    odometry, clock = h.publisher(Odometry, "/orbit/odometry"), h.publisher(Clock, "/clock")
+    messages = []
+    for altitude_m in (500e3, 835e3):
+        radius = EARTH_MEAN_RADIUS_M + altitude_m
+        speed = math.sqrt(3.986004418e14 / radius)
+        for k in range(1, 31):
+            t = 10.0 * k + (0.0 if altitude_m == 500e3 else 400.0)
+            clock.publish(shim.clock_to_msg(t))
+            odometry.publish(shim.orbit_state_to_msg(shim.OrbitState(t, "eci", "body", [radius, 0.0, 0.0],
+                                                                     [0.0, speed, 0.0])))
+            h.drain()
+        messages.append([status.message for m in h.received["/diagnostics"] for status in m.status])
+        h.received["/diagnostics"].clear()
+    assert messages[0] and not any("orbital period" in m for m in messages[0])
+    assert messages[1] and all("orbital period of 60" in m and "orbit.altitude_km" in m for m in messages[1])
+
+
 def test_star_tracker_outage_does_not_stop_the_monitor():
     # Issue 4: truth is gone for 60 s; the monitor counts the samples it skipped and resumes.
     overrides = {"outage_start_s": [60.0], "outage_duration_s": [60.0], "random_failure_probability": 0.0,

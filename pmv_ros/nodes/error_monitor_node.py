@@ -213,6 +213,21 @@ class ErrorMonitorNode(PmvNode):
         """The monitor core (read-only use: reports, tests)."""
         return self._monitor
 
+    #: Relative difference between the orbital period of /orbit/odometry and the configured one
+    #: above which /diagnostics warns: the harmonics are fitted on the configured period.
+    PERIOD_MISMATCH = 0.01
+
+    def _period_mismatch(self) -> str | None:
+        """A warning when /orbit/odometry flies another orbit than the parameters describe, else None."""
+        if self._orbit is None or not self._orbit[4] > 0.0:
+            return None
+        measured_s = 2.0 * math.pi / self._orbit[4]
+        configured_s = self._monitor.config.orbital_period_s
+        if abs(measured_s - configured_s) <= self.PERIOD_MISMATCH * configured_s:
+            return None
+        return (f"/orbit/odometry gives an orbital period of {measured_s:.0f} s, the parameters "
+                f"{configured_s:.0f} s: harmonics are fitted on the parameters' period (set orbit.altitude_km)")
+
     def _on_timer(self) -> None:
         now = self._now_s()
         self._handle(self._monitor.poll(now))
@@ -227,6 +242,9 @@ class ErrorMonitorNode(PmvNode):
         elif now is not None and latest_truth is not None and now - latest_truth > self._values["max_truth_wait_s"]:
             problems.append(f"no star-tracker truth for {now - latest_truth:.0f} s")
         # Samples waiting for truth are normal (the star tracker's latency); an outage shows as truth age above.
+        mismatch = self._period_mismatch()
+        if mismatch is not None:
+            problems.append(mismatch)
         rejected_total = sum(rejected.values())
         if rejected_total > self._rejected_reported:
             problems.append("rejected input messages")
