@@ -315,6 +315,20 @@ def validate_quaternion(q_xyzw, tolerance: float):
     return q / norm, Status.OK, abs(norm - 1.0) > 1e-9
 
 
+def _ground_components(row, altitude_m: float) -> tuple[float, float, float]:
+    """(cross-track, along-track, circular) ground error, m, of a (roll, pitch, meridional) residual row.
+
+    Cross-track goes with roll, along-track with pitch, circular with
+    meridional; a lost angle gives NaN in its own component (and in the
+    circular one) only.
+    """
+    roll, pitch, meridional = row
+    error = nadir_ground_error(0.0 if math.isnan(roll) else roll, 0.0 if math.isnan(pitch) else pitch, altitude_m)
+    return (math.nan if math.isnan(roll) else error.cross_track_m,
+            math.nan if math.isnan(pitch) else error.along_track_m,
+            math.nan if math.isnan(meridional) else error.circular_m)
+
+
 def orbit_angles_from_state(position_eci_m, velocity_eci_m_s):
     """Argument of latitude u (rad), inclination (rad) and altitude above the mean radius (m) from r, v in ECI.
 
@@ -618,48 +632,45 @@ class ErrorMonitor:
         return self._account(entry, entry.roll_rad - truth_roll, entry.pitch_rad - truth_pitch)
 
     def _account(self, entry: _Pending, residual_roll: float, residual_pitch: float) -> Outcome:
-        """Update both statistics sets and the ring with one residual; return the outcome."""
-        self._counters["used"] += 1
+        """Update both statistics sets and the ring with one residual; return the outcome.
+
+        Runs once per sensor sample: plain floats, straight-line code.
+        """
+        counters = self._counters
+        counters["used"] += 1
         if math.isnan(residual_roll) or math.isnan(residual_pitch):
             # One chord pair lost: the other angle counts; the meridional value does not exist.
-            self._counters["used_one_angle"] += 1
+            counters["used_one_angle"] += 1
         roll_kept = residual_roll - self.config.roll_offset_rad
         pitch_kept = residual_pitch - self.config.pitch_offset_rad
+        kept = (roll_kept, pitch_kept, math.hypot(roll_kept, pitch_kept))
         has_model = math.isfinite(entry.oblateness_roll_rad) and math.isfinite(entry.oblateness_pitch_rad)
-        if not has_model:
-            self._counters["used_without_oblateness_model"] += 1
-        roll_removed = roll_kept - entry.oblateness_roll_rad if has_model else math.nan
-        pitch_removed = pitch_kept - entry.oblateness_pitch_rad if has_model else math.nan
-        rows = {False: (roll_kept, pitch_kept, math.hypot(roll_kept, pitch_kept)),
-                True: (roll_removed, pitch_removed, math.hypot(roll_removed, pitch_removed))}
+        if has_model:
+            roll_removed = roll_kept - entry.oblateness_roll_rad
+            pitch_removed = pitch_kept - entry.oblateness_pitch_rad
+            removed = (roll_removed, pitch_removed, math.hypot(roll_removed, pitch_removed))
+        else:
+            counters["used_without_oblateness_model"] += 1
+            removed = (math.nan, math.nan, math.nan)
+        with_ground = math.isfinite(entry.altitude_m) and entry.altitude_m > 0.0
         grounds = {}
-        if math.isfinite(entry.altitude_m) and entry.altitude_m > 0.0:
-            for key in (True, False):
-                if key and not has_model:
-                    continue
-                # Cross-track goes with roll, along-track with pitch, circular with meridional;
-                # a lost angle gives NaN in its own component (and in the circular one) only.
-                roll_value, pitch_value = rows[key][0], rows[key][1]
-                error = nadir_ground_error(0.0 if math.isnan(roll_value) else roll_value,
-                                           0.0 if math.isnan(pitch_value) else pitch_value, entry.altitude_m)
-                grounds[key] = (math.nan if math.isnan(roll_value) else error.cross_track_m,
-                                math.nan if math.isnan(pitch_value) else error.along_track_m,
-                                math.nan if math.isnan(rows[key][2]) else error.circular_m)
-        for key, values in rows.items():
+        for key, row in ((False, kept), (True, removed)):
             if key and not has_model:
                 continue
             target = self._sets[key]
-            for stats, value in zip(target.angles, values):
+            for stats, value in zip(target.angles, row):
                 if math.isfinite(value):
-                    stats.update(value)
-            for stats, value in zip(target.ground, grounds.get(key, ())):
-                if math.isfinite(value):
-                    stats.update(value)
-        self._ring.add(entry.stamp_s, rows[True] + rows[False])
+                    stats.add(value)
+            if with_ground:
+                ground = grounds[key] = _ground_components(row, entry.altitude_m)
+                for stats, value in zip(target.ground, ground):
+                    if math.isfinite(value):
+                        stats.add(value)
+        self._ring.add(entry.stamp_s, removed + kept)
         primary = self.config.remove_oblateness
-        ground = grounds.get(primary, (math.nan, math.nan, math.nan))
-        return Outcome(entry.stamp_s, Status.OK, residual_roll, residual_pitch, *rows[primary],
-                       along_track_m=float(ground[1]), cross_track_m=float(ground[0]), circular_m=float(ground[2]))
+        cross, along, circular = grounds.get(primary, (math.nan, math.nan, math.nan))
+        return Outcome(entry.stamp_s, Status.OK, residual_roll, residual_pitch, *(removed if primary else kept),
+                       along_track_m=along, cross_track_m=cross, circular_m=circular)
 
     # ---------------------------------------------------------------- summary
 

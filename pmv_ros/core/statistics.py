@@ -62,9 +62,8 @@ class RunningStatistics:
     def update(self, values) -> None:
         """Add one value or an array of values (any unit; the statistics keep it)."""
         if isinstance(values, float):
-            # Per-sample path of the live monitor: plain float arithmetic, no array round trip.
             if math.isfinite(values):
-                self._add(values)
+                self.add(values)
             else:
                 self.non_finite += 1
             return
@@ -77,7 +76,7 @@ class RunningStatistics:
         if n_new == 0:
             return
         if n_new == 1:
-            self._add(float(data[0]))
+            self.add(float(data[0]))
             return
         batch_mean = float(data.mean())
         batch_m2 = float(((data - batch_mean) ** 2).sum())
@@ -92,16 +91,18 @@ class RunningStatistics:
         self.count = total
         self.max_abs = max(self.max_abs, batch_max)
 
-    def _add(self, value: float) -> None:
-        """Welford's update with one finite value."""
-        self.count += 1
-        if self.count == 1:
+    def add(self, value: float) -> None:
+        """Welford's update with one finite float — the live monitor's per-sample path: no checks, no arrays."""
+        count = self.count = self.count + 1
+        if count == 1:
             self.mean, self._m2, self.max_abs = value, 0.0, abs(value)
             return
         delta = value - self.mean
-        self.mean += delta / self.count
+        self.mean += delta / count
         self._m2 += delta * (value - self.mean)
-        self.max_abs = max(self.max_abs, abs(value))
+        magnitude = abs(value)
+        if magnitude > self.max_abs:
+            self.max_abs = magnitude
 
     @property
     def variance(self) -> float:
