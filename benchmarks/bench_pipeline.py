@@ -143,7 +143,7 @@ def graph_floor_rate(ticks: int, rate_hz: float = 10.0) -> dict:
 
     def node(name, follows_sim_time):
         return PmvNode(name, lean=True, context=context, time_source=sim_time if follows_sim_time else None,
-                       parameter_overrides=[Parameter("use_sim_time", value=False)])
+                       parameter_overrides=[Parameter("use_sim_time", value=follows_sim_time)])
 
     sensor, tracker, monitor, collector = (node("floor_sensor", False), node("floor_tracker", True),
                                            node("floor_monitor", True), node("floor_collector", False))

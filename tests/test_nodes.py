@@ -295,6 +295,7 @@ def test_pipeline_nodes_follow_the_sensor_time_without_taking_clock():
         followers = (pipeline.star_tracker, pipeline.monitor)
         pipeline.step(25)
         for node in followers:
+            assert node.get_parameter("use_sim_time").value is True
             assert node.get_clock().now().nanoseconds == round(pipeline.sensor.sim_time_s * 1e9)
             assert all(sub.topic_name != "/clock" for sub in node.subscriptions)
         assert pipeline.sensor.count_subscribers("/clock") == 0

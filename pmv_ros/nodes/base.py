@@ -64,11 +64,10 @@ class PmvNode(Node):
             the fast-time rate. Parameters still work through
             ``set_parameters`` in-process, with the same validation.
         time_source: for the in-process pipeline: a ``rclpy.time_source.TimeSource``
-            that the process drives itself (``clock_callback``). The node's clock
-            follows it — simulation time, as with ``use_sim_time`` — without a
-            /clock subscription of its own: nodes that share the process learn
-            the time from the pipeline, not through DDS. Pass ``use_sim_time``
-            False with it (the node's own time source must stay off).
+            that the process drives itself (``clock_callback``). The node runs
+            with ``use_sim_time`` as usual, but its clock follows this source and
+            the /clock subscription ``use_sim_time`` made is dropped: nodes that
+            share the process learn the time from the pipeline, not through DDS.
 
     Parameter updates (in-process ``set_parameters`` and the parameter
     services alike) pass :func:`pmv_ros.nodes.params.coerce_parameters` first:
@@ -84,13 +83,15 @@ class PmvNode(Node):
             kwargs.setdefault("enable_rosout", False)  # logs still reach the console and the log file
         self.parameter_specs = {}  # name → ParamSpec, filled by install_validation
         super().__init__(name, **kwargs)
-        if time_source is not None:
-            # Before a subclass reads its clock: the node starts on the pipeline's simulation time.
-            time_source.attach_clock(self.get_clock())
         self._lean = lean
         self._detached = []
+        if time_source is not None:
+            for subscription in [s for s in self.subscriptions if s.topic_name == "/clock"]:
+                self.destroy_subscription(subscription)
+            # Before a subclass reads its clock: the node starts on the pipeline's simulation time.
+            time_source.attach_clock(self.get_clock())
         if lean:
-            # rclpy's own /parameter_events publisher and /clock subscription
+            # rclpy's own /parameter_events publisher (and /clock subscription)
             # come with default QoS-event handlers (they log incompatible-QoS
             # warnings); in a graph private to the process they only cost time.
             for waitable in list(self.waitables):

@@ -127,10 +127,10 @@ class Pipeline:
         self._holds_blas = True
         # The sensor is the clock: it stamps from its own simulation time and
         # publishes /clock for anything outside. The nodes it drives in this
-        # process follow that time through time sources that step() sets
-        # (simulation time, as with use_sim_time, without a /clock subscription
-        # each: two fewer messages taken per tick). The collector only records
-        # stamps and needs no clock.
+        # process run with use_sim_time, their clocks set by time sources that
+        # step() drives instead of a /clock subscription each (two fewer
+        # messages taken per tick). The collector only records stamps and
+        # needs no clock.
         self._time_sources = {}  # role → the rclpy TimeSource its node follows
         self._clock_msg = ClockMsg()  # the simulation time last set
         try:
@@ -149,7 +149,7 @@ class Pipeline:
              "monitor": (ErrorMonitorNode, True, {})}
 
     def _options(self, time_source: TimeSource | None, overrides: dict | None = None) -> dict:
-        values = {**self._settings, **(overrides or {}), "use_sim_time": False}
+        values = {**self._settings, **(overrides or {}), "use_sim_time": time_source is not None}
         return dict(context=self.context, lean=self._lean, time_source=time_source,
                     parameter_overrides=[Parameter(name, value=value) for name, value in values.items()])
 
