@@ -299,12 +299,14 @@ def test_pipeline_nodes_follow_the_sensor_time_without_taking_clock():
             assert node.get_clock().now().nanoseconds == round(pipeline.sensor.sim_time_s * 1e9)
             assert all(sub.topic_name != "/clock" for sub in node.subscriptions)
         assert pipeline.sensor.count_subscribers("/clock") == 0
-        # A restarted node starts on the simulation time, not the wall clock.
+        # A restarted node starts on the simulation time, not the wall clock; the stopped one is let go.
+        stopped_clock, stopped_at = pipeline.monitor.get_clock(), pipeline.sensor.sim_time_s
         pipeline.stop_node("monitor")
         monitor = pipeline.start_node("monitor")
         assert monitor.get_clock().now().nanoseconds == round(pipeline.sensor.sim_time_s * 1e9)
         pipeline.step(30)
         assert monitor.get_clock().now().nanoseconds == round(pipeline.sensor.sim_time_s * 1e9)
+        assert stopped_clock.now().nanoseconds == round(stopped_at * 1e9)
         assert monitor.monitor.counters["used"] > 0
 
 
