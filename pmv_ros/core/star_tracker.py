@@ -88,6 +88,7 @@ class StarTracker:
         self.parameters = parameters or StarTrackerParameters()
         self._rng = np.random.default_rng(seed)
         self._tracker_axes = _frame_about(self.parameters.boresight_body)
+        self._tracker_axes_rows = self._tracker_axes.tolist()  # for the one-frame path in floats
 
     def in_outage(self, t_s):
         """True where ``t_s`` lies inside a scheduled outage window."""
@@ -163,7 +164,7 @@ class StarTracker:
             return np.full(4, np.nan), outcome
         sigma = (p.noise_cross_rad, p.noise_cross_rad, p.noise_boresight_rad)
         scaled = [n * s for n, s in zip(noise, sigma)]
-        error_tracker = tuple(sum(a * n for a, n in zip(row, scaled)) for row in self._tracker_axes.tolist())
+        error_tracker = tuple(sum(a * n for a, n in zip(row, scaled)) for row in self._tracker_axes_rows)
         q_true = tuple(c / norm for c in q)
         measured = quaternion_product(q_true, quaternion_from_rotation_vector(error_tracker))
         if sum(m * c for m, c in zip(measured, q_true)) < 0.0:

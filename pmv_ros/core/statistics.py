@@ -285,9 +285,9 @@ class OrbitRing:
         absolute = math.floor(t_s / self.bin_width_s)
         if self._latest_bin is not None and absolute <= self._latest_bin - self.n_bins:
             return False
-        if not (isinstance(values, (list, tuple)) and all(type(value) is float for value in values)):
-            values = np.asarray(values, float).ravel().tolist()  # None → NaN, nested lists flattened
         row = values
+        if not (isinstance(row, (list, tuple)) and all(type(value) is float for value in row)):
+            row = np.asarray(row, float).ravel().tolist()  # None → NaN, nested lists flattened
         if len(row) != self.n_channels:
             raise ValueError(f"expected {self.n_channels} values, got {len(row)}")
         if self._open is None or self._open[0] != absolute:
