@@ -21,7 +21,6 @@ import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
 from nav_msgs.msg import Odometry
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import qos_profile_sensor_data
@@ -34,7 +33,7 @@ from pmv_ros.core.attitude import quaternion_from_rotation_vector, quaternion_pr
 from pmv_ros.core.constants import ARCMIN_RAD
 from pmv_ros.core.parameters import preset_values
 from pmv_ros.nodes.error_monitor_node import ErrorMonitorNode
-from pmv_ros.nodes.pipeline import Pipeline, drain
+from pmv_ros.nodes.pipeline import Pipeline
 from pmv_ros.nodes.sensor_node import SensorNode
 
 #: Sphere + uniform horizon through the full signal chain (default detector and correction).
