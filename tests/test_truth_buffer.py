@@ -63,6 +63,9 @@ def test_what_it_does_not_know_it_does_not_give():
     assert buffer.attitude_at(1.01) == (None, TruthAt.NO_TRUTH)  # one sample: no rate to carry on
     buffer.add(3.0, attitude(3.0))  # a 2 s gap
     assert buffer.attitude_at(2.0) == (None, TruthAt.TRUTH_GAP)
+    assert buffer.attitude_at(3.0)[1] is TruthAt.INTERPOLATED
+    assert buffer.attitude_at(3.01) == (None, TruthAt.TRUTH_GAP)  # no rate taken across the gap
+    assert buffer.horizon_s() == 0.0
     for t in (3.1, 3.2, 3.3, 3.4):
         buffer.add(t, attitude(t))
     assert len(buffer) == 4  # bounded
