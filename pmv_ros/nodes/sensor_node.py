@@ -125,6 +125,8 @@ class SensorNode(PmvNode):
 
     def _rebuild(self, values: dict) -> None:
         self._orbit, self._profile, self._model = build_models(values)
+        # Epoch and elements on every /diagnostics, so that recordings can be analysed (issue 13).
+        self._orbit_status = shim.orbit_elements_status(shim.OrbitElements.from_orbit(self._orbit, values["sim.epoch_utc"]))
 
     def _rebuild_live(self, values: dict) -> None:
         for fixed in ("attitude.source", "sim.fast_time"):
@@ -321,7 +323,8 @@ class SensorNode(PmvNode):
         level = shim.Level.WARN if problems else shim.Level.OK
         message = "; ".join(problems) if problems else "all chords valid"
         report = shim.HealthReport(stamp_s=t_s, statuses=(shim.HealthStatus(
-            name="pmv_ros/sensor_node: horizon", level=level, message=message, hardware_id="pmv", values=values),))
+            name="pmv_ros/sensor_node: horizon", level=level, message=message, hardware_id="pmv", values=values),
+            self._orbit_status))
         self._pub_diagnostics.publish(shim.write_health(self._out["diagnostics"], report))
 
 
