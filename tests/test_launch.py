@@ -202,3 +202,22 @@ def test_launch_follow_starts_no_attitude_source(colcon_install, ros_tools, grap
     # A body rolled by 0.1° about the orbital +X: the sensor reads it (± the methodical error, a few ′).
     roll = [abs(m.vector.x) for m in attitude if math.isfinite(m.vector.x)]
     assert roll and all(abs(r - math.radians(0.1)) < math.radians(0.25) for r in roll), roll
+
+
+def test_launch_namespace_fast_time_keeps_the_preset_sections(colcon_install, ros_tools, graph, tmp_path):
+    """namespace:=sat1: the preset's and follow.yaml's node sections still reach the renamed nodes; fast time runs."""
+    node, executor = graph
+    launched = Launched(colcon_install, ros_tools, tmp_path, "namespace:=sat1", "follow:=true", "fast_time:=true",
+                        "time_scale:=2")
+    try:
+        _spin_until(executor, launched, lambda: {("sensor_node", "/sat1"), ("error_monitor_node", "/sat1")}
+                    <= set(node.get_node_names_and_namespaces())
+                    and node.get_publishers_info_by_topic("/clock"), FIRST_MESSAGE_TIMEOUT_S,
+                    "no /sat1 nodes or no /clock")
+        assert node.get_publishers_info_by_topic("/attitude/truth") == []
+        launched.interrupt()
+    finally:
+        launched.kill()
+    _assert_clean_exit(launched)
+    # follow.yaml's sensor_node section and kondor.yaml's reached /sat1/sensor_node; the sensor runs the clock.
+    assert "attitude from follow" in launched.log() and "fast time" in launched.log(), launched.log()
