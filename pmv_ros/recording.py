@@ -27,6 +27,7 @@ from __future__ import annotations
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Iterator
 
 #: Library name written in the MCAP header (with the mcap library's own).
 LIBRARY = "pmv_ros"
@@ -120,12 +121,6 @@ class RecordedMessage:
     message: object
 
 
-def topic_types(path: str | Path) -> dict[str, str]:
-    """``{topic: type}`` of a recording; RecordingError if it cannot be opened."""
-    with _open(Path(path)) as reader:
-        return {connection.topic: connection.msgtype for connection in reader.connections}
-
-
 @contextmanager
 def _open(path: Path):
     """An open rosbags ``AnyReader`` of ``path``, closed on leaving; RecordingError if it cannot be opened."""
@@ -149,33 +144,53 @@ def _reason(error: Exception) -> str:
     return text if len(text) <= 200 else text[:197] + "..."
 
 
-def read_recording(path: str | Path, wanted: dict[str, tuple[str, ...]]) -> dict[str, list[RecordedMessage]]:
-    """The messages of the topics in ``wanted`` (``{topic: accepted types}``), in log-time order.
+def _checked_connections(path: Path, reader, wanted: dict[str, tuple[str, ...]]) -> list:
+    connections = []
+    for connection in reader.connections:
+        accepted = wanted.get(connection.topic)
+        if accepted is None:
+            continue
+        if connection.msgtype not in accepted:
+            raise RecordingError(f"{path}: {connection.topic} is {connection.msgtype}, expected " + " or ".join(accepted))
+        connections.append(connection)
+    return connections
 
-    A topic of ``wanted`` that is not in the recording is left out of the
-    result (the caller says which ones it cannot do without); a topic whose
-    type is not among the accepted ones, an unreadable message or a cut file
-    is a :class:`RecordingError`.
+
+def recorded_topics(path: str | Path, wanted: dict[str, tuple[str, ...]]) -> set[str]:
+    """The topics of ``wanted`` (``{topic: accepted types}``) the recording has; RecordingError on a wrong type."""
+    path = Path(path)
+    with _open(path) as reader:
+        return {connection.topic for connection in _checked_connections(path, reader, wanted)}
+
+
+def iter_recording(path: str | Path, wanted: dict[str, tuple[str, ...]]) -> Iterator[tuple[str, RecordedMessage]]:
+    """``(topic, message)`` for every message of the topics in ``wanted``, in log-time order, one at a time.
+
+    Memory does not grow with the recording. A topic whose type is not among
+    the accepted ones, an unreadable message or a cut file is a
+    :class:`RecordingError`.
     """
     path = Path(path)
-    result: dict[str, list[RecordedMessage]] = {}
     with _open(path) as reader:
-        connections = []
-        for connection in reader.connections:
-            accepted = wanted.get(connection.topic)
-            if accepted is None:
-                continue
-            if connection.msgtype not in accepted:
-                raise RecordingError(f"{path}: {connection.topic} is {connection.msgtype}, expected "
-                                     + " or ".join(accepted))
-            connections.append(connection)
-            result.setdefault(connection.topic, [])
+        connections = _checked_connections(path, reader, wanted)
         if not connections:
-            return result
+            return
         try:
             for connection, log_time_ns, data in reader.messages(connections=connections):
-                result[connection.topic].append(
-                    RecordedMessage(int(log_time_ns), reader.deserialize(data, connection.msgtype)))
+                yield connection.topic, RecordedMessage(int(log_time_ns), reader.deserialize(data, connection.msgtype))
+        except RecordingError:
+            raise
         except Exception as error:
             raise RecordingError(f"{path}: cannot read the recording ({_reason(error)})") from None
+
+
+def read_recording(path: str | Path, wanted: dict[str, tuple[str, ...]]) -> dict[str, list[RecordedMessage]]:
+    """The messages of the topics in ``wanted`` (``{topic: accepted types}``) as lists, in log-time order.
+
+    For small recordings and tests (:func:`iter_recording` streams). A topic of
+    ``wanted`` that is not in the recording is left out of the result.
+    """
+    result: dict[str, list[RecordedMessage]] = {topic: [] for topic in recorded_topics(path, wanted)}
+    for topic, message in iter_recording(path, wanted):
+        result[topic].append(message)
     return result

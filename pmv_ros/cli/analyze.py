@@ -332,8 +332,7 @@ def phase_from_odometry(messages, timeout_s: float):
         try:
             stamp_s, position, twist = shim.read_orbit_state(message)
             o = message.pose.pose.orientation
-            rows.append((stamp_s, np.array(position, float), np.array(twist, float),
-                         np.array([o.x, o.y, o.z, o.w], float)))
+            rows.append((stamp_s, tuple(position), tuple(twist), (o.x, o.y, o.z, o.w)))
         except (ValueError, AttributeError):
             unreadable += 1
     rows.sort(key=lambda row: row[0])
@@ -345,6 +344,7 @@ def phase_from_odometry(messages, timeout_s: float):
     positions = np.array([row[1] for row in rows])
     u, inclination, altitude = [], [], []
     for i, (_, position, twist, q) in enumerate(rows):
+        position, twist, q = np.array(position, float), np.array(twist, float), np.array(q, float)
         before, after = positions[max(i - 1, 0)], positions[min(i + 1, len(rows) - 1)]
         chord = after - before
         ok = len(rows) > 1 and float(np.dot(before, after)) > 0.0 and np.linalg.norm(chord) > 0.0
@@ -382,19 +382,16 @@ def phase_from_odometry(messages, timeout_s: float):
     return phase, math.degrees(float(np.mean(inclination))), float(np.mean(altitude)) / 1e3, unreadable
 
 
-def _orbit_elements(messages):
-    """The sensor's orbit elements from /diagnostics messages: (the first found or None, distinct count)."""
-    import pmv_msgs_shim as shim
-
-    found = []
-    for recorded in messages:
-        try:
-            elements = shim.find_orbit_elements(recorded.message)
-        except (ValueError, AttributeError):
-            continue
-        if elements is not None and (not found or elements != found[-1]):
-            found.append(elements)
-    return (found[0] if found else None), len(found)
+def _by_log_time(stream, first_topic: str):
+    """The (topic, message) stream with ``first_topic`` first among messages logged at the same time."""
+    group, group_time = [], None
+    for topic, recorded in stream:
+        if recorded.log_time_ns != group_time and group:
+            yield from sorted(group, key=lambda item: item[0] != first_topic)
+            group = []
+        group_time = recorded.log_time_ns
+        group.append((topic, recorded))
+    yield from sorted(group, key=lambda item: item[0] != first_topic)
 
 
 def analyze_recording(path: str, altitude_m: float, inclination_rad: float, *, convention: str | None = None,
@@ -410,41 +407,68 @@ def analyze_recording(path: str, altitude_m: float, inclination_rad: float, *, c
     oblateness model at the orbital angle of the sample. ``per_sample`` in
     the report is what ``/pmv/error_statistics`` says at the end of a live
     run; the rest is the flight-test procedure of physics.md §5 on the
-    aligned residuals. Raises ValueError (RecordingError) naming what is
-    missing or wrong.
+    aligned residuals. The recording is read twice, message by message (the
+    orbit first, then sensor and truth): memory holds plain numbers, not
+    messages. Raises ValueError (RecordingError) naming what is missing or wrong.
     """
     import pmv_msgs_shim as shim
     from ..core.assembly import MONITOR_PARAMS, build_monitor
     from ..core.parameters import preset_values
-    from ..recording import RecordingError, read_recording
+    from ..recording import RecordingError, iter_recording, recorded_topics
 
     truth_topics = (truth_topic,) if truth_topic else TRUTH_TOPICS
     wanted = {SENSOR_TOPIC: VECTOR3_STAMPED, ODOMETRY_TOPIC: ODOMETRY, DIAGNOSTICS_TOPIC: DIAGNOSTIC_ARRAY}
     wanted.update({topic: QUATERNION_STAMPED for topic in truth_topics})
-    topics = read_recording(path, wanted)
-    if not topics.get(SENSOR_TOPIC):
-        what = "no messages on" if SENSOR_TOPIC in topics else "no topic"
-        raise RecordingError(f"{path}: {what} {SENSOR_TOPIC} in the recording (the sensor's roll and pitch)")
-    truth_topic = next((topic for topic in truth_topics if topics.get(topic)), None)
+    present = recorded_topics(path, wanted)
+    if SENSOR_TOPIC not in present:
+        raise RecordingError(f"{path}: no topic {SENSOR_TOPIC} in the recording (the sensor's roll and pitch)")
+    truth_topic = next((topic for topic in truth_topics if topic in present), None)
     if truth_topic is None:
-        raise RecordingError(f"{path}: no truth in the recording: no messages on " + " or ".join(truth_topics)
+        raise RecordingError(f"{path}: no truth in the recording: no topic " + " or ".join(truth_topics)
                              + ("" if len(truth_topics) == 1 else " (give --truth TOPIC)"))
-    elements, element_sets = _orbit_elements(topics.get(DIAGNOSTICS_TOPIC, ()))
-    if convention is None:
-        convention = elements.roll_pitch_convention if elements is not None else "ros"
+    counts = dict.fromkeys(sorted(present), 0)
+
     monitor_values = preset_values({}, "error_monitor_node", MONITOR_PARAMS, {
         "orbit.altitude_km": altitude_m / 1e3, "orbit.inclination_deg": math.degrees(inclination_rad),
         "remove_oblateness": remove_oblateness})
-    timeout_s = monitor_values["odometry_timeout_s"]
 
-    odometry = topics.get(ODOMETRY_TOPIC)
-    phase_of, odometry_info = None, None
-    if phase in ("auto", "odometry") and odometry:
-        phase_of, odo_inclination, odo_altitude, odo_unreadable = phase_from_odometry(odometry, timeout_s)
-        odometry_info = {"messages": len(odometry), "unreadable": odo_unreadable,
-                         "inclination_deg": odo_inclination, "altitude_km": odo_altitude}
-        phase_source = ODOMETRY_TOPIC
-    elif phase in ("auto", "elements") and elements is not None:
+    # Pass 1: the orbit — odometry and the sensor's orbit status on /diagnostics.
+    elements_seen = []  # distinct orbit statuses, in order
+
+    def orbit_stream(topics):
+        for topic, recorded in iter_recording(path, {t: wanted[t] for t in topics}):
+            counts[topic] += 1
+            if topic == ODOMETRY_TOPIC:
+                yield recorded
+                continue
+            try:
+                found = shim.find_orbit_elements(recorded.message)
+            except (ValueError, AttributeError):
+                continue
+            if found is not None and (not elements_seen or found != elements_seen[-1]):
+                elements_seen.append(found)
+
+    use_odometry = phase in ("auto", "odometry") and ODOMETRY_TOPIC in present
+    orbit_topics = [t for t in (ODOMETRY_TOPIC, DIAGNOSTICS_TOPIC)
+                    if t in present and (t != ODOMETRY_TOPIC or use_odometry)]
+    phase_of = odometry_info = None
+    if use_odometry:
+        try:
+            phase_of, odo_inclination, odo_altitude, odo_unreadable = phase_from_odometry(
+                orbit_stream(orbit_topics), monitor_values["odometry_timeout_s"])
+            odometry_info = {"messages": counts[ODOMETRY_TOPIC], "unreadable": odo_unreadable,
+                             "inclination_deg": odo_inclination, "altitude_km": odo_altitude}
+            phase_source = ODOMETRY_TOPIC
+        except RecordingError:
+            raise
+        except ValueError as error:
+            if phase == "odometry":
+                raise RecordingError(f"{path}: {error}") from None
+    else:
+        for _ in orbit_stream(orbit_topics):
+            pass
+    elements = elements_seen[0] if elements_seen else None
+    if phase_of is None and phase in ("auto", "elements") and elements is not None:
         phase_of, phase_source = elements.argument_of_latitude_rad, f"orbit elements on {DIAGNOSTICS_TOPIC}"
     if phase_of is None:
         needed = {"odometry": f"no messages on {ODOMETRY_TOPIC}",
@@ -452,39 +476,41 @@ def analyze_recording(path: str, altitude_m: float, inclination_rad: float, *, c
                   "auto": f"no messages on {ODOMETRY_TOPIC} and no orbit elements on {DIAGNOSTICS_TOPIC}"}[phase]
         raise RecordingError(f"{path}: nothing gives the orbital phase: {needed} — stamps alone do not say where "
                              "the orbit was")
+    if convention is None:
+        convention = elements.roll_pitch_convention if elements is not None else "ros"
 
-    # Replay in logged order (truth first within one log time, as it reached a live monitor before the sample).
+    # Pass 2: sensor and truth in logged order (truth first within one log time, as it reached a live monitor).
     monitor = build_monitor(monitor_values)
-    events = [(m.log_time_ns, 0, i, m) for i, m in enumerate(topics[truth_topic])]
-    events += [(m.log_time_ns, 1, i, m) for i, m in enumerate(topics[SENSOR_TOPIC])]
-    events.sort(key=lambda event: event[:3])
     unreadable = {"sensor": 0, "truth": 0}
-    sensor_stamps = np.array([m.message.header.stamp.sec + m.message.header.stamp.nanosec * 1e-9
-                              for m in topics[SENSOR_TOPIC]])
-    sensor_u = phase_of(sensor_stamps)
-    outcomes = []
-    for _, kind, index, recorded in events:
+    used = []  # (stamp, residual roll, residual pitch) in the wire's convention
+
+    def collect(outcomes):
+        used.extend((o.stamp_s, o.residual_roll_rad, o.residual_pitch_rad) for o in outcomes if o.ok)
+
+    stream = iter_recording(path, {truth_topic: QUATERNION_STAMPED, SENSOR_TOPIC: VECTOR3_STAMPED})
+    for topic, recorded in _by_log_time(stream, truth_topic):
+        counts[topic] += 1
         try:
-            if kind == 0:
+            if topic == truth_topic:
                 stamp_s, q = shim.read_attitude_quaternion(recorded.message)
-                outcomes += monitor.add_truth_quaternion(stamp_s, q)
+                collect(monitor.add_truth_quaternion(stamp_s, q))
                 continue
             stamp_s, roll, pitch = shim.read_attitude_angles(recorded.message)
         except (ValueError, AttributeError):
-            unreadable["truth" if kind == 0 else "sensor"] += 1
+            unreadable["truth" if topic == truth_topic else "sensor"] += 1
             continue
         roll, pitch = convert(roll, pitch, convention, shim.WIRE_CONVENTION)
-        u_i = float(sensor_u[index])
-        outcomes += monitor.add_sensor(stamp_s, roll, pitch, u_rad=u_i if math.isfinite(u_i) else None,
-                                       altitude_m=altitude_m, inclination_rad=inclination_rad)
-    used = [o for o in outcomes if o.ok]
+        u_i = float(phase_of(stamp_s))
+        collect(monitor.add_sensor(stamp_s, roll, pitch, u_rad=u_i if math.isfinite(u_i) else None,
+                                   altitude_m=altitude_m, inclination_rad=inclination_rad))
+    for topic in (SENSOR_TOPIC, truth_topic):
+        if not counts[topic]:
+            raise RecordingError(f"{path}: no messages on {topic} in the recording")
     if len(used) < 2:
         raise RecordingError(f"{path}: {len(used)} sensor samples could be aligned with truth on {truth_topic}; "
                              "the statistics need at least 2")
     summary = monitor.summary()
-    stamps = np.array([o.stamp_s for o in used])
-    roll = np.array([o.residual_roll_rad for o in used])
-    pitch = np.array([o.residual_pitch_rad for o in used])
+    stamps, roll, pitch = np.array(used).T
     u = phase_of(stamps)
     # Back from the wire's convention to the input's for the flight-test procedure.
     roll, pitch = convert(roll, pitch, shim.WIRE_CONVENTION, convention)
@@ -506,10 +532,9 @@ def analyze_recording(path: str, altitude_m: float, inclination_rad: float, *, c
     return {
         "file": str(path), "layout": "recording", "rows_skipped": sum(unreadable.values()),
         "phase_source": phase_source, "truth_topic": truth_topic,
-        "recording": {"messages": {topic: len(messages) for topic, messages in topics.items()},
-                      "odometry": odometry_info,
+        "recording": {"messages": counts, "odometry": odometry_info,
                       "orbit_elements": None if elements is None else dict(vars(elements)),
-                      "orbit_element_sets": element_sets},
+                      "orbit_element_sets": len(elements_seen)},
         **report, "per_sample": per_sample, "counters": counters,
     }
 
