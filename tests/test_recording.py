@@ -368,3 +368,31 @@ def test_phase_from_odometry_does_not_depend_on_the_twist_frame():
     phase, inclination, _, _ = phase_from_odometry(lone, 5.0)
     assert math.remainder(float(phase(times[i])) - expected[i], 2 * math.pi) == pytest.approx(0.0, abs=1e-9)
     assert inclination == pytest.approx(74.5, abs=1e-9)
+
+
+def test_orbit_status_round_trip_and_a_real_time_sensors_epoch(harness):
+    """The orbit status survives the wire; a real-time sensor's epoch stamp is its start on the wall clock."""
+    import time
+
+    from diagnostic_msgs.msg import DiagnosticArray
+
+    from pmv_ros.nodes.sensor_node import SensorNode
+
+    elements = shim.OrbitElements("2019-07-21T00:00:00Z", 1.7e9, 835.0, 98.8, 10.0, 45.0, 6090.0, 0.98, "ros")
+    message = shim.health_to_msg(shim.HealthReport(1.7e9, (shim.orbit_elements_status(elements),)))
+    assert shim.find_orbit_elements(message) == elements
+    assert elements.argument_of_latitude_rad(1.7e9 + 6090.0 / 4) == pytest.approx(math.radians(45.0 + 90.0))
+    message.status[0].values = [kv for kv in message.status[0].values if kv.key != "period_s"]
+    with pytest.raises(ValueError, match="period_s"):
+        shim.find_orbit_elements(message)
+
+    before = time.time()
+    h = harness(SensorNode, {"sim.fast_time": False, "sensor.rate_hz": 1.0, "sensor.detector": "ideal",
+                             "orbit.u0_deg": 30.0, "sim.epoch_utc": "2026-12-01T12:00:00Z"})
+    diagnostics = h.record(DiagnosticArray, "/diagnostics")
+    h.node._on_real_time_tick()  # the 1 Hz timer's work, without waiting for it
+    h.drain()
+    found = [e for e in (shim.find_orbit_elements(m) for m in diagnostics) if e is not None]
+    assert found, "no orbit status on the sensor's /diagnostics"
+    assert before - 1.0 <= found[0].epoch_stamp_s <= time.time()
+    assert found[0].epoch_utc == "2026-12-01T12:00:00Z" and found[0].arg_latitude_deg == pytest.approx(30.0)
