@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import importlib
 
-from .base import PmvNode
+from .base import QOS, PmvNode
 
 
 def message_class(type_name: str):
@@ -34,13 +34,8 @@ class TopicRecorder(PmvNode):
             topics = {name: types[0] for name, types in self.get_topic_names_and_types() if types}
         for topic, type_name in sorted(topics.items()):
             recording.add_topic(topic, type_name)
-            self.create_subscription(message_class(type_name), topic, self._writer(topic), self.qos, raw=True)
-
-    @property
-    def qos(self):
-        from .base import QOS
-
-        return QOS
+            # The project QoS (reliable, keep-last 100), as every node's publishers.
+            self.create_subscription(message_class(type_name), topic, self._writer(topic), QOS, raw=True)
 
     def _writer(self, topic: str):
         recording, clock = self.recording, self.get_clock()
