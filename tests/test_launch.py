@@ -28,6 +28,7 @@ import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
 from rclpy.executors import SingleThreadedExecutor
+from rosgraph_msgs.msg import Clock
 
 from test_colcon import DISCOVERY_ENV, DOMAIN_ID, PYTHON_LIB, _install_env, colcon_install  # noqa: F401 (fixture)
 
@@ -210,10 +211,13 @@ def test_launch_namespace_fast_time_keeps_the_preset_sections(colcon_install, ro
     launched = Launched(colcon_install, ros_tools, tmp_path, "namespace:=sat1", "follow:=true", "fast_time:=true",
                         "time_scale:=2")
     try:
+        clock = []
+        node.create_subscription(Clock, "/clock", clock.append, 10)
+        # The nodes are on the graph before they have finished starting: wait for the sensor's start line too.
         _spin_until(executor, launched, lambda: {("sensor_node", "/sat1"), ("error_monitor_node", "/sat1")}
-                    <= set(node.get_node_names_and_namespaces())
-                    and node.get_publishers_info_by_topic("/clock"), FIRST_MESSAGE_TIMEOUT_S,
-                    "no /sat1 nodes or no /clock")
+                    <= set(node.get_node_names_and_namespaces()) and len(clock) >= 5
+                    and "sensor_node: H =" in launched.log(), FIRST_MESSAGE_TIMEOUT_S,
+                    "no /sat1 nodes, no /clock or no start line of the sensor")
         assert node.get_publishers_info_by_topic("/attitude/truth") == []
         launched.interrupt()
     finally:
