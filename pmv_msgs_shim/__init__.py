@@ -39,6 +39,14 @@ from .conversions import (
     write_orbit_state,
     write_stamp,
 )
+from .orbit_elements import (
+    ORBIT_STATUS_NAME,
+    WIRE_CONVENTION,
+    OrbitElements,
+    find_orbit_elements,
+    orbit_elements_from_status,
+    orbit_elements_status,
+)
 from .records import (
     BODY_FRAME,
     CHANNELS,
@@ -72,4 +80,6 @@ __all__ = [
     "write_attitude_angles", "write_attitude_quaternion", "write_clock", "write_error_statistics", "write_health",
     "write_horizon_crossings",
     "write_orbit_state", "write_stamp",
+    "ORBIT_STATUS_NAME", "WIRE_CONVENTION", "OrbitElements", "find_orbit_elements", "orbit_elements_from_status",
+    "orbit_elements_status",
 ]

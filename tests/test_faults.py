@@ -117,7 +117,7 @@ def test_sun_in_a_chord_invalidates_that_chord_only_reports_it_and_recovers():
     assert np.all(~valid[lost, 0]) and np.all(valid[lost][:, 1:])  # only chord +X is invalid
     assert np.all(valid[: lost[0]]) and np.all(valid[lost[-1] + 1:])
 
-    reports = health(got["/diagnostics"], "pmv_ros/sensor_node")
+    reports = health(got["/diagnostics"], "pmv_ros/sensor_node: horizon")
     during = [s for t, s in reports if stamps[lost[0]] <= t <= stamps[lost[-1]]]
     assert during, "no /diagnostics while the Sun was in the chord"
     assert during[0].level == shim.Level.WARN
@@ -207,7 +207,7 @@ def test_attitude_excursion_loses_the_chord_without_horizon_and_recovers():
     # Where roll is valid it is right: the chain reads the attitude to a few arcmin here.
     assert np.all(np.abs(np.degrees(roll[~lost]) - true_roll[~lost]) * 60.0 < 5.0)
 
-    reports = health(got["/diagnostics"], "pmv_ros/sensor_node")
+    reports = health(got["/diagnostics"], "pmv_ros/sensor_node: horizon")
     messages = [s.message for _, s in reports]
     assert any("chord +Y: no horizon" in m for m in messages) and any("chord -Y: no horizon" in m for m in messages)
     last_lost_s = float(np.flatnonzero(lost)[-1] + 1)  # stamps are 1, 2, … s
@@ -434,7 +434,7 @@ def test_following_sensor_drops_bad_truth_and_reads_the_clean_attitude(harness):
     clean, dirty = outputs
     assert clean.shape == dirty.shape == (120, 2)
     assert np.array_equal(dirty, clean)
-    report = values_of(health(diagnostics, "pmv_ros/sensor_node")[-1][1])
+    report = values_of(health(diagnostics, "pmv_ros/sensor_node: horizon")[-1][1])
     counted = sum(int(v) for key, v in report.items() if key.startswith("rejected_truth_"))
     assert counted == rejected
     for reason in ("non_finite", "bad_quaternion", "zero_stamp", "future_stamp", "backwards", "duplicate"):
@@ -465,7 +465,7 @@ def test_following_sensor_on_the_wall_clock_takes_truth_stamped_now(harness):
     np.testing.assert_allclose([[m.vector.x, m.vector.y] for m in attitude],
                                [[10 * ARCMIN_RAD, -4 * ARCMIN_RAD]] * 3, atol=0.05 * ARCMIN_RAD)
     # /diagnostics comes once a second or when the chords change: the first report already counts the first.
-    report = values_of(health(diagnostics, "pmv_ros/sensor_node")[-1][1])
+    report = values_of(health(diagnostics, "pmv_ros/sensor_node: horizon")[-1][1])
     assert int(report["rejected_truth_future_stamp"]) >= 1 and not any(k.startswith("skipped_") for k in report)
 
 

@@ -35,6 +35,8 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--rate-hz", type=ranged_float(0.1, 100.0, " Hz"), default=None,
                         help="sensor output rate (default: the preset's)")
     parser.add_argument("--report", default=None, help="write statistics.json and PNG plots into this folder")
+    parser.add_argument("--record", default=None, metavar="FILE.mcap",
+                        help="record every topic of the run into a new rosbag2 MCAP file (logged at simulation time)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     add_json_flag(parser)
     parser.set_defaults(func=run)
@@ -66,7 +68,7 @@ def run(args) -> int:
 
     overrides = {} if args.rate_hz is None else {"sensor.rate_hz": args.rate_hz}
     try:
-        pipeline = Pipeline(args.config, overrides)
+        pipeline = Pipeline(args.config, overrides, record=args.record)
     except ParameterError as error:
         raise ValueError(f"{args.config}: {error}") from None
     started = time.perf_counter()
@@ -97,6 +99,9 @@ def run(args) -> int:
             "simulated_s": pipeline.sensor.sim_time_s - orbit.epoch_s, "wall_s": wall_s,
             "altitude_km": orbit.altitude_m / 1e3, "inclination_deg": math.degrees(orbit.inclination_rad),
         })
+        if pipeline.recording is not None:
+            pipeline.recording.close()
+            result["recording"] = {"file": str(pipeline.recording.path), "messages": dict(pipeline.recording.counts)}
         if args.report:
             live = {name: {int(k): v for k, v in c["harmonics_arcmin"].items()}
                     for name, c in result["channels"].items()}
@@ -114,4 +119,7 @@ def run(args) -> int:
           + (", ".join(f"{k} {v}" for k, v in skipped.items()) or "none"))
     if args.report:
         print("report: " + ", ".join(result["report_files"]))
+    if "recording" in result:
+        counts = result["recording"]["messages"]
+        print(f"recording: {result['recording']['file']}, {sum(counts.values())} messages on {len(counts)} topics")
     return 0

@@ -107,6 +107,8 @@ class SensorNode(PmvNode):
         self._truth = TruthBuffer(values["attitude.extrapolation_periods"], values["attitude.follow_timeout_s"])
         if previous is not None:  # a parameter change keeps the truth received so far
             self._truth.take_samples(previous)
+        # Epoch and elements on every /diagnostics, so that recordings can be analysed (issue 13).
+        self._orbit_status = shim.orbit_elements_status(shim.OrbitElements.from_orbit(orbit, values["sim.epoch_utc"]))
 
     def _rebuild_live(self, values: dict) -> None:
         if values["sim.fast_time"]:
@@ -246,7 +248,7 @@ class SensorNode(PmvNode):
         if summary is not None:
             report = shim.HealthReport(stamp_s=t_s, statuses=(shim.HealthStatus(
                 name="pmv_ros/sensor_node: horizon", level=shim.Level(summary.level), message=summary.message,
-                hardware_id="pmv", values=summary.values),))
+                hardware_id="pmv", values=summary.values), self._orbit_status))
             self._pub_diagnostics.publish(shim.write_health(self._out["diagnostics"], report))
 
     def _truth_publisher_warnings(self) -> tuple:
