@@ -176,3 +176,21 @@ def rotation_vector_from_quaternion(q):
     scale = np.where(small, 2.0 + angle ** 2 / 12.0 + 7.0 * angle ** 4 / 2880.0,
                      angle / np.sin(0.5 * np.where(small, 1.0, angle)))
     return q[:3] * scale
+
+
+def slerp(t0_s: float, q0, t1_s: float, q1, times_s):
+    """Attitudes at ``times_s`` on the constant-rate turn from (t0, q0) to (t1, q1), and that turn's rate.
+
+    The turn is taken in the orbital frame (q(t) = exp(ω (t − t0)) ⊗ q0), which
+    is spherical linear interpolation. Plain floats: ``q0``, ``q1`` are
+    (x, y, z, w) tuples of unit quaternions, ``times_s`` a list of floats.
+
+    Returns:
+        (list of (x, y, z, w) tuples, rate (3-tuple, rad/s, orbital components)).
+    """
+    dt = t1_s - t0_s
+    turn = rotation_vector_from_quaternion(quaternion_product(q1, quaternion_conjugate(q0)))
+    rate = tuple(w / dt for w in turn)
+    frames = [quaternion_product(quaternion_from_rotation_vector(tuple((t - t0_s) * w for w in rate)), q0)
+              for t in times_s]
+    return frames, rate

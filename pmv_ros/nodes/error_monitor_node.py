@@ -80,9 +80,9 @@ class ErrorMonitorNode(PmvNode):
                                                                            DiagnosticArray())
         self._pub_statistics = self.publisher(DiagnosticArray, "/pmv/error_statistics")
         self._pub_diagnostics = self.publisher(DiagnosticArray, "/diagnostics")
-        self.subscription(Vector3Stamped, "/pmv/attitude", self._on_sensor)
-        self._truth_subscription = self.subscription(QuaternionStamped, "/star_tracker/attitude", self._on_truth)
-        self.subscription(Odometry, "/orbit/odometry", self._on_odometry)
+        self.input_subscription(Vector3Stamped, "/pmv/attitude", self._on_sensor)
+        self._truth_subscription = self.input_subscription(QuaternionStamped, "/star_tracker/attitude", self._on_truth)
+        self.input_subscription(Odometry, "/orbit/odometry", self._on_odometry)
         self._orbit = None  # (stamp_s, u_rad, inclination_rad, altitude_m, mean_motion_rad_s)
         self._rejected_messages = dict.fromkeys(
             (f"rejected_{stream}_unreadable" for stream in ("sensor", "truth", "odometry")), 0)
