@@ -270,6 +270,13 @@ class StampCheck:
         """The latest accepted stamp, s (None: none since the start or the last reset)."""
         return self.jumps.latest_s
 
+    def reconfigured(self, jump_threshold_s: float, future_tolerance_s: float,
+                     min_interval_s: float = 0.0) -> "StampCheck":
+        """A check with new limits on the same timeline (a parameter change; ValueError for bad limits)."""
+        check = StampCheck(jump_threshold_s, future_tolerance_s, min_interval_s)
+        check.jumps.latest_s, check.outliers = self.jumps.latest_s, self.outliers
+        return check
+
     def reset(self) -> None:
         """Start a new timeline: the next valid stamp is accepted whatever it is."""
         self.jumps.reset()
@@ -332,7 +339,7 @@ class SourceLock:
       source's are OTHER_SOURCE, counted, and the number of sources heard
       within ``timeout_s`` is what :attr:`sources_heard` reports.
     * The lock moves only when the locked source has been silent (by arrival
-      time) for ``timeout_s`` — it stopped, or was restarted (a restarted
+      time, on the clock the caller gives) for ``timeout_s`` — it stopped, or was restarted (a restarted
       publisher numbers from 1 again: a new track); the next source heard is
       then locked (counted in :attr:`lock_changes`).
     * A message with neither GID nor sequence number (an in-process call)
@@ -362,12 +369,13 @@ class SourceLock:
 
     def admit(self, arrival_s: float, *, gid=None, sequence: int | None = None,
               stamp_s: float = math.nan) -> bool:
-        """Whether a message that arrived at ``arrival_s`` (s, a monotonic clock) is from the locked source."""
+        """Whether a message that arrived at ``arrival_s`` (s, the node clock) is from the locked source."""
         if gid is None and sequence is None:
             return True
         track = self._track_for(gid, sequence, stamp_s, arrival_s)
         locked = self._locked
-        if locked is None or (locked is not track and arrival_s - locked.arrival_s > self.timeout_s):
+        # Silent for the timeout — or the clock went back by more (a restarted simulation): given up.
+        if locked is None or (locked is not track and abs(arrival_s - locked.arrival_s) > self.timeout_s):
             if locked is not None:
                 self.lock_changes += 1
             self._locked = locked = track
@@ -379,7 +387,7 @@ class SourceLock:
 
     def sources_heard(self, now_s: float) -> int:
         """Sources heard within ``timeout_s`` before ``now_s`` (arrival clock)."""
-        return sum(1 for track in self._tracks if now_s - track.arrival_s <= self.timeout_s)
+        return sum(1 for track in self._tracks if abs(now_s - track.arrival_s) <= self.timeout_s)
 
     def _track_for(self, gid, sequence, stamp_s, arrival_s) -> "_Track":
         tracks = self._tracks

@@ -16,10 +16,14 @@ bounded by the monitor's caps (truth history, pending queue, harmonic ring).
 Bad input is dropped before it touches any state and counted per reason
 (``rejected_<stream>_<reason>`` on ``/diagnostics``): non-finite values, far
 from unit quaternions (near-unit ones are normalised), zero, future,
-duplicate and backward stamps, and messages the shim cannot read
+duplicate, backward and too-fast stamps, angles beyond
+``input.max_abs_angle_deg``, odometry that is not a bound Earth orbit
+(``input.*`` bounds), and messages the shim cannot read
 (``rejected_<stream>_unreadable``). Only accepted sensor samples drive the
 statistics schedule, so a stream with bad messages gives the statistics of
-the same stream without them.
+the same stream without them. Only the first publisher heard on each input
+is used; a second one is an ERROR on ``/diagnostics`` with the publishers'
+count, and its messages are dropped (``other_source_<topic>``).
 
 Discontinuities — what the node does:
 
@@ -34,13 +38,15 @@ Discontinuities — what the node does:
   the same — a gap, then alignment resumes.
 * A clock jump back by more than ``clock_jump_s`` — of the node clock or of a
   stream's stamps (simulation restarted, a node restarted on a new clock,
-  stamps start over): the alignment is reset (truth history dropped,
+  stamps start over), once the next reading confirms it: the alignment is
+  reset once (truth history dropped,
   waiting samples counted ``skipped_reset``, harmonic ring cleared, the
   statistics schedule restarts), so nothing is interpolated or fitted
   across the discontinuity; counted ``clock_jumps``/``alignment_resets``.
   The running statistics — sums over residuals that were each valid —
   carry on. Messages of the old timeline still in flight are then in the
-  future and rejected.
+  future and rejected. A single forged ``/clock`` or stamp that the next
+  reading contradicts is an outlier: counted ``clock_outliers``, nothing reset.
 * A clock jump forward: samples across it are skipped (truth gap) and the
   alignment continues on the new stamps.
 * A parameter change rebuilds the monitor: the statistics start over.
@@ -58,7 +64,7 @@ from nav_msgs.msg import Odometry
 import pmv_msgs_shim as shim
 from .base import PmvNode
 from ..core.assembly import MONITOR_PARAMS as PARAMS, build_monitor
-from ..core.monitor import SENSOR_REJECTIONS, ErrorMonitor, Status, orbit_angles_from_state
+from ..core.monitor import SENSOR_REJECTIONS, ErrorMonitor, Status
 from .launch import run_node
 from .params import ParameterError, declare, install_validation
 
@@ -80,10 +86,11 @@ class ErrorMonitorNode(PmvNode):
                                                                            DiagnosticArray())
         self._pub_statistics = self.publisher(DiagnosticArray, "/pmv/error_statistics")
         self._pub_diagnostics = self.publisher(DiagnosticArray, "/diagnostics")
-        self.input_subscription(Vector3Stamped, "/pmv/attitude", self._on_sensor)
-        self._truth_subscription = self.input_subscription(QuaternionStamped, "/star_tracker/attitude", self._on_truth)
-        self.input_subscription(Odometry, "/orbit/odometry", self._on_odometry)
-        self._orbit = None  # (stamp_s, u_rad, inclination_rad, altitude_m, mean_motion_rad_s)
+        timeout = self._values["input.source_timeout_s"]
+        self.input_subscription(Vector3Stamped, "/pmv/attitude", self._on_sensor, timeout)
+        self._truth_subscription = self.input_subscription(QuaternionStamped, "/star_tracker/attitude",
+                                                           self._on_truth, timeout)
+        self.input_subscription(Odometry, "/orbit/odometry", self._on_odometry, timeout)
         self._rejected_messages = dict.fromkeys(
             (f"rejected_{stream}_unreadable" for stream in ("sensor", "truth", "odometry")), 0)
         self._next_statistics_s = None
@@ -95,6 +102,8 @@ class ErrorMonitorNode(PmvNode):
         # A new configuration starts new statistics: mixing two configurations would mean nothing.
         self._monitor = build_monitor(values)
         self._next_statistics_s = None
+        for lock in self.source_locks.values():
+            lock.timeout_s = values["input.source_timeout_s"]
 
     def _now_s(self) -> float | None:
         now = self.get_clock().now().nanoseconds * 1e-9
@@ -109,13 +118,12 @@ class ErrorMonitorNode(PmvNode):
     def _on_odometry(self, message: Odometry) -> None:
         try:
             stamp_s, position, velocity = shim.read_orbit_state(message)
-            u, inclination, altitude = orbit_angles_from_state(position, velocity)
         except ValueError:
             self._reject("odometry")
             return
-        radius = math.sqrt(sum(x * x for x in position))
-        speed = math.sqrt(sum(x * x for x in velocity))
-        self._orbit = (stamp_s, u, inclination, altitude, speed / radius)
+        # Validated (a bound Earth orbit, sane stamps) and kept in the core; a confirmed clock jump resets there.
+        self._monitor.add_odometry(stamp_s, position, velocity, now_s=self._now_s())
+        self._handle(self._monitor.take_settled())
 
     def _on_truth(self, message: QuaternionStamped) -> None:
         try:
@@ -131,10 +139,7 @@ class ErrorMonitorNode(PmvNode):
         except ValueError:
             self._reject("sensor")
             return
-        orbit = {}
-        if self._orbit is not None and abs(stamp_s - self._orbit[0]) <= self._values["odometry_timeout_s"]:
-            stamp, u, inclination, altitude, rate = self._orbit
-            orbit = dict(u_rad=u + rate * (stamp_s - stamp), inclination_rad=inclination, altitude_m=altitude)
+        orbit = self._monitor.orbit_at(stamp_s, self._values["odometry_timeout_s"])
         if self._values["sensor.oblateness_compensation"]:
             # Removed on board already: the model left in the sensor's output is zero.
             orbit.update(oblateness_roll_rad=0.0, oblateness_pitch_rad=0.0)
@@ -180,9 +185,9 @@ class ErrorMonitorNode(PmvNode):
 
     def _period_mismatch(self) -> str | None:
         """A warning when /orbit/odometry flies another orbit than the parameters describe, else None."""
-        if self._orbit is None or not self._orbit[4] > 0.0:
+        measured_s = self._monitor.odometry_period_s
+        if measured_s is None:
             return None
-        measured_s = 2.0 * math.pi / self._orbit[4]
         configured_s = self._monitor.config.orbital_period_s
         if abs(measured_s - configured_s) <= self.PERIOD_MISMATCH * configured_s:
             return None
@@ -196,7 +201,8 @@ class ErrorMonitorNode(PmvNode):
         skipped = {k: v for k, v in counters.items() if k.startswith("skipped_") and v}
         rejected = {k: v for k, v in counters.items() if k.startswith("rejected_") and v}
         rejected.update({k: v for k, v in self._rejected_messages.items() if v})
-        problems = []
+        problems = self.input_source_problems()  # a second publisher on an input: ERROR
+        source_error = bool(problems)
         latest_truth = self._monitor.latest_truth_stamp_s
         if counters["truth_received"] == 0:
             problems.append("no star-tracker truth received yet")
@@ -210,10 +216,10 @@ class ErrorMonitorNode(PmvNode):
         if rejected_total > self._rejected_reported:
             problems.append("rejected input messages")
         self._rejected_reported = rejected_total
-        level = shim.Level.WARN if problems else shim.Level.OK
-        values = {"used": counters["used"], **skipped, **rejected,
-                  **{k: counters[k] for k in ("truth_quaternions_normalised", "clock_jumps", "alignment_resets")
-                     if counters[k]},
+        level = shim.Level.ERROR if source_error else shim.Level.WARN if problems else shim.Level.OK
+        values = {"used": counters["used"], **skipped, **rejected, **self.input_source_counters(),
+                  **{k: counters[k] for k in ("truth_quaternions_normalised", "clock_jumps", "clock_outliers",
+                                              "alignment_resets") if counters[k]},
                   "pending": self._monitor.pending_count, "truth_buffer": self._monitor.truth_buffer_length}
         self._pub_diagnostics.publish(shim.write_health(self._out_diagnostics, shim.HealthReport(
             stamp_s=now or 0.0, statuses=(shim.HealthStatus(
