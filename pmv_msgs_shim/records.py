@@ -141,14 +141,15 @@ class AttitudeQuaternion:
 class OrbitState:
     """Spacecraft position (m) and velocity (m/s), both in ``frame_id`` (ECI) (/orbit/odometry).
 
-    On the wire the velocity goes in the twist of ``nav_msgs/Odometry``
-    expressed in ``frame_id`` — not in ``child_frame_id`` as the Odometry
-    comment suggests for robots: an orbit is described in the inertial frame.
+    On the wire (nav_msgs' rules, :func:`pmv_msgs_shim.write_orbit_state`):
+    the pose is the position in ``frame_id`` with the orientation of the
+    orbital frame (``child_frame_id``), the twist is the velocity expressed
+    in the orbital frame. The record holds the velocity in ``frame_id``.
     """
 
     stamp_s: float
     frame_id: str = ECI_FRAME
-    child_frame_id: str = BODY_FRAME
+    child_frame_id: str = ORBITAL_FRAME
     position_m: np.ndarray = field(default_factory=lambda: np.zeros(3))
     velocity_m_s: np.ndarray = field(default_factory=lambda: np.zeros(3))
 

@@ -200,9 +200,10 @@ def test_attitude_excursion_loses_the_chord_without_horizon_and_recovers():
     assert np.array_equal(lost, ~(valid[:, 1] & valid[:, 3]))
     assert np.all(lost[np.abs(true_roll) > 3.1]) and not np.any(lost[np.abs(true_roll) < 2.7])
     assert np.all(valid[:, [0, 2]])
-    # A positive roll puts the nadir on the +Y side: +Y is lost, −Y stays valid, and the other way round.
-    assert np.all(~valid[true_roll > 3.1, 1]) and np.all(valid[true_roll > 3.1, 3])
-    assert np.all(~valid[true_roll < -3.1, 3]) and np.all(valid[true_roll < -3.1, 1])
+    # A positive roll (REP-103: right-hand about +X) puts the nadir on the body's −Y side, the Earth
+    # moves there: −Y is lost, +Y stays valid, and the other way round.
+    assert np.all(~valid[true_roll > 3.1, 3]) and np.all(valid[true_roll > 3.1, 1])
+    assert np.all(~valid[true_roll < -3.1, 1]) and np.all(valid[true_roll < -3.1, 3])
     # Where roll is valid it is right: the chain reads the attitude to a few arcmin here.
     assert np.all(np.abs(np.degrees(roll[~lost]) - true_roll[~lost]) * 60.0 < 5.0)
 

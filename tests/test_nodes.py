@@ -220,7 +220,7 @@ def test_monitor_warns_when_odometry_flies_another_orbit_than_its_parameters(har
         for k in range(1, 31):
             t = 10.0 * k + (0.0 if altitude_m == 500e3 else 400.0)
             clock.publish(shim.clock_to_msg(t))
-            odometry.publish(shim.orbit_state_to_msg(shim.OrbitState(t, "eci", "body", [radius, 0.0, 0.0],
+            odometry.publish(shim.orbit_state_to_msg(shim.OrbitState(t, "eci", "orbital", [radius, 0.0, 0.0],
                                                                      [0.0, speed, 0.0])))
             h.drain()
         messages.append([status.message for m in h.received["/diagnostics"] for status in m.status])

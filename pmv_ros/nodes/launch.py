@@ -44,7 +44,14 @@ class StopRequest:
             signal.signal(number, signal.SIG_IGN)
 
     def restore(self) -> None:
-        """Put the handlers back that were there before (for callers in the same process)."""
+        """Put the handlers back that were there before (for callers in the same process).
+
+        Not after a stop by signal: the process is ending, and a further
+        signal must not turn into a KeyboardInterrupt on the way out (Python
+        then ends itself by SIGINT, status −2).
+        """
+        if self.requested:
+            return
         for number, handler in self._previous.items():
             signal.signal(number, handler)
 

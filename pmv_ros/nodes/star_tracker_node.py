@@ -89,6 +89,8 @@ class StarTrackerNode(PmvNode):
         # Measured by arrival on the node clock, so a source whose stamps are on another clock is not "stale".
         self._last_arrival_s = None
         self.create_timer(1.0, self._on_timer)
+        self.get_logger().info(f"star_tracker_node: ready, {self._values['rate_hz']:g} Hz frames, "
+                               f"latency {self._values['latency_s']:g} s")
 
     def _rebuild(self, values: dict) -> None:
         self._tracker = build_tracker(values, self._start_s)
