@@ -10,11 +10,15 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from threadpoolctl import ThreadpoolController
 
-from ..core.validation import SourceLock
+from ..core.validation import JumpDetector, SourceLock
 from .params import coerce_parameters
 
 #: How often (wall clock, s) the graph is asked how many publishers an input has.
 GRAPH_CHECK_PERIOD_S = 1.0
+
+#: The clock the source locks measure silence on: the node clock, with a single forged /clock
+#: (back by more than 1 s, or ahead by more than 10 s) not believed until the next reading confirms it.
+ARRIVAL_JUMP_BACK_S, ARRIVAL_JUMP_AHEAD_S = 1.0, 10.0
 
 
 _blas_holders = 0
@@ -102,6 +106,7 @@ class PmvNode(Node):
         super().__init__(name, **kwargs)
         self._lean = lean
         self.source_locks = {}  # input topic → SourceLock (see input_subscription)
+        self._arrival_clock = JumpDetector(ARRIVAL_JUMP_BACK_S, forward_threshold_s=ARRIVAL_JUMP_AHEAD_S)
         self._source_problems, self._source_checked_s = [], -float("inf")
         self._input_qos = QOS if (lean if reliable_inputs is None else reliable_inputs) else INPUT_QOS
         self._detached = []
@@ -177,18 +182,23 @@ class PmvNode(Node):
         :meth:`input_source_problems` says so for ``/diagnostics``. Silence
         is measured on the node clock (simulation time under ``use_sim_time``:
         a source restarted in a fast-time run is taken over after
-        ``source_timeout_s`` of simulation time).
+        ``source_timeout_s`` of simulation time), through a jump detector: a
+        single forged ``/clock`` cannot make the locked source look silent.
         """
         lock = self.source_locks[topic] = SourceLock(source_timeout_s)
-        clock = self.get_clock()
 
         def on_message(message, info) -> None:
             stamp = message.header.stamp
-            if lock.admit(clock.now().nanoseconds * 1e-9, gid=_publisher_gid(info), sequence=info.get("publication_sequence_number"),
+            if lock.admit(self._arrival_s(), gid=_publisher_gid(info), sequence=info.get("publication_sequence_number"),
                           stamp_s=stamp.sec + stamp.nanosec * 1e-9):
                 callback(message)
 
         return self.subscription(message_type, topic, on_message, self._input_qos)
+
+    def _arrival_s(self) -> float:
+        """Now on the node clock, s, as the source locks see it (a jump counts once the next reading confirms it)."""
+        self._arrival_clock.observe(self.get_clock().now().nanoseconds * 1e-9)
+        return self._arrival_clock.latest_s
 
     def input_source_problems(self, own_publishers: dict | None = None) -> list[str]:
         """One phrase per input that has more than one publisher (an ERROR on /diagnostics); [] when none has.
@@ -200,7 +210,7 @@ class PmvNode(Node):
         if wall - self._source_checked_s < GRAPH_CHECK_PERIOD_S:
             return list(self._source_problems)
         self._source_checked_s, problems = wall, []
-        now = self.get_clock().now().nanoseconds * 1e-9
+        now = self._arrival_s()
         for topic, lock in self.source_locks.items():
             count = self.count_publishers(topic) - (own_publishers or {}).get(topic, 0)
             if count > 1 or lock.sources_heard(now) > 1:
