@@ -253,3 +253,46 @@ def test_the_shipped_presets_have_no_unknown_keys():
     for preset in sorted(Path("config").glob("*.yaml")):
         for node_name in ("sensor_node", "star_tracker_node", "error_monitor_node"):
             check_params_files(["x", "--ros-args", "--params-file", str(preset)], node_name)
+
+
+# ------------------------------------------------------------------------------- plausibility, in the node
+
+def _run_monitor_stream(harness, hostile: bool):
+    """A 10 Hz sensor, 2 Hz truth and odometry on a 500 km orbit through one monitor node, from one publisher
+    each; ``hostile`` adds 1 % of 1e308 angles and absurd odometry on the same publishers. Its statistics."""
+    from pmv_ros.core.orbit import CircularOrbit
+
+    h = harness(ErrorMonitorNode, {"max_truth_wait_s": 3600.0})  # a recorded stream, 40 s behind the clock
+    sensor = h.publisher(Vector3Stamped, "/pmv/attitude")
+    truth = h.publisher(QuaternionStamped, "/star_tracker/attitude")
+    odometry = h.publisher(Odometry, "/orbit/odometry")
+    h.drain()
+    orbit = CircularOrbit(500e3, math.radians(74.5))
+    rng, attack = np.random.default_rng(2), np.random.default_rng(9)
+    start = now_s(h) - 40.0
+    q = quaternion_from_roll_pitch_yaw(2 * ARCMIN_RAD, -1 * ARCMIN_RAD)
+    for k in range(1, 301):
+        t = start + 0.1 * k
+        r, v = orbit.state_eci(t - start)
+        odometry.publish(shim.write_orbit_state(Odometry(), t, shim.ECI_FRAME, shim.ORBITAL_FRAME, r, v))
+        if hostile and attack.random() < 0.05:
+            odometry.publish(shim.write_orbit_state(Odometry(), t + 0.02, shim.ECI_FRAME, shim.ORBITAL_FRAME,
+                                                    (1e3, 0.0, 0.0), (0.0, 7.6e3, 0.0)))
+        if k % 5 == 0:
+            truth.publish(quaternion_msg(t, q))
+        sensor.publish(angles_msg(t, (2 + 0.3 * rng.standard_normal()) * ARCMIN_RAD,
+                                  (-1 + 0.3 * rng.standard_normal()) * ARCMIN_RAD))
+        if hostile and attack.random() < 0.01:
+            sensor.publish(angles_msg(t + 0.05, 1e308, 1e308))
+        h.drain()
+    statistics = h.node.publish_statistics(start + 31.0)
+    return statistics, h.node.monitor.counters
+
+
+def test_a_stream_with_1e308_angles_and_absurd_odometry_gives_the_clean_statistics(harness):
+    clean, _ = _run_monitor_stream(harness, hostile=False)
+    attacked, counters = _run_monitor_stream(harness, hostile=True)
+    assert counters["rejected_sensor_implausible_angle"] >= 1 and counters["rejected_odometry_implausible_orbit"] >= 5
+    for a, b in zip(clean.channels, attacked.channels):
+        assert (a.count, a.mean_rad, a.sigma_rad, a.max_abs_rad) == (b.count, b.mean_rad, b.sigma_rad, b.max_abs_rad)
+        assert a.count > 250 and math.isfinite(b.sigma_rad)
