@@ -172,7 +172,8 @@ class Level(IntEnum):
 class ChannelStatistics:
     """Live error statistics of one channel (roll, pitch or meridional), rad; ground error in m.
 
-    Field names match :class:`pmv_ros.core.monitor.ChannelSummary`.
+    Field names match :class:`pmv_ros.core.statistics.ChannelStatistics` (and the monitor's
+    :class:`pmv_ros.core.monitor.ChannelSummary`); the wire record adds level and message.
     ``harmonics_rad`` maps k (multiple of the orbital frequency) to the
     amplitude over the last full orbit (NaN until there is one).
     ``ground_*`` is the residual as the ground error of a nadir imager

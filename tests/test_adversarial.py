@@ -230,7 +230,7 @@ def test_a_hostile_neighbour_changes_nothing_it_should_not(stack, tmp_path):
         values = dict(status.values)
         assert status.level == shim.Level.ERROR, status.message
         for topic in ("/pmv/attitude", "/star_tracker/attitude", "/orbit/odometry"):
-            assert f"2 publishers on {topic}" in status.message, status.message
+            assert f"2 publishers of {topic}" in status.message, status.message
         assert int(values["other_source_star_tracker_attitude"]) > 0.5 * flood_sent
         assert "rejected_truth_backwards" not in values
         assert "clock_jumps" not in values and "alignment_resets" not in values

@@ -81,7 +81,7 @@ def test_a_second_sensor_on_the_domain_is_an_error_and_never_interleaved(harness
     assert len(values) >= 25
     np.testing.assert_allclose(values, 1.0, atol=1e-6)
     [status, *_] = statuses(diagnostics, "pmv_ros/error_monitor_node")
-    assert status.level == shim.Level.ERROR and "2 publishers on /pmv/attitude" in status.message
+    assert status.level == shim.Level.ERROR and "2 publishers of /pmv/attitude" in status.message
     assert int(dict(status.values)["other_source_pmv_attitude"]) >= 20
 
 
@@ -106,7 +106,7 @@ def test_a_second_truth_publisher_is_an_error_for_the_tracker_and_the_following_
     lock = h.node.source_locks["/attitude/truth"]
     assert lock.other_source_messages > 10 and lock.lock_changes == 0
     errors = [s for s in statuses(diagnostics, prefix) if s.level == shim.Level.ERROR]
-    assert errors and "2 publishers on /attitude/truth" in errors[-1].message
+    assert errors and "2 publishers of /attitude/truth" in errors[-1].message
 
 
 def test_a_flood_of_truth_cannot_push_the_real_tracker_out(harness):

@@ -40,6 +40,7 @@ from scipy.special import ndtr, ndtri
 
 from .constants import EARTH_MEAN_RADIUS_M
 from .orbit import check_range
+from .radiance import CO2_TOP_HEIGHT_M
 
 # --------------------------------------------------------------------------
 # 1. Climatology
@@ -528,7 +529,7 @@ class EnvironmentParameters:
     window_height_mean_m: float = 40e3
     window_height_half_range_m: float = 20e3
     height_correlation_radius_m: float | None = None
-    co2_height_m: float = 60e3
+    co2_height_m: float = CO2_TOP_HEIGHT_M
     co2_height_half_range_m: float = 0.0
     seed: int = 0
 

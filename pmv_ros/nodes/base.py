@@ -200,21 +200,20 @@ class PmvNode(Node):
         self._arrival_clock.observe(self.get_clock().now().nanoseconds * 1e-9)
         return self._arrival_clock.latest_s
 
-    def input_source_problems(self, own_publishers: dict | None = None) -> list[str]:
+    def input_source_problems(self, max_age_s: float = GRAPH_CHECK_PERIOD_S) -> list[str]:
         """One phrase per input that has more than one publisher (an ERROR on /diagnostics); [] when none has.
 
-        The graph is asked at most every GRAPH_CHECK_PERIOD_S of wall time.
-        ``own_publishers``: {topic: publishers of this node on it} (not counted).
+        The graph is asked at most every ``max_age_s`` of wall time (a caller with its own cadence passes 0).
         """
         wall = time.monotonic()
-        if wall - self._source_checked_s < GRAPH_CHECK_PERIOD_S:
+        if wall - self._source_checked_s < max_age_s:
             return list(self._source_problems)
         self._source_checked_s, problems = wall, []
         now = self._arrival_s()
         for topic, lock in self.source_locks.items():
-            count = self.count_publishers(topic) - (own_publishers or {}).get(topic, 0)
+            count = self.count_publishers(topic)
             if count > 1 or lock.sources_heard(now) > 1:
-                problems.append(f"{max(count, lock.sources_heard(now))} publishers on {topic}: only the first one "
+                problems.append(f"{max(count, lock.sources_heard(now))} publishers of {topic}: only the first one "
                                 f"heard is used ({lock.other_source_messages} messages of others dropped)")
         self._source_problems = problems
         return list(problems)

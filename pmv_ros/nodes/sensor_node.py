@@ -90,7 +90,7 @@ class SensorNode(PmvNode):
         self._pub_truth = self._pub_clock = None
         self._health = SensorHealth()
         self._truth_state = None  # follow mode: where the last tick's attitude came from
-        self._graph_warnings, self._graph_checked_s = (), None
+        self._graph_warnings, self._source_errors, self._graph_checked_s = (), (), None
         self._pending = deque()  # precomputed fast-time samples
         # One message per topic, filled in place for every sample (rclpy serialises at publish).
         self._out = dict(truth=QuaternionStamped(), odometry=Odometry(), crossings=PolygonStamped(),
@@ -267,13 +267,14 @@ class SensorNode(PmvNode):
         period = self._values["diagnostics_period_s"]
         if self._graph_checked_s is None or not (0.0 <= t_s - self._graph_checked_s < period):
             self._graph_checked_s, self._graph_warnings = t_s, self._truth_publisher_warnings()
-        source_errors = self.input_source_problems()
+            self._source_errors = tuple(self.input_source_problems(max_age_s=0.0))  # a second truth source
+        source_errors = self._source_errors
         newest = self._truth.newest_stamp_s if self._following else None
         summary = self._health.report(
             t_s, period, status=status, blinding=blinding, truth=self._truth_state,
             exclusion_deg=self._values["sensor.bright_body_exclusion_deg"],
             truth_age_s=float("nan") if newest is None else t_s - newest,
-            warnings=self._graph_warnings + tuple(source_errors))
+            warnings=self._graph_warnings + source_errors)
         if summary is not None:
             level = max(summary.level, shim.Level.ERROR if source_errors else shim.Level.OK)  # a second source
             report = shim.HealthReport(stamp_s=t_s, statuses=(shim.HealthStatus(
