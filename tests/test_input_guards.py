@@ -296,3 +296,48 @@ def test_a_stream_with_1e308_angles_and_absurd_odometry_gives_the_clean_statisti
     for a, b in zip(clean.channels, attacked.channels):
         assert (a.count, a.mean_rad, a.sigma_rad, a.max_abs_rad) == (b.count, b.mean_rad, b.sigma_rad, b.max_abs_rad)
         assert a.count > 250 and math.isfinite(b.sigma_rad)
+
+
+# -------------------------------------------------------------------------- a single forged stamp or clock
+
+def test_a_single_forged_truth_stamp_or_clock_leaves_the_tracker_output_of_the_clean_stream(harness):
+    from rosgraph_msgs.msg import Clock
+
+    outputs = []
+    for forged in (False, True):
+        h = harness(StarTrackerNode, {"rate_hz": 2.0, "latency_s": 0.25, "use_sim_time": True,
+                                      "random_failure_probability": 0.0})
+        measured = h.record(QuaternionStamped, "/star_tracker/attitude")
+        truth, clock = h.publisher(QuaternionStamped, "/attitude/truth"), h.publisher(Clock, "/clock")
+        q = quaternion_from_roll_pitch_yaw(1e-3, -2e-3)
+        for k in range(1, 301):
+            t = 100.0 + 0.1 * k
+            clock.publish(shim.clock_to_msg(3700.0 if forged and k == 100 else t))
+            h.drain()
+            truth.publish(quaternion_msg(t, q))
+            if forged and k == 200:
+                truth.publish(quaternion_msg(t - 90.0, q))  # one stamp 90 s back, then the stream goes on
+            h.drain()
+        outputs.append(np.array([[shim.time_from_msg(m.header.stamp), m.quaternion.x, m.quaternion.y,
+                                  m.quaternion.z, m.quaternion.w] for m in measured]))
+        counters = h.node.counters
+    clean, attacked = outputs
+    assert clean.shape[0] > 50
+    np.testing.assert_array_equal(attacked, clean)  # not one frame lost, moved or redrawn
+    assert counters["clock_jumps"] == 0 and counters["clock_outliers"] == 1
+    assert counters["rejected_truth_unconfirmed_jump"] == 1
+
+
+def test_a_real_restart_of_the_truth_clock_is_one_new_timeline(harness):
+    h = harness(StarTrackerNode, {"rate_hz": 2.0, "latency_s": 0.0, "random_failure_probability": 0.0})
+    truth = h.publisher(QuaternionStamped, "/attitude/truth")
+    measured = h.record(QuaternionStamped, "/star_tracker/attitude")
+    q = quaternion_from_roll_pitch_yaw(1e-3, -2e-3)
+    base = now_s(h)
+    for first in (base - 60.0, base - 90.0):  # the source restarts 30 s back on its clock
+        for k in range(1, 101):
+            truth.publish(quaternion_msg(first + 0.1 * k, q))
+            h.drain()
+    assert h.node.counters["clock_jumps"] == 1 and h.node.counters["rejected_truth_unconfirmed_jump"] == 1
+    stamps = np.array([shim.time_from_msg(m.header.stamp) for m in measured])
+    assert np.sum(np.diff(stamps) < 0) == 1 and len(stamps) > 35
