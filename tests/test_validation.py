@@ -220,6 +220,22 @@ def test_a_restarted_publisher_is_locked_after_the_old_one_falls_silent():
     assert lock.admit(11.5, sequence=3, stamp_s=11.5)
 
 
+@PROPERTY
+@given(st.lists(FLOATS, min_size=1, max_size=60), st.lists(FLOATS, min_size=1, max_size=60),
+       st.integers(min_value=1, max_value=30))
+def test_one_publisher_is_always_kept_and_a_later_one_never_heard_whatever_they_stamp(first, second, lead):
+    # Whatever the stamps (NaN, 1e308, going back), a publisher's own numbering keeps it one source;
+    # a second publisher that starts ``lead`` messages later numbers below it and is never taken.
+    lock = SourceLock(timeout_s=1.0)
+    for n in range(1, lead + 1):
+        assert lock.admit(0.01 * n, sequence=n, stamp_s=first[n % len(first)])
+    for k in range(max(len(first), len(second))):
+        n = lead + 1 + k
+        assert lock.admit(0.01 * n, sequence=n, stamp_s=first[k % len(first)])
+        assert not lock.admit(0.01 * n, sequence=k + 1, stamp_s=second[k % len(second)])
+    assert lock.lock_changes == 0
+
+
 def test_messages_without_identity_pass():
     lock = SourceLock()
     assert lock.admit(0.0) and lock.admit(0.0)

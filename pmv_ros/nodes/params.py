@@ -142,7 +142,7 @@ def check_params_files(args, node_name: str) -> None:
         if not isinstance(document, dict):
             continue
         for section, body in document.items():
-            name = str(section).lstrip("/")
+            name = str(section).rstrip("/").rsplit("/", 1)[-1]  # "/ns/sensor_node", "/**/sensor_node", "/**"
             known = own if name == node_name else anyone if name == "**" else None
             if known is None or not isinstance(body, dict):
                 continue
