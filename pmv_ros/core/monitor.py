@@ -392,6 +392,7 @@ class ErrorMonitor:
     def reset(self) -> None:
         """Forget everything: alignment, statistics and counters."""
         self._pending.clear()
+        self._settled.clear()
         self._reset_alignment_state()
         for statistics in self._sets.values():
             statistics.reset()
