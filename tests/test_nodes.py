@@ -319,7 +319,7 @@ def test_paced_fast_time_computes_blocks_no_longer_than_a_tick(harness, rate_hz,
     h = harness(SensorNode, {"sensor.rate_hz": rate_hz, "sim.fast_time": True, "sim.time_scale": time_scale})
     assert h.node.fast_time_block == block
     h.node.step()
-    assert len(h.node._pending) == block - 1
+    assert h.node.samples_computed_ahead == block - 1
     # Stepped by the in-process pipeline nothing is paced: always the big block.
     with Pipeline(None, {"sensor.rate_hz": rate_hz, "sim.time_scale": time_scale}) as pipeline:
         assert pipeline.sensor.fast_time_block == 512

@@ -21,7 +21,6 @@ import rclpy
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
 from nav_msgs.msg import Odometry
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import qos_profile_sensor_data
@@ -34,7 +33,7 @@ from pmv_ros.core.attitude import quaternion_from_rotation_vector, quaternion_pr
 from pmv_ros.core.constants import ARCMIN_RAD
 from pmv_ros.core.parameters import preset_values
 from pmv_ros.nodes.error_monitor_node import ErrorMonitorNode
-from pmv_ros.nodes.pipeline import Pipeline, drain
+from pmv_ros.nodes.pipeline import Pipeline
 from pmv_ros.nodes.sensor_node import SensorNode
 
 #: Sphere + uniform horizon through the full signal chain (default detector and correction).
@@ -424,3 +423,34 @@ def test_the_pipeline_is_lossless_with_reliable_inputs():
     assert published == 600
     # Everything but the last star-tracker latency plus one frame interval is aligned.
     assert used >= published - 10
+
+
+def test_every_read_only_parameter_of_every_node_is_refused_and_keeps_its_value():
+    # core/assembly.py marks the world-defining parameters read_only; each node refuses a valid new
+    # value for each of them with the reason, in-process as through the service (above).
+    from pmv_ros.core.assembly import NODE_PARAMS
+
+    roles = {"sensor_node": "sensor", "star_tracker_node": "star_tracker", "error_monitor_node": "monitor"}
+    with Pipeline(None, {"sensor.detector": "ideal"}, collect=False) as pipeline:
+        refused = 0
+        for node_name, specs in NODE_PARAMS.items():
+            node = getattr(pipeline, roles[node_name])
+            for spec in specs:
+                if not spec.read_only:
+                    continue
+                before = node.get_parameter(spec.name).value
+                if spec.choices is not None:
+                    value = next(c for c in spec.choices if c != before)
+                elif isinstance(spec.default, bool):
+                    value = not before
+                elif isinstance(spec.default, str):
+                    value = "2025-06-01T00:00:00Z" if spec.name == "sim.epoch_utc" else "none"
+                else:
+                    value = type(spec.default)(spec.low + 1)
+                [result] = node.set_parameters([Parameter(spec.name, value=value)])
+                assert not result.successful and "read-only" in result.reason and spec.name in result.reason
+                assert node.get_parameter(spec.name).value == before
+                refused += 1
+        assert refused >= 15
+        pipeline.step(5)  # and the pipeline keeps running
+        assert pipeline.sensor.samples_published == 5

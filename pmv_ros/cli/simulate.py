@@ -71,7 +71,7 @@ def run(args) -> int:
         raise ValueError(f"{args.config}: {error}") from None
     started = time.perf_counter()
     with pipeline:
-        orbit = pipeline.sensor._orbit
+        orbit = pipeline.sensor.orbit
         rate = pipeline.sensor.get_parameter("sensor.rate_hz").value
         ticks = max(1, round(args.orbits * orbit.period_s * rate))
         bar = tqdm(total=ticks, unit="tick", file=sys.stderr, disable=args.quiet, dynamic_ncols=True,

@@ -509,8 +509,10 @@ def flight_test_statistics(u_rad, roll_rad, pitch_rad, altitude_m: float, inclin
        weighs the same, so uneven coverage of the orbit does not bias them);
        Δβ = β − offset;
     4. δβ_k = Δβ_k − (Δβ)_roll(u), δβ_t = Δβ_t − (Δβ)_pitch(u), the published
-       closed-form oblateness model with its sign convention (physics.md §2.1;
-       :func:`pmv_ros.core.oblateness.closed_form_oblateness`), averaged over
+       closed-form oblateness model (physics.md §2.1;
+       :func:`pmv_ros.core.oblateness.closed_form_oblateness`) in REP-103 like
+       the roll and pitch given here (published telemetry is converted first,
+       :func:`pmv_ros.core.conventions.convert`), averaged over
        the same samples as the data. Skipped when ``remove_oblateness`` is False;
     5. δβ_m = √(δβ_k² + δβ_t²); MO = its mean; σ_m with N − 1; limit MO ± 3σ_m.
 
@@ -522,7 +524,7 @@ def flight_test_statistics(u_rad, roll_rad, pitch_rad, altitude_m: float, inclin
     Args:
         u_rad: ``(N,)`` argument of latitude of each sample, rad (unwrapped or
             not; with ``orbit_index`` None, the orbit of a sample is ⌊u/2π⌋).
-        roll_rad, pitch_rad: ``(N,)`` sensor error against the reference, rad.
+        roll_rad, pitch_rad: ``(N,)`` sensor error against the reference, rad, REP-103.
         altitude_m: orbit altitude H above the mean radius, m (oblateness model).
         inclination_rad: orbit inclination, rad (oblateness model).
         orbit_index: ``(N,)`` orbit number of each sample, or None.

@@ -2,59 +2,32 @@
 
 Subscribes to ``/pmv/attitude`` (sensor), ``/star_tracker/attitude`` (truth)
 and ``/orbit/odometry`` (where the spacecraft is, for the oblateness model);
-publishes ``/pmv/residual`` for every aligned sample, ``/pmv/error_statistics``
-every ``1/statistics_rate_hz`` seconds of sample time, and ``/diagnostics``.
-The alignment and statistics are :class:`pmv_ros.core.monitor.ErrorMonitor`;
-this node only converts and wires.
+publishes ``/pmv/residual`` (sensed − true, REP-103) for every aligned sample,
+``/pmv/error_statistics`` every ``1/statistics_rate_hz`` seconds of sample
+time, and ``/diagnostics``. The alignment and statistics are
+:class:`pmv_ros.core.monitor.ErrorMonitor`; this node only converts and wires.
 
 Statistics are driven by the sample stamps, so the node behaves the same on
 the wall clock and on a fast-time ``/clock``; a 1 Hz node-clock timer times
 out samples waiting for truth when nothing arrives at all and publishes
-``/diagnostics``. QoS: reliable, keep-last 100 on every topic; memory is
-bounded by the monitor's caps (truth history, pending queue, harmonic ring).
+``/diagnostics``. Inputs are best-effort subscriptions (README "QoS");
+memory is bounded by the monitor's caps.
 
 Bad input is dropped before it touches any state and counted per reason
-(``rejected_<stream>_<reason>`` on ``/diagnostics``): non-finite values, far
-from unit quaternions (near-unit ones are normalised), zero, future,
-duplicate, backward and too-fast stamps, angles beyond
-``input.max_abs_angle_deg``, odometry that is not a bound Earth orbit
-(``input.*`` bounds), and messages the shim cannot read
-(``rejected_<stream>_unreadable``). Only accepted sensor samples drive the
-statistics schedule, so a stream with bad messages gives the statistics of
-the same stream without them. Only the first publisher heard on each input
-is used; a second one is an ERROR on ``/diagnostics`` with the publishers'
-count, and its messages are dropped (``other_source_<topic>``).
-
-Discontinuities — what the node does:
-
-* Star-tracker outage, however long (hours): sensor samples wait at most
-  ``max_truth_wait_s`` for truth, then are counted ``skipped_stale_truth``;
-  none is compared with truth interpolated across the gap
-  (``max_truth_gap_s``). ``/diagnostics`` says how long truth has been
-  missing. When truth returns, alignment resumes by itself; the running
-  statistics carry on, the harmonics wait for a full orbit without a large
-  hole.
-* A node restarted on the same clock (stamps continue forward after a gap):
-  the same — a gap, then alignment resumes.
-* A clock jump back by more than ``clock_jump_s`` — of the node clock or of a
-  stream's stamps (simulation restarted, a node restarted on a new clock,
-  stamps start over), once the next reading confirms it: the alignment is
-  reset once (truth history dropped,
-  waiting samples counted ``skipped_reset``, harmonic ring cleared, the
-  statistics schedule restarts), so nothing is interpolated or fitted
-  across the discontinuity; counted ``clock_jumps``/``alignment_resets``.
-  The running statistics — sums over residuals that were each valid —
-  carry on. Messages of the old timeline still in flight are then in the
-  future and rejected. A single forged ``/clock`` or stamp that the next
-  reading contradicts is an outlier: counted ``clock_outliers``, nothing reset.
-* A clock jump forward: samples across it are skipped (truth gap) and the
-  alignment continues on the new stamps.
-* A parameter change rebuilds the monitor: the statistics start over.
+(``rejected_<stream>_<reason>``: the checks of :mod:`pmv_ros.core.validation`,
+with the ``input.*`` plausibility bounds), messages the shim cannot read as
+``rejected_<stream>_unreadable``; only accepted sensor samples drive the
+statistics schedule. Only the first publisher heard on each input is used; a
+second one is an ERROR on ``/diagnostics`` with the publishers' count and its
+messages are dropped (``other_source_<topic>``). Outages, restarts and clock
+jumps: README "Truth outages and discontinuities" and the core monitor's
+docstring — in short, nothing is interpolated across a gap, a confirmed jump
+back resets the alignment once, a single forged jump is an outlier, a
+parameter change starts the statistics over.
 """
 
 from __future__ import annotations
 
-import math
 import sys
 
 from diagnostic_msgs.msg import DiagnosticArray

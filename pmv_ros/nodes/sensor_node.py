@@ -33,9 +33,7 @@ parameter change, and nothing from the network, makes the node read a file.
 from __future__ import annotations
 
 import sys
-from collections import deque
 
-import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PolygonStamped, QuaternionStamped, Vector3Stamped
 from nav_msgs.msg import Odometry
@@ -45,21 +43,14 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 import pmv_msgs_shim as shim
 from .base import PmvNode
 from ..core.assembly import SENSOR_PARAMS as PARAMS, build_models, read_correction
-from ..core.sensor import ChordStatus
-from ..core.sensor_health import SensorHealth
+from ..core.sample_stream import SampleStream, fast_time_block
+from ..core.sensor_health import SensorHealth, truth_source_warnings
 from ..core.truth_buffer import TruthAt, TruthBuffer
 from ..core.validation import Rejection, StampCheck, check_quaternion
 from .launch import run_node
 from .params import ParameterError, declare, install_validation
 
 
-#: Samples computed per call of the instrument model in fast time with the own attitude profile
-#: (amortises numpy overhead; identical output): 512 cost ≈ 35 µs each, 64 ≈ 70 µs.
-FAST_TIME_BLOCK = 512
-
-#: Paced fast time: a block should take no longer than one tick, or /clock stops while it is
-#: computed. Blocks are sized with this cost per sample (the slow end of these machines).
-PACED_SAMPLE_COST_S = 100e-6
 
 
 class SensorNode(PmvNode):
@@ -91,7 +82,6 @@ class SensorNode(PmvNode):
         self._health = SensorHealth()
         self._truth_state = None  # follow mode: where the last tick's attitude came from
         self._graph_warnings, self._source_errors, self._graph_checked_s = (), (), None
-        self._pending = deque()  # precomputed fast-time samples
         # One message per topic, filled in place for every sample (rclpy serialises at publish).
         self._out = dict(truth=QuaternionStamped(), odometry=Odometry(), crossings=PolygonStamped(),
                          attitude=Vector3Stamped(), attitude_raw=Vector3Stamped(), clock=ClockMsg(),
@@ -118,7 +108,8 @@ class SensorNode(PmvNode):
     # -- parameters ---------------------------------------------------------------------------
 
     def _rebuild(self, values: dict) -> None:
-        self._orbit, self._profile, self._model = build_models(values)
+        orbit, profile, model = build_models(values)
+        self._stream = SampleStream(model, orbit, profile, shim.checked_lines_of_sight)
         timeout = values["attitude.follow_timeout_s"]
         # Older by more than the timeout: the source restarted on a new clock (once the next stamp confirms it).
         stamps = getattr(self, "_truth_stamps", None) or StampCheck(timeout, timeout)
@@ -134,7 +125,6 @@ class SensorNode(PmvNode):
         if values["sim.fast_time"]:
             values = dict(values, **{"sim.start_time_s": self._values["sim.start_time_s"]})
         self._rebuild(values)
-        self._pending.clear()
         if self._timer is not None and any(values[k] != self._values[k] for k in ("sensor.rate_hz", "sim.time_scale")):
             self._timer.cancel()
             self.destroy_timer(self._timer)
@@ -185,6 +175,16 @@ class SensorNode(PmvNode):
         return self._sim_time_s
 
     @property
+    def orbit(self):
+        """The orbit the sensor flies (:class:`pmv_ros.core.orbit.CircularOrbit`)."""
+        return self._stream.orbit
+
+    @property
+    def samples_computed_ahead(self) -> int:
+        """Fast-time samples computed ahead and not yet published (at most one block)."""
+        return self._stream.pending
+
+    @property
     def samples_published(self) -> int:
         """Samples published on /pmv/attitude since the start."""
         return self._health.samples_published
@@ -197,27 +197,20 @@ class SensorNode(PmvNode):
         if self._following:
             self._sense_following(self._sim_time_s)
             return
-        if not self._pending:
-            times = self._sim_time_s + period * np.arange(self.fast_time_block)
-            self._pending = deque(self._sense_block(times, self._profile.quaternion(times)))
-        self._publish_sample(*self._pending.popleft())
+        self._publish_sample(*self._stream.next_profile_sample(self._sim_time_s, period, self.fast_time_block))
 
     @property
     def fast_time_block(self) -> int:
-        """Samples the instrument model computes per call in fast time (see PACED_SAMPLE_COST_S)."""
-        scale = self._values["sim.time_scale"]
-        if scale == 0.0 or self._external_drive:
-            return FAST_TIME_BLOCK
-        tick_s = 1.0 / (self._values["sensor.rate_hz"] * scale)
-        return max(16, min(FAST_TIME_BLOCK, int(tick_s / PACED_SAMPLE_COST_S)))
+        """Samples computed per call in fast time (:func:`pmv_ros.core.sample_stream.fast_time_block`)."""
+        v = self._values
+        return fast_time_block(v["sensor.rate_hz"], v["sim.time_scale"], self._external_drive)
 
     def _on_real_time_tick(self) -> None:
         now_s = self.get_clock().now().nanoseconds * 1e-9
         if self._following:
             self._sense_following(now_s)
-            return
-        times = np.array([now_s])
-        self._publish_sample(*self._sense_block(times, self._profile.quaternion(times))[0])
+        else:
+            self._publish_sample(*self._stream.profile_sample(now_s))
 
     def _sense_following(self, t_s: float) -> None:
         """Measure with the attitude at ``t_s`` from the truth buffer; nothing when there is none."""
@@ -232,20 +225,7 @@ class SensorNode(PmvNode):
             self._health.count(f"skipped_{source.value}")
             self._publish_health(t_s)
             return
-        self._publish_sample(*self._sense_block(np.array([t_s]), np.array(q)[:, None])[0])
-
-    def _sense_block(self, times: np.ndarray, q: np.ndarray) -> list:
-        """Run the instrument for a block of samples: per-sample tuples of plain values to publish."""
-        reading = self._model.sense(times, q)
-        position, velocity = self._orbit.state_eci(times)
-        status, blinding = reading.chord_status, reading.blinding_body
-        # What a HorizonCrossings record would hold (NaN rows for invalid chords), checked for the whole block.
-        line_of_sight = shim.checked_lines_of_sight(reading.line_of_sight_sensor.transpose(2, 1, 0),
-                                                    (status == ChordStatus.VALID).T)
-        columns = (times, q.T, line_of_sight, reading.sensed_roll_rad, reading.sensed_pitch_rad,
-                   reading.sensed_roll_uncorrected_rad, reading.sensed_pitch_uncorrected_rad, status.T,
-                   (np.full_like(status, -1) if blinding is None else blinding).T, position.T, velocity.T)
-        return list(zip(*(column.tolist() for column in columns)))
+        self._publish_sample(*self._stream.sample(t_s, q))
 
     def _publish_sample(self, t_s, q, line_of_sight, roll, pitch, roll_raw, pitch_raw, status, blinding,
                         position, velocity) -> None:
@@ -283,13 +263,12 @@ class SensorNode(PmvNode):
             self._pub_diagnostics.publish(shim.write_health(self._out["diagnostics"], report))
 
     def _truth_publisher_warnings(self) -> tuple:
-        """A warning when /attitude/truth has a publisher besides this sensor's own model (following: see
-        :meth:`input_source_problems`)."""
+        """A warning when /attitude/truth has a publisher besides this sensor's own model (following, a second
+        source is an ERROR from :meth:`input_source_problems`: only the first one heard is followed)."""
+        if self._following:
+            return ()
         others = self.count_publishers("/attitude/truth") - (self._pub_truth is not None)
-        if not self._following and others > 0:
-            return (f"another publisher of /attitude/truth besides this sensor's own attitude model "
-                    "(to follow it, set attitude.source: follow — README \"Follow mode\")",)
-        return ()
+        return truth_source_warnings(others, self._following)
 
 
 def main(args=None) -> int:
