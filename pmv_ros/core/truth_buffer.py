@@ -97,8 +97,9 @@ class TruthBuffer:
         self._attitudes.append(tuple(float(c) for c in q_xyzw))
 
     def horizon_s(self) -> float:
-        """How far past the newest sample an attitude is still given, s (0 with fewer than two samples)."""
-        if len(self._stamps) < 2:
+        """How far past the newest sample an attitude is still given, s (0 with fewer than two samples,
+        or when the last two are further apart than ``max_gap_s``)."""
+        if len(self._stamps) < 2 or self._stamps[-1] - self._stamps[-2] > self.max_gap_s:
             return 0.0
         return min(self.extrapolation_periods * (self._stamps[-1] - self._stamps[-2]), self.max_gap_s)
 
@@ -113,6 +114,8 @@ class TruthBuffer:
         if t_s > newest:
             if len(stamps) < 2:
                 return None, TruthAt.NO_TRUTH
+            if newest - stamps[-2] > self.max_gap_s:  # the last rate would be taken across a gap
+                return None, TruthAt.TRUTH_GAP
             if t_s - newest > self.horizon_s():
                 return None, TruthAt.STALE
             (q,), _ = slerp(stamps[-2], attitudes[-2], newest, attitudes[-1], [t_s])
