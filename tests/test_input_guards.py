@@ -341,3 +341,29 @@ def test_a_real_restart_of_the_truth_clock_is_one_new_timeline(harness):
     assert h.node.counters["clock_jumps"] == 1 and h.node.counters["rejected_truth_unconfirmed_jump"] == 1
     stamps = np.array([shim.time_from_msg(m.header.stamp) for m in measured])
     assert np.sum(np.diff(stamps) < 0) == 1 and len(stamps) > 35
+
+
+def test_a_following_sensor_skips_the_tick_of_a_single_forged_clock(harness):
+    # Real time on someone else's /clock (the sensor's 1 Hz timer runs on it): one forged /clock an
+    # hour ahead must not be measured at (nor raise a "stale truth" ERROR), and changes nothing after.
+    from rosgraph_msgs.msg import Clock
+
+    h = harness(SensorNode, {"attitude.source": "follow", "sim.fast_time": False, "sensor.rate_hz": 1.0,
+                             "sensor.detector": "ideal", "use_sim_time": True, "diagnostics_period_s": 0.1})
+    attitude = h.record(Vector3Stamped, "/pmv/attitude")
+    diagnostics = h.record(DiagnosticArray, "/diagnostics")
+    clock, truth = h.publisher(Clock, "/clock"), h.publisher(QuaternionStamped, "/attitude/truth")
+    q = quaternion_from_roll_pitch_yaw(10 * ARCMIN_RAD, -4 * ARCMIN_RAD, 0.0)
+    for k in range(1, 41):
+        t = 100.0 + 0.25 * k
+        truth.publish(quaternion_msg(t, q))
+        h.drain()
+        clock.publish(shim.clock_to_msg(t + 3600.0 if k == 20 else t))
+        h.drain()
+    stamps = [shim.time_from_msg(m.header.stamp) for m in attitude]
+    assert stamps and max(stamps) < 111.0  # nothing at the forged hour
+    assert len(stamps) >= 8
+    values = dict(statuses(diagnostics, "pmv_ros/sensor_node")[-1].values)
+    # The forged tick was skipped as an unconfirmed jump — not measured at, nor called stale truth.
+    assert int(values["skipped_unconfirmed_clock_jump"]) == 1 and "skipped_stale" not in values, values
+    assert int(values["clock_outliers"]) == 1, values

@@ -46,7 +46,7 @@ from ..core.assembly import SENSOR_PARAMS as PARAMS, build_models, read_correcti
 from ..core.sample_stream import SampleStream, fast_time_block
 from ..core.sensor_health import SensorHealth, truth_source_warnings
 from ..core.truth_buffer import TruthAt, TruthBuffer
-from ..core.validation import Rejection, StampCheck, check_quaternion
+from ..core.validation import Jump, JumpDetector, Rejection, StampCheck, check_quaternion
 from .launch import run_node
 from .params import ParameterError, declare, install_validation
 
@@ -82,6 +82,8 @@ class SensorNode(PmvNode):
         self._health = SensorHealth()
         self._truth_state = None  # follow mode: where the last tick's attitude came from
         self._graph_warnings, self._source_errors, self._graph_checked_s = (), (), None
+        # Real time on a /clock someone else publishes: a tick on a single forged time is skipped, not measured.
+        self._tick_clock = JumpDetector(1.0, forward_threshold_s=10.0)
         # One message per topic, filled in place for every sample (rclpy serialises at publish).
         self._out = dict(truth=QuaternionStamped(), odometry=Odometry(), crossings=PolygonStamped(),
                          attitude=Vector3Stamped(), attitude_raw=Vector3Stamped(), clock=ClockMsg(),
@@ -207,6 +209,12 @@ class SensorNode(PmvNode):
 
     def _on_real_time_tick(self) -> None:
         now_s = self.get_clock().now().nanoseconds * 1e-9
+        jump = self._tick_clock.observe(now_s)
+        if jump is Jump.OUTLIER:
+            self._health.count("clock_outliers")
+        if jump is Jump.SUSPECTED:
+            self._health.count("skipped_unconfirmed_clock_jump")
+            return
         if self._following:
             self._sense_following(now_s)
         else:
