@@ -367,3 +367,14 @@ def test_a_following_sensor_skips_the_tick_of_a_single_forged_clock(harness):
     # The forged tick was skipped as an unconfirmed jump — not measured at, nor called stale truth.
     assert int(values["skipped_unconfirmed_clock_jump"]) == 1 and "skipped_stale" not in values, values
     assert int(values["clock_outliers"]) == 1, values
+
+
+def test_pmv_simulate_refuses_an_unknown_key_in_its_config_with_one_line(tmp_path):
+    config = tmp_path / "typo.yaml"
+    config.write_text("error_monitor_node:\n  ros__parameters:\n    statistics_rate_hzz: 2.0\n")
+    result = subprocess.run([str(VENV_BIN / "pmv"), "simulate", "--config", str(config), "--orbits", "0.01"],
+                            env=_child_env(tmp_path / "log"), cwd=tmp_path, stdin=subprocess.DEVNULL,
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == 2, result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1 and "Traceback" not in result.stderr
+    assert "'statistics_rate_hzz'" in result.stderr and "did you mean 'statistics_rate_hz'" in result.stderr
