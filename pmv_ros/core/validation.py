@@ -111,7 +111,9 @@ def check_quaternion(q_xyzw, tolerance: float = QUATERNION_NORM_TOLERANCE):
     Non-finite components give NON_FINITE; a norm further than ``tolerance``
     from 1 (a zero quaternion, a component of 1e308 whose square overflows)
     gives BAD_QUATERNION; otherwise the quaternion is returned normalised, and
-    ``normalised`` says whether that changed more than rounding.
+    ``normalised`` says whether that changed more than rounding. The norm
+    bound is the components' plausibility bound: an accepted quaternion has
+    every |component| ≤ 1 + ``tolerance``.
     """
     try:
         components = [float(c) for c in q_xyzw]
