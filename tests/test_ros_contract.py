@@ -454,3 +454,26 @@ def test_every_read_only_parameter_of_every_node_is_refused_and_keeps_its_value(
         assert refused >= 15
         pipeline.step(5)  # and the pipeline keeps running
         assert pipeline.sensor.samples_published == 5
+
+
+def test_best_effort_publishers_feed_every_input(harness):
+    # REP-2003: a sensor-data publisher (best effort) must be able to feed us. The sensor's and the
+    # monitor's inputs are shown above; the star tracker's and the monitor's odometry here.
+    from pmv_ros.nodes.star_tracker_node import StarTrackerNode
+
+    h = harness(StarTrackerNode, {"rate_hz": 2.0, "latency_s": 0.0, "random_failure_probability": 0.0})
+    frames = h.record(QuaternionStamped, "/star_tracker/attitude")
+    truth = h.tester.create_publisher(QuaternionStamped, "/attitude/truth", qos_profile_sensor_data)
+    for k in range(1, 21):
+        truth.publish(truth_msg(0.5 * k, turned((1, 0, 0), 0.01)))
+        h.drain()
+    assert len(frames) >= 18
+    m = harness(ErrorMonitorNode, {"use_sim_time": True})
+    odometry = m.tester.create_publisher(Odometry, "/orbit/odometry", qos_profile_sensor_data)
+    clock = m.publisher(Clock, "/clock")
+    for k in range(1, 6):
+        clock.publish(shim.clock_to_msg(float(k)))
+        odometry.publish(shim.orbit_state_to_msg(shim.OrbitState(float(k), "eci", "orbital", [6871e3, 0.0, 0.0],
+                                                                 [0.0, 7616.0, 0.0])))
+        m.drain()
+    assert m.node.latest_orbit_stamp_s == 5.0

@@ -149,6 +149,11 @@ class ErrorMonitorNode(PmvNode):
         return statistics
 
     @property
+    def latest_orbit_stamp_s(self) -> float | None:
+        """Stamp of the last /orbit/odometry taken, s (None before the first)."""
+        return None if self._orbit is None else self._orbit[0]
+
+    @property
     def monitor(self) -> ErrorMonitor:
         """The monitor core (read-only use: reports, tests)."""
         return self._monitor
