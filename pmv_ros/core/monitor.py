@@ -560,6 +560,11 @@ class ErrorMonitor:
         return dict(u_rad=u + rate * (t_s - stamp), inclination_rad=inclination, altitude_m=altitude)
 
     @property
+    def latest_orbit_stamp_s(self) -> float | None:
+        """Stamp of the latest accepted odometry since the last alignment reset, s (None: none yet)."""
+        return None if self._orbit is None else self._orbit[0]
+
+    @property
     def odometry_period_s(self) -> float | None:
         """The orbital period the latest accepted odometry flies (2π / mean motion), s; None without odometry."""
         return None if self._orbit is None else 2.0 * math.pi / self._orbit[4]

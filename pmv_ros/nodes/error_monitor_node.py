@@ -151,7 +151,7 @@ class ErrorMonitorNode(PmvNode):
     @property
     def latest_orbit_stamp_s(self) -> float | None:
         """Stamp of the last /orbit/odometry taken, s (None before the first)."""
-        return None if self._orbit is None else self._orbit[0]
+        return self._monitor.latest_orbit_stamp_s
 
     @property
     def monitor(self) -> ErrorMonitor:
