@@ -493,10 +493,10 @@ def _plot(out: Path, result: dict) -> list[str]:
             sigma = np.array([series[d][channel]["sigma_arcmin"] for d in series], float)
             limit = np.array([series[d][channel]["limit_arcmin"] for d in series], float)
             if name == "total":
-                low = sigma - np.array([series[d][channel]["seed_sigma_min_arcmin"] for d in series], float)
-                high = np.array([series[d][channel]["seed_sigma_max_arcmin"] for d in series], float) - sigma
-                axis.errorbar(day, sigma, yerr=[low, high], fmt="o-", color="C0", capsize=3,
-                              label="σ (bars: range over seeds)")
+                low = np.array([series[d][channel]["seed_sigma_min_arcmin"] for d in series], float)
+                high = np.array([series[d][channel]["seed_sigma_max_arcmin"] for d in series], float)
+                axis.vlines(day, low, high, color="C0", alpha=0.5, lw=4, label="σ of each seed: range")
+                axis.plot(day, sigma, "o-", color="C0", label="σ, all seeds")
                 axis.plot(day, limit, "s--", color="C3", label="limit |mean| + 3σ")
             else:
                 axis.plot(day, sigma, ".:", label=f"σ, {name} alone")
