@@ -53,8 +53,10 @@ def _wait_for_port(port: int, process: subprocess.Popen, timeout_s: float = 60.0
 def _start(arguments, log: Path) -> subprocess.Popen:
     """A Dask process in its own session (so the test can kill it with its children)."""
     handle = open(log, "wb")
+    # The embedded cluster's worker environment (campaign.WORKER_ENVIRONMENT): speed only, not results.
+    environment = {**os.environ, "DASK_DISTRIBUTED__NANNY__PRE_SPAWN_ENVIRON": repr(campaign.WORKER_ENVIRONMENT)}
     return subprocess.Popen([sys.executable, "-m", "dask", *arguments], stdout=handle, stderr=subprocess.STDOUT,
-                            start_new_session=True)
+                            start_new_session=True, env=environment)
 
 
 def _stop(process: subprocess.Popen) -> None:
