@@ -186,3 +186,33 @@ def test_a_folder_keeps_one_campaign_setting(tmp_path, capsys):
     campaign.prepare_folder(tmp_path, settings)  # the same settings again: fine
     with pytest.raises(ValueError, match="other settings"):
         campaign.prepare_folder(tmp_path, campaign.Settings(_document(), "2024-01-15T00:00:00Z", 5.0, 0.01))
+
+
+def test_components_budget_puts_each_component_beside_the_total_and_their_rss(tmp_path):
+    """--components: every environment component alone, and the RSS of their σ beside the total's.
+
+    Sanity of the component switches (can fail if an override leaks another
+    component in): with the environment off, what is left of oblateness after
+    the monitor removes the closed-form model is far below the total (< 1/3 of
+    its meridional σ here: 0.1′-level against ≈ 3′), and a flight with the
+    weather alone on a sphere differs from one with the layer height alone.
+    """
+    settings = campaign.Settings(_document(), "2024-01-15T00:00:00Z", 10.0, 0.03)
+    tasks = campaign.plan([200], 1, True)
+    assert {task.component for task in tasks} == set(campaign.COMPONENTS)
+    for task in tasks:
+        table, _ = campaign.run_task(settings, task)
+        campaign.write_result(tmp_path, task, table)
+    result = campaign.budget(tmp_path, tasks)
+    components = result["components"]
+    assert set(components) == set(campaign.COMPONENTS)
+    meridional = {name: components[name]["year"]["meridional"]["sigma_arcmin"] for name in components}
+    assert meridional["oblateness"] < meridional["total"] / 3.0
+    assert meridional["weather"] != meridional["height"]
+    rss = result["rss"]["year"]["meridional"]
+    parts = [name for name in campaign.COMPONENTS if name != "total"]
+    assert rss["rss_sigma_arcmin"] == pytest.approx(math.sqrt(sum(meridional[p] ** 2 for p in parts)))
+    assert rss["total_sigma_arcmin"] == meridional["total"]
+    assert set(result["by_day"]) == set(campaign.COMPONENTS) and "latitude_day" in result
+    files = campaign.write_budget(tmp_path, result)
+    assert all((tmp_path / name).stat().st_size > 0 for name in files)
