@@ -58,9 +58,13 @@ SEASONS = {"DJF": (12, 1, 2), "MAM": (3, 4, 5), "JJA": (6, 7, 8), "SON": (9, 10,
 #: Latitude bins of the latitude × day map, deg.
 LATITUDE_BIN_DEG = 10.0
 
-#: Largest number of seeds and of tasks a campaign accepts (a typo guard, not a resource limit).
+#: Largest number of seeds and of orbits per task a campaign accepts (typo guards).
 MAX_SEEDS = 100_000
 MAX_ORBITS_PER_TASK = 100.0
+
+#: Most sensor samples one task may fly: a task holds its samples in memory (≈ 250 bytes each while it
+#: runs), so 5 million is ≈ 1.3 GB on a worker. More orbits at a high rate: more days or seeds instead.
+MAX_TASK_SAMPLES = 5_000_000
 
 #: Key of the task description in each result file's Parquet metadata.
 METADATA_KEY = b"pmv_campaign"
@@ -181,6 +185,10 @@ def check(settings: Settings, tasks: list[Task]) -> None:
     if any(task.component != "total" for task in tasks) and values.sensor["radiance.source"] != "environment":
         raise ValueError("--components needs radiance.source: environment in the preset (the components are "
                          "the environment's)")
+    samples = task_samples(values, settings.orbits_per_task)
+    if samples > MAX_TASK_SAMPLES:
+        raise ValueError(f"--orbits-per-task {settings.orbits_per_task:g} at {values.sensor['sensor.rate_hz']:g} Hz "
+                         f"is {samples} samples a task, more than {MAX_TASK_SAMPLES} (fly fewer orbits per task)")
     period = 1.0 / values.sensor["sensor.rate_hz"]
     if period > values.star_tracker["max_truth_gap_s"]:
         raise ValueError(f"sensor rate {values.sensor['sensor.rate_hz']:g} Hz: samples {period:g} s apart are "

@@ -138,6 +138,7 @@ def run(args) -> int:
         "samples_per_s_per_worker": ran["samples"] / ran["compute_s"] if ran["compute_s"] else None,
         "files": files,
         "budget": {key: result[key] for key in ("components", "rss") if key in result},
+        "tasks_statistics": result["tasks"],
     }
     if args.json:
         print_json(summary)
