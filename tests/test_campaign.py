@@ -216,3 +216,20 @@ def test_components_budget_puts_each_component_beside_the_total_and_their_rss(tm
     assert set(result["by_day"]) == set(campaign.COMPONENTS) and "latitude_day" in result
     files = campaign.write_budget(tmp_path, result)
     assert all((tmp_path / name).stat().st_size > 0 for name in files)
+
+
+def test_frame_attitudes_one_pair_in_floats_equals_the_array_form():
+    """The star tracker's slerp to frame times: the float path (for the node, per truth sample) = the array path."""
+    from pmv_ros.core.attitude import quaternion_from_roll_pitch_yaw
+    from pmv_ros.core.flight import frame_attitudes
+
+    q0 = tuple(np.asarray(quaternion_from_roll_pitch_yaw(1e-3, -2e-3, 5e-4)).tolist())
+    q1 = tuple(np.asarray(quaternion_from_roll_pitch_yaw(1.2e-3, -2.1e-3, 4e-4)).tolist())
+    frames = [10.05, 10.25, 10.5]
+    floats, rate = frame_attitudes(10.0, q0, 10.5, q1, frames, 1.0e-3)
+    arrays, rates = frame_attitudes(np.full(3, 10.0), np.tile(np.array(q0)[:, None], 3), np.full(3, 10.5),
+                                    np.tile(np.array(q1)[:, None], 3), np.array(frames), 1.0e-3)
+    np.testing.assert_allclose(np.array(floats).T, arrays, atol=1e-15)
+    np.testing.assert_allclose(rates, rate, rtol=1e-12)
+    np.testing.assert_allclose(np.array(floats[-1]), q1, atol=1e-15)  # the last frame is the current truth
+    assert rate > 1.0e-3  # the orbital frame's own rate plus the turn

@@ -95,6 +95,30 @@ def flight_values(document: dict, overrides: dict | None = None) -> FlightValues
     )
 
 
+def frame_attitudes(previous_s, q_previous, current_s, q_current, frame_s, mean_motion_rad_s: float):
+    """The truth at star-tracker frames between two truth samples, and the rate of that turn (physics.md §6).
+
+    A constant-rate turn (slerp) from ``q_previous`` at ``previous_s`` to
+    ``q_current`` at ``current_s``; the rate for the tracker's limit is the
+    turn's rate plus the orbital frame's own (nadir pointing).
+
+    One truth pair in plain floats (what star_tracker_node does per truth
+    sample): ``q_*`` tuples (x, y, z, w), ``frame_s`` a list of times →
+    (list of quaternion tuples, rate float). Arrays (a batch of pairs, one
+    per frame): ``q_*`` ``(4, M)``, times ``(M,)`` → (``(4, M)``, ``(M,)``).
+    """
+    if isinstance(q_previous, tuple):
+        dt = current_s - previous_s
+        turn = rotation_vector_from_quaternion(quaternion_product(q_current, quaternion_conjugate(q_previous)))
+        rate = inertial_rate_of_nadir_pointing(mean_motion_rad_s, tuple(w / dt for w in turn))
+        return [quaternion_product(quaternion_from_rotation_vector(tuple((t - previous_s) / dt * w for w in turn)),
+                                   q_previous) for t in frame_s], rate
+    dt = current_s - previous_s
+    turn = rotation_vector_from_quaternion(quaternion_product(q_current, quaternion_conjugate(q_previous)))
+    q_frames = quaternion_product(quaternion_from_rotation_vector(turn * ((frame_s - previous_s) / dt)), q_previous)
+    return q_frames, inertial_rate_of_nadir_pointing(mean_motion_rad_s, turn / dt)
+
+
 @dataclass(frozen=True)
 class TrackerFrames:
     """Star-tracker frames of a flight: stamps (s), measured quaternions ``(4, M)``, outcome codes, release times."""
@@ -143,12 +167,9 @@ def tracker_frames(truth_s: np.ndarray, q_truth: np.ndarray, values: dict, start
     if frames.size == 0:
         return empty
     before = after - 1
-    dt = truth_s[after] - truth_s[before]
-    q_before = q_truth[:, before]
-    turn = rotation_vector_from_quaternion(quaternion_product(q_truth[:, after], quaternion_conjugate(q_before)))
-    q_frames = quaternion_product(quaternion_from_rotation_vector(turn * ((frames - truth_s[before]) / dt)), q_before)
     mean_motion = math.sqrt(GM_EARTH_M3_S2 / (EARTH_MEAN_RADIUS_M + values["orbit.altitude_km"] * 1e3) ** 3)
-    rate = inertial_rate_of_nadir_pointing(mean_motion, turn / dt)
+    q_frames, rate = frame_attitudes(truth_s[before], q_truth[:, before], truth_s[after], q_truth[:, after], frames,
+                                     mean_motion)
     measured = np.empty((4, frames.size))
     outcome = np.empty(frames.size, np.int8)
     # Group boundaries: frames completed by the same truth sample are measured in one call, as the node does.
