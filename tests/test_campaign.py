@@ -233,3 +233,10 @@ def test_frame_attitudes_one_pair_in_floats_equals_the_array_form():
     np.testing.assert_allclose(rates, rate, rtol=1e-12)
     np.testing.assert_allclose(np.array(floats[-1]), q1, atol=1e-15)  # the last frame is the current truth
     assert rate > 1.0e-3  # the orbital frame's own rate plus the turn
+
+
+def test_the_flight_senses_in_the_sensor_nodes_blocks():
+    """Same grouping as sensor_node in fast time, so the weather field rounds alike (until the node imports it)."""
+    from pmv_ros.nodes.sensor_node import FAST_TIME_BLOCK
+
+    assert SENSE_BLOCK == FAST_TIME_BLOCK

@@ -11,7 +11,9 @@ What the nodes do between the core and their topics, and how it is done here:
 
 * sensor_node (fast time): sample k (k = 1 … N) at ``sim.start_time_s +
   k / sensor.rate_hz``; the true attitude from the profile; the model senses
-  them in blocks (:data:`SENSE_BLOCK`; the output does not depend on it).
+  them in the node's blocks (:data:`SENSE_BLOCK`: the weather and layer-height
+  fields refer their float32 phases to each block's first time, so another
+  grouping moves roll by ≈ 2e-4′).
 * star_tracker_node: :func:`tracker_frames` — frames on the tracker's own
   grid, the truth slerped to each frame between the two truth samples that
   bracket it, the inertial rate of that turn, measured by
@@ -55,8 +57,9 @@ from .parameters import preset_values
 from .star_tracker import Outcome, inertial_rate_of_nadir_pointing
 from .statistics import DEFAULT_MAX_CONDITION, RunningStatistics, harmonic_amplitudes
 
-#: Samples the sensor model computes per call: sensor_node's FAST_TIME_BLOCK. The weather and layer-height
-#: fields' matrix products round differently for other groupings (≈ 2e-4′ in roll), so the blocks are the node's.
+#: Samples the sensor model computes per call: sensor_node's FAST_TIME_BLOCK (512). The weather and layer-height
+#: fields evaluate float32 phases relative to a block's first time, so other groupings round differently
+#: (≈ 2e-4′ in roll): the blocks are the node's. (The node should take this constant from here.)
 SENSE_BLOCK = 512
 
 #: Grid tolerance of the star tracker's frame clock, s (a frame at t + 1e-12 still belongs to t).
