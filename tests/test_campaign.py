@@ -19,7 +19,7 @@ from pmv_ros import campaign
 from pmv_ros.cli import main
 from pmv_ros.core.assembly import build_models, build_monitor
 from pmv_ros.core.constants import ARCMIN_RAD
-from pmv_ros.core.flight import OUTCOME_CODES, PENDING_CODE, SENSE_BLOCK, flight_values, fly
+from pmv_ros.core.flight import OUTCOME_CODES, PENDING_CODE, flight_values, fly, sense_block
 from pmv_ros.core.star_tracker import Outcome
 
 REPO = Path(__file__).resolve().parents[1]
@@ -67,23 +67,26 @@ def _per_sample_monitor(values, flight):
     """Feed the live ErrorMonitor sample by sample as the pipeline's ticks do; outcomes by stamp and summary."""
     orbit, profile, model = build_models(values.sensor)
     q = profile.quaternion(flight.t_s)
-    readings = [model.sense(flight.t_s[i:i + SENSE_BLOCK], q[:, i:i + SENSE_BLOCK])
-                for i in range(0, flight.t_s.size, SENSE_BLOCK)]
+    block = sense_block(values.sensor)
+    readings = [model.sense(flight.t_s[i:i + block], q[:, i:i + block]) for i in range(0, flight.t_s.size, block)]
     roll = np.concatenate([r.sensed_roll_rad for r in readings])
     pitch = np.concatenate([r.sensed_pitch_rad for r in readings])
     monitor = build_monitor(values.monitor)
     frames = flight.frames
     released = {}
-    for frame_s, q_measured, release_s, outcome in zip(frames.frame_s, frames.q_measured.T, frames.release_s,
-                                                       frames.outcome):
-        if outcome == Outcome.OK:
-            released.setdefault(float(release_s), []).append((float(frame_s), q_measured.tolist()))
+    for frame_s, q_measured, released_at, outcome in zip(frames.frame_s, frames.q_measured.T, frames.released_at,
+                                                         frames.outcome):
+        if outcome == Outcome.OK and released_at >= 0:
+            released.setdefault(int(released_at), []).append((float(frame_s), q_measured.tolist()))
+    position, velocity = orbit.state_eci(flight.t_s)
     outcomes = {}
     for k, t in enumerate(flight.t_s.tolist()):
-        for frame_s, q_measured in released.get(t, []):
+        for frame_s, q_measured in released.get(k, []):
             outcomes.update((o.stamp_s, o) for o in monitor.add_truth_quaternion(frame_s, q_measured, now_s=t))
-        settled = monitor.add_sensor(t, float(roll[k]), float(pitch[k]), u_rad=float(flight.u_rad[k]) % (2 * math.pi),
-                                     inclination_rad=orbit.inclination_rad, altitude_m=orbit.altitude_m, now_s=t)
+        # As error_monitor_node: /orbit/odometry at the sample's stamp, the model from it.
+        monitor.add_odometry(t, position[:, k], velocity[:, k], now_s=t)
+        orbit_now = monitor.orbit_at(t, values.monitor["odometry_timeout_s"])
+        settled = monitor.add_sensor(t, float(roll[k]), float(pitch[k]), now_s=t, **orbit_now)
         outcomes.update((o.stamp_s, o) for o in settled)
     return outcomes, monitor.summary()
 
@@ -218,25 +221,13 @@ def test_components_budget_puts_each_component_beside_the_total_and_their_rss(tm
     assert all((tmp_path / name).stat().st_size > 0 for name in files)
 
 
-def test_frame_attitudes_one_pair_in_floats_equals_the_array_form():
-    """The star tracker's slerp to frame times: the float path (for the node, per truth sample) = the array path."""
-    from pmv_ros.core.attitude import quaternion_from_roll_pitch_yaw
-    from pmv_ros.core.flight import frame_attitudes
-
-    q0 = tuple(np.asarray(quaternion_from_roll_pitch_yaw(1e-3, -2e-3, 5e-4)).tolist())
-    q1 = tuple(np.asarray(quaternion_from_roll_pitch_yaw(1.2e-3, -2.1e-3, 4e-4)).tolist())
-    frames = [10.05, 10.25, 10.5]
-    floats, rate = frame_attitudes(10.0, q0, 10.5, q1, frames, 1.0e-3)
-    arrays, rates = frame_attitudes(np.full(3, 10.0), np.tile(np.array(q0)[:, None], 3), np.full(3, 10.5),
-                                    np.tile(np.array(q1)[:, None], 3), np.array(frames), 1.0e-3)
-    np.testing.assert_allclose(np.array(floats).T, arrays, atol=1e-15)
-    np.testing.assert_allclose(rates, rate, rtol=1e-12)
-    np.testing.assert_allclose(np.array(floats[-1]), q1, atol=1e-15)  # the last frame is the current truth
-    assert rate > 1.0e-3  # the orbital frame's own rate plus the turn
-
-
 def test_the_flight_senses_in_the_sensor_nodes_blocks():
-    """Same grouping as sensor_node in fast time, so the weather field rounds alike (until the node imports it)."""
-    from pmv_ros.nodes.sensor_node import FAST_TIME_BLOCK
+    """The flight groups samples as the stepped sensor node does, so the weather field rounds alike."""
+    from pmv_ros.nodes.pipeline import Pipeline
 
-    assert SENSE_BLOCK == FAST_TIME_BLOCK
+    overrides = {"sensor.rate_hz": 10.0}
+    values = flight_values(_document(), overrides)
+    with Pipeline(METEOR, overrides, collect=False) as pipeline:
+        assert pipeline.sensor.fast_time_block == sense_block(values.sensor)
+        pipeline.step(1)
+        assert pipeline.sensor.samples_computed_ahead == sense_block(values.sensor) - 1

@@ -105,7 +105,7 @@ def closed_form_oblateness(u_rad, altitude_m, inclination_rad, ellipsoid: Ellips
             return math.nan, math.nan, math.nan  # what the array path gives (without its warnings)
         return _closed_form_oblateness_scalar(u_rad, altitude_m, inclination_rad, ellipsoid, mean_radius_m)
     u = np.asarray(u_rad, float)
-    r, h = mean_radius_m, float(altitude_m)
+    r, h = mean_radius_m, np.asarray(altitude_m, float)
     horizon_nadir = np.arcsin(r / (r + h))
     subsatellite_lat = np.arcsin(np.sin(inclination_rad) * np.sin(u))
     offset = 0.5 * np.pi - horizon_nadir

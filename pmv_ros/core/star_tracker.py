@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import enum
 import math
+from collections import deque
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -141,6 +142,20 @@ class StarTracker:
         measured[:, outcome != Outcome.OK] = np.nan
         return measured, outcome
 
+    def measure_frames(self, frames_s: list, attitudes: list, rate_rad_s: float) -> list:
+        """Measure the frames one truth sample completes (:meth:`FrameGrid.add`), as star_tracker_node does.
+
+        One frame (the usual case) in plain floats, several in one array call:
+        the same random draws, in the same order, for any grouping.
+
+        Returns:
+            ``[(q_measured (4,) array, Outcome), ...]``, one per frame.
+        """
+        if len(frames_s) == 1:
+            return [self.measure(frames_s[0], attitudes[0], rate_rad_s)]
+        measured, outcomes = self.measure(np.array(frames_s), np.array(attitudes).T, np.full(len(frames_s), rate_rad_s))
+        return [(measured[:, k], Outcome(int(code))) for k, code in enumerate(outcomes)]
+
     def _measure_one(self, t_s: float, q_orbital_to_body, rate_rad_s: float):
         """:meth:`measure` for one frame in plain floats (the node measures one 2 Hz frame at a time).
 
@@ -232,3 +247,41 @@ class FrameGrid:
         attitudes, rate = slerp(previous[0], previous[1], t_s, q, frames)
         self._next_frame_s = frames[-1] + period
         return frames, attitudes, rate
+
+
+#: A frame whose release time is within this of a truth stamp is released with it, s (stamp rounding).
+RELEASE_TOLERANCE_S = 1e-9
+
+
+class LatencyQueue:
+    """Measured frames waiting for their release, ``latency_s`` after the frame time (physics.md §6: latency).
+
+    Released by the truth stream's stamps (the tracker runs on its input's
+    clock): :meth:`release` gives every frame due at a truth stamp, in
+    frame order. Holds at most ``latency_s × rate`` frames.
+    """
+
+    def __init__(self, latency_s: float):
+        self.latency_s = float(latency_s)
+        self._queue = deque()  # (release_s, frame_s, q_xyzw)
+
+    def __len__(self) -> int:
+        return len(self._queue)
+
+    def push(self, frame_s: float, q_xyzw) -> None:
+        """Queue a measured frame (stamp s, quaternion (x, y, z, w))."""
+        self._queue.append((frame_s + self.latency_s, frame_s, q_xyzw))
+
+    def release(self, t_s: float) -> list:
+        """The frames due at truth stamp ``t_s``: ``[(frame_s, q_xyzw), ...]``."""
+        queue, released = self._queue, []
+        while queue and queue[0][0] <= t_s + RELEASE_TOLERANCE_S:
+            _, frame_s, q_xyzw = queue.popleft()
+            released.append((frame_s, q_xyzw))
+        return released
+
+    def clear(self) -> int:
+        """Drop every waiting frame (a new timeline); returns how many."""
+        dropped = len(self._queue)
+        self._queue.clear()
+        return dropped

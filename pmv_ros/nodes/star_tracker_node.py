@@ -36,9 +36,7 @@ from __future__ import annotations
 
 import math
 import sys
-from collections import deque
 
-import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import QuaternionStamped
 
@@ -46,7 +44,7 @@ import pmv_msgs_shim as shim
 from .base import PmvNode
 from ..core.assembly import STAR_TRACKER_PARAMS as PARAMS, build_tracker
 from ..core.constants import GM_EARTH_M3_S2, EARTH_MEAN_RADIUS_M
-from ..core.star_tracker import FrameGrid, Outcome, inertial_rate_of_nadir_pointing
+from ..core.star_tracker import FrameGrid, LatencyQueue, Outcome, inertial_rate_of_nadir_pointing
 from ..core.validation import STAMP_REJECTIONS, Rejection, StampCheck, check_quaternion
 from .launch import run_node
 from .params import ParameterError, declare, install_validation
@@ -75,7 +73,7 @@ class StarTrackerNode(PmvNode):
         self.input_subscription(QuaternionStamped, "/attitude/truth", self._on_truth,
                                 self._values["input.source_timeout_s"])
         self._grid = FrameGrid(1.0 / self._values["rate_hz"], self._values["max_truth_gap_s"])
-        self._queue = deque()  # (release_s, frame_s, q_xyzw), bounded by latency × rate
+        self._queue = LatencyQueue(self._values["latency_s"])  # bounded by latency × rate
         # Filled in place for every publication (rclpy serialises at publish).
         self._out, self._out_diagnostics = QuaternionStamped(), DiagnosticArray()
         self._outcomes = {outcome: 0 for outcome in Outcome}
@@ -99,6 +97,7 @@ class StarTrackerNode(PmvNode):
         for lock in self.source_locks.values():
             lock.timeout_s = values["input.source_timeout_s"]
         self._grid.period_s, self._grid.max_gap_s = 1.0 / values["rate_hz"], values["max_truth_gap_s"]
+        self._queue.latency_s = values["latency_s"]
 
     def _mean_motion(self) -> float:
         return math.sqrt(GM_EARTH_M3_S2 / (EARTH_MEAN_RADIUS_M + self._values["orbit.altitude_km"] * 1e3) ** 3)
@@ -110,8 +109,7 @@ class StarTrackerNode(PmvNode):
     def _new_timeline(self) -> None:
         """The truth clock went back: forget the old timeline (frames not yet released are dropped)."""
         self._counters["clock_jumps"] += 1
-        self._counters["frames_dropped_at_clock_jump"] += len(self._queue)
-        self._queue.clear()
+        self._counters["frames_dropped_at_clock_jump"] += self._queue.clear()
         self._grid.restart()
         self._last_diagnostics_s = -math.inf
 
@@ -136,19 +134,12 @@ class StarTrackerNode(PmvNode):
         frames, attitudes, turn_rate = self._grid.add(t_s, q)
         if frames:
             rate = inertial_rate_of_nadir_pointing(self._mean_motion(), turn_rate)
-            if len(frames) == 1:  # the usual case: one frame per truth sample at most
-                results = [self._tracker.measure(frames[0], attitudes[0], rate)]
-            else:  # one call for all: the same random draws, in the same order, as for any N
-                measured, outcomes = self._tracker.measure(np.array(frames), np.array(attitudes).T,
-                                                           np.full(len(frames), rate))
-                results = [(measured[:, k], Outcome(int(code))) for k, code in enumerate(outcomes)]
-            for frame_s, (measured, outcome) in zip(frames, results):
+            for frame_s, (measured, outcome) in zip(frames, self._tracker.measure_frames(frames, attitudes, rate)):
                 self._outcomes[outcome] += 1
                 self._last_outcome = outcome
                 if outcome == Outcome.OK:
-                    self._queue.append((frame_s + self._values["latency_s"], frame_s, measured.tolist()))
-        while self._queue and self._queue[0][0] <= t_s + 1e-9:
-            _, frame_s, q_measured = self._queue.popleft()
+                    self._queue.push(frame_s, measured.tolist())
+        for frame_s, q_measured in self._queue.release(t_s):
             self._publisher.publish(shim.write_attitude_quaternion(self._out, frame_s, shim.ORBITAL_FRAME, q_measured))
         self._maybe_publish_diagnostics(t_s)
 
