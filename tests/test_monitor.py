@@ -302,3 +302,89 @@ def test_an_orbit_below_the_surface_gives_no_model_rather_than_an_error():
     assert math.isnan(outcomes[0].roll_rad) and math.isnan(outcomes[0].cross_track_m)
     assert monitor.counters["used_without_oblateness_model"] == 1
     assert monitor.summary(oblateness_removed=False).channel("roll").count == 1
+
+
+def _hostile_batch(jump: bool):
+    """A 20-minute 10 Hz stream (truth at 2 Hz, 0.25 s late) with every kind of bad input in it.
+
+    Bad sensor samples (a NaN stamp, a zero stamp, a duplicate, a backward one, a too-fast one, 1e3 rad, ±Inf,
+    both angles lost), bad truth (a far-from-unit and a NaN quaternion, a near-unit one, a duplicate stamp), a
+    bad odometry state, an outage of 30 s (stale samples) and, with ``jump``, the clock restarting at 100 s.
+    """
+    orbit = CircularOrbit(KONDOR_ALTITUDE_M, KONDOR_INCLINATION)
+    rng = np.random.default_rng(7)
+    clock = 100.0 + 0.1 * np.arange(1, 12001)  # the node clock at each sensor tick
+    if jump:
+        clock[6000:] -= 500.0
+    t = clock.copy()
+    roll = 1e-3 * np.sin(t / 300.0) + 2e-4 * rng.standard_normal(t.size)
+    pitch = -5e-4 + 2e-4 * rng.standard_normal(t.size)
+    for index, (r, p) in {50: (1e3, 0.0), 51: (math.inf, 0.0), 52: (math.nan, math.nan), 53: (math.nan, 1e-4)}.items():
+        roll[index], pitch[index] = r, p
+    t[60], t[70], t[80] = math.nan, 0.0, t[79]  # non-finite, zero and duplicate stamps
+    t[90] = t[89] - 0.05  # backwards
+    t[95] = t[94] + 1e-4  # faster than min_interval_s
+    ticks = np.arange(0, t.size, 5)  # 2 Hz frames at the sensor ticks' times, released 3 ticks later
+    ticks = ticks[(clock[ticks] < 300.0) | (clock[ticks] > 330.0)]  # an outage longer than max_truth_wait_s
+    frames, arrival = clock[ticks], np.minimum(ticks + 3, t.size)
+    q = quaternion_from_roll_pitch_yaw(1e-3 * np.sin(frames / 300.0), np.full(frames.size, -5e-4), 0.01)
+    q[:, 10] *= 1.5
+    q[:, 11] = np.nan
+    q[:, 12] *= 1.0 + 1e-4
+    frames[20] = frames[19]
+    position, velocity = orbit.state_eci(clock - 100.0)
+    position[:, 30] = 0.0  # inside the Earth
+    return t, roll, pitch, frames, q, arrival, clock, (position, velocity)
+
+
+@pytest.mark.parametrize("jump", [False, True], ids=["array-form", "clock-jump-per-sample"])
+def test_batch_equals_the_per_sample_monitor_with_bad_input(jump, monkeypatch):
+    """ErrorMonitor.add_batch gives the per-sample monitor's outcomes, counters and statistics, bad input included.
+
+    Without a clock jump the array form runs (the per-sample fallback is made to fail); with one, the batch is
+    fed sample by sample. 1e-9 arcmin: the same residuals summed in another order.
+    """
+    from pmv_ros.core.monitor import BATCH_STATUSES, PENDING_CODE
+
+    t, roll, pitch, frames, q, arrival, now, (position, velocity) = _hostile_batch(jump)
+    config = small_config(min_interval_s=0.002)
+    live, batch = ErrorMonitor(config), ErrorMonitor(config)
+    if not jump:
+        monkeypatch.setattr(ErrorMonitor, "_add_batch_per_sample", lambda *a: pytest.fail("array form not used"))
+    result = batch.add_batch(t, roll, pitch, frames, q, arrival, now_s=now, odometry=(position, velocity),
+                             odometry_max_age_s=5.0)
+    status = {}
+    j = 0
+    for i in range(t.size):
+        while j < frames.size and arrival[j] == i:
+            status.update((o.stamp_s, o.status) for o in live.add_truth_quaternion(frames[j], q[:, j], now_s=now[i]))
+            j += 1
+        live.add_odometry(t[i], position[:, i], velocity[:, i], now_s=now[i])
+        status.update((o.stamp_s, o.status) for o in live.take_settled())
+        outcomes = live.add_sensor(t[i], roll[i], pitch[i], now_s=now[i], **live.orbit_at(t[i], 5.0))
+        for outcome in outcomes:
+            if isinstance(outcome.status, Rejection):
+                assert BATCH_STATUSES[result.status[i]] is outcome.status, i
+            else:
+                status[outcome.stamp_s] = outcome.status
+    counters = {k: v for k, v in live.counters.items() if v}
+    assert counters == {k: v for k, v in batch.counters.items() if v}
+    assert counters["used"] > 10000 and counters["skipped_stale_truth"] > 100 and counters["skipped_no_valid_angle"]
+    assert counters["rejected_sensor_too_fast"] and counters["rejected_truth_bad_quaternion"]
+    assert counters["rejected_odometry_implausible_orbit"] and counters["truth_quaternions_normalised"]
+    assert bool(counters.get("clock_jumps")) == jump and not counters.get("clock_outliers")
+    values, counts = np.unique(t, return_counts=True)
+    once = set(values[counts == 1].tolist())  # after a jump back, a stamp can come twice: those are not compared
+    accepted = [i for i in range(t.size) if not isinstance(BATCH_STATUSES[result.status[i]], Rejection)
+                and result.status[i] != PENDING_CODE and t[i] in once]
+    assert len(accepted) > 5000
+    for i in accepted:
+        assert BATCH_STATUSES[result.status[i]] is status[t[i]], i
+    assert live.pending_count == batch.pending_count and live.truth_buffer_length == batch.truth_buffer_length
+    a, b = live.summary(), batch.summary()
+    for x, y in zip(a.channels, b.channels):
+        assert x.count == y.count
+        for name in ("mean_rad", "sigma_rad", "max_abs_rad", "ground_sigma_m"):
+            assert getattr(y, name) == pytest.approx(getattr(x, name), abs=1e-9 * ARCMIN_RAD, rel=1e-9), name
+        for k in x.harmonics_rad:
+            assert y.harmonics_rad[k] == pytest.approx(x.harmonics_rad[k], abs=1e-9 * ARCMIN_RAD, nan_ok=True)
