@@ -131,13 +131,17 @@ def test_fast_synthesis_matches_a_float64_sum(t_s):
     np.testing.assert_allclose(field(lat, lon, t), reference, atol=1e-3)
 
 
-def test_radiance_is_clipped_at_the_floor():
-    # η′ = 1 around 0.5 r.u. reaches the 0.3 r.u. floor at a = −0.4: a third of the points.
+def test_weather_keeps_the_radiance_inside_1_to_4_ru():
+    # physics.md §3.2 item 2: the horizon radiance stays inside L_min … L_max = 1 … 4 r.u.
+    # whatever the weather does. η = 1 around 2.4 r.u. leaves the range for |a| > 0.58 or 0.67:
+    # roughly half the points, split between the two bounds.
     weather = WeatherField(relative_variability=1.0, seed=2)
     lat, lon = random_points(np.random.default_rng(9), 5000)
-    radiance = weather.radiance_ru(0.5, lat, lon, 0.0)
-    assert radiance.min() == 0.3
-    assert 0.2 < np.mean(radiance == 0.3) < 0.5
+    radiance = weather.radiance_ru(2.4, lat, lon, 0.0)
+    assert radiance.min() == 1.0 and radiance.max() == 4.0
+    assert 0.15 < np.mean(radiance == 1.0) < 0.4 and 0.15 < np.mean(radiance == 4.0) < 0.4
+    # A (test) mean already below 1 r.u. is not pushed further out.
+    assert weather.radiance_ru(0.5, lat, lon, 0.0).min() == 0.5
 
 
 # --------------------------------------------------------------------------
@@ -202,19 +206,21 @@ def test_radiance_without_the_layers_is_the_same_radiance():
 # Layer heights
 # --------------------------------------------------------------------------
 
-def test_window_layer_height_is_uniform_on_40_plus_minus_20_km():
+def test_window_layer_height_is_uniform_with_sigma_10_km():
+    # physics.md §3.2 item 4: σ_h = 10 km, 40 ± 20 km read as ±2σ of a uniform law: half-width 17.3 km.
     layer = LayerHeightField(seed=5)
     lat, lon = random_points(np.random.default_rng(12), N_PAIRS)
     height_km = layer.height_m(lat, lon, epochs(N_PAIRS, N_EPOCHS, 10 * DAY_S)) / 1e3
-    assert height_km.min() >= 20.0 and height_km.max() <= 60.0
-    # Quantiles of U(20, 60) km within 1.5 km (seed-to-seed scatter ≈ 0.4 km).
+    low, width = 40.0 - 10.0 * math.sqrt(3.0), 20.0 * math.sqrt(3.0)
+    assert height_km.min() >= low and height_km.max() <= low + width
+    # Quantiles of U(22.7, 57.3) km within 1.5 km (seed-to-seed scatter ≈ 0.4 km).
     probabilities = np.array([0.05, 0.1, 0.25, 0.5, 0.75, 0.9, 0.95])
-    np.testing.assert_allclose(np.quantile(height_km, probabilities), 20.0 + 40.0 * probabilities, atol=1.5)
-    assert np.std(height_km) == pytest.approx(40.0 / math.sqrt(12.0), rel=0.05)
+    np.testing.assert_allclose(np.quantile(height_km, probabilities), low + width * probabilities, atol=1.5)
+    assert np.std(height_km) == pytest.approx(10.0, rel=0.05)
     # The points are correlated, so a KS p-value means little; the distance
     # itself stays ≈ 0.012 ± 0.005 over seeds, and a normal of the same mean
     # and σ would give 0.06.
-    assert stats.kstest((height_km - 20.0) / 40.0, "uniform").statistic < 0.04
+    assert stats.kstest((height_km - low) / width, "uniform").statistic < 0.04
 
 
 def test_window_layer_height_is_correlated_like_the_weather():
@@ -392,7 +398,8 @@ def test_shapes_broadcast_and_nan_propagates():
     ("n_components", 64.5, "spectral components"),
     ("uniform_radiance_ru", 0.0, "uniform radiance"),
     ("epoch_day_of_year", 400.0, "day of year"),
-    ("radiance_floor_ru", -1.0, "radiance floor"),
+    ("synoptic_fraction", 0.99, "synoptic fraction"),
+    ("synoptic_fraction", 0.8, "cannot be reached"),  # 700 km is out of reach with 80 % in the band
     ("window_height_mean_m", 200e3, "window layer height"),
     ("window_height_half_range_m", 50e3, "window layer half-range"),
     ("co2_height_m", 50e3, "top of the window layer"),
