@@ -17,28 +17,18 @@ import yaml
 
 from pmv_ros.core.constants import ARCMIN_RAD
 from pmv_ros.core.oblateness import closed_form_oblateness
-from pmv_ros.nodes.sensor_node import PARAMS, build_models
+from pmv_ros.core import parameters
+from pmv_ros.core.assembly import SENSOR_PARAMS, build_models
 from pmv_ros.report import harmonic_spectrum
 
 REPO = Path(__file__).resolve().parents[1]
 
 
 def preset_values(name: str, **overrides) -> dict:
-    """The sensor node's parameter values from a preset file, as rclpy would merge them."""
-    values = {spec.name: spec.default for spec in PARAMS}
+    """The sensor node's parameter values from a preset file, as rclpy would merge them, in fast time."""
     document = yaml.safe_load((REPO / "config" / f"{name}.yaml").read_text())
-
-    def flatten(tree, prefix=""):
-        for key, value in tree.items():
-            if isinstance(value, dict):
-                yield from flatten(value, f"{prefix}{key}.")
-            else:
-                yield f"{prefix}{key}", value
-
-    for section in ("/**", "sensor_node"):
-        values.update(dict(flatten(document.get(section, {}).get("ros__parameters", {}))))
-    values.update({"sim.fast_time": True, **{k.replace("__", "."): v for k, v in overrides.items()}})
-    return values
+    given = {"sim.fast_time": True, **{k.replace("__", "."): v for k, v in overrides.items()}}
+    return parameters.preset_values(document, "sensor_node", SENSOR_PARAMS, given)
 
 
 def fly_one_orbit(values: dict):

@@ -38,3 +38,29 @@ def test_preset_keys_are_declared(preset):
         else:
             known = DECLARED[section] | BUILT_IN
         assert not keys - known, f"{preset} [{section}]: keys no node declares: {sorted(keys - known)}"
+
+
+@pytest.mark.parametrize("preset", ["kondor.yaml", "meteor_m2.yaml", "meteor_m2_2.yaml"])
+def test_preset_values_without_ros_match_the_file(preset):
+    """``preset_values`` merges ``/**`` and the node section as rclpy does, node section winning, defaults for the rest."""
+    from pmv_ros.core.assembly import NODE_PARAMS
+    from pmv_ros.core.parameters import flatten_parameters, preset_values
+
+    document = yaml.safe_load((REPO / "config" / preset).read_text())
+    for node, specs in NODE_PARAMS.items():
+        values = preset_values(document, node, specs)
+        assert set(values) == {spec.name for spec in specs}
+        shared = flatten_parameters(document["/**"]["ros__parameters"])
+        own = flatten_parameters(document.get(node, {}).get("ros__parameters", {}))
+        for name, value in {**shared, **own}.items():
+            if name in values:
+                assert values[name] == value, (node, name)
+
+
+def test_preset_values_refuse_a_bad_value_by_name():
+    from pmv_ros.core.assembly import SENSOR_PARAMS
+    from pmv_ros.core.parameters import ParameterError, preset_values
+
+    with pytest.raises(ParameterError, match="sensor.rate_hz"):
+        preset_values({"sensor_node": {"ros__parameters": {"sensor": {"rate_hz": 1e9}}}}, "sensor_node", SENSOR_PARAMS)
+

@@ -57,49 +57,10 @@ from nav_msgs.msg import Odometry
 
 import pmv_msgs_shim as shim
 from .base import PmvNode
-from ..core.constants import ARCMIN_RAD
-from ..core.monitor import SENSOR_REJECTIONS, ErrorMonitor, MonitorConfig, Status, orbit_angles_from_state
+from ..core.assembly import MONITOR_PARAMS as PARAMS, build_monitor
+from ..core.monitor import SENSOR_REJECTIONS, ErrorMonitor, Status, orbit_angles_from_state
 from .launch import run_node
-from .params import ParamSpec, ParameterError, declare, install_validation
-
-
-PARAMS = (
-    ParamSpec("orbit.altitude_km", 500.0, "nominal orbit altitude (until /orbit/odometry arrives)", 150.0, 40000.0,
-              unit="km"),
-    ParamSpec("orbit.inclination_deg", 74.5, "nominal inclination (until /orbit/odometry arrives)", 0.0, 180.0,
-              unit="deg"),
-    ParamSpec("remove_oblateness", True, "report statistics with the closed-form oblateness model removed"),
-    ParamSpec("sensor.oblateness_compensation", False, "the sensor already subtracts the oblateness model on "
-              "board, so the monitor must not subtract it again (share it with the sensor in the /** section)"),
-    ParamSpec("max_truth_gap_s", 2.0, "never interpolate truth across a gap longer than this", 0.001, 3600.0, unit="s"),
-    ParamSpec("max_truth_wait_s", 10.0, "give a sensor sample up when no truth covers it after this long",
-              0.01, 3600.0, unit="s"),
-    ParamSpec("statistics_rate_hz", 1.0, "publication rate of /pmv/error_statistics", 0.001, 100.0, unit="Hz"),
-    ParamSpec("roll_offset_arcmin", 0.0, "known constant roll offset removed before the statistics",
-              -600.0, 600.0, unit="arcmin"),
-    ParamSpec("pitch_offset_arcmin", 0.0, "known constant pitch offset removed before the statistics",
-              -600.0, 600.0, unit="arcmin"),
-    ParamSpec("clock_jump_s", 1.0, "a stamp going back by more than this is a clock jump (alignment reset)",
-              0.001, 3600.0, unit="s"),
-    ParamSpec("future_tolerance_s", 1.0, "stamps later than the node clock by more than this are rejected",
-              0.001, 3600.0, unit="s"),
-    ParamSpec("odometry_timeout_s", 5.0, "orbit data older than this is not used for the oblateness model",
-              0.01, 3600.0, unit="s"),
-)
-
-
-def build_monitor(values: dict) -> ErrorMonitor:
-    """The monitor core from parameter values; ValueError if inconsistent."""
-    return ErrorMonitor(MonitorConfig.for_orbit(
-        values["orbit.altitude_km"] * 1e3, math.radians(values["orbit.inclination_deg"]),
-        remove_oblateness=values["remove_oblateness"],
-        max_truth_gap_s=values["max_truth_gap_s"],
-        max_truth_wait_s=values["max_truth_wait_s"],
-        clock_jump_s=values["clock_jump_s"],
-        future_tolerance_s=values["future_tolerance_s"],
-        roll_offset_rad=values["roll_offset_arcmin"] * ARCMIN_RAD,
-        pitch_offset_rad=values["pitch_offset_arcmin"] * ARCMIN_RAD,
-    ))
+from .params import ParameterError, declare, install_validation
 
 
 class ErrorMonitorNode(PmvNode):

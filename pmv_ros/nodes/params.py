@@ -23,155 +23,34 @@ although nobody means anything else by it.
 
 from __future__ import annotations
 
-import array
-import math
-from dataclasses import dataclass
-from typing import Any, Callable, Sequence
+from typing import Callable, Sequence
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, SetParametersResult
 from rclpy.exceptions import ParameterException
 from rclpy.parameter import Parameter
 
-
-@dataclass(frozen=True)
-class ParamSpec:
-    """One node parameter: name, default, meaning, and what values are allowed.
-
-    Args:
-        name: the parameter name (dots for YAML nesting).
-        default: default value; its Python type is the parameter's type.
-        description: one sentence for people.
-        low, high: allowed closed range of a number (each element of a list).
-        choices: allowed values of an enumeration.
-        unit: unit of the value as written in YAML.
-        constraints: what a free-form string must look like (says so in the descriptor).
-        read_only: cannot change at run time.
-    """
-
-    name: str
-    default: Any
-    description: str
-    low: float | None = None
-    high: float | None = None
-    choices: tuple | None = None
-    unit: str = ""
-    constraints: str = ""
-    read_only: bool = False
-
-    @property
-    def kind(self) -> str:
-        """The value type for people: 'a number', 'an integer', 'true or false', 'a string', 'a list of numbers'."""
-        return _kind_of_default(self.default)
-
-    def allowed(self) -> str:
-        """What values are allowed, for a reason text ('in [0.1, 100.0] Hz', 'one of [...]', ...)."""
-        unit = f" {self.unit}" if self.unit else ""
-        if self.choices is not None:
-            return f"one of {list(self.choices)}"
-        if self.low is not None and self.high is not None:
-            each = "each element " if isinstance(self.default, (list, tuple)) else ""
-            return f"{each}in [{self.low}, {self.high}]{unit}"
-        if self.constraints:
-            return self.constraints
-        return self.kind
-
-    def descriptor(self) -> ParameterDescriptor:
-        """The ROS parameter descriptor of this spec (rclpy fills in the type from the default)."""
-        text = f"{self.description}" + (f" [{self.unit}]" if self.unit else "")
-        descriptor = ParameterDescriptor(name=self.name, description=text, read_only=self.read_only)
-        if self.choices is not None:
-            descriptor.additional_constraints = "one of: " + ", ".join(map(str, self.choices))
-        elif self.low is not None and self.high is not None:
-            if isinstance(self.default, bool):
-                pass
-            elif isinstance(self.default, int):
-                descriptor.integer_range = [IntegerRange(from_value=int(self.low), to_value=int(self.high), step=0)]
-            elif isinstance(self.default, float):
-                descriptor.floating_point_range = [FloatingPointRange(from_value=float(self.low),
-                                                                      to_value=float(self.high), step=0.0)]
-            else:
-                descriptor.additional_constraints = f"each element in [{self.low}, {self.high}]"
-        elif self.constraints:
-            descriptor.additional_constraints = self.constraints
-        return descriptor
-
-    def coerce(self, value) -> tuple[Any, str | None]:
-        """``value`` as this parameter's type, or the reason it is not one.
-
-        Integers are accepted for floating-point parameters (and lists of
-        them for lists of floats); anything else of another type is refused.
-        """
-        default = self.default
-        if isinstance(default, bool):
-            ok = isinstance(value, bool)
-        elif isinstance(default, int):
-            ok = isinstance(value, int) and not isinstance(value, bool)
-        elif isinstance(default, float):
-            ok = _is_number(value)
-            value = float(value) if ok else value
-        elif isinstance(default, str):
-            ok = isinstance(value, str)
-        else:  # a list of floats
-            ok = isinstance(value, (list, tuple, array.array)) and all(_is_number(v) for v in value)
-            value = [float(v) for v in value] if ok else value
-        if ok:
-            return value, None
-        allowed = self.allowed()
-        return value, (f"{self.name} = {value!r} is {_kind_of_value(value)}, but it must be {self.kind}"
-                       + ("" if allowed == self.kind else f" ({allowed})"))
-
-    def check(self, value) -> str | None:
-        """Why ``value`` (of the right type) is not allowed (None if it is). Covers what rclpy's ranges do not."""
-        if self.choices is not None and value not in self.choices:
-            return f"{self.name} = {value!r} is not one of the allowed values {list(self.choices)}"
-        if isinstance(value, float) and not math.isfinite(value):
-            return f"{self.name} = {value} is not a finite number (allowed: {self.allowed()})"
-        if isinstance(value, (list, tuple, array.array)) and self.low is not None and self.high is not None:
-            for element in value:
-                if not (self.low <= element <= self.high):
-                    return (f"{self.name} has element {element} outside the allowed range "
-                            f"[{self.low}, {self.high}]{(' ' + self.unit) if self.unit else ''}")
-        if (self.low is not None and self.high is not None and isinstance(value, (int, float))
-                and not isinstance(value, bool) and not (self.low <= value <= self.high)):
-            return (f"{self.name} = {value} is outside the allowed range [{self.low}, {self.high}]"
-                    f"{(' ' + self.unit) if self.unit else ''}")
-        return None
+from ..core.parameters import ParameterError, ParamSpec
 
 
-def _is_number(value) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool)
-
-
-def _kind_of_default(default) -> str:
-    if isinstance(default, bool):
-        return "true or false"
-    if isinstance(default, int):
-        return "an integer"
-    if isinstance(default, float):
-        return "a number"
-    if isinstance(default, str):
-        return "a string"
-    return "a list of numbers"
-
-
-def _kind_of_value(value) -> str:
-    if isinstance(value, (list, tuple, array.array)):
-        return "a list" + ("" if all(_is_number(v) for v in value) else " with non-numbers")
-    if isinstance(value, bool):
-        return "a boolean"
-    if isinstance(value, int):
-        return "an integer"
-    if isinstance(value, float):
-        return "a number"
-    if isinstance(value, str):
-        return "a string"
-    if isinstance(value, (bytes, bytearray)):
-        return "a byte array"
-    return f"of type {type(value).__name__}"
-
-
-class ParameterError(ValueError):
-    """A node parameter has a value it must not have (at start-up)."""
+def descriptor(spec: ParamSpec) -> ParameterDescriptor:
+    """The ROS parameter descriptor of this spec (rclpy fills in the type from the default)."""
+    text = f"{spec.description}" + (f" [{spec.unit}]" if spec.unit else "")
+    descriptor = ParameterDescriptor(name=spec.name, description=text, read_only=spec.read_only)
+    if spec.choices is not None:
+        descriptor.additional_constraints = "one of: " + ", ".join(map(str, spec.choices))
+    elif spec.low is not None and spec.high is not None:
+        if isinstance(spec.default, bool):
+            pass
+        elif isinstance(spec.default, int):
+            descriptor.integer_range = [IntegerRange(from_value=int(spec.low), to_value=int(spec.high), step=0)]
+        elif isinstance(spec.default, float):
+            descriptor.floating_point_range = [FloatingPointRange(from_value=float(spec.low),
+                                                                  to_value=float(spec.high), step=0.0)]
+        else:
+            descriptor.additional_constraints = f"each element in [{spec.low}, {spec.high}]"
+    elif spec.constraints:
+        descriptor.additional_constraints = spec.constraints
+    return descriptor
 
 
 def declare(node, specs: Sequence[ParamSpec]) -> dict:
@@ -197,7 +76,7 @@ def declare(node, specs: Sequence[ParamSpec]) -> dict:
                 raise ParameterError(problem)
             overrides[spec.name] = Parameter(spec.name, value=value)
         try:
-            parameter = node.declare_parameter(spec.name, spec.default, spec.descriptor())
+            parameter = node.declare_parameter(spec.name, spec.default, descriptor(spec))
         except ParameterException as error:
             raise ParameterError(_explain(spec, error)) from None
         value = parameter.value

@@ -41,11 +41,12 @@ import pmv_msgs_shim as shim
 from .base import PmvNode
 from ..core.attitude import (quaternion_conjugate, quaternion_from_rotation_vector, quaternion_product,
                               rotation_vector_from_quaternion)
-from ..core.constants import ARCSEC_RAD, GM_EARTH_M3_S2, EARTH_MEAN_RADIUS_M
+from ..core.assembly import STAR_TRACKER_PARAMS as PARAMS, build_tracker
+from ..core.constants import GM_EARTH_M3_S2, EARTH_MEAN_RADIUS_M
 from ..core.monitor import Status, validate_quaternion
-from ..core.star_tracker import Outcome, StarTracker, StarTrackerParameters, inertial_rate_of_nadir_pointing
+from ..core.star_tracker import Outcome, inertial_rate_of_nadir_pointing
 from .launch import run_node
-from .params import ParamSpec, ParameterError, declare, install_validation
+from .params import ParameterError, declare, install_validation
 
 #: | |q| − 1 | up to which a truth quaternion is normalised; beyond it is rejected.
 QUATERNION_NORM_TOLERANCE = 0.01
@@ -53,43 +54,6 @@ QUATERNION_NORM_TOLERANCE = 0.01
 #: Reasons a truth message is dropped (the /diagnostics keys are rejected_truth_<reason>).
 TRUTH_REJECTIONS = (Status.NON_FINITE, Status.BAD_QUATERNION, Status.ZERO_STAMP, Status.FUTURE_STAMP,
                     Status.DUPLICATE, Status.BACKWARDS)
-
-
-PARAMS = (
-    ParamSpec("orbit.altitude_km", 500.0, "orbit altitude (gives the orbital rate for the rate limit)",
-              150.0, 40000.0, unit="km"),
-    ParamSpec("rate_hz", 2.0, "frame rate of the star tracker", 0.01, 50.0, unit="Hz"),
-    ParamSpec("latency_s", 0.25, "delay from frame time to publication", 0.0, 60.0, unit="s"),
-    ParamSpec("noise_cross_arcsec", 3.0, "1-sigma noise across the boresight", 0.0, 3600.0, unit="arcsec"),
-    ParamSpec("noise_boresight_arcsec", 20.0, "1-sigma noise about the boresight", 0.0, 3600.0, unit="arcsec"),
-    ParamSpec("max_rate_arcsec_s", 300.0, "no attitude above this inertial angular rate", 1.0, 36000.0,
-              unit="arcsec/s"),
-    ParamSpec("random_failure_probability", 1e-3, "probability that a single frame fails", 0.0, 1.0),
-    ParamSpec("outage_start_s", [-1.0], "start of each scheduled outage after node start (negative: none)",
-              -1.0, 1e9, unit="s"),
-    ParamSpec("outage_duration_s", [0.0], "duration of each scheduled outage", 0.0, 1e9, unit="s"),
-    ParamSpec("max_truth_gap_s", 5.0, "no frame is interpolated across a truth gap longer than this",
-              0.001, 3600.0, unit="s"),
-    ParamSpec("clock_jump_s", 1.0, "a truth stamp going back by more than this starts a new timeline "
-              "(simulation or sensor restarted); less is a backward stamp and rejected", 0.001, 3600.0, unit="s"),
-    ParamSpec("future_tolerance_s", 1.0, "truth stamps later than the node clock by more than this are rejected",
-              0.001, 3600.0, unit="s"),
-    ParamSpec("seed", 0, "seed of the noise and failures", 0, 2**31 - 1),
-)
-
-
-def build_tracker(values: dict, start_s: float) -> StarTracker:
-    """The star-tracker model from parameter values; ValueError if inconsistent."""
-    starts, durations = list(values["outage_start_s"]), list(values["outage_duration_s"])
-    if len(starts) != len(durations):
-        raise ValueError(f"outage_start_s has {len(starts)} entries but outage_duration_s has {len(durations)}")
-    outages = tuple((start_s + s, start_s + s + d) for s, d in zip(starts, durations) if s >= 0.0 and d > 0.0)
-    return StarTracker(StarTrackerParameters(
-        noise_cross_rad=values["noise_cross_arcsec"] * ARCSEC_RAD,
-        noise_boresight_rad=values["noise_boresight_arcsec"] * ARCSEC_RAD,
-        max_rate_rad_s=values["max_rate_arcsec_s"] * ARCSEC_RAD,
-        random_failure_probability=values["random_failure_probability"],
-        outages=outages), seed=values["seed"])
 
 
 class StarTrackerNode(PmvNode):

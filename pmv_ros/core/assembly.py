@@ -1,0 +1,249 @@
+"""Preset → models: every node's parameters and the models built from their values, ROS-free.
+
+The nodes declare these specs and call these builders; the CLI, the campaign
+and the tests call them without rclpy (``preset_values`` in
+:mod:`pmv_ros.core.parameters` reads a params file the way rclpy merges it).
+"""
+
+from __future__ import annotations
+
+import math
+
+from .attitude_profile import AttitudeProfile
+from .constants import ARCMIN_RAD, ARCSEC_RAD, EARTH_ROTATION_RATE_RAD_S, GRS80, SPHERE
+from .correction import load_correction
+from .environment import YEAR_DAYS, EnvironmentParameters
+from .ephemeris import SECONDS_PER_DAY, Epoch
+from .monitor import ErrorMonitor, MonitorConfig
+from .orbit import CircularOrbit
+from .parameters import ParamSpec
+from .sensor import ChainDetector, RadianceConfig, SensorConfig, SensorModel, nominal_scan_start_nadir_rad
+from .star_tracker import StarTracker, StarTrackerParameters
+
+
+#: Parameters of sensor_node (units in the names; YAML speaks km, deg, arcmin).
+SENSOR_PARAMS = (
+    ParamSpec("orbit.altitude_km", 500.0, "circular orbit altitude above the 6371 km mean radius", 150.0, 40000.0, unit="km"),
+    ParamSpec("orbit.inclination_deg", 74.5, "orbit inclination", 0.0, 180.0, unit="deg"),
+    ParamSpec("orbit.raan_deg", 0.0, "right ascension of the ascending node at epoch", -360.0, 360.0, unit="deg"),
+    ParamSpec("orbit.u0_deg", 0.0, "argument of latitude at the start of the run", -360.0, 360.0, unit="deg"),
+    ParamSpec("orbit.j2_node_drift", False, "apply the secular J2 drift of the node"),
+    ParamSpec("attitude.source", "profile", "profile: own attitude model published on /attitude/truth; "
+              "follow: take the attitude from /attitude/truth", choices=("profile", "follow")),
+    ParamSpec("attitude.roll_offset_arcmin", 0.0, "constant roll of the body", -2700.0, 2700.0, unit="arcmin"),
+    ParamSpec("attitude.pitch_offset_arcmin", 0.0, "constant pitch of the body", -2700.0, 2700.0, unit="arcmin"),
+    ParamSpec("attitude.yaw_offset_arcmin", 0.0, "constant yaw of the body", -2700.0, 2700.0, unit="arcmin"),
+    ParamSpec("attitude.roll_amplitude_arcmin", 0.0, "amplitude of the slow roll oscillation", 0.0, 2700.0, unit="arcmin"),
+    ParamSpec("attitude.pitch_amplitude_arcmin", 0.0, "amplitude of the slow pitch oscillation", 0.0, 2700.0, unit="arcmin"),
+    ParamSpec("attitude.oscillation_period_s", 600.0, "period of the slow oscillations", 1.0, 1e6, unit="s"),
+    ParamSpec("attitude.roll_drift_arcmin_per_h", 0.0, "linear drift of the body roll with time", -600.0, 600.0,
+              unit="arcmin/h"),
+    ParamSpec("attitude.pitch_drift_arcmin_per_h", 0.0, "linear drift of the body pitch with time", -600.0, 600.0,
+              unit="arcmin/h"),
+    ParamSpec("attitude.follow_timeout_s", 1.0, "in follow mode, truth older than this is stale", 0.01, 3600.0, unit="s"),
+    ParamSpec("sensor.rate_hz", 10.0, "output rate of the sensor", 0.1, 100.0, unit="Hz"),
+    ParamSpec("sensor.earth_model", "GRS80", "Earth figure for the horizon geometry", choices=("GRS80", "sphere")),
+    ParamSpec("sensor.detector", "chain", "chain: the signal chain of physics.md §4; ideal: the geometric horizon "
+              "of the emitting layer (geometry-only studies)", choices=("chain", "ideal")),
+    ParamSpec("sensor.correction", "calibrated", "brightness-correction table: calibrated (the rig table), none, "
+              "or the path of a CSV file del_arcmin,pop_arcmin",
+              constraints="calibrated, none, or the path of a readable CSV file with columns del_arcmin,pop_arcmin"),
+    ParamSpec("sensor.scan_margin_deg", 3.0, "scan start beyond the CO2 top + half IFOV (covers oblateness and "
+              "attitude excursions)", 0.0, 20.0, unit="deg"),
+    ParamSpec("sensor.bright_body_exclusion_deg", 3.0, "a chord is invalid while the Sun or the Moon is within this "
+              "angle of its swept arc (IFOV half-width 1.1 + body radius 0.27 + stray-light margin); 0: no check",
+              0.0, 45.0, unit="deg"),
+    ParamSpec("sensor.layer_height_km", 40.0, "height of the emitting layer seen by the ideal detector", 0.0, 100.0,
+              unit="km"),
+    ParamSpec("radiance.source", "uniform", "uniform: one disc radiance everywhere; environment: climatology, "
+              "weather and layer height on the rotating Earth", choices=("uniform", "environment")),
+    ParamSpec("radiance.disc_ru", 2.4, "uniform source: Earth disc radiance (1 r.u. = 2.5 mW/(cm2 sr))", 0.1, 10.0,
+              unit="r.u."),
+    ParamSpec("radiance.window_height_km", 40.0, "uniform source: height of the window emitting layer", 0.0, 100.0,
+              unit="km"),
+    ParamSpec("radiance.probe_distance_km", 300.0, "environment: ground distance inside the horizon where the "
+              "weather jump sits (physics.md §3.1 Model C)", 10.0, 2000.0, unit="km"),
+    ParamSpec("environment.climatology", True, "latitude/season climatology (off: uniform 2.4 r.u.)"),
+    ParamSpec("environment.weather", True, "correlated random weather field"),
+    ParamSpec("environment.height_variation", True, "varying window-layer height, 40 ± 20 km"),
+    ParamSpec("environment.relative_variability", 0.15, "weather: relative variability eta'", 0.0, 1.0),
+    ParamSpec("environment.correlation_radius_km", 700.0, "weather and height: correlation radius", 10.0, 6371.0,
+              unit="km"),
+    ParamSpec("environment.time_scale_h", 24.0, "weather and height: time scale of change", 1.0 / 60.0, 1e5,
+              unit="h"),
+    ParamSpec("sim.epoch_utc", "2024-01-15T00:00:00Z", "UTC date and time at the start of the run (simulation "
+              "time 0 in fast time): sets the season, the Earth's rotation and where the Sun and Moon are",
+              constraints="an ISO 8601 date-time such as 2024-01-15T00:00:00Z, 1900 … 2100"),
+    ParamSpec("sensor.oblateness_compensation", False, "subtract the closed-form oblateness model on board"),
+    ParamSpec("sim.fast_time", False, "run on an own simulation clock as fast as allowed and publish /clock"),
+    ParamSpec("sim.time_scale", 0.0, "fast time: multiple of real time (0 = as fast as the pipeline allows)",
+              0.0, 1e6),
+    ParamSpec("sim.start_time_s", 0.0, "fast time: simulation time at start (message stamps end at 2^31 s)",
+              0.0, 2.0e9, unit="s"),
+    ParamSpec("diagnostics_period_s", 1.0, "period of /diagnostics health reports", 0.1, 3600.0, unit="s"),
+    ParamSpec("seed", 0, "seed of every random process of the sensor", 0, 2**31 - 1),
+)
+
+
+#: Parameters of star_tracker_node.
+STAR_TRACKER_PARAMS = (
+    ParamSpec("orbit.altitude_km", 500.0, "orbit altitude (gives the orbital rate for the rate limit)",
+              150.0, 40000.0, unit="km"),
+    ParamSpec("rate_hz", 2.0, "frame rate of the star tracker", 0.01, 50.0, unit="Hz"),
+    ParamSpec("latency_s", 0.25, "delay from frame time to publication", 0.0, 60.0, unit="s"),
+    ParamSpec("noise_cross_arcsec", 3.0, "1-sigma noise across the boresight", 0.0, 3600.0, unit="arcsec"),
+    ParamSpec("noise_boresight_arcsec", 20.0, "1-sigma noise about the boresight", 0.0, 3600.0, unit="arcsec"),
+    ParamSpec("max_rate_arcsec_s", 300.0, "no attitude above this inertial angular rate", 1.0, 36000.0,
+              unit="arcsec/s"),
+    ParamSpec("random_failure_probability", 1e-3, "probability that a single frame fails", 0.0, 1.0),
+    ParamSpec("outage_start_s", [-1.0], "start of each scheduled outage after node start (negative: none)",
+              -1.0, 1e9, unit="s"),
+    ParamSpec("outage_duration_s", [0.0], "duration of each scheduled outage", 0.0, 1e9, unit="s"),
+    ParamSpec("max_truth_gap_s", 5.0, "no frame is interpolated across a truth gap longer than this",
+              0.001, 3600.0, unit="s"),
+    ParamSpec("clock_jump_s", 1.0, "a truth stamp going back by more than this starts a new timeline "
+              "(simulation or sensor restarted); less is a backward stamp and rejected", 0.001, 3600.0, unit="s"),
+    ParamSpec("future_tolerance_s", 1.0, "truth stamps later than the node clock by more than this are rejected",
+              0.001, 3600.0, unit="s"),
+    ParamSpec("seed", 0, "seed of the noise and failures", 0, 2**31 - 1),
+)
+
+
+def build_tracker(values: dict, start_s: float) -> StarTracker:
+    """The star-tracker model from parameter values; ValueError if inconsistent."""
+    starts, durations = list(values["outage_start_s"]), list(values["outage_duration_s"])
+    if len(starts) != len(durations):
+        raise ValueError(f"outage_start_s has {len(starts)} entries but outage_duration_s has {len(durations)}")
+    outages = tuple((start_s + s, start_s + s + d) for s, d in zip(starts, durations) if s >= 0.0 and d > 0.0)
+    return StarTracker(StarTrackerParameters(
+        noise_cross_rad=values["noise_cross_arcsec"] * ARCSEC_RAD,
+        noise_boresight_rad=values["noise_boresight_arcsec"] * ARCSEC_RAD,
+        max_rate_rad_s=values["max_rate_arcsec_s"] * ARCSEC_RAD,
+        random_failure_probability=values["random_failure_probability"],
+        outages=outages), seed=values["seed"])
+
+
+#: Parameters of error_monitor_node.
+MONITOR_PARAMS = (
+    ParamSpec("orbit.altitude_km", 500.0, "nominal orbit altitude (until /orbit/odometry arrives)", 150.0, 40000.0,
+              unit="km"),
+    ParamSpec("orbit.inclination_deg", 74.5, "nominal inclination (until /orbit/odometry arrives)", 0.0, 180.0,
+              unit="deg"),
+    ParamSpec("remove_oblateness", True, "report statistics with the closed-form oblateness model removed"),
+    ParamSpec("sensor.oblateness_compensation", False, "the sensor already subtracts the oblateness model on "
+              "board, so the monitor must not subtract it again (share it with the sensor in the /** section)"),
+    ParamSpec("max_truth_gap_s", 2.0, "never interpolate truth across a gap longer than this", 0.001, 3600.0, unit="s"),
+    ParamSpec("max_truth_wait_s", 10.0, "give a sensor sample up when no truth covers it after this long",
+              0.01, 3600.0, unit="s"),
+    ParamSpec("statistics_rate_hz", 1.0, "publication rate of /pmv/error_statistics", 0.001, 100.0, unit="Hz"),
+    ParamSpec("roll_offset_arcmin", 0.0, "known constant roll offset removed before the statistics",
+              -600.0, 600.0, unit="arcmin"),
+    ParamSpec("pitch_offset_arcmin", 0.0, "known constant pitch offset removed before the statistics",
+              -600.0, 600.0, unit="arcmin"),
+    ParamSpec("clock_jump_s", 1.0, "a stamp going back by more than this is a clock jump (alignment reset)",
+              0.001, 3600.0, unit="s"),
+    ParamSpec("future_tolerance_s", 1.0, "stamps later than the node clock by more than this are rejected",
+              0.001, 3600.0, unit="s"),
+    ParamSpec("odometry_timeout_s", 5.0, "orbit data older than this is not used for the oblateness model",
+              0.01, 3600.0, unit="s"),
+)
+
+
+def build_monitor(values: dict) -> ErrorMonitor:
+    """The monitor core from parameter values; ValueError if inconsistent."""
+    return ErrorMonitor(MonitorConfig.for_orbit(
+        values["orbit.altitude_km"] * 1e3, math.radians(values["orbit.inclination_deg"]),
+        remove_oblateness=values["remove_oblateness"],
+        max_truth_gap_s=values["max_truth_gap_s"],
+        max_truth_wait_s=values["max_truth_wait_s"],
+        clock_jump_s=values["clock_jump_s"],
+        future_tolerance_s=values["future_tolerance_s"],
+        roll_offset_rad=values["roll_offset_arcmin"] * ARCMIN_RAD,
+        pitch_offset_rad=values["pitch_offset_arcmin"] * ARCMIN_RAD,
+    ))
+
+
+def parse_epoch(iso_string: str) -> Epoch:
+    """The run epoch from ``sim.epoch_utc``; ValueError naming the parameter if it is not a date-time in range."""
+    try:
+        return Epoch.from_utc(iso_string)
+    except ValueError as error:
+        raise ValueError(f"sim.epoch_utc: {error}") from None
+
+
+def build_models(values: dict):
+    """Orbit, attitude profile and instrument model from parameter values; ValueError if inconsistent."""
+    orbit = CircularOrbit(
+        altitude_m=values["orbit.altitude_km"] * 1e3,
+        inclination_rad=math.radians(values["orbit.inclination_deg"]),
+        raan_rad=math.radians(values["orbit.raan_deg"]),
+        arg_latitude_at_epoch_rad=math.radians(values["orbit.u0_deg"]),
+        epoch_s=values["sim.start_time_s"] if values["sim.fast_time"] else values.get("_epoch_s", 0.0),
+        j2_node_drift=values["orbit.j2_node_drift"],
+    )
+    per_hour = ARCMIN_RAD / 3600.0
+    profile = AttitudeProfile(
+        roll_offset_rad=values["attitude.roll_offset_arcmin"] * ARCMIN_RAD,
+        pitch_offset_rad=values["attitude.pitch_offset_arcmin"] * ARCMIN_RAD,
+        yaw_offset_rad=values["attitude.yaw_offset_arcmin"] * ARCMIN_RAD,
+        roll_amplitude_rad=values["attitude.roll_amplitude_arcmin"] * ARCMIN_RAD,
+        pitch_amplitude_rad=values["attitude.pitch_amplitude_arcmin"] * ARCMIN_RAD,
+        oscillation_period_s=values["attitude.oscillation_period_s"],
+        roll_drift_rad_s=values["attitude.roll_drift_arcmin_per_h"] * per_hour,
+        pitch_drift_rad_s=values["attitude.pitch_drift_arcmin_per_h"] * per_hour,
+    )
+    epoch = parse_epoch(values["sim.epoch_utc"])  # parsed whatever the detector: a bad date is refused now
+    # The clock's zero: simulation time 0 in fast time, the node start in real time.
+    clock_epoch = Epoch(epoch.julian_date_utc - orbit.epoch_s / SECONDS_PER_DAY)
+    detector = build_detector(values, orbit)
+    config = SensorConfig(
+        ellipsoid=GRS80 if values["sensor.earth_model"] == "GRS80" else SPHERE,
+        ideal_layer_height_m=values["sensor.layer_height_km"] * 1e3,
+        oblateness_compensation=values["sensor.oblateness_compensation"],
+        bright_body_exclusion_rad=math.radians(values["sensor.bright_body_exclusion_deg"]),
+        epoch=clock_epoch,
+        scan_start_nadir_rad=None if detector is not None else nominal_scan_start_nadir_rad(
+            orbit.altitude_m, math.radians(values["sensor.scan_margin_deg"])),
+    )
+    return orbit, profile, SensorModel(orbit, config, detector)
+
+
+def build_detector(values: dict, orbit: CircularOrbit):
+    """The horizon detector the parameters ask for (None for the ideal one); ValueError if inconsistent."""
+    if values["sensor.detector"] == "ideal":
+        return None
+    epoch = parse_epoch(values["sim.epoch_utc"])
+    # The clock reads orbit.epoch_s at the start of the run (0 in fast time, the node start
+    # in real time); anchor season and Earth rotation there exactly. (Stepping the epoch back
+    # by a real-time clock of ≈ 1.8e9 s would let the GRS80 and GMST rates drift apart by ≈ 0.9°.)
+    zero_s = orbit.epoch_s
+    day_at_clock_zero = (float(epoch.day_of_year(0.0)) - zero_s / SECONDS_PER_DAY) % YEAR_DAYS
+    rotation_at_clock_zero = float(epoch.earth_rotation_angle(0.0)) - EARTH_ROTATION_RATE_RAD_S * zero_s
+    environment = EnvironmentParameters(
+        climatology_enabled=values["environment.climatology"],
+        weather_enabled=values["environment.weather"],
+        height_variation_enabled=values["environment.height_variation"],
+        relative_variability=values["environment.relative_variability"],
+        correlation_radius_m=values["environment.correlation_radius_km"] * 1e3,
+        time_scale_s=values["environment.time_scale_h"] * 3600.0,
+        epoch_day_of_year=day_at_clock_zero,
+        seed=values["seed"],
+    )
+    radiance = RadianceConfig(
+        source=values["radiance.source"],
+        disc_radiance_ru=values["radiance.disc_ru"],
+        window_height_m=values["radiance.window_height_km"] * 1e3,
+        environment=environment,
+        probe_distance_m=values["radiance.probe_distance_km"] * 1e3,
+        earth_rotation_at_epoch_rad=rotation_at_clock_zero % (2.0 * math.pi),
+    )
+    try:
+        correction = load_correction(values["sensor.correction"], orbit.altitude_m)
+    except ValueError as error:
+        raise ValueError(f"sensor.correction: {error}") from None
+    return ChainDetector(orbit.altitude_m, radiance, correction, scan_margin_rad=math.radians(values["sensor.scan_margin_deg"]))
+
+
+#: Every node's parameters by node name (params files are keyed by it).
+NODE_PARAMS = {"sensor_node": SENSOR_PARAMS, "star_tracker_node": STAR_TRACKER_PARAMS,
+               "error_monitor_node": MONITOR_PARAMS}
