@@ -8,6 +8,7 @@ Meteor-M harmonic analysis.
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -81,11 +82,20 @@ def test_everything_off_but_oblateness_leaves_only_its_signature(preset):
     assert np.all(reading.chord_valid)
 
 
-def test_meteor_m2_2_flies_without_a_working_correction():
-    # physics.md §4: on Meteor-M No.2-2 the stored curve did not correct at all.
-    _, with_table, _ = fly_one_orbit(preset_values("meteor_m2"))
-    _, without, _ = fly_one_orbit(preset_values("meteor_m2_2"))
-    np.testing.assert_allclose(without.sensed_roll_rad, without.sensed_roll_uncorrected_rad)
-    assert np.nanstd(with_table.sensed_roll_rad - with_table.sensed_roll_uncorrected_rad) > 1.0 * ARCMIN_RAD
-    assert math.isclose(np.nanstd(without.sensed_roll_uncorrected_rad), np.nanstd(with_table.sensed_roll_uncorrected_rad),
-                        rel_tol=1e-9)
+def test_meteor_m2_2_flies_the_over_correcting_curve():
+    # physics.md §3.2 item 1: No.2-2 flies the rig curve scaled by s > 1 (an inference from its record);
+    # the corrected − uncorrected difference is then s × the working curve's, chord by chord.
+    scale = json.loads((REPO / "pmv_ros" / "data" / "environment_calibration.json").read_text())["fitted"]["curve_scale"]
+    assert 1.0 < scale <= 2.0
+    _, working, _ = fly_one_orbit(preset_values("meteor_m2_2", sensor__correction="calibrated"))
+    _, wrong, _ = fly_one_orbit(preset_values("meteor_m2_2"))
+    np.testing.assert_allclose(wrong.crossing_nadir_uncorrected_rad, working.crossing_nadir_uncorrected_rad)
+    # POP_s = POP₀ + s·(POP − POP₀): per chord, wrong − s × working is the constant (1 − s)·POP₀
+    # (which cancels in every pair); 0.01′ allows the CSV's 6-decimal rounding.
+    excess = (wrong.crossing_nadir_rad - wrong.crossing_nadir_uncorrected_rad) \
+        - scale * (working.crossing_nadir_rad - working.crossing_nadir_uncorrected_rad)
+    assert np.ptp(excess) < 0.01 * ARCMIN_RAD
+    assert abs(np.mean(excess)) > 1.0 * ARCMIN_RAD  # and it is not the working curve
+    # "none" stays available: no correction at all.
+    _, none, _ = fly_one_orbit(preset_values("meteor_m2_2", sensor__correction="none"))
+    np.testing.assert_allclose(none.sensed_pitch_rad, none.sensed_pitch_uncorrected_rad)

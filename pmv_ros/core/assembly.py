@@ -45,9 +45,11 @@ SENSOR_PARAMS = (
     ParamSpec("sensor.earth_model", "GRS80", "Earth figure for the horizon geometry", choices=("GRS80", "sphere")),
     ParamSpec("sensor.detector", "chain", "chain: the signal chain of physics.md §4; ideal: the geometric horizon "
               "of the emitting layer (geometry-only studies)", choices=("chain", "ideal")),
-    ParamSpec("sensor.correction", "calibrated", "brightness-correction table: calibrated (the rig table), none, "
+    ParamSpec("sensor.correction", "calibrated", "brightness-correction table: calibrated (the rig table), "
+              "meteor_m2_2 (the over-correcting curve inferred for Meteor-M No.2-2), none, "
               "or the path of a CSV file del_arcmin,pop_arcmin",
-              constraints="calibrated, none, or the path of a readable CSV file with columns del_arcmin,pop_arcmin"),
+              constraints="calibrated, meteor_m2_2, none, or the path of a readable CSV file with columns "
+                          "del_arcmin,pop_arcmin"),
     ParamSpec("sensor.scan_margin_deg", 3.0, "scan start beyond the CO2 top + half IFOV (covers oblateness and "
               "attitude excursions)", 0.0, 20.0, unit="deg"),
     ParamSpec("sensor.bright_body_exclusion_deg", 3.0, "a chord is invalid while the Sun or the Moon is within this "
@@ -61,19 +63,27 @@ SENSOR_PARAMS = (
               unit="r.u."),
     ParamSpec("radiance.window_height_km", 40.0, "uniform source: height of the window emitting layer", 0.0, 100.0,
               unit="km"),
-    ParamSpec("radiance.probe_distance_km", 300.0, "environment: ground distance inside the horizon where the "
-              "weather jump sits (physics.md §3.1 Model C)", 10.0, 2000.0, unit="km"),
     ParamSpec("environment.climatology", True, "latitude/season climatology (off: uniform 2.4 r.u.)"),
     ParamSpec("environment.weather", True, "correlated random weather field"),
-    ParamSpec("environment.height_variation", True, "varying window-layer height, 40 ± 20 km"),
-    ParamSpec("environment.relative_variability", 0.15, "weather: relative variability eta'", 0.0, 1.0),
-    ParamSpec("environment.correlation_radius_km", 700.0, "weather and height: correlation radius", 10.0, 6371.0,
-              unit="km"),
+    ParamSpec("environment.height_variation", True, "varying window-layer height, 40 km with sigma 10 km (uniform)"),
+    ParamSpec("environment.relative_variability", 0.15, "weather: relative variability eta = sigma_B/B_mean at a "
+              "point (radiance kept inside 1 ... 4 r.u.)", 0.0, 1.0),
+    ParamSpec("environment.correlation_radius_km", 700.0, "weather: e-folding distance of its correlation",
+              10.0, 6371.0, unit="km"),
+    ParamSpec("environment.synoptic_fraction", 0.0, "weather: share of its variance in the synoptic band of "
+              "zones (0: exponential weather)", 0.0, 0.95),
+    ParamSpec("environment.synoptic_zone_km", 2000.0, "weather: length of the synoptic zones along the track",
+              500.0, 10000.0, unit="km"),
+    ParamSpec("environment.height_correlation_radius_km", 700.0, "window-layer height: e-folding distance of its "
+              "correlation (independent of the weather)", 10.0, 6371.0, unit="km"),
     ParamSpec("environment.time_scale_h", 24.0, "weather and height: time scale of change", 1.0 / 60.0, 1e5,
               unit="h"),
     ParamSpec("sim.epoch_utc", "2024-01-15T00:00:00Z", "UTC date and time at the start of the run (simulation "
               "time 0 in fast time): sets the season, the Earth's rotation and where the Sun and Moon are",
               constraints="an ISO 8601 date-time such as 2024-01-15T00:00:00Z, 1900 … 2100"),
+    ParamSpec("sim.flight_record", "", "the flight record this preset reproduces: pmv simulate --report draws its "
+              "published points on spectrum.png (pmv_ros/data/flight_records.json); empty: none",
+              choices=("", "meteor_m2_121163", "meteor_m2_2_229")),
     ParamSpec("sensor.oblateness_compensation", False, "subtract the closed-form oblateness model on board"),
     ParamSpec("sim.fast_time", False, "run on an own simulation clock as fast as allowed and publish /clock"),
     ParamSpec("sim.time_scale", 0.0, "fast time: multiple of real time (0 = as fast as the pipeline allows)",
@@ -225,6 +235,9 @@ def build_detector(values: dict, orbit: CircularOrbit):
         height_variation_enabled=values["environment.height_variation"],
         relative_variability=values["environment.relative_variability"],
         correlation_radius_m=values["environment.correlation_radius_km"] * 1e3,
+        synoptic_fraction=values["environment.synoptic_fraction"],
+        synoptic_zone_m=values["environment.synoptic_zone_km"] * 1e3,
+        height_correlation_radius_m=values["environment.height_correlation_radius_km"] * 1e3,
         time_scale_s=values["environment.time_scale_h"] * 3600.0,
         epoch_day_of_year=day_at_clock_zero,
         seed=values["seed"],
@@ -234,7 +247,6 @@ def build_detector(values: dict, orbit: CircularOrbit):
         disc_radiance_ru=values["radiance.disc_ru"],
         window_height_m=values["radiance.window_height_km"] * 1e3,
         environment=environment,
-        probe_distance_m=values["radiance.probe_distance_km"] * 1e3,
         earth_rotation_at_epoch_rad=rotation_at_clock_zero % (2.0 * math.pi),
     )
     try:

@@ -169,6 +169,13 @@ def horizon_radiance_climatology(lat_rad, day_of_year):
 #: where float32 arithmetic is still good to ≈ 3·10⁻³ rad.
 MIN_WAVELENGTH_M = 1000.0
 
+#: Shortest wavelength of the flight environment's fields, m: the sensor's IFOV is 2γ = 2.2° wide across
+#: its chord, ≈ 100 km of limb at the slant range of 500 km (≈ 130 km at 835 km), so structure finer than
+#: this reaches the comparators averaged out. Components drawn beyond it are clipped to it (the variance,
+#: e.g. σ_h = 10 km, is kept); it also bounds how fast a field can change along a chord's track, which lets
+#: the sensor evaluate it on a coarse grid (pmv_ros/core/sensor.py).
+IFOV_MIN_WAVELENGTH_M = 100e3
+
 #: Float32 elements of the (points × components) work array evaluated at a
 #: time: ≈ 2 MB, so it stays in cache.
 _BLOCK_ELEMENTS = 1 << 19
@@ -228,10 +235,12 @@ class GaussianSphereField:
         n_components: number of cosines M (16 … 8192).
         seed: an int ≥ 0 or a ``numpy.random.SeedSequence``; the same seed
             gives the same field.
+        min_wavelength_m: components of shorter wavelength are clipped to it, m
+            (0.1 … 1000 km; :data:`MIN_WAVELENGTH_M` by default).
     """
 
     def __init__(self, correlation_radius_m: float = 700e3, time_scale_s: float = 86400.0,
-                 n_components: int = 256, seed=0) -> None:
+                 n_components: int = 256, seed=0, min_wavelength_m: float = MIN_WAVELENGTH_M) -> None:
         self.correlation_radius_m = check_range(
             "correlation radius", correlation_radius_m / 1e3, 10.0, EARTH_MEAN_RADIUS_M / 1e3, " km") * 1e3
         self.time_scale_s = check_range("time scale", time_scale_s, 60.0, math.inf, " s")
@@ -247,7 +256,8 @@ class GaussianSphereField:
         # Magnitudes, one per quantile stratum of the radial spectrum.
         strata = (np.arange(m) + rng.uniform(0.0, 1.0, m)) / m
         wavenumber_rad_m = _exponential_wavenumbers(strata) / self.correlation_radius_m
-        wavenumber_rad_m = np.minimum(wavenumber_rad_m, 2.0 * math.pi / MIN_WAVELENGTH_M)
+        self.min_wavelength_m = check_range("shortest wavelength", min_wavelength_m / 1e3, 0.1, 1000.0, " km") * 1e3
+        wavenumber_rad_m = np.minimum(wavenumber_rad_m, 2.0 * math.pi / self.min_wavelength_m)
         # Applied to unit position vectors: phase = (k·R_E)·n̂.
         wave_vectors = directions * (wavenumber_rad_m * EARTH_MEAN_RADIUS_M)
         # Frequencies, stratified over the Gaussian quantiles, shuffled so they
@@ -530,12 +540,13 @@ class WeatherField:
         synoptic_fraction: w, the share of the variance in the synoptic band (0 … 0.95).
         synoptic_zone_m: length λ of the synoptic zones along the track, m (500 … 10000 km).
         synoptic_components: sectoral components of the band field (16 … 8192).
+        min_wavelength_m: shortest wavelength of the background, m (see :class:`GaussianSphereField`).
     """
 
     def __init__(self, relative_variability: float = 0.15, correlation_radius_m: float = 700e3,
                  time_scale_s: float = 86400.0, n_components: int = 256, seed=0,
                  synoptic_fraction: float = 0.0, synoptic_zone_m: float = 2000e3,
-                 synoptic_components: int = 128) -> None:
+                 synoptic_components: int = 128, min_wavelength_m: float = MIN_WAVELENGTH_M) -> None:
         self.relative_variability = check_range("relative variability η′", relative_variability, 0.0, 1.0)
         self.synoptic_fraction = check_range("synoptic fraction", synoptic_fraction, 0.0, 0.95)
         self.degrees = synoptic_degrees(synoptic_zone_m)
@@ -544,7 +555,7 @@ class WeatherField:
         background_seed, band_seed = _seed_sequence(seed).spawn(2)
         self.background_radius_m = background_radius_m(correlation_radius_m, self.synoptic_fraction, self.degrees)
         self.anomaly_field = GaussianSphereField(max(self.background_radius_m, 10e3), time_scale_s, n_components,
-                                                 background_seed)
+                                                 background_seed, min_wavelength_m)
         self.band_field = SynopticBandField(*self.degrees, time_scale_s, synoptic_components, band_seed) \
             if self.synoptic_fraction > 0.0 else None
         self._weights = (math.sqrt(1.0 - self.synoptic_fraction), math.sqrt(self.synoptic_fraction))
@@ -631,14 +642,17 @@ class LayerHeightField:
         time_scale_s: e-folding time, s (``math.inf`` freezes the layer).
         n_components: cosines in the spectral synthesis (16 … 8192).
         seed: an int ≥ 0 or a ``numpy.random.SeedSequence``.
+        min_wavelength_m: shortest wavelength, m (see :class:`GaussianSphereField`).
     """
 
     def __init__(self, mean_m: float = 40e3, half_range_m: float = WINDOW_HALF_RANGE_M, correlation_radius_m: float = 700e3,
-                 time_scale_s: float = 86400.0, n_components: int = 256, seed=1) -> None:
+                 time_scale_s: float = 86400.0, n_components: int = 256, seed=1,
+                 min_wavelength_m: float = MIN_WAVELENGTH_M) -> None:
         self.mean_m = check_range("layer height", mean_m / 1e3, 5.0, 150.0, " km") * 1e3
         self.half_range_m = check_range("layer height half-range", half_range_m / 1e3, 0.0,
                                         self.mean_m / 1e3, " km") * 1e3
-        self.gaussian_field = GaussianSphereField(correlation_radius_m, time_scale_s, n_components, seed)
+        self.gaussian_field = GaussianSphereField(correlation_radius_m, time_scale_s, n_components, seed,
+                                                  min_wavelength_m)
 
     def height_m(self, lat_rad, lon_rad, t_s):
         """Layer height above the surface at points and times, m.
@@ -689,6 +703,8 @@ class EnvironmentParameters:
             0 = the exponential weather of the modelling paper), see :class:`WeatherField`.
         synoptic_zone_m: length of the synoptic zones along the track, m (500 … 10000 km; 2000 km flight).
         synoptic_components: sectoral components of the band field (16 … 8192).
+        min_wavelength_m: shortest wavelength of the exponential fields (weather background, layer
+            heights), m (0.1 … 1000 km; default :data:`IFOV_MIN_WAVELENGTH_M`, what the IFOV resolves).
         time_scale_s: e-folding time of weather and layer height, s
             (≥ 60 s, ``math.inf`` = frozen; default one day, an assumption).
         n_components: cosines per random field (16 … 8192).
@@ -720,6 +736,7 @@ class EnvironmentParameters:
     synoptic_fraction: float = 0.0
     synoptic_zone_m: float = 2000e3
     synoptic_components: int = 128
+    min_wavelength_m: float = IFOV_MIN_WAVELENGTH_M
     height_variation_enabled: bool = True
     window_height_mean_m: float = 40e3
     window_height_half_range_m: float = WINDOW_HALF_RANGE_M
@@ -741,6 +758,7 @@ class EnvironmentParameters:
         check_range("synoptic fraction", self.synoptic_fraction, 0.0, 0.95)
         check_range("synoptic zone length", self.synoptic_zone_m / 1e3, 500.0, 10000.0, " km")
         _check_count("number of synoptic components", self.synoptic_components, 16, 8192)
+        check_range("shortest wavelength", self.min_wavelength_m / 1e3, 0.1, 1000.0, " km")
         if self.weather_enabled:
             background_radius_m(self.correlation_radius_m, self.synoptic_fraction,
                                 synoptic_degrees(self.synoptic_zone_m))
@@ -793,13 +811,14 @@ class RadianceEnvironment:
             else p.height_correlation_radius_m
         self.weather = WeatherField(p.relative_variability, p.correlation_radius_m, p.time_scale_s,
                                     p.n_components, weather_seed, p.synoptic_fraction, p.synoptic_zone_m,
-                                    p.synoptic_components) \
+                                    p.synoptic_components, p.min_wavelength_m) \
             if p.weather_enabled else None
         self.window_layer = LayerHeightField(p.window_height_mean_m, p.window_height_half_range_m,
-                                             height_radius_m, p.time_scale_s, p.n_components, window_seed) \
+                                             height_radius_m, p.time_scale_s, p.n_components, window_seed,
+                                             p.min_wavelength_m) \
             if p.height_variation_enabled and p.window_height_half_range_m > 0.0 else None
         self.co2_layer = LayerHeightField(p.co2_height_m, p.co2_height_half_range_m, height_radius_m,
-                                          p.time_scale_s, p.n_components, co2_seed) \
+                                          p.time_scale_s, p.n_components, co2_seed, p.min_wavelength_m) \
             if p.height_variation_enabled and p.co2_height_half_range_m > 0.0 else None
 
         # All random fields in one cosine pass (see sample()).
