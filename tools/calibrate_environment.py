@@ -85,6 +85,7 @@ from pmv_ros.core.constants import ARCMIN_RAD
 from pmv_ros.core.correction import (METEOR_M2_2_TABLE, SCALE_BOUNDS, calibrated_correction_table,
                                      scaled_correction_table, table_comment_value)
 from pmv_ros.core.oblateness import closed_form_oblateness
+from pmv_ros.core.sensor import ChordStatus
 from pmv_ros.report import harmonic_spectrum
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -164,7 +165,8 @@ def fly(preset: str, seed: int, environment: dict) -> dict:
            "roll_rig": reading.sensed_roll_rad / ARCMIN_RAD,
            "pitch_raw": reading.sensed_pitch_uncorrected_rad / ARCMIN_RAD,
            "pitch_rig": reading.sensed_pitch_rad / ARCMIN_RAD,
-           "lost_chords": int(np.sum(~reading.chord_valid))}
+           "chords_not_detected": int(np.sum(reading.chord_status == ChordStatus.NOT_DETECTED)),
+           "chords_sun_or_moon": int(np.sum(reading.chord_status == ChordStatus.SUN_OR_MOON))}
     for name in ("roll_raw", "roll_rig", "pitch_raw", "pitch_rig"):
         run[name + "_c"] = _harmonics(t, orbit.period_s, run[name])
     return run
@@ -249,7 +251,8 @@ def evaluate(point: dict, seeds) -> dict:
             "cost": round(cost(f["targets"]), 4),
             "meteor_m2": summary(f["m2"]), "meteor_m2_2": summary(f["m22"]),
             "meteor_m2_2_with_no_curve": summary(uncorrected),
-            "lost_chords": sum(r["lost_chords"] for r in runs_m2 + runs_m22)}
+            "chords_not_detected": sum(r["chords_not_detected"] for r in runs_m2 + runs_m22),
+            "chords_blinded_by_sun_or_moon": sum(r["chords_sun_or_moon"] for r in runs_m2 + runs_m22)}
 
 
 def fit(grid: dict) -> tuple[dict, list]:

@@ -120,6 +120,8 @@ def run(args) -> int:
             "config": str(args.config), "orbits": args.orbits, "rate_hz": rate,
             "simulated_s": pipeline.sensor.sim_time_s - orbit.epoch_s, "wall_s": wall_s,
             "altitude_km": orbit.altitude_m / 1e3, "inclination_deg": math.degrees(orbit.inclination_rad),
+            "seed": pipeline.sensor.get_parameter("seed").value,
+            "epoch_utc": pipeline.sensor.get_parameter("sim.epoch_utc").value,
         })
         if args.report:
             live = {name: {int(k): v for k, v in c["harmonics_arcmin"].items()}
