@@ -175,6 +175,11 @@ MIN_WAVELENGTH_M = 1000.0
 #: e.g. σ_h = 10 km, is kept); it also bounds how fast a field can change along a chord's track, which lets
 #: the sensor evaluate it on a coarse grid (pmv_ros/core/sensor.py).
 IFOV_MIN_WAVELENGTH_M = 100e3
+#: Shortest wavelength of the flight weather, m: a chord samples the weather at points ≈ 300 … 450 km apart
+#: along its line of sight (pmv_ros.core.chain.DISC_SAMPLE_INWARD_RAD), so finer weather would only alias.
+#: The synoptic band (zones ≥ 1600 km) is far above it; ≈ 10 % of the red background's variance is moved
+#: up to it at R_b ≈ 1000 km.
+WEATHER_MIN_WAVELENGTH_M = 300e3
 
 #: Float32 elements of the (points × components) work array evaluated at a
 #: time: ≈ 2 MB, so it stays in cache.
@@ -388,8 +393,8 @@ class SynopticBandField:
         gaussian = rng.standard_normal((m, 3, 3))
         q, r = np.linalg.qr(gaussian)
         q = q * np.sign(np.diagonal(r, axis1=1, axis2=2))[:, None, :]
-        self._e1 = q[:, :, 0].T.astype(np.float32)  # (3, M)
-        self._e2 = q[:, :, 1].T.astype(np.float32)
+        # (3, 2M): e₁ of every component, then e₂.
+        self._frame = np.hstack([q[:, :, 0].T, q[:, :, 1].T]).astype(np.float32)
         band = np.arange(self.degree_low, self.degree_high + 1)
         self.degrees = band[rng.permutation(np.arange(m) % band.size)].astype(np.float32)
         mean_power = np.exp(0.5 * math.log(math.pi) + gammaln(self.degrees + 1.0)
@@ -422,19 +427,31 @@ class SynopticBandField:
         t_ref = float(finite_t[0]) if finite_t.size else 0.0
         phase_ref = np.mod(self._phase_rad + self._frequency_rad_s * t_ref, 2.0 * math.pi).astype(np.float32)
         cos_lat = np.cos(lat)
-        unit = np.stack([cos_lat * np.cos(lon), cos_lat * np.sin(lon), np.sin(lat)], axis=1).astype(np.float32)
+        unit = np.empty((lat.size, 3), dtype=np.float32)
+        unit[:, 0] = cos_lat * np.cos(lon)
+        unit[:, 1] = cos_lat * np.sin(lon)
+        unit[:, 2] = np.sin(lat)
         dt = (t - t_ref).astype(np.float32)[:, None]
         frequency = self._frequency_rad_s.astype(np.float32)
-        block_points = max(64, (_BLOCK_ELEMENTS // 2) // self.n_components)
+        m = self.n_components
+        half_degrees = 0.5 * self.degrees
+        block_points = max(64, (_BLOCK_ELEMENTS // 2) // m)
         for start in range(0, lat.size, block_points):
             stop = min(start + block_points, lat.size)
-            x = unit[start:stop]
-            real = x @ self._e1
-            imag = x @ self._e2
-            # |z|^ℓ = exp(ℓ/2·ln|z|²); the argument ℓ·arg z plus the drifting phase.
-            magnitude = np.exp(0.5 * self.degrees * np.log(np.maximum(real * real + imag * imag, 1e-30)))
-            angle = self.degrees * np.arctan2(imag, real) + phase_ref + dt[start:stop] * frequency
-            out[start:stop] = (magnitude * np.cos(angle)) @ self._amplitude
+            z = unit[start:stop] @ self._frame  # (n, 2M): the real and imaginary parts of x·w
+            real, imag = z[:, :m], z[:, m:]
+            angle = np.arctan2(imag, real)
+            # |z|^ℓ = (|z|²)^(ℓ/2); the argument ℓ·arg z plus the drifting phase.
+            np.multiply(real, real, out=real)
+            np.multiply(imag, imag, out=imag)
+            np.add(real, imag, out=real)
+            magnitude = np.power(real, half_degrees, out=real)
+            np.multiply(angle, self.degrees, out=angle)
+            angle += phase_ref
+            angle += dt[start:stop] * frequency
+            np.cos(angle, out=angle)
+            np.multiply(angle, magnitude, out=angle)
+            out[start:stop] = angle @ self._amplitude
         return out
 
 
@@ -703,8 +720,10 @@ class EnvironmentParameters:
             0 = the exponential weather of the modelling paper), see :class:`WeatherField`.
         synoptic_zone_m: length of the synoptic zones along the track, m (500 … 10000 km; 2000 km flight).
         synoptic_components: sectoral components of the band field (16 … 8192).
-        min_wavelength_m: shortest wavelength of the exponential fields (weather background, layer
-            heights), m (0.1 … 1000 km; default :data:`IFOV_MIN_WAVELENGTH_M`, what the IFOV resolves).
+        min_wavelength_m: shortest wavelength of the layer-height fields, m (0.1 … 1000 km; default
+            :data:`IFOV_MIN_WAVELENGTH_M`, what the IFOV resolves).
+        weather_min_wavelength_m: shortest wavelength of the weather's background, m (0.1 … 1000 km;
+            default :data:`WEATHER_MIN_WAVELENGTH_M`, what the line-of-sight sampling resolves).
         time_scale_s: e-folding time of weather and layer height, s
             (≥ 60 s, ``math.inf`` = frozen; default one day, an assumption).
         n_components: cosines per random field (16 … 8192).
@@ -737,6 +756,7 @@ class EnvironmentParameters:
     synoptic_zone_m: float = 2000e3
     synoptic_components: int = 128
     min_wavelength_m: float = IFOV_MIN_WAVELENGTH_M
+    weather_min_wavelength_m: float = WEATHER_MIN_WAVELENGTH_M
     height_variation_enabled: bool = True
     window_height_mean_m: float = 40e3
     window_height_half_range_m: float = WINDOW_HALF_RANGE_M
@@ -759,6 +779,7 @@ class EnvironmentParameters:
         check_range("synoptic zone length", self.synoptic_zone_m / 1e3, 500.0, 10000.0, " km")
         _check_count("number of synoptic components", self.synoptic_components, 16, 8192)
         check_range("shortest wavelength", self.min_wavelength_m / 1e3, 0.1, 1000.0, " km")
+        check_range("shortest weather wavelength", self.weather_min_wavelength_m / 1e3, 0.1, 1000.0, " km")
         if self.weather_enabled:
             background_radius_m(self.correlation_radius_m, self.synoptic_fraction,
                                 synoptic_degrees(self.synoptic_zone_m))
@@ -811,7 +832,7 @@ class RadianceEnvironment:
             else p.height_correlation_radius_m
         self.weather = WeatherField(p.relative_variability, p.correlation_radius_m, p.time_scale_s,
                                     p.n_components, weather_seed, p.synoptic_fraction, p.synoptic_zone_m,
-                                    p.synoptic_components, p.min_wavelength_m) \
+                                    p.synoptic_components, p.weather_min_wavelength_m) \
             if p.weather_enabled else None
         self.window_layer = LayerHeightField(p.window_height_mean_m, p.window_height_half_range_m,
                                              height_radius_m, p.time_scale_s, p.n_components, window_seed,
@@ -880,6 +901,33 @@ class RadianceEnvironment:
                 heights.append(constant_m + 0.0 * (lat + lon + t))
         return HorizonEnvironmentSample(_shaped(radiance, shape), _shaped(heights[0], shape),
                                         _shaped(heights[1], shape), _shaped(mean, shape))
+
+    def weather_parts(self, lat_rad, lon_rad, t_s):
+        """The radiance without weather (r.u.) and the background anomaly g (σ = 1) at points: two flat arrays.
+
+        With :meth:`synoptic_band` and :meth:`radiance_from_parts` this is
+        :meth:`sample`'s radiance in pieces, for callers that evaluate the slow
+        synoptic band on a coarser grid than the rest (pmv_ros.core.sensor).
+        g is zeros without weather.
+        """
+        lat, lon, t, _ = _flat_points(lat_rad, lon_rad, t_s)
+        mean = self.mean_radiance_ru(lat, t) + 0.0 * lon
+        if self.weather is None:
+            return mean, np.zeros(lat.size)
+        return mean, self._weather_bank.evaluate(lat, lon, t)[:, 0]
+
+    def synoptic_band(self, lat_rad, lon_rad, t_s):
+        """The synoptic band field s (σ = 1) at points, flat; None when the weather has no band."""
+        if self.weather is None or self.weather.band_field is None:
+            return None
+        lat, lon, t, _ = _flat_points(lat_rad, lon_rad, t_s)
+        return self.weather.band_field.evaluate(lat, lon, t)
+
+    def radiance_from_parts(self, mean_radiance_ru, background, band):
+        """Horizon radiance, r.u., from :meth:`weather_parts` and :meth:`synoptic_band` (band may be None)."""
+        if self.weather is None:
+            return np.asarray(mean_radiance_ru, float)
+        return self.weather.radiance_from_anomaly(mean_radiance_ru, self.weather.combine(background, band))
 
     def horizon_radiance_ru(self, lat_rad, lon_rad, t_s):
         """Horizon radiance B_m with climatology and weather, r.u.

@@ -31,6 +31,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.interpolate import CubicSpline
 
 from . import chain
 from .attitude import true_roll_pitch
@@ -157,7 +158,12 @@ _CHAIN_STATUS[chain.ChordStatus.SCAN_STARTED_IN_ATMOSPHERE] = ChordStatus.NO_HOR
 
 #: Longest spacing of the coarse time grid on which the environment is evaluated along each chord's
 #: track, s (see :class:`RadianceConfig`).
-MAX_FIELD_GRID_S = 4.0
+MAX_FIELD_GRID_S = 30.0
+#: Grid spacing as a fraction of the time a horizon point takes to cross a field's shortest scale: the
+#: shortest components of a field are then interpolated to within ≈ (π·fraction)²/2 of their amplitude.
+#: The synoptic band is interpolated with a cubic spline (error ≈ (2π·fraction)⁴/384 of the amplitude of
+#: its shortest waves), the rest linearly (≈ (π·fraction)²/2).
+FIELD_GRID_FRACTION = {"band": 0.15, "weather": 0.1, "height": 0.1}
 #: Ground speed of a horizon point along its track, m/s (the orbital rate on the Earth's surface,
 #: ≈ 6.6 km/s at 500–835 km, plus up to 0.46 km/s of Earth rotation), rounded up.
 HORIZON_POINT_SPEED_M_S = 7.2e3
@@ -183,10 +189,12 @@ class RadianceConfig:
         environment: parameters of the environment source.
         earth_rotation_at_epoch_rad: Greenwich angle at simulation time 0, rad.
         field_grid_s: spacing of the coarse time grid on which the environment
-            is evaluated when samples are denser, s (0.1 … 60); None: 1/10 of
-            the time a horizon point takes to cross the smallest scale of the
-            fields (correlation radius, or their shortest wavelength, which the
-            IFOV sets), at most :data:`MAX_FIELD_GRID_S`. Between grid
+            is evaluated when samples are denser, s (0.1 … 60); None: a fraction
+            (:data:`FIELD_GRID_FRACTION`) of the time a horizon point takes to
+            cross the smallest scale of a field (its correlation radius, or its
+            shortest wavelength: 1600 km for the synoptic band of 2000 km zones,
+            300 km for the weather's background, 100 km for the layer height),
+            at most :data:`MAX_FIELD_GRID_S` — ≈ 30, 4.2 and 1.4 s. Between grid
             points the values are interpolated linearly in time: a horizon point
             moves < 1 km between samples 0.1 s apart, against correlation
             scales of hundreds of km.
@@ -209,19 +217,22 @@ class RadianceConfig:
         if self.field_grid_s is not None and not (0.1 <= self.field_grid_s <= 60.0):
             raise ValueError(f"field_grid_s = {self.field_grid_s} is outside the allowed range 0.1 … 60 s")
 
-    def grid_spacing_s(self) -> tuple[float, float]:
-        """The coarse grids' spacings, s: (weather radiance, window-layer height) — see ``field_grid_s``."""
+    def grid_spacing_s(self) -> tuple[float, float, float]:
+        """The coarse grids' spacings, s: (synoptic band, weather background and climatology, window-layer height).
+
+        See ``field_grid_s``; the band's shortest wavelength is its zone length ÷ 1.25 (degree ℓ₀·1.25).
+        """
         if self.field_grid_s is not None:
-            return float(self.field_grid_s), float(self.field_grid_s)
+            return (float(self.field_grid_s),) * 3
         p = self.environment
-        weather = [p.correlation_radius_m, p.min_wavelength_m]
-        weather += [0.25 * p.synoptic_zone_m] if p.synoptic_fraction > 0.0 else []
         height = p.correlation_radius_m if p.height_correlation_radius_m is None else p.height_correlation_radius_m
 
-        def spacing(scale_m):
-            return float(min(MAX_FIELD_GRID_S, 0.1 * scale_m / HORIZON_POINT_SPEED_M_S))
+        def spacing(scale_m, fraction):
+            return float(min(MAX_FIELD_GRID_S, fraction * scale_m / HORIZON_POINT_SPEED_M_S))
 
-        return spacing(min(weather)), spacing(max(height, p.min_wavelength_m))
+        return (spacing(p.synoptic_zone_m / 1.25, FIELD_GRID_FRACTION["band"]),
+                spacing(min(p.correlation_radius_m, p.weather_min_wavelength_m), FIELD_GRID_FRACTION["weather"]),
+                spacing(max(height, p.min_wavelength_m), FIELD_GRID_FRACTION["height"]))
 
 
 class ChainDetector:
@@ -250,16 +261,17 @@ class ChainDetector:
         self.scan_start_rad = nominal_scan_start_nadir_rad(altitude_m, scan_margin_rad, params)
         self.environment = (RadianceEnvironment(self.radiance.environment)
                             if self.radiance.source == "environment" else None)
-        self.grid_s, self.height_grid_s = self.radiance.grid_spacing_s()
+        self.band_grid_s, self.grid_s, self.height_grid_s = self.radiance.grid_spacing_s()
 
     def _chord_radiance(self, t_s, position_m, sensor_axes):
         """Horizon radiance B_m (r.u.), disc samples (r.u.) and h_w (m) of each chord: ``(4, N)``, ``(4, N, 4)``, ``(4, N)``.
 
-        The weather is evaluated at grid samples (every ``grid_s`` of the sample
-        times, and the first and last) and the window-layer height on its own,
-        finer grid (``height_grid_s``, set by its smaller correlation radius);
-        both are interpolated linearly in time to the other samples. When the
-        samples are sparser than a grid: at every sample.
+        Each field is evaluated at grid samples (one per grid spacing of the
+        sample times, and the first and last) and interpolated linearly in time
+        to the other samples: the synoptic band every ``band_grid_s``, the
+        climatology and the weather's background every ``grid_s``, the
+        window-layer height every ``height_grid_s``. When the samples are
+        sparser than a grid: at every sample.
         """
         t = np.atleast_1d(np.asarray(t_s, float))
         n = t.size
@@ -267,10 +279,19 @@ class ChainDetector:
         if self.environment is None:
             return (np.full(shape, self.radiance.disc_radiance_ru), None,
                     np.full(shape, self.radiance.window_height_m))
+        points = 1 + len(chain.DISC_SAMPLE_INWARD_RAD)
         nodes = _grid_nodes(t, self.grid_s)
         lat, lon, t_points = self._ground_points(t[nodes], position_m[:, nodes], sensor_axes[:, :, nodes], True)
-        sample = self.environment.sample(lat, lon, t_points, layers=False).horizon_radiance_ru
-        sample = sample.reshape(1 + len(chain.DISC_SAMPLE_INWARD_RAD), 4, nodes.size)
+        mean, background = self.environment.weather_parts(lat, lon, t_points)
+        band = None
+        if self.environment.weather is not None and self.environment.weather.band_field is not None:
+            band_nodes = _grid_nodes(t[nodes], self.band_grid_s)  # a subset of the weather nodes
+            if band_nodes.size < 4:  # too few for the spline (a short block): the band at every weather node
+                band_nodes = np.arange(nodes.size)
+            at = band_nodes[None, None, :] + nodes.size * np.arange(points * 4).reshape(points, 4, 1)
+            band = self.environment.synoptic_band(lat[at.ravel()], lon[at.ravel()], t_points[at.ravel()])
+            band = _interpolate_in_time(t[nodes], band_nodes, band.reshape(points, 4, -1), cubic=True).ravel()
+        sample = self.environment.radiance_from_parts(mean, background, band).reshape(points, 4, nodes.size)
         horizon = _interpolate_in_time(t, nodes, sample[0])
         disc = _interpolate_in_time(t, nodes, sample[1:]).transpose(1, 2, 0)
         nodes = _grid_nodes(t, self.height_grid_s)
@@ -320,10 +341,15 @@ class ChainDetector:
                 _CHAIN_STATUS[readings.status].reshape(shape))
 
 
-def _interpolate_in_time(t, nodes, values):
-    """Values given at the samples ``nodes`` (last axis), linearly interpolated in time to every sample of ``t``."""
+def _interpolate_in_time(t, nodes, values, cubic: bool = False):
+    """Values given at the samples ``nodes`` (last axis), interpolated in time to every sample of ``t``.
+
+    Linear, or a not-a-knot cubic spline with ``cubic`` (and at least 4 nodes).
+    """
     if nodes.size == t.size:
         return values
+    if cubic and nodes.size >= 4:
+        return CubicSpline(t[nodes], values, axis=-1)(t)
     t_nodes = t[nodes]
     j = np.clip(np.searchsorted(t_nodes, t, side="right") - 1, 0, nodes.size - 2)
     span = t_nodes[j + 1] - t_nodes[j]
