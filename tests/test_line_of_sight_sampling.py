@@ -107,3 +107,26 @@ def test_blocks_see_the_same_grid():
     # Near a block edge the edge sample is a node of its own: the two differ there by the grid's own
     # interpolation error (a few hundredths of an arcmin, see the test above), nowhere else.
     assert np.max(np.abs(parts - whole)) / ARCMIN_RAD < 0.05
+
+
+@pytest.mark.parametrize("wavelength_km, low, high", [(2000.0, 0.7, 2.0), (8000.0, 0.0, 0.6)])
+def test_the_working_curve_leaves_synoptic_zones_uncorrected(wavelength_km, low, high):
+    """Why the calibration cannot reach the records' k ≈ 20 contrast (README, "The flight environment").
+
+    A radiance wave along the line of sight, B(d) = 2.4·(1 + 0.1·cos(2πd/λ + φ)), over 16 phases φ: the
+    RMS error of the corrected crossing against the uncorrected one. The curve corrects what the leading
+    edge's slope measures, which near the horizon and ≈ 750 km inside enter with opposite signs, so for
+    zones of 2000 km it corrects nothing (ratio ≈ 1); for a wave long against the ≈ 1400 km the samples
+    span it works as on the rig.
+    """
+    phases = np.linspace(0.0, 2.0 * math.pi, 16, endpoint=False)
+    distance = chain.chord_ground_distance(PHI0 - np.asarray(chain.DISC_SAMPLE_INWARD_RAD), PHI0, SLOPE)
+    k = 2.0 * math.pi / (wavelength_km * 1e3)
+    b_m = 2.4 * (1.0 + 0.1 * np.cos(phases))
+    samples = 2.4 * (1.0 + 0.1 * np.cos(k * distance[None, :] + phases[:, None]))
+    flat = sense(np.full(16, 2.4))
+    waved = sense(b_m, disc_samples_ru=samples)
+    corrected = np.sqrt(np.mean((waved.sensed_horizon_nadir_rad - flat.sensed_horizon_nadir_rad) ** 2))
+    uncorrected = np.sqrt(np.mean((waved.sensed_horizon_nadir_uncorrected_rad
+                                   - flat.sensed_horizon_nadir_uncorrected_rad) ** 2))
+    assert low < corrected / uncorrected < high
