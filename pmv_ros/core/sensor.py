@@ -181,7 +181,7 @@ class RadianceConfig:
             window-layer height and the radiance at the horizon point, and the
             radiance where the lines of sight at the inward angles
             :data:`~pmv_ros.core.chain.DISC_SAMPLE_INWARD_RAD` hit the ground
-            (≈ 60 … 1700 km inside the horizon at 835 km), which the chain
+            (≈ 440 … 1400 km inside the horizon at 835 km), which the chain
             interpolates (physics.md §3.2 item 3): climatology, weather and
             height as they occur in flight.
         disc_radiance_ru: uniform source: B_m, r.u.
@@ -195,9 +195,9 @@ class RadianceConfig:
             shortest wavelength: 1600 km for the synoptic band of 2000 km zones,
             300 km for the weather's background, 100 km for the layer height),
             at most :data:`MAX_FIELD_GRID_S` — ≈ 30, 4.2 and 1.4 s. Between grid
-            points the values are interpolated linearly in time: a horizon point
-            moves < 1 km between samples 0.1 s apart, against correlation
-            scales of hundreds of km.
+            points the values are interpolated in time (the band by a cubic
+            spline, the rest linearly): a horizon point moves < 1 km between
+            samples 0.1 s apart, against scales of hundreds of km.
     """
 
     source: str = "uniform"
@@ -267,8 +267,8 @@ class ChainDetector:
         """Horizon radiance B_m (r.u.), disc samples (r.u.) and h_w (m) of each chord: ``(4, N)``, ``(4, N, 4)``, ``(4, N)``.
 
         Each field is evaluated at grid samples (one per grid spacing of the
-        sample times, and the first and last) and interpolated linearly in time
-        to the other samples: the synoptic band every ``band_grid_s``, the
+        sample times, and the first and last) and interpolated in time to the
+        other samples: the synoptic band every ``band_grid_s`` (cubic), the
         climatology and the weather's background every ``grid_s``, the
         window-layer height every ``height_grid_s``. When the samples are
         sparser than a grid: at every sample.
@@ -348,7 +348,7 @@ def _interpolate_in_time(t, nodes, values, cubic: bool = False):
     """
     if nodes.size == t.size:
         return values
-    if cubic and nodes.size >= 4:
+    if cubic and nodes.size >= 4 and np.all(np.diff(t[nodes]) > 0.0):
         return CubicSpline(t[nodes], values, axis=-1)(t)
     t_nodes = t[nodes]
     j = np.clip(np.searchsorted(t_nodes, t, side="right") - 1, 0, nodes.size - 2)
