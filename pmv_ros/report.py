@@ -128,18 +128,20 @@ def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_ha
     plt.close(figure)
 
     figure, axis = plt.subplots(figsize=(9, 4.5))
+    colours = {}
     for name, marker in (("roll", "o"), ("pitch", "s")):
         k, amplitude = spectra[name]
-        axis.plot(k, amplitude / ARCMIN_RAD, marker + "-", markersize=3, label=f"{name} (whole record)")
+        line, = axis.plot(k, amplitude / ARCMIN_RAD, marker + "-", markersize=3, label=f"{name} (whole record)")
+        colours[name] = line.get_color()
         if live_harmonics and name in live_harmonics:
             live = live_harmonics[name]
             axis.plot([int(x) for x in live], list(live.values()), marker, markersize=8, fillstyle="none",
                       label=f"{name}, monitor's last orbit (oblateness removed)")
     if record:
-        for name, marker, colour in (("roll", "*", "tab:blue"), ("pitch", "P", "tab:orange")):
+        for name, marker in (("roll", "*"), ("pitch", "P")):
             points = record.get(name) or {}
             if points:
-                axis.plot([int(k) for k in points], list(points.values()), marker, color=colour, markersize=13,
+                axis.plot([int(k) for k in points], list(points.values()), marker, color=colours[name], markersize=13,
                           markeredgecolor="black", linestyle="none", label=f"{name}, flight record (published)")
         axis.set_title(record["title"], fontsize=9)
     axis.axvspan(15, 25, color="orange", alpha=0.12, label="k = 15…25: horizon radiance zones")
