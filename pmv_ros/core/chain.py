@@ -584,10 +584,15 @@ GROUND_DISTANCE_POWERS = (0.5, 1.0, 1.5, 2.0)
 #: Fit range of d(x): x ≤ 10° (and ≤ half the disc), rad.
 GROUND_DISTANCE_FIT_RAD = math.radians(10.0)
 #: Inward angles x from the hard-Earth horizon, rad, at which a sampled disc profile is given
-#: (:func:`sense_horizon_chords` ``disc_samples_ru``). They span the ground the IFOV covers while the
-#: comparators fire: the far edge of the field reaches x ≈ 1.4° (4 r.u.) … 2.0° (2.4 r.u.) … 4.9° (1 r.u.,
-#: the darkest horizon, whose J(2) crossing comes late) at t(2), at 500 and 835 km alike.
-DISC_SAMPLE_INWARD_RAD = tuple(math.radians(x) for x in (0.3, 1.0, 2.2, 4.5))
+#: (:func:`sense_horizon_chords` ``disc_samples_ru``): ≈ 440, 830 and 1400 km of ground inside the horizon
+#: at 835 km. They span the ground the IFOV covers while the comparators fire: the far edge of the field
+#: reaches x ≈ 1.4° (4 r.u.) … 2.0° (2.4 r.u.) … 4.9° (1 r.u., the darkest horizon, whose J(2) crossing
+#: comes late) at t(2), at 500 and 835 km alike. Through them and B_m at x = 0, the powers
+#: :data:`DISC_SAMPLE_POWERS` carry a radiance linear in ground distance to ≈ 1 km of distance.
+DISC_SAMPLE_INWARD_RAD = tuple(math.radians(x) for x in (0.3, 1.2, 4.5))
+#: Powers of x in the interpolant of the disc samples: x and x² share the window ramp's lowest knot, so a
+#: sampled disc costs the chain one term (x^½) more than a uniform one.
+DISC_SAMPLE_POWERS = (0.5, 1.0, 2.0)
 
 # The elementary shapes, their table rows.
 _STEP, _LINEAR, _QUADRATIC, _SQRT, _POW15 = range(5)
@@ -684,13 +689,13 @@ def _ground_distance_coefficients(kappa):
 def _disc_sample_inverse():
     """Inverse of V[k, j] = x_k^p_j: the powers' coefficients that pass through the disc samples."""
     x = np.asarray(DISC_SAMPLE_INWARD_RAD)
-    return np.linalg.inv(x[:, None] ** np.asarray(GROUND_DISTANCE_POWERS)[None, :])
+    return np.linalg.inv(x[:, None] ** np.asarray(DISC_SAMPLE_POWERS)[None, :])
 
 
 def disc_sample_profile(inward_rad, horizon_radiance_ru, disc_samples_ru):
     """The disc radiance the chain flies for sampled points, r.u., at inward angles x (rad) from the horizon.
 
-    B(x) = B_m + Σ_j c_j·x^p_j (p = ½, 1, 3/2, 2), the c_j chosen so that B passes
+    B(x) = B_m + Σ_j c_j·x^p_j (p = ½, 1, 2), the c_j chosen so that B passes
     through B_m at x = 0 and through each sample at :data:`DISC_SAMPLE_INWARD_RAD`:
     an interpolation in √x — close to one in ground distance, d ∝ √x near the
     horizon — never a gradient extrapolated across the disc.
@@ -698,12 +703,12 @@ def disc_sample_profile(inward_rad, horizon_radiance_ru, disc_samples_ru):
     Args:
         inward_rad: (P,) inward angles, rad.
         horizon_radiance_ru: (N,) B_m, r.u.
-        disc_samples_ru: (N, 4) radiance at the sample angles, r.u.
+        disc_samples_ru: (N, 3) radiance at the sample angles, r.u.
     """
     b_m = np.asarray(horizon_radiance_ru, float)
     c = (np.asarray(disc_samples_ru, float) - b_m[..., None]) @ _disc_sample_inverse().T
     x = np.asarray(inward_rad, float)
-    return b_m[..., None] + np.sum(c[..., None, :] * x[:, None] ** np.asarray(GROUND_DISTANCE_POWERS), axis=-1)
+    return b_m[..., None] + np.sum(c[..., None, :] * x[:, None] ** np.asarray(DISC_SAMPLE_POWERS), axis=-1)
 
 
 def _as_chords(value, n, name):
@@ -743,7 +748,7 @@ def sense_horizon_chords(horizon_nadir_rad, tangent_height_rate_m, disc_radiance
         window_height_m: h_w, m, in [0, 100 km] (default ``params.window_height_m``).
         co2_radiance_ru: B_a, r.u., in [0, J(1)) (default ``params.co2_radiance_ru``).
         co2_top_height_m: top of the CO₂ layer, m, in [0, 100 km] (default ``params.co2_top_height_m``).
-        disc_samples_ru: ``(N, 4)`` radiance of the disc at the inward angles
+        disc_samples_ru: ``(N, 3)`` radiance of the disc at the inward angles
             :data:`DISC_SAMPLE_INWARD_RAD` from the horizon, r.u., interpolated
             with B_m at the horizon (:func:`disc_sample_profile`); it adds to any
             gradient and jump. None: no sampled profile.
@@ -886,7 +891,8 @@ def _profile_terms(phi0, slope, radius, b_m, gradient, jump, jump_d, h_w, b_a, p
     if np.any(gradient != 0.0):
         disc += _ground_distance_coefficients(slope / radius) * (gradient * radius)[:, None]
     if disc_c is not None:
-        disc += disc_c
+        for j, power in enumerate(DISC_SAMPLE_POWERS):
+            disc[:, list(GROUND_DISTANCE_POWERS).index(power)] += disc_c[:, j]
     powers = list(GROUND_DISTANCE_POWERS)
     lowest = knot_u.size - 1 if knot_u[-1] == 0.0 else None
     if lowest is not None:  # the ramp's lowest knot is the horizon φ₀: share its x and x² terms

@@ -175,7 +175,7 @@ MIN_WAVELENGTH_M = 1000.0
 #: e.g. σ_h = 10 km, is kept); it also bounds how fast a field can change along a chord's track, which lets
 #: the sensor evaluate it on a coarse grid (pmv_ros/core/sensor.py).
 IFOV_MIN_WAVELENGTH_M = 100e3
-#: Shortest wavelength of the flight weather, m: a chord samples the weather at points ≈ 300 … 450 km apart
+#: Shortest wavelength of the flight weather, m: a chord samples the weather at points ≈ 400 … 600 km apart
 #: along its line of sight (pmv_ros.core.chain.DISC_SAMPLE_INWARD_RAD), so finer weather would only alias.
 #: The synoptic band (zones ≥ 1600 km) is far above it; ≈ 10 % of the red background's variance is moved
 #: up to it at R_b ≈ 1000 km.

@@ -159,11 +159,12 @@ _CHAIN_STATUS[chain.ChordStatus.SCAN_STARTED_IN_ATMOSPHERE] = ChordStatus.NO_HOR
 #: Longest spacing of the coarse time grid on which the environment is evaluated along each chord's
 #: track, s (see :class:`RadianceConfig`).
 MAX_FIELD_GRID_S = 30.0
-#: Grid spacing as a fraction of the time a horizon point takes to cross a field's shortest scale: the
-#: shortest components of a field are then interpolated to within ≈ (π·fraction)²/2 of their amplitude.
-#: The synoptic band is interpolated with a cubic spline (error ≈ (2π·fraction)⁴/384 of the amplitude of
-#: its shortest waves), the rest linearly (≈ (π·fraction)²/2).
-FIELD_GRID_FRACTION = {"band": 0.15, "weather": 0.1, "height": 0.1}
+#: Grid spacing as a fraction of the time a horizon point takes to cross a field's shortest wavelength.
+#: The fields are interpolated in time by cubic splines, which reproduce a wave sampled this densely to
+#: ≈ (2π·fraction)⁴/384 ≈ 1.6 % of its amplitude — for the shortest waves of a field only. (The layer
+#: height's Gaussian field is interpolated and mapped to its uniform law afterwards: the map makes
+#: harmonics shorter than the field's own.)
+FIELD_GRID_FRACTION = {"band": 0.25, "weather": 0.25, "height": 0.25}
 #: Ground speed of a horizon point along its track, m/s (the orbital rate on the Earth's surface,
 #: ≈ 6.6 km/s at 500–835 km, plus up to 0.46 km/s of Earth rotation), rounded up.
 HORIZON_POINT_SPEED_M_S = 7.2e3
@@ -181,7 +182,7 @@ class RadianceConfig:
             window-layer height and the radiance at the horizon point, and the
             radiance where the lines of sight at the inward angles
             :data:`~pmv_ros.core.chain.DISC_SAMPLE_INWARD_RAD` hit the ground
-            (≈ 440 … 1400 km inside the horizon at 835 km), which the chain
+            (≈ 440, 830 and 1400 km inside the horizon at 835 km), which the chain
             interpolates (physics.md §3.2 item 3): climatology, weather and
             height as they occur in flight.
         disc_radiance_ru: uniform source: B_m, r.u.
@@ -194,10 +195,10 @@ class RadianceConfig:
             cross the smallest scale of a field (its correlation radius, or its
             shortest wavelength: 1600 km for the synoptic band of 2000 km zones,
             300 km for the weather's background, 100 km for the layer height),
-            at most :data:`MAX_FIELD_GRID_S` — ≈ 30, 4.2 and 1.4 s. Between grid
-            points the values are interpolated in time (the band by a cubic
-            spline, the rest linearly): a horizon point moves < 1 km between
-            samples 0.1 s apart, against scales of hundreds of km.
+            at most :data:`MAX_FIELD_GRID_S` — ≈ 30, 10 and 3.5 s. Between grid
+            points the values are interpolated in time by cubic splines: a
+            horizon point moves < 1 km between samples 0.1 s apart, against
+            scales of hundreds of km.
     """
 
     source: str = "uniform"
@@ -264,14 +265,15 @@ class ChainDetector:
         self.band_grid_s, self.grid_s, self.height_grid_s = self.radiance.grid_spacing_s()
 
     def _chord_radiance(self, t_s, position_m, sensor_axes):
-        """Horizon radiance B_m (r.u.), disc samples (r.u.) and h_w (m) of each chord: ``(4, N)``, ``(4, N, 4)``, ``(4, N)``.
+        """Horizon radiance B_m (r.u.), disc samples (r.u.) and h_w (m) of each chord: ``(4, N)``, ``(4, N, 3)``, ``(4, N)``.
 
         Each field is evaluated at grid samples (one per grid spacing of the
         sample times, and the first and last) and interpolated in time to the
-        other samples: the synoptic band every ``band_grid_s`` (cubic), the
-        climatology and the weather's background every ``grid_s``, the
-        window-layer height every ``height_grid_s``. When the samples are
-        sparser than a grid: at every sample.
+        other samples by a cubic spline: the synoptic band every
+        ``band_grid_s``, the climatology and the weather's background every
+        ``grid_s``, the window-layer height every ``height_grid_s``. When the
+        samples are sparser than a grid: at every sample. The weather's parts
+        are combined, and the radiance kept inside 1 … 4 r.u., at the samples.
         """
         t = np.atleast_1d(np.asarray(t_s, float))
         n = t.size
@@ -280,24 +282,26 @@ class ChainDetector:
             return (np.full(shape, self.radiance.disc_radiance_ru), None,
                     np.full(shape, self.radiance.window_height_m))
         points = 1 + len(chain.DISC_SAMPLE_INWARD_RAD)
-        nodes = _grid_nodes(t, self.grid_s)
-        lat, lon, t_points = self._ground_points(t[nodes], position_m[:, nodes], sensor_axes[:, :, nodes], True)
-        mean, background = self.environment.weather_parts(lat, lon, t_points)
+
+        def along_track(spacing_s, inner, evaluate):
+            nodes = _grid_nodes(t, spacing_s)
+            lat, lon, t_points = self._ground_points(t[nodes], position_m[:, nodes], sensor_axes[:, :, nodes], inner)
+            values = [v.reshape(points if inner else 1, 4, nodes.size) for v in evaluate(lat, lon, t_points)]
+            return [_interpolate_in_time(t, nodes, v) for v in values]
+
+        mean, background = along_track(self.grid_s, True, self.environment.weather_parts)
         band = None
         if self.environment.weather is not None and self.environment.weather.band_field is not None:
-            band_nodes = _grid_nodes(t[nodes], self.band_grid_s)  # a subset of the weather nodes
-            if band_nodes.size < 4:  # too few for the spline (a short block): the band at every weather node
-                band_nodes = np.arange(nodes.size)
-            at = band_nodes[None, None, :] + nodes.size * np.arange(points * 4).reshape(points, 4, 1)
-            band = self.environment.synoptic_band(lat[at.ravel()], lon[at.ravel()], t_points[at.ravel()])
-            band = _interpolate_in_time(t[nodes], band_nodes, band.reshape(points, 4, -1), cubic=True).ravel()
-        sample = self.environment.radiance_from_parts(mean, background, band).reshape(points, 4, nodes.size)
-        horizon = _interpolate_in_time(t, nodes, sample[0])
-        disc = _interpolate_in_time(t, nodes, sample[1:]).transpose(1, 2, 0)
-        nodes = _grid_nodes(t, self.height_grid_s)
-        lat, lon, t_points = self._ground_points(t[nodes], position_m[:, nodes], sensor_axes[:, :, nodes], False)
-        window = _interpolate_in_time(t, nodes, self.environment.window_height_m(lat, lon, t_points).reshape(4, -1))
-        return horizon, disc, window
+            band, = along_track(self.band_grid_s, True,
+                                lambda *where: (self.environment.synoptic_band(*where),))
+        radiance = self.environment.radiance_from_parts(mean, background, band)
+        layer = self.environment.window_layer
+        if layer is None:
+            window = np.full(shape, self.environment.parameters.window_height_mean_m)
+        else:  # the smooth Gaussian field is interpolated, then mapped to the uniform law at the samples
+            gaussian, = along_track(self.height_grid_s, False, lambda *where: (layer.gaussian_field(*where),))
+            window = layer.height_from_gaussian(gaussian[0])
+        return radiance[0], radiance[1:].transpose(1, 2, 0), window
 
     def _ground_points(self, t, position_m, sensor_axes, inner: bool):
         """Latitude, longitude (rad) and time of each chord's horizon point (and the disc sample points if ``inner``).
@@ -317,7 +321,7 @@ class ChainDetector:
         if inner:
             phi0, slope = chain.sphere_chord(radius - EARTH_MEAN_RADIUS_M)
             inward = np.asarray(chain.DISC_SAMPLE_INWARD_RAD)[:, None]
-            distance = chain.chord_ground_distance(phi0 - inward, phi0, slope)  # (4 samples, N)
+            distance = chain.chord_ground_distance(phi0 - inward, phi0, slope)  # (samples, N)
             angles = np.concatenate([angles, angles - distance / EARTH_MEAN_RADIUS_M])
         # (3, points, 4 chords, N)
         eci = np.cos(angles)[None, :, None, :] * up[:, None, None, :] + \
@@ -334,23 +338,23 @@ class ChainDetector:
         disc, samples, window = self._chord_radiance(t_s, position_m, sensor_axes)
         readings = chain.sense_horizon_chords(
             horizon_nadir_rad.ravel(), slope.ravel(), disc.ravel(), scan_start_nadir_rad=self.scan_start_rad,
-            window_height_m=window.ravel(), disc_samples_ru=None if samples is None else samples.reshape(-1, 4),
+            window_height_m=window.ravel(), disc_samples_ru=None if samples is None else samples.reshape(-1, len(chain.DISC_SAMPLE_INWARD_RAD)),
             correction=self.correction, params=self.params)
         return (readings.sensed_horizon_nadir_rad.reshape(shape),
                 readings.sensed_horizon_nadir_uncorrected_rad.reshape(shape),
                 _CHAIN_STATUS[readings.status].reshape(shape))
 
 
-def _interpolate_in_time(t, nodes, values, cubic: bool = False):
+def _interpolate_in_time(t, nodes, values):
     """Values given at the samples ``nodes`` (last axis), interpolated in time to every sample of ``t``.
 
-    Linear, or a not-a-knot cubic spline with ``cubic`` (and at least 4 nodes).
+    A not-a-knot cubic spline through 4 nodes or more, linear through 2 or 3.
     """
     if nodes.size == t.size:
         return values
-    if cubic and nodes.size >= 4 and np.all(np.diff(t[nodes]) > 0.0):
-        return CubicSpline(t[nodes], values, axis=-1)(t)
     t_nodes = t[nodes]
+    if nodes.size >= 4 and np.all(np.diff(t_nodes) > 0.0):
+        return CubicSpline(t_nodes, values, axis=-1)(t)
     j = np.clip(np.searchsorted(t_nodes, t, side="right") - 1, 0, nodes.size - 2)
     span = t_nodes[j + 1] - t_nodes[j]
     w = np.where(span > 0.0, (t - t_nodes[j]) / np.where(span > 0.0, span, 1.0), 0.0)
@@ -360,13 +364,18 @@ def _interpolate_in_time(t, nodes, values, cubic: bool = False):
 def _grid_nodes(t, spacing_s):
     """Indices of the samples on which the environment is evaluated: all, or one per ``spacing_s`` (sorted times).
 
-    With samples sparser than half the spacing, or unsorted, or fewer than 3:
-    every sample. Otherwise the first, the last, and for each multiple of the
-    spacing the first sample at or after it — a grid tied to the clock, so
-    successive blocks of samples see the same nodes.
+    The spacing is at most 1/8 of the samples' span. With samples sparser than
+    half the spacing, or unsorted, or fewer than 3: every sample. Otherwise the
+    first, the last, and for each multiple of the spacing the first sample at or
+    after it — a grid tied to the clock, so successive long blocks of samples
+    see the same nodes.
     """
     n = t.size
-    if n < 3 or not np.all(np.diff(t) >= 0.0) or (t[-1] - t[0]) > 0.5 * spacing_s * (n - 1):
+    if n < 3 or not np.all(np.diff(t) >= 0.0):
+        return np.arange(n)
+    # At least 8 intervals over the span, so the spline of a short block is not all end conditions.
+    spacing_s = min(spacing_s, (t[-1] - t[0]) / 8.0)
+    if (t[-1] - t[0]) > 0.5 * spacing_s * (n - 1):
         return np.arange(n)
     multiples = np.arange(math.ceil(t[0] / spacing_s), math.floor(t[-1] / spacing_s) + 1) * spacing_s
     nodes = np.searchsorted(t, multiples, side="left")
