@@ -132,3 +132,36 @@ def test_the_working_curve_leaves_synoptic_zones_uncorrected(wavelength_km, low,
     uncorrected = np.sqrt(np.mean((waved.sensed_horizon_nadir_uncorrected_rad
                                    - flat.sensed_horizon_nadir_uncorrected_rad) ** 2))
     assert low < corrected / uncorrected < high
+
+
+@pytest.mark.parametrize("wavelength_km, tolerance_arcmin", [(2000.0, 0.1), (1000.0, 0.5)])
+def test_three_samples_against_the_dense_line_of_sight(wavelength_km, tolerance_arcmin):
+    """The sampled disc against the continuous one, through the general chain (chain.sense_sampled_chords).
+
+    A radiance wave along the ground, B(d) = 2.4·(1 + 0.1·cos(2πd/λ + φ)), 8 phases: the corrected crossing
+    from the three samples against the same wave evaluated at every point of the scan. Measured RMS
+    deviation 0.04′ at λ = 2000 km (signal 2.6′), 0.34′ at 1000 km (signal 1.7′), 0.8′ at 700 km: the
+    sampling resolves the synoptic scales and the red background down to ≈ 1000 km; finer radial
+    structure is what it does not resolve (README, "The flight environment").
+    """
+    from pmv_ros.core.radiance import atmosphere_radiance
+
+    phases = np.linspace(0.0, 2.0 * math.pi, 8, endpoint=False)
+    k = 2.0 * math.pi / (wavelength_km * 1e3)
+
+    def profile(amplitude):
+        def radiance(nadir):
+            h = chain.chord_tangent_height(nadir, PHI0, SLOPE)
+            d = np.nan_to_num(chain.chord_ground_distance(nadir, PHI0, SLOPE))
+            b_m = 2.4 * (1.0 + amplitude * np.cos(phases))[:, None] + 0.0 * h
+            disc = 2.4 * (1.0 + amplitude * np.cos(k * d + phases[:, None]))
+            return np.where(h > 0.0, atmosphere_radiance(np.maximum(h, 0.0), b_m), disc)
+        return chain.sense_sampled_chords(radiance, np.full(phases.size, START), correction=TABLE, oversampling=4)
+
+    dense = profile(0.1).sensed_horizon_nadir_rad - profile(0.0).sensed_horizon_nadir_rad
+    distance = chain.chord_ground_distance(PHI0 - np.asarray(chain.DISC_SAMPLE_INWARD_RAD), PHI0, SLOPE)
+    samples = 2.4 * (1.0 + 0.1 * np.cos(k * distance[None, :] + phases[:, None]))
+    sampled = (sense(2.4 * (1.0 + 0.1 * np.cos(phases)), disc_samples_ru=samples).sensed_horizon_nadir_rad
+               - sense(np.full(phases.size, 2.4)).sensed_horizon_nadir_rad)
+    assert np.sqrt(np.mean((sampled - dense) ** 2)) / ARCMIN_RAD < tolerance_arcmin
+    assert np.sqrt(np.mean(dense**2)) / ARCMIN_RAD > 1.0  # the wave does move the crossing
