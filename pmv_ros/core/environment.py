@@ -5,8 +5,11 @@ tangent point lies and when. This module gives, at any Earth-fixed point and
 time, the three quantities the horizon profile of physics.md §3 needs:
 
 * the horizon radiance B_m, r.u. — a zonal latitude/season climatology
-  (:func:`horizon_radiance_climatology`) times ``1 + η′·a``, where ``a`` is a
-  correlated random weather anomaly (:class:`WeatherField`);
+  (:func:`horizon_radiance_climatology`) times ``1 + η·a``, kept inside
+  1 … 4 r.u., where ``a`` is a correlated random weather anomaly
+  (:class:`WeatherField`): a synoptic band of zones (:class:`SynopticBandField`,
+  the hump of the Meteor-M No.2-2 record) over a red exponential background,
+  the covariance documented there (physics.md §3.2);
 * the height h_w of the window-emitting layer, uniformly distributed with
   σ_h = 10 km about 40 km (half-width 17.3 km) and spatially correlated, by
   default like the weather, in flight on mesoscales
@@ -26,8 +29,9 @@ NaN inputs give NaN outputs (nothing raises in array code).
 
 The random fields are evaluated directly at the points asked for — a sum of
 cosines of random wave vectors (spectral synthesis, "random Fourier features":
-Shinozuka & Deodatis 1991; Rahimi & Recht 2007) — so nothing is stored on a
-global grid.
+Shinozuka & Deodatis 1991; Rahimi & Recht 2007), or of sectoral spherical
+harmonics about random axes for the synoptic band — so nothing is stored on a
+global grid. The flight presets' values come from tools/calibrate_environment.py.
 """
 
 from __future__ import annotations
