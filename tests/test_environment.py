@@ -18,6 +18,7 @@ from pmv_ros.core.environment import (
     GaussianSphereField,
     LayerHeightField,
     RadianceEnvironment,
+    SynopticBandField,
     WeatherField,
     horizon_radiance_climatology,
 )
@@ -81,6 +82,46 @@ def test_weather_correlation_is_exponential_with_radius(radius_m):
         # Covariance is exp(−chord/R_x); the chord is 0.05 % shorter than the arc here.
         chord_m = 2.0 * EARTH_MEAN_RADIUS_M * math.sin(0.5 * multiple * radius_m / EARTH_MEAN_RADIUS_M)
         assert measured == pytest.approx(math.exp(-chord_m / radius_m), abs=CORRELATION_TOLERANCE), multiple
+
+
+@pytest.mark.parametrize("fraction", [0.2, 0.5])
+def test_synoptic_weather_has_the_documented_covariance(fraction):
+    # WeatherField: C(ψ) = w·mean_ℓ P_ℓ(cos ψ) + (1 − w)·exp(−c/R_b), R_b such that C(R_x) = e⁻¹.
+    # Measured over 10 independent epochs, as the exponential test above (same tolerance and reason).
+    weather = WeatherField(correlation_radius_m=700e3, synoptic_fraction=fraction, seed=21)
+    rng = np.random.default_rng(8)
+    t = epochs(N_PAIRS, N_EPOCHS, 10 * weather.time_scale_s)
+    for distance_m in (350e3, 700e3, 1000e3, 1500e3):
+        lat1, lon1, lat2, lon2 = points_at_distance(rng, N_PAIRS, distance_m)
+        measured = np.corrcoef(weather.relative_anomaly(lat1, lon1, t), weather.relative_anomaly(lat2, lon2, t))[0, 1]
+        expected = float(weather.correlation(distance_m / EARTH_MEAN_RADIUS_M))
+        assert measured == pytest.approx(expected, abs=CORRELATION_TOLERANCE), distance_m
+    assert float(weather.correlation(700e3 / EARTH_MEAN_RADIUS_M)) == pytest.approx(math.exp(-1.0), abs=1e-9)
+    lat, lon = random_points(rng, N_PAIRS)
+    assert np.std(weather.relative_anomaly(lat, lon, t)) == pytest.approx(1.0, rel=ETA_RELATIVE_TOLERANCE)
+
+
+def test_the_synoptic_band_peaks_along_a_ground_track():
+    # Zones of 2000 km (degrees 15 … 25): along a great circle a degree-ℓ field has its power at orders
+    # m ≤ ℓ with density ∝ 1/√(ℓ² − m²), so the band's spectrum rises towards m ≈ 15 … 25 (measured:
+    # ≈ 1.6× the power per order of m = 1 … 9) and stops above 25; an exponential covariance's falls with
+    # m. Power averaged over 40 circles of random orientation.
+    def track_power(field):
+        rng = np.random.default_rng(2)
+        angle = np.linspace(0.0, 2.0 * math.pi, 512, endpoint=False)
+        power = np.zeros(257)
+        for _ in range(40):
+            a, b = np.linalg.qr(rng.standard_normal((3, 3)))[0][:, :2].T
+            circle = np.cos(angle)[:, None] * a + np.sin(angle)[:, None] * b
+            power += np.abs(np.fft.rfft(field(np.arcsin(circle[:, 2]), np.arctan2(circle[:, 1], circle[:, 0]),
+                                              0.0))) ** 2
+        return power
+
+    band = track_power(SynopticBandField(15, 25, time_scale_s=math.inf, seed=4))
+    assert np.mean(band[15:26]) > 1.3 * np.mean(band[1:10])
+    assert np.sum(band[27:]) < 1e-6 * np.sum(band)  # band-limited: nothing above ℓ_max
+    red = track_power(GaussianSphereField(700e3, time_scale_s=math.inf, seed=4))
+    assert np.mean(red[15:26]) < 0.5 * np.mean(red[1:10])
 
 
 @pytest.mark.parametrize("radius_m", [700e3, 300e3])

@@ -360,9 +360,11 @@ class SynopticBandField:
         ρ(ψ) = (1/n) Σ_{ℓ = ℓ_lo … ℓ_hi} P_ℓ(cos ψ)     (:meth:`correlation`),
 
     a "hole-effect" covariance (it dips negative at about half a zone) whose
-    spectrum along any great circle — a ground track — peaks near the band:
-    an isotropic degree-ℓ field sampled along a great circle has its power at
-    orders m ≤ ℓ with density ≈ 1/√(ℓ² − m²), largest just below m = ℓ. A
+    spectrum along any great circle — a ground track — rises towards the band
+    and stops above it: an isotropic degree-ℓ field sampled along a great
+    circle has its power at orders m ≤ ℓ with density ≈ 1/√(ℓ² − m²), largest
+    just below m = ℓ (for degrees 15 … 25, ≈ 1.6× more power per order at
+    m = 15 … 25 than at m = 1 … 9; tests/test_environment.py). A
     zone of length λ along a track is degree ℓ ≈ 2πR/λ (2000 km → ℓ ≈ 20).
     An isotropic covariance in 3-D (like :class:`GaussianSphereField`'s)
     cannot do this: its spectrum along a line is flat or falling up to any
