@@ -240,7 +240,7 @@ def pipeline_rate(ticks: int, rate_hz: float) -> dict:
 def kondor_orbit_wall_s(rate_hz: float) -> dict:
     """Wall time of one Kondor orbit in fast time at ``rate_hz`` output."""
     with Pipeline(KONDOR, {"sensor.rate_hz": rate_hz}) as pipeline:
-        ticks = round(pipeline.sensor._orbit.period_s * rate_hz)
+        ticks = round(pipeline.sensor.orbit.period_s * rate_hz)
         started = time.perf_counter()
         pipeline.step(ticks)
         wall = time.perf_counter() - started

@@ -23,6 +23,7 @@ from .conversions import (
     horizon_crossings_to_msg,
     orbit_state_from_msg,
     orbit_state_to_msg,
+    orbital_frame,
     read_attitude_angles,
     read_attitude_quaternion,
     read_orbit_state,
@@ -37,6 +38,14 @@ from .conversions import (
     write_horizon_crossings,
     write_orbit_state,
     write_stamp,
+)
+from .orbit_elements import (
+    ORBIT_STATUS_NAME,
+    WIRE_CONVENTION,
+    OrbitElements,
+    find_orbit_elements,
+    orbit_elements_from_status,
+    orbit_elements_status,
 )
 from .records import (
     BODY_FRAME,
@@ -66,9 +75,11 @@ __all__ = [
     "attitude_angles_from_msg", "attitude_angles_to_msg", "attitude_quaternion_from_msg",
     "attitude_quaternion_to_msg", "clock_from_msg", "clock_to_msg", "error_statistics_from_msg",
     "error_statistics_to_msg", "health_from_msg", "health_to_msg", "horizon_crossings_from_msg",
-    "horizon_crossings_to_msg", "orbit_state_from_msg", "orbit_state_to_msg", "time_from_msg", "time_to_msg", "to_msg",
+    "horizon_crossings_to_msg", "orbit_state_from_msg", "orbit_state_to_msg", "orbital_frame", "time_from_msg", "time_to_msg", "to_msg",
     "check_stamp", "checked_lines_of_sight", "read_attitude_angles", "read_attitude_quaternion", "read_orbit_state",
     "write_attitude_angles", "write_attitude_quaternion", "write_clock", "write_error_statistics", "write_health",
     "write_horizon_crossings",
     "write_orbit_state", "write_stamp",
+    "ORBIT_STATUS_NAME", "WIRE_CONVENTION", "OrbitElements", "find_orbit_elements", "orbit_elements_from_status",
+    "orbit_elements_status",
 ]

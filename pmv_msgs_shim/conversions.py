@@ -219,39 +219,110 @@ def read_attitude_quaternion(msg: QuaternionStamped) -> tuple[float, tuple]:
 
 # -------------------------------------------------------------------------- orbit
 
+def orbital_frame(position_m, velocity_m_s) -> tuple[tuple, tuple, tuple]:
+    """Orbital-frame axes X, Y, Z in the frame of ``position_m``/``velocity_m_s``: three unit 3-tuples.
+
+    Z along the radius away from the Earth, Y = r × v (the orbit normal),
+    X = Y × Z (in the orbit plane, towards the velocity) — interfaces.md.
+    Plain floats: the sensor writes one per sample.
+    """
+    rx, ry, rz = (float(c) for c in position_m)
+    vx, vy, vz = (float(c) for c in velocity_m_s)
+    r = math.sqrt(rx * rx + ry * ry + rz * rz)
+    hx, hy, hz = ry * vz - rz * vy, rz * vx - rx * vz, rx * vy - ry * vx
+    h = math.sqrt(hx * hx + hy * hy + hz * hz)
+    if not (r > 0.0 and h > 0.0 and math.isfinite(r + h)):
+        raise ValueError(f"position {position_m} and velocity {velocity_m_s} define no orbital frame")
+    z = (rx / r, ry / r, rz / r)
+    y = (hx / h, hy / h, hz / h)
+    x = (y[1] * z[2] - y[2] * z[1], y[2] * z[0] - y[0] * z[2], y[0] * z[1] - y[1] * z[0])
+    return x, y, z
+
+
+def _quaternion_of_axes(x, y, z) -> tuple[float, float, float, float]:
+    """(x, y, z, w) of the rotation whose matrix has columns x, y, z (orthonormal, right-handed)."""
+    m00, m11, m22 = x[0], y[1], z[2]
+    trace = m00 + m11 + m22
+    if trace > 0.0:  # Shepperd's method: divide by the largest of the four candidates
+        s = 2.0 * math.sqrt(trace + 1.0)
+        return ((y[2] - z[1]) / s, (z[0] - x[2]) / s, (x[1] - y[0]) / s, 0.25 * s)
+    if m00 >= m11 and m00 >= m22:
+        s = 2.0 * math.sqrt(1.0 + m00 - m11 - m22)
+        return (0.25 * s, (y[0] + x[1]) / s, (z[0] + x[2]) / s, (y[2] - z[1]) / s)
+    if m11 >= m22:
+        s = 2.0 * math.sqrt(1.0 + m11 - m00 - m22)
+        return ((y[0] + x[1]) / s, 0.25 * s, (z[1] + y[2]) / s, (z[0] - x[2]) / s)
+    s = 2.0 * math.sqrt(1.0 + m22 - m00 - m11)
+    return ((z[0] + x[2]) / s, (z[1] + y[2]) / s, 0.25 * s, (x[1] - y[0]) / s)
+
+
+def _rotate(q, v) -> tuple[float, float, float]:
+    """The vector v (3-tuple) rotated by the unit quaternion q = (x, y, z, w): R(q)·v."""
+    qx, qy, qz, qw = q
+    vx, vy, vz = v
+    # t = 2 q_vec × v;  R v = v + w t + q_vec × t
+    tx, ty, tz = 2.0 * (qy * vz - qz * vy), 2.0 * (qz * vx - qx * vz), 2.0 * (qx * vy - qy * vx)
+    return (vx + qw * tx + qy * tz - qz * ty, vy + qw * ty + qz * tx - qx * tz, vz + qw * tz + qx * ty - qy * tx)
+
+
 def orbit_state_to_msg(record: OrbitState) -> Odometry:
-    """Odometry with position and velocity in ``record.frame_id``; orientation identity, covariances zero."""
+    """Odometry of an orbit state by nav_msgs' rules (see :func:`write_orbit_state`); covariances zero."""
     return write_orbit_state(Odometry(), record.stamp_s, record.frame_id, record.child_frame_id,
                              record.position_m.tolist(), record.velocity_m_s.tolist())
 
 
 def write_orbit_state(msg: Odometry, stamp_s: float, frame_id: str, child_frame_id: str, position_m,
                       velocity_m_s) -> Odometry:
-    """Fill an Odometry in place from position and velocity (x, y, z) (see "Writers" above); returns it.
+    """Fill an Odometry in place from ECI position and velocity, by nav_msgs' rules; returns it.
 
-    Only the header, the child frame, the position and the linear velocity are
-    written: a message made by ``Odometry()`` keeps its identity orientation
-    and zero covariances, and this function never touches them.
+    nav_msgs/Odometry: the pose is in ``header.frame_id``, the twist in
+    ``child_frame_id``. So: pose.position = the position in ``frame_id``
+    (ECI); pose.orientation = the orbital frame's orientation in ``frame_id``
+    (:func:`orbital_frame`) — the child frame, ``orbital``; twist.linear = the
+    velocity expressed in the orbital frame ((|v|, 0, 0) on a circular
+    orbit); twist.angular = the orbital frame's rate relative to ECI in its
+    own axes, (0, |r × v|/|r|², 0). ECI velocity = R(orientation)·twist.linear.
+    Covariances are left as they are (zero in a message made by ``Odometry()``).
     """
+    x, y, z = orbital_frame(position_m, velocity_m_s)
+    q = _quaternion_of_axes(x, y, z)
+    vx, vy, vz = (float(c) for c in velocity_m_s)
+    rx, ry, rz = (float(c) for c in position_m)
     _header(msg, stamp_s, frame_id)
     msg.child_frame_id = child_frame_id
-    position, velocity = msg.pose.pose.position, msg.twist.twist.linear
-    position.x, position.y, position.z = (float(c) for c in position_m)
-    velocity.x, velocity.y, velocity.z = (float(c) for c in velocity_m_s)
+    pose, twist = msg.pose.pose, msg.twist.twist
+    pose.position.x, pose.position.y, pose.position.z = rx, ry, rz
+    o = pose.orientation
+    o.x, o.y, o.z, o.w = q
+    # Velocity in the orbital frame: its components along X, Y, Z.
+    v_orbital = tuple(a[0] * vx + a[1] * vy + a[2] * vz for a in (x, y, z))
+    twist.linear.x, twist.linear.y, twist.linear.z = v_orbital
+    radius2 = rx * rx + ry * ry + rz * rz
+    h = math.sqrt(sum(c * c for c in (ry * vz - rz * vy, rz * vx - rx * vz, rx * vy - ry * vx)))
+    twist.angular.x, twist.angular.y, twist.angular.z = 0.0, h / radius2, 0.0
     return msg
 
 
 def orbit_state_from_msg(msg: Odometry) -> OrbitState:
-    """OrbitState from an Odometry (orientation and angular twist ignored)."""
-    p, v = msg.pose.pose.position, msg.twist.twist.linear
-    return OrbitState(time_from_msg(msg.header.stamp), msg.header.frame_id, msg.child_frame_id,
-                      [p.x, p.y, p.z], [v.x, v.y, v.z])
+    """OrbitState from an Odometry: position in ``header.frame_id``, velocity turned into it from the child frame."""
+    stamp_s, position, velocity = read_orbit_state(msg)
+    return OrbitState(stamp_s, msg.header.frame_id, msg.child_frame_id, position, velocity)
 
 
 def read_orbit_state(msg: Odometry) -> tuple[float, tuple, tuple]:
-    """(stamp_s, position_m, velocity_m_s) of an Odometry, checked as :class:`OrbitState` checks them."""
-    p, v = msg.pose.pose.position, msg.twist.twist.linear
-    return check_stamp(time_from_msg(msg.header.stamp)), (p.x, p.y, p.z), (v.x, v.y, v.z)
+    """(stamp_s, position_m, velocity_m_s) in ``header.frame_id`` of an Odometry, by nav_msgs' rules.
+
+    The twist is in ``child_frame_id``, whose orientation in ``header.frame_id``
+    is the pose's: velocity = R(orientation)·twist.linear. A zero or
+    non-finite orientation is a ValueError (an Odometry that says nothing
+    about where its twist points).
+    """
+    p, v, o = msg.pose.pose.position, msg.twist.twist.linear, msg.pose.pose.orientation
+    norm = math.sqrt(o.x * o.x + o.y * o.y + o.z * o.z + o.w * o.w)
+    if not (math.isfinite(norm) and norm > 0.0):
+        raise ValueError(f"odometry orientation ({o.x}, {o.y}, {o.z}, {o.w}) is not a rotation")
+    q = (o.x / norm, o.y / norm, o.z / norm, o.w / norm)
+    return check_stamp(time_from_msg(msg.header.stamp)), (p.x, p.y, p.z), _rotate(q, (v.x, v.y, v.z))
 
 
 # ------------------------------------------------------------------- diagnostics

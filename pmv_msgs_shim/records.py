@@ -141,14 +141,15 @@ class AttitudeQuaternion:
 class OrbitState:
     """Spacecraft position (m) and velocity (m/s), both in ``frame_id`` (ECI) (/orbit/odometry).
 
-    On the wire the velocity goes in the twist of ``nav_msgs/Odometry``
-    expressed in ``frame_id`` — not in ``child_frame_id`` as the Odometry
-    comment suggests for robots: an orbit is described in the inertial frame.
+    On the wire (nav_msgs' rules, :func:`pmv_msgs_shim.write_orbit_state`):
+    the pose is the position in ``frame_id`` with the orientation of the
+    orbital frame (``child_frame_id``), the twist is the velocity expressed
+    in the orbital frame. The record holds the velocity in ``frame_id``.
     """
 
     stamp_s: float
     frame_id: str = ECI_FRAME
-    child_frame_id: str = BODY_FRAME
+    child_frame_id: str = ORBITAL_FRAME
     position_m: np.ndarray = field(default_factory=lambda: np.zeros(3))
     velocity_m_s: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
@@ -171,7 +172,8 @@ class Level(IntEnum):
 class ChannelStatistics:
     """Live error statistics of one channel (roll, pitch or meridional), rad; ground error in m.
 
-    Field names match :class:`pmv_ros.core.monitor.ChannelSummary`.
+    Field names match :class:`pmv_ros.core.statistics.ChannelStatistics` (and the monitor's
+    :class:`pmv_ros.core.monitor.ChannelSummary`); the wire record adds level and message.
     ``harmonics_rad`` maps k (multiple of the orbital frequency) to the
     amplitude over the last full orbit (NaN until there is one).
     ``ground_*`` is the residual as the ground error of a nadir imager

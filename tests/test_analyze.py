@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from pmv_ros.cli import main
+from pmv_ros.core.conventions import convert
 from published import KONDOR_ALTITUDE_KM, KONDOR_INCLINATION_DEG, KONDOR_OBLATENESS_TABLE
 
 KONDOR_TABLE = KONDOR_OBLATENESS_TABLE  # physics.md §2.1, Kondor, a quarter orbit
@@ -144,7 +145,9 @@ def test_time_layout_with_truth_and_drift(tmp_path, capsys):
     t = np.arange(0.0, 3.0 * period, 4.0)
     u0 = math.radians(30.0)
     u = u0 + 2.0 * math.pi * t / period
-    _, model_roll, model_pitch = closed_form_oblateness(u, KONDOR_ALTITUDE_KM * 1e3, inclination)
+    # Published-style telemetry is in the paper convention; the core's model speaks REP-103.
+    model_roll, model_pitch = convert(*closed_form_oblateness(u, KONDOR_ALTITUDE_KM * 1e3, inclination)[1:],
+                                      "ros", "paper")
     truth_roll = 1e-3 * np.sin(t / 300.0)
     truth_pitch = np.full_like(t, -2e-4)
     drift_arcmin_per_orbit = 1.5      # the roll reference drifts by 1.5′ an orbit, reset at each ascending node
@@ -205,3 +208,38 @@ def test_table_output_for_people(tmp_path, capsys):
     assert main(["analyze", str(path), "--altitude-km", "500", "--inclination-deg", "74.5"]) == 0
     out = capsys.readouterr().out
     assert "MO =" in out and "meridional" in out and "K (roll)" in out
+
+
+def test_time_layout_without_phase_is_refused(tmp_path, capsys):
+    """Stamps alone do not say where the orbit was (issue 13): t_s with neither u_deg nor --u0-deg is refused."""
+    path = tmp_path / "stamps.csv"
+    path.write_text("t_s,roll_rad,pitch_rad\n1796158000.0,0.001,0.0\n1796158001.0,0.001,0.0\n")
+    status = main(["analyze", str(path), "--altitude-km", "500", "--inclination-deg", "74.5"])
+    captured = capsys.readouterr()
+    assert status == 2 and captured.out == "" and captured.err.count("\n") == 1
+    assert str(path) in captured.err and "orbital phase" in captured.err
+    assert "'u_deg'" in captured.err and "--u0-deg" in captured.err
+
+
+def test_time_layout_with_a_phase_column(tmp_path, capsys):
+    """A u_deg column gives the phase of each row whatever t_s holds (Unix stamps here)."""
+    from pmv_ros.core.constants import ARCMIN_RAD
+    from pmv_ros.core.oblateness import closed_form_oblateness
+
+    u = np.radians(np.arange(0.0, 360.0, 2.0))
+    model_roll, model_pitch = convert(*closed_form_oblateness(u, KONDOR_ALTITUDE_KM * 1e3,
+                                                              math.radians(KONDOR_INCLINATION_DEG))[1:], "ros", "paper")
+    t = 1_796_158_000.0 + 4.0 * np.arange(u.size)
+    path = tmp_path / "phase.csv"
+    lines = ["t_s,roll_rad,pitch_rad,u_deg"]
+    lines += [f"{float(ti)!r},{float(r) + 1.0 * ARCMIN_RAD!r},{float(p)!r},{math.degrees(ui)!r}"
+              for ti, r, p, ui in zip(t, model_roll, model_pitch, u)]
+    path.write_text("\n".join(lines) + "\n")
+    report = run_json(capsys, path)
+    assert report["phase_source"] == "u_deg column" and report["convention"] == "paper"
+    assert report["roll_offset_arcmin"] == pytest.approx(1.0, abs=1e-6)
+    assert report["mo_arcmin"] < 1e-6  # the model at the right u removes the oblateness exactly
+    # The same numbers told they are in the ROS convention: signs flip, so the model is added, not removed.
+    ros = run_json(capsys, path, "--convention", "ros")
+    assert ros["convention"] == "ros" and ros["roll_offset_arcmin"] == pytest.approx(1.0, abs=1e-6)
+    assert ros["channels"]["pitch"]["max_abs_arcmin"] > 15.0

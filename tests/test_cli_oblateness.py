@@ -47,3 +47,22 @@ def test_bad_input_is_one_line_and_non_zero(args, fragment):
     assert len(result.stderr.strip().splitlines()) == 1
     assert "Traceback" not in result.stderr
     assert result.stdout == ""
+
+
+def test_convention_is_named_and_ros_is_the_paper_table_with_both_signs_reversed():
+    # physics.md "Sign conventions": the published table (paper) is the default; --convention ros
+    # gives the signs of /pmv/attitude (REP-103), the opposite for roll and pitch; meridional is
+    # the paper's (Δβ)m in both.
+    common = ("oblateness", "--altitude-km", "500", "--inclination-deg", "74.5", "--json")
+    paper, ros = (json.loads(pmv(*common, *extra).stdout) for extra in ((), ("--convention", "ros")))
+    assert paper["convention"] == "paper" and ros["convention"] == "ros"
+    for row_paper, row_ros in zip(paper["rows"], ros["rows"]):
+        assert row_ros["roll_arcmin"] == pytest.approx(-row_paper["roll_arcmin"], abs=1e-12)
+        assert row_ros["pitch_arcmin"] == pytest.approx(-row_paper["pitch_arcmin"], abs=1e-12)
+        assert row_ros["meridional_arcmin"] == pytest.approx(row_paper["meridional_arcmin"], abs=1e-12)
+    rows = {row["u_deg"]: row for row in ros["rows"]}
+    assert rows[45.0]["pitch_arcmin"] == pytest.approx(-9.1, abs=0.3)  # Kondor table, u = 45°, sign reversed
+    table = pmv("oblateness", "--altitude-km", "500", "--inclination-deg", "74.5", "--convention", "ros")
+    assert "REP-103" in table.stdout.splitlines()[0]
+    bad = pmv("oblateness", "--altitude-km", "500", "--inclination-deg", "74.5", "--convention", "nasa")
+    assert bad.returncode == 2 and "Traceback" not in bad.stderr and len(bad.stderr.strip().splitlines()) == 1

@@ -21,6 +21,7 @@ from pmv_ros.core.geometry import (
     vertical_from_horizon_angles,
     CHORD_AZIMUTHS_RAD,
 )
+from pmv_ros.core.conventions import convert
 from pmv_ros.core.oblateness import closed_form_oblateness, oblateness_error, sensed_roll_pitch, sensor_axes_eci
 from pmv_ros.core.orbit import CircularOrbit
 from published import KONDOR_OBLATENESS_TABLE
@@ -34,7 +35,8 @@ def test_ray_geometry_reproduces_kondor_table(u_deg, meridional, pitch, roll):
     # Tolerance 0.3′: the table is printed to 0.1′ and was computed with the
     # radii rounded to 6378/6357/6371 km; our exact GRS80 rays differ from it
     # by up to ≈ 0.2′ (roll at u = 45…90°).
-    got_roll, got_pitch = oblateness_error(KONDOR, math.radians(u_deg))
+    # The table is in the paper's signs, the core in REP-103: through the one conversion.
+    got_roll, got_pitch = convert(*oblateness_error(KONDOR, math.radians(u_deg)), "ros", "paper")
     assert got_pitch / ARCMIN_RAD == pytest.approx(pitch, abs=0.3)
     assert got_roll / ARCMIN_RAD == pytest.approx(roll, abs=0.3)
 
@@ -44,6 +46,7 @@ def test_closed_form_reproduces_kondor_table_meridional_column():
     # table its rounded output (printed to 0.1′).
     u = np.radians([row[0] for row in KONDOR_TABLE])
     meridional, roll, pitch = closed_form_oblateness(u, 500e3, math.radians(74.5))
+    roll, pitch = convert(roll, pitch, "ros", "paper")  # the table's signs
     np.testing.assert_allclose(meridional / ARCMIN_RAD, [row[1] for row in KONDOR_TABLE], atol=0.3)
     np.testing.assert_allclose(pitch / ARCMIN_RAD, [row[2] for row in KONDOR_TABLE], atol=0.3)
     np.testing.assert_allclose(roll / ARCMIN_RAD, [row[3] for row in KONDOR_TABLE], atol=0.3)

@@ -7,7 +7,7 @@ seconds (a minute with ``--run-long``). Every sensor tick must be published
 (the stamps, 20 ms apart, have no hole except possibly at the ends) and
 received; the monitor's queue of samples waiting for truth stays bounded by
 the star tracker's latency, and residuals come out a fraction of a second
-after their sample. All topics are reliable keep-last with a bounded depth
+after their sample. All topics are keep-last with a bounded depth
 (pmv_ros.nodes.base.QOS_DEPTH), so no queue can grow without bound.
 """
 
@@ -35,6 +35,7 @@ from pmv_ros.nodes.star_tracker_node import StarTrackerNode
 REPO = Path(__file__).resolve().parents[1]
 RATE_HZ = 50.0
 SHORT_S, FULL_S = 4.0, 60.0
+INPUTS = ("/attitude/truth", "/star_tracker/attitude", "/pmv/attitude", "/orbit/odometry")
 
 
 @pytest.mark.long
@@ -66,10 +67,14 @@ def test_sensor_at_50_hz_in_real_time_publishes_every_tick_and_the_monitor_keeps
             pending_max = max(pending_max, monitor.monitor.pending_count)
         sensor._timer.cancel()
         drain(executor)  # what was published is delivered
-        published = sensor._samples_published
+        published = sensor.samples_published
         counters = monitor.monitor.counters
         queues = [(entity.topic_name, entity.qos_profile) for node in nodes
                   for entity in list(node.publishers) + list(node.subscriptions)]
+        ours = [node for node in nodes if node is not listener]
+        publisher_qos = [(e.topic_name, e.qos_profile) for node in ours for e in node.publishers]
+        input_qos = [(e.topic_name, e.qos_profile) for node in ours for e in node.subscriptions
+                     if e.topic_name in INPUTS]
     finally:
         executor.shutdown()
         for node in nodes:
@@ -100,8 +105,14 @@ def test_sensor_at_50_hz_in_real_time_publishes_every_tick_and_the_monitor_keeps
     assert counters["skipped_stale_truth"] == 0 and counters["skipped_pending_overflow"] == 0, counters
     assert counters["used"] >= published - 50, figures
     assert delays[int(0.99 * len(delays))] < 1.5, figures
-    # Bounded queues everywhere: reliable keep-last QOS_DEPTH on every pmv topic.
+    # Bounded queues everywhere: keep-last QOS_DEPTH on every pmv topic; reliable publishers,
+    # best-effort subscriptions to inputs (README "QoS": they accept either kind of publisher).
     for topic, qos in queues:
         if topic.startswith(("/pmv/", "/star_tracker/", "/attitude/", "/orbit/", "/diagnostics")):
             assert qos.history == HistoryPolicy.KEEP_LAST and qos.depth == QOS_DEPTH, (topic, qos)
+    for topic, qos in publisher_qos:
+        if topic.startswith(("/pmv/", "/star_tracker/", "/attitude/", "/orbit/")):
             assert qos.reliability == ReliabilityPolicy.RELIABLE, topic
+    assert len(input_qos) == 4  # truth for the tracker; sensor, truth and odometry for the monitor
+    for topic, qos in input_qos:
+        assert qos.reliability == ReliabilityPolicy.BEST_EFFORT, topic

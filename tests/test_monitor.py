@@ -203,8 +203,9 @@ def test_residual_as_ground_error():
     monitor = ErrorMonitor(MonitorConfig.for_orbit(KONDOR_ALTITUDE_M, KONDOR_INCLINATION, remove_oblateness=False))
     monitor.add_truth(1.0, 0.0, 0.0)
     [outcome] = monitor.add_sensor(1.0, ARCMIN_RAD, 0.0)
-    # physics.md §7: 1′ ≈ 145 m from 500 km; positive roll moves the ground point to −Y.
-    assert outcome.cross_track_m == pytest.approx(-145.0, abs=1.0) and abs(outcome.along_track_m) < 1e-6
+    # physics.md §7: 1′ ≈ 145 m from 500 km; a positive roll residual (REP-103: right-hand about +X)
+    # moves the ground point to +Y.
+    assert outcome.cross_track_m == pytest.approx(145.0, abs=1.0) and abs(outcome.along_track_m) < 1e-6
     assert monitor.summary().channel("meridional").ground_mean_m == pytest.approx(145.0, abs=1.0)
 
 

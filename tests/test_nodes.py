@@ -220,7 +220,7 @@ def test_monitor_warns_when_odometry_flies_another_orbit_than_its_parameters(har
         for k in range(1, 31):
             t = 10.0 * k + (0.0 if altitude_m == 500e3 else 400.0)
             clock.publish(shim.clock_to_msg(t))
-            odometry.publish(shim.orbit_state_to_msg(shim.OrbitState(t, "eci", "body", [radius, 0.0, 0.0],
+            odometry.publish(shim.orbit_state_to_msg(shim.OrbitState(t, "eci", "orbital", [radius, 0.0, 0.0],
                                                                      [0.0, speed, 0.0])))
             h.drain()
         messages.append([status.message for m in h.received["/diagnostics"] for status in m.status])
@@ -319,7 +319,7 @@ def test_paced_fast_time_computes_blocks_no_longer_than_a_tick(harness, rate_hz,
     h = harness(SensorNode, {"sensor.rate_hz": rate_hz, "sim.fast_time": True, "sim.time_scale": time_scale})
     assert h.node.fast_time_block == block
     h.node.step()
-    assert len(h.node._pending) == block - 1
+    assert h.node.samples_computed_ahead == block - 1
     # Stepped by the in-process pipeline nothing is paced: always the big block.
     with Pipeline(None, {"sensor.rate_hz": rate_hz, "sim.time_scale": time_scale}) as pipeline:
         assert pipeline.sensor.fast_time_block == 512

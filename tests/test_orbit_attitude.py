@@ -9,6 +9,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from pmv_ros.core.attitude import (
+    body_axes_in_orbital,
     nadir_in_body,
     quaternion_conjugate,
     quaternion_from_roll_pitch_yaw,
@@ -83,19 +84,39 @@ def test_quaternion_round_trip_and_vectorisation():
     np.testing.assert_allclose(back, [roll, pitch, yaw], atol=1e-12)
 
 
-def test_convention_puts_the_nadir_where_the_docstring_says():
-    # attitude.py: positive roll → nadir on the +Y side; positive pitch → on the −X side.
+def test_convention_is_rep_103():
+    # physics.md "Sign conventions": roll, pitch, yaw are tf2's, R = R_z(yaw)·R_y(pitch)·R_x(roll),
+    # the body's axes in the orbital frame. A body turned by +1° right-hand about the orbital +X
+    # reads roll = +1°, about +Y pitch = +1°. The rotation is built here from an axis and an
+    # angle (scipy's rotation vectors), independently of the Euler angles under test.
+    one_degree = math.radians(1.0)
+    for axis, expected in (((1.0, 0.0, 0.0), (one_degree, 0.0, 0.0)), ((0.0, 1.0, 0.0), (0.0, one_degree, 0.0)),
+                           ((0.0, 0.0, 1.0), (0.0, 0.0, one_degree))):
+        q = Rotation.from_rotvec(one_degree * np.array(axis)).as_quat()
+        np.testing.assert_allclose(roll_pitch_yaw_from_quaternion(q), expected, atol=1e-12)
+        np.testing.assert_allclose(true_roll_pitch(q), expected[:2], atol=1e-12)
+        np.testing.assert_allclose(quaternion_from_roll_pitch_yaw(*expected), q, atol=1e-12)
+    # The nadir moves the other way: turned about +X, the body sees the nadir on its −Y side.
     n_roll = nadir_in_body(quaternion_from_roll_pitch_yaw(0.01, 0.0))
     n_pitch = nadir_in_body(quaternion_from_roll_pitch_yaw(0.0, 0.01))
-    assert n_roll[1] > 0 and abs(n_roll[0]) < 1e-12
-    assert n_pitch[0] < 0 and abs(n_pitch[1]) < 1e-12
+    assert n_roll[1] < 0 and abs(n_roll[0]) < 1e-12
+    assert n_pitch[0] > 0 and abs(n_pitch[1]) < 1e-12
+    # tf2's order: yaw applied last in the orbital frame (R_z outermost).
+    roll, pitch, yaw = 0.1, -0.2, 0.3
+    expected = (Rotation.from_rotvec([0, 0, yaw]) * Rotation.from_rotvec([0, pitch, 0])
+                * Rotation.from_rotvec([roll, 0, 0])).as_matrix()
+    np.testing.assert_allclose(body_axes_in_orbital(quaternion_from_roll_pitch_yaw(roll, pitch, yaw)), expected,
+                               atol=1e-12)
 
 
-def test_roll_pitch_reading_inverts_the_convention_at_zero_yaw():
+def test_roll_pitch_reading_inverts_the_convention_at_any_yaw():
+    # With R = R_z·R_y·R_x the nadir in the body frame does not depend on yaw: a horizon sensor
+    # reads tf2's roll and pitch exactly, whatever the yaw.
     roll, pitch = np.radians([3.0, -7.0, 0.2]), np.radians([-2.0, 1.0, 0.0])
-    q = quaternion_from_roll_pitch_yaw(roll, pitch, 0.0)
-    np.testing.assert_allclose(roll_pitch_from_nadir(nadir_in_body(q)), [roll, pitch], atol=1e-12)
-    np.testing.assert_allclose(true_roll_pitch(q), [roll, pitch], atol=1e-12)
+    for yaw in (0.0, 0.4, -2.5):
+        q = quaternion_from_roll_pitch_yaw(roll, pitch, yaw)
+        np.testing.assert_allclose(roll_pitch_from_nadir(nadir_in_body(q)), [roll, pitch], atol=1e-12)
+        np.testing.assert_allclose(true_roll_pitch(q), [roll, pitch], atol=1e-12)
 
 
 def test_one_quaternion_reads_like_the_array_path():

@@ -256,11 +256,11 @@ def test_run_time_refuses_bad_values_of_every_parameter_and_the_nodes_keep_publi
                 assert node.get_parameter(spec.name).value == before, spec.name
         assert refused > 100
         # The nodes kept their configuration and keep working: samples, truth frames, residuals.
-        samples = pipeline.sensor._samples_published
+        samples = pipeline.sensor.samples_published
         residuals = pipeline.collector.residual_count
         frames = pipeline.star_tracker.counters["frames_ok"]
         pipeline.step(20)
-        assert pipeline.sensor._samples_published == samples + 20
+        assert pipeline.sensor.samples_published == samples + 20
         assert pipeline.star_tracker.counters["frames_ok"] >= frames + 18
         assert pipeline.collector.residual_count >= residuals + 18
         # and a good update is still taken

@@ -129,12 +129,50 @@ def test_attitude_quaternion_and_orbit_state_round_trip():
     q = AttitudeQuaternion(3.0, "orbital", [0.1, -0.2, 0.3, math.sqrt(1 - 0.14)])
     back = attitude_quaternion_from_msg(to_msg(q))
     assert back.frame_id == "orbital" and np.array_equal(back.q_xyzw, q.q_xyzw)
-    state = OrbitState(9.0, "eci", "body", [6871e3, 1.5, -2.0], [0.1, 7612.0, 3.3])
+    state = OrbitState(9.0, "eci", "orbital", [6871e3, 1.5, -2.0], [0.1, 7612.0, 3.3])
     msg = to_msg(state)
-    assert msg.child_frame_id == "body" and msg.pose.pose.orientation.w == 1.0
+    assert msg.child_frame_id == "orbital"
     back = orbit_state_from_msg(msg)
-    assert np.array_equal(back.position_m, state.position_m) and np.array_equal(back.velocity_m_s, state.velocity_m_s)
-    assert (back.stamp_s, back.frame_id, back.child_frame_id) == (9.0, "eci", "body")
+    # Through the orbital frame and back: to rounding of a rotation (1e-12 relative).
+    assert np.array_equal(back.position_m, state.position_m)
+    np.testing.assert_allclose(back.velocity_m_s, state.velocity_m_s, rtol=0, atol=1e-9)
+    assert (back.stamp_s, back.frame_id, back.child_frame_id) == (9.0, "eci", "orbital")
+
+
+def _rotation_matrix(q):
+    """Rotation matrix of a unit quaternion (x, y, z, w), written out here independently of the shim."""
+    x, y, z, w = q
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+def test_odometry_follows_nav_msgs_frames_and_gives_the_eci_velocity_back():
+    # nav_msgs/Odometry: pose in header.frame_id, twist in child_frame_id. The child frame is the
+    # orbital frame (Z radial up, X towards the velocity in the orbit plane, Y = Z × X), so a
+    # user rebuilds the ECI velocity as R(pose.orientation) · twist.linear — nothing else.
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        position = rng.normal(size=3)
+        position *= 6871e3 / np.linalg.norm(position)
+        velocity = np.cross(rng.normal(size=3), position)
+        velocity *= 7612.0 / np.linalg.norm(velocity)
+        velocity += rng.normal(scale=50.0, size=3)  # not exactly circular
+        msg = to_msg(OrbitState(1.0, "eci", "orbital", position, velocity))
+        o = msg.pose.pose.orientation
+        rotation = _rotation_matrix((o.x, o.y, o.z, o.w))
+        twist = np.array([msg.twist.twist.linear.x, msg.twist.twist.linear.y, msg.twist.twist.linear.z])
+        np.testing.assert_allclose(rotation @ twist, velocity, atol=1e-8)
+        # The orientation means the orbital frame: its Z column is the radial direction, its X
+        # column lies in the orbit plane ahead, so the twist has no component off the plane.
+        np.testing.assert_allclose(rotation[:, 2], position / np.linalg.norm(position), atol=1e-12)
+        assert abs(twist[1]) < 1e-8 and twist[0] > 0.0
+        assert msg.twist.twist.angular.y == pytest.approx(
+            np.linalg.norm(np.cross(position, velocity)) / np.linalg.norm(position) ** 2, rel=1e-12)
+    unknown = Odometry()
+    unknown.pose.pose.orientation.w = 0.0  # an all-zero quaternion: the twist's frame is unknown
+    with pytest.raises(ValueError, match="orientation"):
+        read_orbit_state(unknown)
 
 
 def test_writers_fill_a_reused_message_exactly_as_the_record_functions_build_one():
@@ -146,7 +184,7 @@ def test_writers_fill_a_reused_message_exactly_as_the_record_functions_build_one
     crossings = HorizonCrossings(12.5, "pmv_sensor", vectors, [True, True, False, True])
     angles = AttitudeAngles(12.5, "pmv_sensor", 2.5e-4, -1.25e-4)
     quaternion = AttitudeQuaternion(12.5, "orbital", [0.1, -0.2, 0.3, math.sqrt(1 - 0.14)])
-    state = OrbitState(12.5, "eci", "body", [6871e3, 1.5, -2.0], [0.1, 7612.0, 3.3])
+    state = OrbitState(12.5, "eci", "orbital", [6871e3, 1.5, -2.0], [0.1, 7612.0, 3.3])
     reused = {"crossings": PolygonStamped(), "angles": Vector3Stamped(), "quaternion": QuaternionStamped(),
               "state": Odometry(), "clock": Clock()}
     for round_ in range(2):  # the second round writes over the first one's values
@@ -164,9 +202,9 @@ def test_writers_fill_a_reused_message_exactly_as_the_record_functions_build_one
                                                                                 angles.pitch_rad))
         assert write_attitude_quaternion(reused["quaternion"], stamp, "orbital", quaternion.q_xyzw.tolist()) == \
             to_msg(AttitudeQuaternion(stamp, "orbital", quaternion.q_xyzw))
-        assert write_orbit_state(reused["state"], stamp, "eci", "body", state.position_m.tolist(),
-                                 state.velocity_m_s.tolist()) == \
-            to_msg(OrbitState(stamp, "eci", "body", state.position_m, state.velocity_m_s))
+        assert write_orbit_state(reused["state"], stamp, "eci", "orbital", state.position_m.tolist(),
+                                 (state.velocity_m_s * (1 + round_)).tolist()) == \
+            to_msg(OrbitState(stamp, "eci", "orbital", state.position_m, state.velocity_m_s * (1 + round_)))
         assert write_clock(reused["clock"], stamp) == Clock(clock=time_to_msg(stamp))
     with pytest.raises(ValueError, match="stamp"):
         write_attitude_angles(Vector3Stamped(), -1.0, "pmv_sensor", 0.0, 0.0)
@@ -177,8 +215,10 @@ def test_readers_return_what_the_records_hold_and_check_the_stamp():
     stamp, q = read_attitude_quaternion(to_msg(quaternion))
     assert stamp == 3.25 and q == tuple(quaternion.q_xyzw.tolist())
     assert read_attitude_angles(to_msg(AttitudeAngles(3.25, "pmv_sensor", 1e-3, -2e-3))) == (3.25, 1e-3, -2e-3)
-    state = OrbitState(3.25, "eci", "body", [6871e3, 1.5, -2.0], [0.1, 7612.0, 3.3])
-    assert read_orbit_state(to_msg(state)) == (3.25, (6871e3, 1.5, -2.0), (0.1, 7612.0, 3.3))
+    state = OrbitState(3.25, "eci", "orbital", [6871e3, 1.5, -2.0], [0.1, 7612.0, 3.3])
+    stamp, position, velocity = read_orbit_state(to_msg(state))
+    assert (stamp, position) == (3.25, (6871e3, 1.5, -2.0))
+    np.testing.assert_allclose(velocity, (0.1, 7612.0, 3.3), rtol=0, atol=1e-9)
     negative = Vector3Stamped()
     negative.header.stamp.sec = -5
     for read in (read_attitude_angles, attitude_angles_from_msg):

@@ -35,7 +35,7 @@ from geometry_msgs.msg import Vector3Stamped
 from rclpy.node import Node
 
 from pmv_ros.nodes.pipeline import Pipeline
-from pmv_ros.nodes.sensor_node import FAST_TIME_BLOCK
+from pmv_ros.core.sample_stream import FAST_TIME_BLOCK
 
 REPO = Path(__file__).resolve().parents[1]
 RATE_HZ = 1.0
@@ -89,7 +89,7 @@ def test_soak_memory_and_callback_time_stay_flat(run_long, capsys):
                 bounds["pending"] = max(bounds["pending"], monitor.pending_count)
                 bounds["truth_buffer"] = max(bounds["truth_buffer"], monitor.truth_buffer_length)
                 bounds["release_queue"] = max(bounds["release_queue"], len(tracker._queue))
-                bounds["sensor_block"] = max(bounds["sensor_block"], len(sensor._pending))
+                bounds["sensor_block"] = max(bounds["sensor_block"], sensor.samples_computed_ahead)
             durations.sort()
             block_medians.append(statistics.median(durations) * 1e3)
             block_p99.append(durations[int(0.99 * len(durations))] * 1e3)

@@ -4,10 +4,24 @@ Two CSV layouts (interfaces.md), each with a header row:
 
 * ``orbit,u_deg,roll_arcmin,pitch_arcmin`` — the published form: the sensor
   error against the reference at orbital angles u, orbit by orbit;
-* ``t_s,roll_rad,pitch_rad[,truth_roll_rad,truth_pitch_rad]`` — a recording of
-  the sensor (and the star tracker): the error is sensor − truth, or the
-  sensor output itself without truth columns (a nadir-holding spacecraft).
-  u(t) = u0 + 2π t / T with T the period of the circular orbit.
+* ``t_s,roll_rad,pitch_rad[,truth_roll_rad,truth_pitch_rad][,u_deg]`` — a
+  recording of the sensor (and the star tracker): the error is sensor − truth,
+  or the sensor output itself without truth columns (a nadir-holding
+  spacecraft). The orbital angle is the ``u_deg`` column, or
+  u(t) = u0 + 2π t / T with ``--u0-deg`` (u at t_s = 0) and T the period of
+  the circular orbit. Stamps alone do not say where the orbit was (a
+  real-time node's orbit starts at u0 when the node starts, whatever the
+  wall clock reads), so a file with neither is refused.
+
+And rosbag2 recordings (a directory, or a bare ``.mcap`` or ``.db3`` file) of
+this package or of any stack with the same topics: see :func:`analyze_recording`.
+
+Sign convention (``--convention paper|ros``): the published tables and
+telemetry are in the paper convention (the default for CSV), recordings in
+the convention their sensor states on ``/diagnostics``, else REP-103 (ros).
+Every signed angle of the report is in the input's convention; the
+oblateness model is removed in the paper convention it is published in,
+through :func:`pmv_ros.core.conventions.convert`.
 
 Extra columns are ignored; blank lines and lines starting with ``#`` are
 skipped; a row with a NaN/Inf cell (a telemetry drop-out) is skipped and
@@ -20,10 +34,12 @@ from __future__ import annotations
 import csv
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from ..core.constants import ARCMIN_RAD
+from ..core.conventions import CONVENTIONS, convert
 from ..core.ground_error import ground_error
 from ..core.orbit import MAX_ALTITUDE_M, MIN_ALTITUDE_M, CircularOrbit
 from ..core.statistics import ORBIT_HARMONICS, correct_reference_drift, flight_test_statistics
@@ -32,6 +48,10 @@ from .common import add_json_flag, format_table, print_json, ranged_float
 ORBIT_LAYOUT = ("orbit", "u_deg", "roll_arcmin", "pitch_arcmin")
 TIME_LAYOUT = ("t_s", "roll_rad", "pitch_rad")
 TRUTH_COLUMNS = ("truth_roll_rad", "truth_pitch_rad")
+PHASE_COLUMN = "u_deg"
+
+#: Convention of the published tables (the default for CSV input) and of the oblateness model.
+PAPER, ROS = "paper", "ros"
 
 #: Default u bin of step 2 for the time layout, deg (the orbit layout groups exact u).
 DEFAULT_TIME_LAYOUT_BIN_DEG = 1.0
@@ -99,7 +119,8 @@ def _layout(path: str, line: int, header: list[str]) -> tuple[str, tuple[str, ..
         if len(truth) == 1:
             missing = (set(TRUTH_COLUMNS) - set(truth)).pop()
             raise _parse_error(path, line, f"missing column '{missing}' (it goes with '{truth[0]}')")
-        return "time", TIME_LAYOUT + (TRUTH_COLUMNS if truth else ())
+        return "time", TIME_LAYOUT + (TRUTH_COLUMNS if truth else ()) + ((PHASE_COLUMN,) if PHASE_COLUMN in present
+                                                                          else ())
     # Name the missing columns of the layout the header is closer to.
     closer = max((ORBIT_LAYOUT, TIME_LAYOUT), key=lambda layout: len(present & set(layout)))
     missing = ", ".join(f"'{name}'" for name in closer if name not in present)
@@ -111,23 +132,36 @@ def add_parser(subparsers) -> None:
     """Register ``pmv analyze``."""
     parser = subparsers.add_parser(
         "analyze",
-        help="flight-test error statistics of recorded telemetry (physics.md §5, §5.1)",
+        help="flight-test error statistics of recorded telemetry or a rosbag2 recording (physics.md §5, §5.1)",
         description="The published flight-test procedure on recorded telemetry: average over the orbits at "
                     "each orbital angle, remove the offsets K and T, remove the oblateness model (published "
                     "closed form and sign convention), meridional residual MO, σ and MO ± 3σ; harmonic "
-                    "amplitudes at k = 1, 2, 15…25 of the orbital frequency per complete orbit.")
-    parser.add_argument("file", metavar="FILE.csv", help="telemetry: orbit,u_deg,roll_arcmin,pitch_arcmin "
-                        "or t_s,roll_rad,pitch_rad[,truth_roll_rad,truth_pitch_rad]")
+                    "amplitudes at k = 1, 2, 15…25 of the orbital frequency per complete orbit. On a rosbag2 "
+                    "recording also the per-sample statistics /pmv/error_statistics computes.")
+    parser.add_argument("file", metavar="FILE", help="telemetry CSV (orbit,u_deg,roll_arcmin,pitch_arcmin or "
+                        "t_s,roll_rad,pitch_rad[,truth_roll_rad,truth_pitch_rad][,u_deg]), or a rosbag2 recording: "
+                        "a directory, FILE.mcap or FILE.db3 with /pmv/attitude, truth and /orbit/odometry")
     parser.add_argument("--altitude-km", required=True,
                         type=ranged_float(MIN_ALTITUDE_M / 1e3, MAX_ALTITUDE_M / 1e3, " km"),
                         help="circular orbit altitude above the 6371 km mean radius")
     parser.add_argument("--inclination-deg", required=True, type=ranged_float(0.0, 180.0, " deg"),
                         help="orbit inclination, 0 … 180 deg")
-    parser.add_argument("--u0-deg", type=ranged_float(-360.0, 360.0, " deg"), default=0.0,
-                        help="time layout: argument of latitude at t = 0 (default 0)")
+    parser.add_argument("--convention", choices=CONVENTIONS, default=None,
+                        help="sign convention of roll and pitch in the input (and the report): paper for the "
+                             "published tables (the CSV default); a recording's default is what its sensor states "
+                             "on /diagnostics, else ros (REP-103)")
+    parser.add_argument("--u0-deg", type=ranged_float(-360.0, 360.0, " deg"), default=None,
+                        help="CSV time layout without a u_deg column: argument of latitude at t_s = 0")
+    parser.add_argument("--truth", default=None, metavar="TOPIC",
+                        help="recording: the truth topic (geometry_msgs/QuaternionStamped, body in the orbital "
+                             f"frame); default {TRUTH_TOPICS[0]}, else {TRUTH_TOPICS[1]}")
+    parser.add_argument("--phase", choices=PHASE_SOURCES, default="auto",
+                        help="recording: where the orbital angle comes from — odometry (/orbit/odometry), "
+                             "elements (the epoch and elements on the sensor's /diagnostics), auto (odometry, "
+                             "else elements; default). Never from the stamps alone")
     parser.add_argument("--u-bin-deg", type=ranged_float(0.0, 360.0, " deg", low_open=True), default=None,
                         help="width of the orbital-angle bins the orbits are averaged in (default: exact u for "
-                             f"the orbit layout, {DEFAULT_TIME_LAYOUT_BIN_DEG:g} deg for the time layout)")
+                             f"the orbit layout, {DEFAULT_TIME_LAYOUT_BIN_DEG:g} deg for time series)")
     parser.add_argument("--keep-oblateness", action="store_true",
                         help="do not remove the oblateness model (skip step 4)")
     parser.add_argument("--roll-drift-arcmin-per-orbit", type=ranged_float(-600.0, 600.0, "′"), default=0.0,
@@ -138,69 +172,363 @@ def add_parser(subparsers) -> None:
     parser.set_defaults(func=run)
 
 
-def analyze_telemetry(telemetry: Telemetry, altitude_m: float, inclination_rad: float, *, u0_rad: float = 0.0,
-                      u_bin_rad: float | None = None, remove_oblateness: bool = True,
-                      roll_drift_rad_per_orbit: float = 0.0, pitch_drift_rad_per_orbit: float = 0.0) -> dict:
-    """Run the flight-test statistics on read telemetry; the report as a dict (arcmin for people)."""
-    orbit = CircularOrbit(altitude_m, inclination_rad)
-    period = orbit.period_s
+def _arcmin(value) -> float:
+    return float(value) / ARCMIN_RAD
+
+
+def analyze_telemetry(telemetry: Telemetry, altitude_m: float, inclination_rad: float, *,
+                      u0_rad: float | None = None, u_bin_rad: float | None = None, remove_oblateness: bool = True,
+                      roll_drift_rad_per_orbit: float = 0.0, pitch_drift_rad_per_orbit: float = 0.0,
+                      convention: str = PAPER) -> dict:
+    """Run the flight-test statistics on read telemetry; the report as a dict (arcmin for people).
+
+    ``convention`` is the sign convention of the telemetry's roll and pitch
+    (and of the report's signed angles).
+    """
+    period = CircularOrbit(altitude_m, inclination_rad).period_s
     columns = telemetry.columns
     if telemetry.layout == "orbit":
         u = np.radians(columns["u_deg"])
         roll, pitch = columns["roll_arcmin"] * ARCMIN_RAD, columns["pitch_arcmin"] * ARCMIN_RAD
         orbit_index = columns["orbit"]
+        phase_source = "u_deg column"
     else:
-        u = u0_rad + 2.0 * math.pi * columns["t_s"] / period
+        if PHASE_COLUMN in columns:
+            u, phase_source = np.radians(columns[PHASE_COLUMN]), "u_deg column"
+        elif u0_rad is not None:
+            u, phase_source = u0_rad + 2.0 * math.pi * columns["t_s"] / period, "t_s with --u0-deg"
+        else:
+            raise ValueError("the column 't_s' gives times but nothing gives the orbital phase: add a 'u_deg' "
+                             "column (argument of latitude from the ascending node) or give --u0-deg (u at "
+                             "t_s = 0) — stamps alone do not say where the orbit was")
         roll, pitch = columns["roll_rad"], columns["pitch_rad"]
         if "truth_roll_rad" in columns:
             roll, pitch = roll - columns["truth_roll_rad"], pitch - columns["truth_pitch_rad"]
         orbit_index = None
         if u_bin_rad is None:
             u_bin_rad = math.radians(DEFAULT_TIME_LAYOUT_BIN_DEG)
-    # Step 1: the reference is taken as reset at each ascending node.
+    report = _flight_test_report(u, roll, pitch, altitude_m, inclination_rad, convention, orbit_index=orbit_index,
+                                 u_bin_rad=u_bin_rad, remove_oblateness=remove_oblateness,
+                                 roll_drift_rad_per_orbit=roll_drift_rad_per_orbit,
+                                 pitch_drift_rad_per_orbit=pitch_drift_rad_per_orbit)
+    return {"file": telemetry.path, "layout": telemetry.layout, "rows_skipped": telemetry.rows_skipped,
+            "phase_source": phase_source, **report}
+
+
+def _flight_test_report(u, roll, pitch, altitude_m: float, inclination_rad: float, convention: str, *,
+                        orbit_index=None, u_bin_rad=None, remove_oblateness=True, roll_drift_rad_per_orbit=0.0,
+                        pitch_drift_rad_per_orbit=0.0) -> dict:
+    """§5 steps 1–5 and §5.1 on sensor errors (rad) at orbital angles u, in ``convention``; the report dict."""
+    period = CircularOrbit(altitude_m, inclination_rad).period_s
+    # The core's statistics speak REP-103 (the oblateness model too): the procedure runs there, the report goes back.
+    roll, pitch = convert(np.asarray(roll, float), np.asarray(pitch, float), convention, ROS)
+    # Step 1: the reference is taken as reset at each ascending node (drifts given in the input's convention).
+    roll_drift, pitch_drift = convert(roll_drift_rad_per_orbit, pitch_drift_rad_per_orbit, convention, ROS)
     elapsed_s = np.mod(u, 2.0 * math.pi) / (2.0 * math.pi) * period
-    roll = correct_reference_drift(roll, elapsed_s, roll_drift_rad_per_orbit / period)
-    pitch = correct_reference_drift(pitch, elapsed_s, pitch_drift_rad_per_orbit / period)
+    roll = correct_reference_drift(roll, elapsed_s, roll_drift / period)
+    pitch = correct_reference_drift(pitch, elapsed_s, pitch_drift / period)
     result = flight_test_statistics(u, roll, pitch, altitude_m, inclination_rad, orbit_index=orbit_index,
                                     remove_oblateness=remove_oblateness, u_bin_rad=u_bin_rad)
 
-    def arcmin(value):
-        return float(value) / ARCMIN_RAD
+    def signed(roll_value, pitch_value):
+        """A (roll, pitch) pair back in the input's convention, arcmin."""
+        r, p = convert(roll_value, pitch_value, ROS, convention)
+        return _arcmin(r), _arcmin(p)
 
     channels = {}
     for channel in result.channels:
+        sign = 1.0 if channel.channel == "meridional" else convert(1.0, 1.0, ROS, convention)[0]
         detail = {
-            "count": channel.count, "mean_arcmin": arcmin(channel.mean_rad), "sigma_arcmin": arcmin(channel.sigma_rad),
-            "three_sigma_arcmin": arcmin(channel.three_sigma_rad), "max_abs_arcmin": arcmin(channel.max_abs_rad),
-            "harmonics_arcmin": {str(k): arcmin(a) for k, a in channel.harmonics_rad.items()},
-            "harmonics_with_oblateness_arcmin": {str(k): arcmin(a)
+            "count": channel.count, "mean_arcmin": sign * _arcmin(channel.mean_rad),
+            "sigma_arcmin": _arcmin(channel.sigma_rad), "three_sigma_arcmin": _arcmin(channel.three_sigma_rad),
+            "max_abs_arcmin": _arcmin(channel.max_abs_rad),
+            "harmonics_arcmin": {str(k): _arcmin(a) for k, a in channel.harmonics_rad.items()},
+            "harmonics_with_oblateness_arcmin": {str(k): _arcmin(a)
                                                  for k, a in channel.harmonics_with_oblateness_rad.items()},
             "orbits_in_harmonics": channel.orbits_in_harmonics,
         }
         if channel.channel != "meridional":
-            detail = {"offset_arcmin": arcmin(channel.offset_rad), **detail}
+            detail = {"offset_arcmin": sign * _arcmin(channel.offset_rad), **detail}
         channels[channel.channel] = detail
-    series = [{"u_deg": math.degrees(u_i), "samples": int(n), "roll_arcmin": arcmin(r), "pitch_arcmin": arcmin(p),
-               "oblateness_roll_arcmin": arcmin(o_r), "oblateness_pitch_arcmin": arcmin(o_p),
-               "residual_roll_arcmin": arcmin(d_r), "residual_pitch_arcmin": arcmin(d_p),
-               "meridional_arcmin": arcmin(m)}
-              for u_i, n, r, p, o_r, o_p, d_r, d_p, m in zip(
-                  result.u_rad, result.samples_per_u, result.roll_mean_rad, result.pitch_mean_rad,
-                  result.oblateness_roll_rad, result.oblateness_pitch_rad, result.roll_residual_rad,
-                  result.pitch_residual_rad, result.meridional_rad)]
+    series = []
+    for u_i, n, r, p, o_r, o_p, d_r, d_p, m in zip(
+            result.u_rad, result.samples_per_u, result.roll_mean_rad, result.pitch_mean_rad,
+            result.oblateness_roll_rad, result.oblateness_pitch_rad, result.roll_residual_rad,
+            result.pitch_residual_rad, result.meridional_rad):
+        roll_i, pitch_i = signed(r, p)
+        model_roll, model_pitch = signed(o_r, o_p)
+        residual_roll, residual_pitch = signed(d_r, d_p)
+        series.append({"u_deg": math.degrees(u_i), "samples": int(n), "roll_arcmin": roll_i,
+                       "pitch_arcmin": pitch_i, "oblateness_roll_arcmin": model_roll,
+                       "oblateness_pitch_arcmin": model_pitch, "residual_roll_arcmin": residual_roll,
+                       "residual_pitch_arcmin": residual_pitch, "meridional_arcmin": _arcmin(m)})
+    roll_offset, pitch_offset = signed(result.roll_offset_rad, result.pitch_offset_rad)
     limit_ground = ground_error(result.limit_high_rad, 0.0, altitude_m).circular_m
     return {
-        "file": telemetry.path, "layout": telemetry.layout,
+        "convention": convention,
         "altitude_km": altitude_m / 1e3, "inclination_deg": math.degrees(inclination_rad), "period_s": period,
-        "samples": int(result.samples_per_u.sum()), "rows_skipped": telemetry.rows_skipped,
+        "samples": int(result.samples_per_u.sum()),
         "orbits": result.orbits, "orbital_angles": int(result.u_rad.size),
         "oblateness_removed": result.oblateness_removed,
-        "roll_offset_arcmin": arcmin(result.roll_offset_rad), "pitch_offset_arcmin": arcmin(result.pitch_offset_rad),
-        "mo_arcmin": arcmin(result.mo_rad), "sigma_arcmin": arcmin(result.sigma_m_rad),
-        "limit_arcmin": arcmin(result.limit_high_rad), "limit_low_arcmin": arcmin(result.limit_low_rad),
-        "limit_high_arcmin": arcmin(result.limit_high_rad), "limit_ground_m": float(limit_ground),
+        "roll_offset_arcmin": roll_offset, "pitch_offset_arcmin": pitch_offset,
+        "mo_arcmin": _arcmin(result.mo_rad), "sigma_arcmin": _arcmin(result.sigma_m_rad),
+        "limit_arcmin": _arcmin(result.limit_high_rad), "limit_low_arcmin": _arcmin(result.limit_low_rad),
+        "limit_high_arcmin": _arcmin(result.limit_high_rad), "limit_ground_m": float(limit_ground),
         "harmonics": list(ORBIT_HARMONICS),
         "channels": channels, "series": series,
+    }
+
+
+# ----------------------------------------------------------------------------------- recordings
+
+SENSOR_TOPIC = "/pmv/attitude"
+#: Truth topics tried in this order when --truth is not given.
+TRUTH_TOPICS = ("/star_tracker/attitude", "/attitude/truth")
+ODOMETRY_TOPIC = "/orbit/odometry"
+DIAGNOSTICS_TOPIC = "/diagnostics"
+PHASE_SOURCES = ("auto", "odometry", "elements")
+
+VECTOR3_STAMPED = ("geometry_msgs/msg/Vector3Stamped",)
+QUATERNION_STAMPED = ("geometry_msgs/msg/QuaternionStamped",)
+ODOMETRY = ("nav_msgs/msg/Odometry",)
+DIAGNOSTIC_ARRAY = ("diagnostic_msgs/msg/DiagnosticArray",)
+
+#: Magic bytes of the two rosbag2 storage formats.
+_MAGIC = (b"\x89MCAP", b"SQLite format 3\x00")
+
+
+def is_recording(path: str) -> bool:
+    """True for a rosbag2 directory or an MCAP/sqlite3 file (by name or by its first bytes)."""
+    candidate = Path(path)
+    if candidate.is_dir() or candidate.suffix in (".mcap", ".db3"):
+        return True
+    try:
+        with open(candidate, "rb") as stream:
+            start = stream.read(16)
+    except OSError:
+        return False
+    return any(start.startswith(magic) for magic in _MAGIC)
+
+
+def phase_from_odometry(messages, timeout_s: float):
+    """The orbital angle from /orbit/odometry: a function stamp(s) → u (rad, unwrapped; NaN where unknown).
+
+    u is the angle of the POSE position from the ascending node in the orbit
+    plane. The plane and the sense of motion come from neighbouring positions
+    (frame-free), or for a lone message from the twist as nav_msgs defines
+    it: expressed in ``child_frame_id``, whose orientation in
+    ``header.frame_id`` is the pose orientation. Stamps within ``timeout_s``
+    outside the odometry's span are extrapolated at the end rate; further
+    out, NaN. Also returns the mean inclination (deg) and altitude (km)
+    the odometry flies, and how many messages were unreadable.
+    """
+    import pmv_msgs_shim as shim
+    from ..core.monitor import orbit_angles_from_state
+
+    rows, unreadable = [], 0
+    for recorded in messages:
+        message = recorded.message
+        try:
+            stamp_s, position, velocity = shim.read_orbit_state(message)  # velocity by nav_msgs' rules
+            rows.append((stamp_s, tuple(position), tuple(velocity)))
+        except (ValueError, AttributeError):
+            unreadable += 1
+    rows.sort(key=lambda row: row[0])
+    # One message per stamp (a duplicate stamp adds nothing).
+    rows = [row for i, row in enumerate(rows) if i == 0 or row[0] > rows[i - 1][0]]
+    if not rows:
+        raise ValueError(f"no readable message on {ODOMETRY_TOPIC}")
+    stamps = np.array([row[0] for row in rows])
+    positions = np.array([row[1] for row in rows])
+    u, inclination, altitude = [], [], []
+    for i, (_, position, velocity) in enumerate(rows):
+        position, velocity = np.array(position, float), np.array(velocity, float)
+        before, after = positions[max(i - 1, 0)], positions[min(i + 1, len(rows) - 1)]
+        chord = after - before
+        ok = len(rows) > 1 and float(np.dot(before, after)) > 0.0 and np.linalg.norm(chord) > 0.0
+        motion = chord if ok else velocity
+        try:
+            u_i, inclination_i, altitude_i = orbit_angles_from_state(position, motion)
+        except ValueError:
+            raise ValueError(f"{ODOMETRY_TOPIC} at stamp {rows[i][0]:.3f} s: position and motion give no orbit "
+                             "plane") from None
+        u.append(u_i)
+        inclination.append(inclination_i)
+        altitude.append(altitude_i)
+    u = np.unwrap(np.array(u))
+    if len(rows) > 1:
+        first_rate = (u[1] - u[0]) / (stamps[1] - stamps[0])
+        last_rate = (u[-1] - u[-2]) / (stamps[-1] - stamps[-2])
+    else:
+        first_rate = last_rate = 0.0
+
+    def phase(t_s):
+        t = np.asarray(t_s, float)
+        value = np.interp(t, stamps, u)
+        value = np.where(t < stamps[0], u[0] + first_rate * (t - stamps[0]), value)
+        value = np.where(t > stamps[-1], u[-1] + last_rate * (t - stamps[-1]), value)
+        outside = (t < stamps[0] - timeout_s) | (t > stamps[-1] + timeout_s)
+        if len(rows) == 1:
+            outside |= t != stamps[0]
+        return np.where(outside, np.nan, value)
+
+    return phase, math.degrees(float(np.mean(inclination))), float(np.mean(altitude)) / 1e3, unreadable
+
+
+def _by_log_time(stream, first_topic: str):
+    """The (topic, message) stream with ``first_topic`` first among messages logged at the same time."""
+    group, group_time = [], None
+    for topic, recorded in stream:
+        if recorded.log_time_ns != group_time and group:
+            yield from sorted(group, key=lambda item: item[0] != first_topic)
+            group = []
+        group_time = recorded.log_time_ns
+        group.append((topic, recorded))
+    yield from sorted(group, key=lambda item: item[0] != first_topic)
+
+
+def analyze_recording(path: str, altitude_m: float, inclination_rad: float, *, convention: str | None = None,
+                      truth_topic: str | None = None, phase: str = "auto", u_bin_rad: float | None = None,
+                      remove_oblateness: bool = True, roll_drift_rad_per_orbit: float = 0.0,
+                      pitch_drift_rad_per_orbit: float = 0.0) -> dict:
+    """The flight-test statistics of a rosbag2 recording of /pmv/attitude with truth; the report as a dict.
+
+    The messages go, in the order they were logged, through the same
+    alignment and per-sample statistics as ``error_monitor_node``
+    (:func:`pmv_ros.core.assembly.build_monitor` with its default settings):
+    truth interpolated at each sensor stamp, never across a truth gap; the
+    oblateness model at the orbital angle of the sample. ``per_sample`` in
+    the report is what ``/pmv/error_statistics`` says at the end of a live
+    run; the rest is the flight-test procedure of physics.md §5 on the
+    aligned residuals. The recording is read twice, message by message (the
+    orbit first, then sensor and truth): memory holds plain numbers, not
+    messages. Raises ValueError (RecordingError) naming what is missing or wrong.
+    """
+    import pmv_msgs_shim as shim
+    from ..core.assembly import MONITOR_PARAMS, build_monitor
+    from ..core.parameters import preset_values
+    from ..recording import RecordingError, iter_recording, recorded_topics
+
+    truth_topics = (truth_topic,) if truth_topic else TRUTH_TOPICS
+    wanted = {SENSOR_TOPIC: VECTOR3_STAMPED, ODOMETRY_TOPIC: ODOMETRY, DIAGNOSTICS_TOPIC: DIAGNOSTIC_ARRAY}
+    wanted.update({topic: QUATERNION_STAMPED for topic in truth_topics})
+    present = recorded_topics(path, wanted)
+    if SENSOR_TOPIC not in present:
+        raise RecordingError(f"{path}: no topic {SENSOR_TOPIC} in the recording (the sensor's roll and pitch)")
+    truth_topic = next((topic for topic in truth_topics if topic in present), None)
+    if truth_topic is None:
+        raise RecordingError(f"{path}: no truth in the recording: no topic " + " or ".join(truth_topics)
+                             + ("" if len(truth_topics) == 1 else " (give --truth TOPIC)"))
+    counts = dict.fromkeys(sorted(present), 0)
+
+    monitor_values = preset_values({}, "error_monitor_node", MONITOR_PARAMS, {
+        "orbit.altitude_km": altitude_m / 1e3, "orbit.inclination_deg": math.degrees(inclination_rad),
+        "remove_oblateness": remove_oblateness})
+
+    # Pass 1: the orbit — odometry and the sensor's orbit status on /diagnostics.
+    elements_seen = []  # distinct orbit statuses, in order
+
+    def orbit_stream(topics):
+        for topic, recorded in iter_recording(path, {t: wanted[t] for t in topics}):
+            counts[topic] += 1
+            if topic == ODOMETRY_TOPIC:
+                yield recorded
+                continue
+            try:
+                found = shim.find_orbit_elements(recorded.message)
+            except (ValueError, AttributeError):
+                continue
+            if found is not None and (not elements_seen or found != elements_seen[-1]):
+                elements_seen.append(found)
+
+    use_odometry = phase in ("auto", "odometry") and ODOMETRY_TOPIC in present
+    orbit_topics = [t for t in (ODOMETRY_TOPIC, DIAGNOSTICS_TOPIC)
+                    if t in present and (t != ODOMETRY_TOPIC or use_odometry)]
+    phase_of = odometry_info = None
+    if use_odometry:
+        try:
+            phase_of, odo_inclination, odo_altitude, odo_unreadable = phase_from_odometry(
+                orbit_stream(orbit_topics), monitor_values["odometry_timeout_s"])
+            odometry_info = {"messages": counts[ODOMETRY_TOPIC], "unreadable": odo_unreadable,
+                             "inclination_deg": odo_inclination, "altitude_km": odo_altitude}
+            phase_source = ODOMETRY_TOPIC
+        except RecordingError:
+            raise
+        except ValueError as error:
+            if phase == "odometry":
+                raise RecordingError(f"{path}: {error}") from None
+    else:
+        for _ in orbit_stream(orbit_topics):
+            pass
+    elements = elements_seen[0] if elements_seen else None
+    if phase_of is None and phase in ("auto", "elements") and elements is not None:
+        phase_of, phase_source = elements.argument_of_latitude_rad, f"orbit elements on {DIAGNOSTICS_TOPIC}"
+    if phase_of is None:
+        needed = {"odometry": f"no messages on {ODOMETRY_TOPIC}",
+                  "elements": f"no orbit elements on {DIAGNOSTICS_TOPIC} (status '{shim.ORBIT_STATUS_NAME}')",
+                  "auto": f"no messages on {ODOMETRY_TOPIC} and no orbit elements on {DIAGNOSTICS_TOPIC}"}[phase]
+        raise RecordingError(f"{path}: nothing gives the orbital phase: {needed} — stamps alone do not say where "
+                             "the orbit was")
+    if convention is None:
+        convention = elements.roll_pitch_convention if elements is not None else "ros"
+
+    # Pass 2: sensor and truth in logged order (truth first within one log time, as it reached a live monitor).
+    monitor = build_monitor(monitor_values)
+    unreadable = {"sensor": 0, "truth": 0}
+    used = []  # (stamp, residual roll, residual pitch) in the wire's convention
+
+    def collect(outcomes):
+        used.extend((o.stamp_s, o.residual_roll_rad, o.residual_pitch_rad) for o in outcomes if o.ok)
+
+    stream = iter_recording(path, {truth_topic: QUATERNION_STAMPED, SENSOR_TOPIC: VECTOR3_STAMPED})
+    for topic, recorded in _by_log_time(stream, truth_topic):
+        counts[topic] += 1
+        try:
+            if topic == truth_topic:
+                stamp_s, q = shim.read_attitude_quaternion(recorded.message)
+                collect(monitor.add_truth_quaternion(stamp_s, q))
+                continue
+            stamp_s, roll, pitch = shim.read_attitude_angles(recorded.message)
+        except (ValueError, AttributeError):
+            unreadable["truth" if topic == truth_topic else "sensor"] += 1
+            continue
+        roll, pitch = convert(roll, pitch, convention, shim.WIRE_CONVENTION)
+        u_i = float(phase_of(stamp_s))
+        collect(monitor.add_sensor(stamp_s, roll, pitch, u_rad=u_i if math.isfinite(u_i) else None,
+                                   altitude_m=altitude_m, inclination_rad=inclination_rad))
+    for topic in (SENSOR_TOPIC, truth_topic):
+        if not counts[topic]:
+            raise RecordingError(f"{path}: no messages on {topic} in the recording")
+    if len(used) < 2:
+        raise RecordingError(f"{path}: {len(used)} sensor samples could be aligned with truth on {truth_topic}; "
+                             "the statistics need at least 2")
+    summary = monitor.summary()
+    stamps, roll, pitch = np.array(used).T
+    u = phase_of(stamps)
+    # Back from the wire's convention to the input's for the flight-test procedure.
+    roll, pitch = convert(roll, pitch, shim.WIRE_CONVENTION, convention)
+    report = _flight_test_report(u, roll, pitch, altitude_m, inclination_rad, convention,
+                                 u_bin_rad=math.radians(DEFAULT_TIME_LAYOUT_BIN_DEG) if u_bin_rad is None
+                                 else u_bin_rad, remove_oblateness=remove_oblateness,
+                                 roll_drift_rad_per_orbit=roll_drift_rad_per_orbit,
+                                 pitch_drift_rad_per_orbit=pitch_drift_rad_per_orbit)
+    sign = convert(1.0, 1.0, shim.WIRE_CONVENTION, convention)[0]
+    per_sample = {}
+    for channel in summary.channels:
+        s = 1.0 if channel.channel == "meridional" else sign
+        per_sample[channel.channel] = {
+            "count": channel.count, "mean_arcmin": s * _arcmin(channel.mean_rad),
+            "sigma_arcmin": _arcmin(channel.sigma_rad), "three_sigma_arcmin": _arcmin(channel.three_sigma_rad),
+            "max_abs_arcmin": _arcmin(channel.max_abs_rad)}
+    counters = {k: v for k, v in summary.counters.items() if v}
+    counters.update({f"unreadable_{k}": v for k, v in unreadable.items() if v})
+    return {
+        "file": str(path), "layout": "recording", "rows_skipped": sum(unreadable.values()),
+        "phase_source": phase_source, "truth_topic": truth_topic,
+        "recording": {"messages": counts, "odometry": odometry_info,
+                      "orbit_elements": None if elements is None else dict(vars(elements)),
+                      "orbit_element_sets": len(elements_seen)},
+        **report, "per_sample": per_sample, "counters": counters,
     }
 
 
@@ -208,7 +536,8 @@ def _format_report(report: dict) -> str:
     lines = [
         f"{report['file']}: {report['layout']} layout, {report['samples']} samples "
         f"({report['rows_skipped']} rows skipped), {report['orbits']} orbits, "
-        f"{report['orbital_angles']} orbital angles",
+        f"{report['orbital_angles']} orbital angles; orbital angle from {report['phase_source']}; "
+        f"{report['convention']} sign convention",
         f"H = {report['altitude_km']:g} km, i = {report['inclination_deg']:g}°, T = {report['period_s']:.0f} s; "
         + ("oblateness model removed (published closed form)" if report["oblateness_removed"]
            else "oblateness kept"),
@@ -234,22 +563,34 @@ def _format_report(report: dict) -> str:
     lines.append("harmonic amplitudes: mean over complete orbits, after offset"
                  + (" and oblateness removal" if report["oblateness_removed"] else " removal")
                  + "; — where the sampling cannot resolve them")
+    if "per_sample" in report:
+        lines += ["", f"per sample, as /pmv/error_statistics (truth from {report['truth_topic']}, offsets kept):"]
+        lines.append(format_table(
+            [{"channel": name, **detail} for name, detail in report["per_sample"].items()],
+            [("channel", "channel", ""), ("count", "N", "d"), ("mean_arcmin", "mean, ′", "+.2f"),
+             ("sigma_arcmin", "σ, ′", ".2f"), ("max_abs_arcmin", "max |e|, ′", ".2f")]))
     return "\n".join(lines)
 
 
 def run(args) -> int:
     """Analyse the file and print the report (or JSON)."""
-    telemetry = read_telemetry(args.file)
-    try:
-        report = analyze_telemetry(
-            telemetry, args.altitude_km * 1e3, math.radians(args.inclination_deg),
-            u0_rad=math.radians(args.u0_deg),
-            u_bin_rad=None if args.u_bin_deg is None else math.radians(args.u_bin_deg),
-            remove_oblateness=not args.keep_oblateness,
-            roll_drift_rad_per_orbit=args.roll_drift_arcmin_per_orbit * ARCMIN_RAD,
-            pitch_drift_rad_per_orbit=args.pitch_drift_arcmin_per_orbit * ARCMIN_RAD)
-    except ValueError as error:
-        raise ValueError(f"{args.file}: {error}") from None
+    options = dict(u_bin_rad=None if args.u_bin_deg is None else math.radians(args.u_bin_deg),
+                   remove_oblateness=not args.keep_oblateness,
+                   roll_drift_rad_per_orbit=args.roll_drift_arcmin_per_orbit * ARCMIN_RAD,
+                   pitch_drift_rad_per_orbit=args.pitch_drift_arcmin_per_orbit * ARCMIN_RAD)
+    if is_recording(args.file):
+        # Errors of a recording name the file themselves.
+        report = analyze_recording(args.file, args.altitude_km * 1e3, math.radians(args.inclination_deg),
+                                   convention=args.convention, truth_topic=args.truth, phase=args.phase, **options)
+    else:
+        telemetry = read_telemetry(args.file)
+        try:
+            report = analyze_telemetry(
+                telemetry, args.altitude_km * 1e3, math.radians(args.inclination_deg),
+                u0_rad=None if args.u0_deg is None else math.radians(args.u0_deg),
+                convention=args.convention or PAPER, **options)
+        except ValueError as error:
+            raise ValueError(f"{args.file}: {error}") from None
     if args.json:
         print_json(report)
     else:

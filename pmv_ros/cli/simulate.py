@@ -39,6 +39,8 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--epoch", default=None, metavar="ISO8601",
                         help="UTC start of the run, e.g. 2016-11-11T00:00:00Z (default: the preset's sim.epoch_utc)")
     parser.add_argument("--report", default=None, help="write statistics.json and PNG plots into this folder")
+    parser.add_argument("--record", default=None, metavar="FILE.mcap",
+                        help="record every topic of the run into a new rosbag2 MCAP file (logged at simulation time)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     add_json_flag(parser)
     parser.set_defaults(func=run)
@@ -90,12 +92,12 @@ def run(args) -> int:
         parse_epoch(args.epoch)  # a bad date: one line, exit 2, before any node starts
         overrides["sim.epoch_utc"] = args.epoch
     try:
-        pipeline = Pipeline(args.config, overrides)
+        pipeline = Pipeline(args.config, overrides, record=args.record)
     except ParameterError as error:
         raise ValueError(f"{args.config}: {error}") from None
     started = time.perf_counter()
     with pipeline:
-        orbit = pipeline.sensor._orbit
+        orbit = pipeline.sensor.orbit
         rate = pipeline.sensor.get_parameter("sensor.rate_hz").value
         ticks = max(1, round(args.orbits * orbit.period_s * rate))
         bar = tqdm(total=ticks, unit="tick", file=sys.stderr, disable=args.quiet, dynamic_ncols=True,
@@ -123,6 +125,9 @@ def run(args) -> int:
             "seed": pipeline.sensor.get_parameter("seed").value,
             "epoch_utc": pipeline.sensor.get_parameter("sim.epoch_utc").value,
         })
+        if pipeline.recording is not None:
+            pipeline.recording.close()
+            result["recording"] = {"file": str(pipeline.recording.path), "messages": dict(pipeline.recording.counts)}
         if args.report:
             live = {name: {int(k): v for k, v in c["harmonics_arcmin"].items()}
                     for name, c in result["channels"].items()}
@@ -141,4 +146,7 @@ def run(args) -> int:
           + (", ".join(f"{k} {v}" for k, v in skipped.items()) or "none"))
     if args.report:
         print("report: " + ", ".join(result["report_files"]))
+    if "recording" in result:
+        counts = result["recording"]["messages"]
+        print(f"recording: {result['recording']['file']}, {sum(counts.values())} messages on {len(counts)} topics")
     return 0

@@ -23,13 +23,16 @@ from .star_tracker import StarTracker, StarTrackerParameters
 
 #: Parameters of sensor_node (units in the names; YAML speaks km, deg, arcmin).
 SENSOR_PARAMS = (
-    ParamSpec("orbit.altitude_km", 500.0, "circular orbit altitude above the 6371 km mean radius", 150.0, 40000.0, unit="km"),
-    ParamSpec("orbit.inclination_deg", 74.5, "orbit inclination", 0.0, 180.0, unit="deg"),
-    ParamSpec("orbit.raan_deg", 0.0, "right ascension of the ascending node at epoch", -360.0, 360.0, unit="deg"),
-    ParamSpec("orbit.u0_deg", 0.0, "argument of latitude at the start of the run", -360.0, 360.0, unit="deg"),
-    ParamSpec("orbit.j2_node_drift", False, "apply the secular J2 drift of the node"),
+    ParamSpec("orbit.altitude_km", 500.0, "circular orbit altitude above the 6371 km mean radius", 150.0, 40000.0,
+              unit="km", read_only=True),
+    ParamSpec("orbit.inclination_deg", 74.5, "orbit inclination", 0.0, 180.0, unit="deg", read_only=True),
+    ParamSpec("orbit.raan_deg", 0.0, "right ascension of the ascending node at epoch", -360.0, 360.0, unit="deg",
+              read_only=True),
+    ParamSpec("orbit.u0_deg", 0.0, "argument of latitude at the start of the run", -360.0, 360.0, unit="deg",
+              read_only=True),
+    ParamSpec("orbit.j2_node_drift", False, "apply the secular J2 drift of the node", read_only=True),
     ParamSpec("attitude.source", "profile", "profile: own attitude model published on /attitude/truth; "
-              "follow: take the attitude from /attitude/truth", choices=("profile", "follow")),
+              "follow: take the attitude from /attitude/truth", choices=("profile", "follow"), read_only=True),
     ParamSpec("attitude.roll_offset_arcmin", 0.0, "constant roll of the body", -2700.0, 2700.0, unit="arcmin"),
     ParamSpec("attitude.pitch_offset_arcmin", 0.0, "constant pitch of the body", -2700.0, 2700.0, unit="arcmin"),
     ParamSpec("attitude.yaw_offset_arcmin", 0.0, "constant yaw of the body", -2700.0, 2700.0, unit="arcmin"),
@@ -40,16 +43,20 @@ SENSOR_PARAMS = (
               unit="arcmin/h"),
     ParamSpec("attitude.pitch_drift_arcmin_per_h", 0.0, "linear drift of the body pitch with time", -600.0, 600.0,
               unit="arcmin/h"),
-    ParamSpec("attitude.follow_timeout_s", 1.0, "in follow mode, truth older than this is stale", 0.01, 3600.0, unit="s"),
+    ParamSpec("attitude.extrapolation_periods", 2.0, "in follow mode, how far past the newest truth the last body "
+              "rate is carried, in truth periods; later the truth is stale and no angles are published", 0.0, 10.0),
+    ParamSpec("attitude.follow_timeout_s", 1.0, "in follow mode, no interpolation across a truth gap longer than this "
+              "and no extrapolation further; also the tolerance of future stamps", 0.01, 3600.0, unit="s"),
     ParamSpec("sensor.rate_hz", 10.0, "output rate of the sensor", 0.1, 100.0, unit="Hz"),
-    ParamSpec("sensor.earth_model", "GRS80", "Earth figure for the horizon geometry", choices=("GRS80", "sphere")),
+    ParamSpec("sensor.earth_model", "GRS80", "Earth figure for the horizon geometry", choices=("GRS80", "sphere"),
+              read_only=True),
     ParamSpec("sensor.detector", "chain", "chain: the signal chain of physics.md §4; ideal: the geometric horizon "
               "of the emitting layer (geometry-only studies)", choices=("chain", "ideal")),
     ParamSpec("sensor.correction", "calibrated", "brightness-correction table: calibrated (the rig table), "
               "meteor_m2_2 (the over-correcting curve inferred for Meteor-M No.2-2), none, "
               "or the path of a CSV file del_arcmin,pop_arcmin",
               constraints="calibrated, meteor_m2_2, none, or the path of a readable CSV file with columns "
-                          "del_arcmin,pop_arcmin"),
+                          "del_arcmin,pop_arcmin", read_only=True),
     ParamSpec("sensor.scan_margin_deg", 3.0, "scan start beyond the CO2 top + half IFOV (covers oblateness and "
               "attitude excursions)", 0.0, 20.0, unit="deg"),
     ParamSpec("sensor.bright_body_exclusion_deg", 3.0, "a chord is invalid while the Sun or the Moon is within this "
@@ -80,25 +87,26 @@ SENSOR_PARAMS = (
               unit="h"),
     ParamSpec("sim.epoch_utc", "2024-01-15T00:00:00Z", "UTC date and time at the start of the run (simulation "
               "time 0 in fast time): sets the season, the Earth's rotation and where the Sun and Moon are",
-              constraints="an ISO 8601 date-time such as 2024-01-15T00:00:00Z, 1900 … 2100"),
+              constraints="an ISO 8601 date-time such as 2024-01-15T00:00:00Z, 1900 … 2100", read_only=True),
     ParamSpec("sim.flight_record", "", "the flight record this preset reproduces: pmv simulate --report draws its "
               "published points on spectrum.png (pmv_ros/data/flight_records.json); empty: none",
-              choices=("", "meteor_m2_121163", "meteor_m2_2_229")),
+              choices=("", "meteor_m2_121163", "meteor_m2_2_229"), read_only=True),
     ParamSpec("sensor.oblateness_compensation", False, "subtract the closed-form oblateness model on board"),
-    ParamSpec("sim.fast_time", False, "run on an own simulation clock as fast as allowed and publish /clock"),
+    ParamSpec("sim.fast_time", False, "run on an own simulation clock as fast as allowed and publish /clock",
+              read_only=True),
     ParamSpec("sim.time_scale", 0.0, "fast time: multiple of real time (0 = as fast as the pipeline allows)",
               0.0, 1e6),
     ParamSpec("sim.start_time_s", 0.0, "fast time: simulation time at start (message stamps end at 2^31 s)",
-              0.0, 2.0e9, unit="s"),
+              0.0, 2.0e9, unit="s", read_only=True),
     ParamSpec("diagnostics_period_s", 1.0, "period of /diagnostics health reports", 0.1, 3600.0, unit="s"),
-    ParamSpec("seed", 0, "seed of every random process of the sensor", 0, 2**31 - 1),
+    ParamSpec("seed", 0, "seed of every random process of the sensor", 0, 2**31 - 1, read_only=True),
 )
 
 
 #: Parameters of star_tracker_node.
 STAR_TRACKER_PARAMS = (
     ParamSpec("orbit.altitude_km", 500.0, "orbit altitude (gives the orbital rate for the rate limit)",
-              150.0, 40000.0, unit="km"),
+              150.0, 40000.0, unit="km", read_only=True),
     ParamSpec("rate_hz", 2.0, "frame rate of the star tracker", 0.01, 50.0, unit="Hz"),
     ParamSpec("latency_s", 0.25, "delay from frame time to publication", 0.0, 60.0, unit="s"),
     ParamSpec("noise_cross_arcsec", 3.0, "1-sigma noise across the boresight", 0.0, 3600.0, unit="arcsec"),
@@ -115,7 +123,7 @@ STAR_TRACKER_PARAMS = (
               "(simulation or sensor restarted); less is a backward stamp and rejected", 0.001, 3600.0, unit="s"),
     ParamSpec("future_tolerance_s", 1.0, "truth stamps later than the node clock by more than this are rejected",
               0.001, 3600.0, unit="s"),
-    ParamSpec("seed", 0, "seed of the noise and failures", 0, 2**31 - 1),
+    ParamSpec("seed", 0, "seed of the noise and failures", 0, 2**31 - 1, read_only=True),
 )
 
 
@@ -136,9 +144,9 @@ def build_tracker(values: dict, start_s: float) -> StarTracker:
 #: Parameters of error_monitor_node.
 MONITOR_PARAMS = (
     ParamSpec("orbit.altitude_km", 500.0, "nominal orbit altitude (until /orbit/odometry arrives)", 150.0, 40000.0,
-              unit="km"),
+              unit="km", read_only=True),
     ParamSpec("orbit.inclination_deg", 74.5, "nominal inclination (until /orbit/odometry arrives)", 0.0, 180.0,
-              unit="deg"),
+              unit="deg", read_only=True),
     ParamSpec("remove_oblateness", True, "report statistics with the closed-form oblateness model removed"),
     ParamSpec("sensor.oblateness_compensation", False, "the sensor already subtracts the oblateness model on "
               "board, so the monitor must not subtract it again (share it with the sensor in the /** section)"),

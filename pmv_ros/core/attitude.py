@@ -1,36 +1,30 @@
-"""Body attitude relative to the orbital frame — and THE roll/pitch sign convention.
+"""Body attitude relative to the orbital frame — and THE roll/pitch sign convention (REP-103).
 
 This is the one module that says what roll, pitch and yaw mean. The geometry,
-the signal chain, the nodes, the monitor and the CLI all go through it.
+the signal chain, the nodes, the monitor and the campaign all go through it;
+the published tables' (paper) convention exists only at the edge, through
+:func:`pmv_ros.core.conventions.convert`.
 
 Frames
     Orbital frame O: Z along the geocentric radius away from the Earth, X in
     the orbit plane towards the velocity, Y = Z × X (interfaces.md). Body
     frame B = sensor frame: boresight along −Z_B, chords along ±X_B, ±Y_B.
 
-Convention (the instrument's, and the published tables')
-    The orbital→body direction-cosine matrix of physics.md §7 is
+Convention (REP-103, tf2's roll/pitch/yaw; physics.md "Sign conventions")
+    The body's axes in the orbital frame are the columns of
 
-        A = R_Z(ψ) · R_X(φ) · R_Y(θ),   v_B = A · v_O,
+        R = R_z(yaw) · R_y(pitch) · R_x(roll),   v_O = R · v_B,
 
-    where R_k(α) is the right-hand rotation matrix about axis k (yaw ψ,
-    roll φ, pitch θ; pitch applied first). Read physically: the angles are
-    the right-hand rotations that carry the sensor's own axes onto the local
-    vertical frame *as the sensor sees it* — which is what a horizon sensor
-    measures. So, at zero yaw, a positive roll puts the local nadir on the +Y
-    side of the boresight and a positive pitch puts it on the −X side.
-
-    This is the convention of the published Kondor oblateness table
-    (physics.md §2.1): with it, the ray geometry on GRS80 reproduces the
-    table's signs (pitch +, roll − in the first quarter orbit), and a body
-    roll of +1° is read by the sensor as +1°. Note that it is the opposite
-    of "rotate the body right-handedly about +X_O / +Y_O": a user stack with
-    that habit must negate roll and pitch (the quaternion itself is
-    unambiguous).
+    R_k(α) the right-hand rotation about axis k. A body turned by +1° about
+    the orbital +X reads roll = +1°, about +Y pitch = +1°. The local nadir in
+    the body frame is Rᵀ·(0, 0, −1) = (sin θ, −sin φ cos θ, −cos φ cos θ)
+    whatever the yaw, so a horizon sensor reads roll and pitch exactly
+    (:func:`roll_pitch_from_nadir`), and yaw not at all. The published tables
+    (the Kondor oblateness table, flight telemetry) have both signs reversed.
 
 Quaternions
     ``q_orbital_to_body`` is the orientation of B in O: its rotation matrix is
-    Aᵀ, mapping body-frame vectors to orbital-frame components (the ROS
+    R, mapping body-frame vectors to orbital-frame components (the ROS
     convention for a child frame in its parent). Stored (x, y, z, w), the
     field order of ``geometry_msgs/Quaternion``. Arrays are ``(4,)`` or
     ``(4, N)``.
@@ -58,19 +52,19 @@ def quaternion_from_roll_pitch_yaw(roll_rad, pitch_rad, yaw_rad=0.0):
     Scalars give ``(4,)``; arrays of N give ``(4, N)``.
     """
     roll, pitch, yaw = np.broadcast_arrays(*(np.asarray(a, float) for a in (roll_rad, pitch_rad, yaw_rad)))
-    # Aᵀ = R_Y(θ)ᵀ R_X(φ)ᵀ R_Z(ψ)ᵀ = R_Y(−θ) R_X(−φ) R_Z(−ψ): intrinsic Y-X-Z.
-    angles = np.stack([-pitch, -roll, -yaw], axis=-1)
-    return Rotation.from_euler("YXZ", angles).as_quat().T
+    # R = R_z(ψ) R_y(θ) R_x(φ): scipy's intrinsic Z-Y-X.
+    angles = np.stack([yaw, pitch, roll], axis=-1)
+    return Rotation.from_euler("ZYX", angles).as_quat().T
 
 
 def roll_pitch_yaw_from_quaternion(q_orbital_to_body):
     """Inverse of :func:`quaternion_from_roll_pitch_yaw`: (roll, pitch, yaw), rad."""
-    pitch, roll, yaw = (-_rotation(q_orbital_to_body).as_euler("YXZ")).T
+    yaw, pitch, roll = _rotation(q_orbital_to_body).as_euler("ZYX").T
     return roll, pitch, yaw
 
 
 def body_axes_in_orbital(q_orbital_to_body):
-    """Rotation matrix Aᵀ (columns = body X, Y, Z in orbital components), ``(3, 3[, N])``."""
+    """Rotation matrix R (columns = body X, Y, Z in orbital components), ``(3, 3[, N])``."""
     matrices = _rotation(q_orbital_to_body).as_matrix()
     return np.moveaxis(matrices, 0, -1) if matrices.ndim == 3 else matrices
 
@@ -81,18 +75,17 @@ def nadir_in_body(q_orbital_to_body):
 
 
 def roll_pitch_from_nadir(nadir_sensor):
-    """Roll and pitch, rad, that a horizon sensor reads from the nadir direction in its frame.
+    """Roll and pitch (REP-103), rad, that a horizon sensor reads from the nadir direction in its frame.
 
-    The inverse of the convention at zero yaw: A·(0, 0, −1) =
-    (−sin θ, cos θ sin φ, −cos θ cos φ). Yaw is not observable; a yawed body
-    mixes roll into pitch exactly as the real sensor would.
+    The inverse of Rᵀ·(0, 0, −1) = (sin θ, −sin φ cos θ, −cos φ cos θ),
+    exact for any yaw (which the nadir does not show).
 
     Args:
         nadir_sensor: ``(3[, ...])`` nadir direction in the sensor frame (any length).
     """
     n = np.asarray(nadir_sensor, float)
-    roll = np.arctan2(n[1], -n[2])
-    pitch = np.arctan2(-n[0], np.hypot(n[1], n[2]))
+    roll = np.arctan2(-n[1], -n[2])
+    pitch = np.arctan2(n[0], np.hypot(n[1], n[2]))
     return roll, pitch
 
 
@@ -108,9 +101,9 @@ def true_roll_pitch(q_orbital_to_body):
         if not (math.isfinite(norm) and norm > 0.0):
             raise ValueError(f"quaternion {q.tolist()} has no direction (zero or non-finite norm)")
         x, y, z, w = (float(c) for c in q / norm)
-        # Nadir in the body frame: −(third row of the body-axes matrix Aᵀ).
+        # Nadir in the body frame: −(third row of the body-axes matrix R).
         n0, n1, n2 = -2.0 * (x * z - w * y), -2.0 * (y * z + w * x), -(1.0 - 2.0 * (x * x + y * y))
-        return math.atan2(n1, -n2), math.atan2(-n0, math.hypot(n1, n2))
+        return math.atan2(-n1, -n2), math.atan2(n0, math.hypot(n1, n2))
     return roll_pitch_from_nadir(nadir_in_body(q))
 
 
@@ -176,3 +169,21 @@ def rotation_vector_from_quaternion(q):
     scale = np.where(small, 2.0 + angle ** 2 / 12.0 + 7.0 * angle ** 4 / 2880.0,
                      angle / np.sin(0.5 * np.where(small, 1.0, angle)))
     return q[:3] * scale
+
+
+def slerp(t0_s: float, q0, t1_s: float, q1, times_s):
+    """Attitudes at ``times_s`` on the constant-rate turn from (t0, q0) to (t1, q1), and that turn's rate.
+
+    The turn is taken in the orbital frame (q(t) = exp(ω (t − t0)) ⊗ q0), which
+    is spherical linear interpolation. Plain floats: ``q0``, ``q1`` are
+    (x, y, z, w) tuples of unit quaternions, ``times_s`` a list of floats.
+
+    Returns:
+        (list of (x, y, z, w) tuples, rate (3-tuple, rad/s, orbital components)).
+    """
+    dt = t1_s - t0_s
+    turn = rotation_vector_from_quaternion(quaternion_product(q1, quaternion_conjugate(q0)))
+    rate = tuple(w / dt for w in turn)
+    frames = [quaternion_product(quaternion_from_rotation_vector(tuple((t - t0_s) * w for w in rate)), q0)
+              for t in times_s]
+    return frames, rate

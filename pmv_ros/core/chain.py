@@ -803,7 +803,7 @@ def sense_horizon_chords(horizon_nadir_rad, tangent_height_rate_m, disc_radiance
     # Neutral stand-ins keep the arithmetic quiet on invalid chords; their results are discarded.
     phi0[~valid], slope[~valid], radius[~valid], b_m[~valid] = 1.0, 2.5e6, EARTH_MEAN_RADIUS_M, 1.0
     gradient[~valid], jump[~valid], jump_d[~valid], h_w[~valid] = 0.0, 0.0, math.inf, 40e3
-    b_a[~valid], h_co2[~valid] = 0.3, 60e3
+    b_a[~valid], h_co2[~valid] = CO2_RADIANCE_RU, CO2_TOP_HEIGHT_M
 
     h_top = np.maximum(h_co2, h_w)
     phi_top = chord_nadir_of_height(h_top, phi0, slope, radius)

@@ -45,7 +45,7 @@ from scipy.special import eval_legendre, gammaln, ndtr, ndtri
 
 from .constants import EARTH_MEAN_RADIUS_M
 from .orbit import check_range
-from .radiance import MAX_EARTH_RADIANCE_RU, MIN_EARTH_RADIANCE_RU
+from .radiance import CO2_TOP_HEIGHT_M, MAX_EARTH_RADIANCE_RU, MIN_EARTH_RADIANCE_RU
 
 #: Half-width of the uniform window-layer height spread, m: σ_h = 10 km (physics.md §3.2 item 4) → √3·σ_h.
 WINDOW_HALF_RANGE_M = math.sqrt(3.0) * 10e3
@@ -767,7 +767,7 @@ class EnvironmentParameters:
     window_height_mean_m: float = 40e3
     window_height_half_range_m: float = WINDOW_HALF_RANGE_M
     height_correlation_radius_m: float | None = None
-    co2_height_m: float = 60e3
+    co2_height_m: float = CO2_TOP_HEIGHT_M
     co2_height_half_range_m: float = 0.0
     seed: int = 0
 

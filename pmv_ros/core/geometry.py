@@ -153,10 +153,10 @@ def roll_pitch_from_horizon_angles(horizon_nadir_rad):
     phi = np.asarray(horizon_nadir_rad, float)
     tilt_x = 0.5 * (phi[0] - phi[2])
     tilt_y = 0.5 * (phi[1] - phi[3])
-    # With n ∝ (tan δx, tan δy, −1): roll = atan2(n_y, −n_z) = δy and
-    # pitch = atan2(−n_x, |(n_y, n_z)|) = atan(−tan δx · cos δy).
-    roll = tilt_y
-    pitch = np.arctan(-np.tan(tilt_x) * np.cos(np.where(np.isfinite(tilt_y), tilt_y, 0.0)))
+    # With n ∝ (tan δx, tan δy, −1): roll = atan2(−n_y, −n_z) = −δy and
+    # pitch = atan2(n_x, |(n_y, n_z)|) = atan(tan δx · cos δy) (REP-103, pmv_ros.core.attitude).
+    roll = -tilt_y
+    pitch = np.arctan(np.tan(tilt_x) * np.cos(np.where(np.isfinite(tilt_y), tilt_y, 0.0)))
     return roll, pitch
 
 def sphere_tangent_height(nadir_angle_rad, orbit_radius_m, earth_radius_m):

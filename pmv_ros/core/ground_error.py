@@ -2,7 +2,7 @@
 
 The chain of the geolocation paper: the line of sight of a pixel, given in
 the body frame, is turned into the orbital frame by the attitude
-(A = R_Z(ψ)·R_X(φ)·R_Y(θ), the convention of :mod:`pmv_ros.core.attitude`),
+(R = R_z(ψ)·R_y(θ)·R_x(φ), REP-103, the convention of :mod:`pmv_ros.core.attitude`),
 intersected with the sphere R + h₁ (the root on the visible side), and the
 ground point with and without the attitude error compared along and across
 the track: P_X = ρ·[asin(X′/ρ) − asin(X/ρ)], likewise P_Y, and the circular
@@ -12,8 +12,8 @@ Coordinates are Earth-centred with the axes of the orbital frame at the
 imaging instant: X along the track, Y across it (orbit normal), Z up to the
 spacecraft. The Greenwich step of the paper (node, inclination, u) only
 renames the point and is not needed for the error. Signs follow the attitude
-convention: a positive pitch displaces the ground point forward (+X), a
-positive roll to −Y.
+convention: a positive pitch (right-hand about +Y) turns the boresight back,
+the ground point to −X; a positive roll (right-hand about +X) to +Y.
 """
 
 from __future__ import annotations
@@ -100,7 +100,7 @@ def ground_error(roll_rad, pitch_rad, altitude_m, yaw_rad=0.0, *, look_along_rad
         raise ValueError(f"altitude must be positive, got {altitude.min()} m")
     radius = EARTH_MEAN_RADIUS_M + height
     sight_body = line_of_sight_body(along, across)
-    # Aᵀ maps body components to orbital ones; for zero attitude error the line of sight is unchanged.
+    # R maps body components to orbital ones; for zero attitude error the line of sight is unchanged.
     rotation = body_axes_in_orbital(quaternion_from_roll_pitch_yaw(roll, pitch, yaw))
     sight_with_error = np.einsum("ijn,jn->in", rotation.reshape(3, 3, -1), sight_body)
     nominal = intersect_sphere(sight_body, altitude, radius)
@@ -117,10 +117,11 @@ def ground_error(roll_rad, pitch_rad, altitude_m, yaw_rad=0.0, *, look_along_rad
 def nadir_ground_error(roll_rad, pitch_rad, altitude_m, target_height_m=0.0) -> GroundError:
     """:func:`ground_error` for the boresight pixel (nadir imager), in closed form — cheap enough per sample.
 
-    At zero look angle the boresight −Z_B in the orbital frame is
-    Aᵀ·(0, 0, −1) = (cos φ sin θ, −sin φ, −cos φ cos θ) for the convention of
-    :mod:`pmv_ros.core.attitude` (yaw drops out); the rest is the same sphere
-    intersection and P_X, P_Y of physics.md §7. Scalars give floats.
+    At zero look angle and zero yaw the boresight −Z_B in the orbital frame is
+    R·(0, 0, −1) = (−cos φ sin θ, sin φ, −cos φ cos θ) (REP-103,
+    :mod:`pmv_ros.core.attitude`; a yaw would only turn this tilt about the
+    vertical — the residuals the monitor passes have none); the rest is the
+    same sphere intersection and P_X, P_Y of physics.md §7. Scalars give floats.
 
     Args:
         roll_rad, pitch_rad: attitude error, rad.
@@ -143,8 +144,8 @@ def nadir_ground_error(roll_rad, pitch_rad, altitude_m, target_height_m=0.0) -> 
     with np.errstate(invalid="ignore"):
         distance = -half_b - np.sqrt(discriminant)
         distance = np.where((discriminant >= 0.0) & (distance > 0.0), distance, np.nan)
-        along_track = radius * np.arcsin(distance * cos_roll * np.sin(pitch) / radius)
-        cross_track = radius * np.arcsin(-distance * np.sin(roll) / radius)
+        along_track = radius * np.arcsin(-distance * cos_roll * np.sin(pitch) / radius)
+        cross_track = radius * np.arcsin(distance * np.sin(roll) / radius)
     circular = np.hypot(along_track, cross_track)
     if along_track.ndim == 0:
         return GroundError(float(along_track), float(cross_track), float(circular))
@@ -165,8 +166,8 @@ def _nadir_ground_error_scalar(roll: float, pitch: float, altitude: float, targe
     distance = -half_b - math.sqrt(discriminant) if discriminant >= 0.0 else math.nan
     if not distance > 0.0:
         return GroundError(math.nan, math.nan, math.nan)
-    along_sine = distance * cos_roll * math.sin(pitch) / radius
-    cross_sine = -distance * math.sin(roll) / radius
+    along_sine = -distance * cos_roll * math.sin(pitch) / radius
+    cross_sine = distance * math.sin(roll) / radius
     along = radius * math.asin(along_sine) if abs(along_sine) <= 1.0 else math.nan
     cross = radius * math.asin(cross_sine) if abs(cross_sine) <= 1.0 else math.nan
     return GroundError(along, cross, math.hypot(along, cross))

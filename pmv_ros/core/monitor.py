@@ -50,7 +50,7 @@ from __future__ import annotations
 import bisect
 import math
 from collections import deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from enum import Enum
 
 import numpy as np
@@ -61,6 +61,7 @@ from .ground_error import nadir_ground_error
 from .oblateness import closed_form_oblateness
 from .orbit import CircularOrbit
 from .statistics import (
+    ChannelStatistics,
     DEFAULT_MAX_CONDITION,
     DEFAULT_MAX_GAP_FRACTION,
     ORBIT_HARMONICS,
@@ -224,29 +225,12 @@ class Outcome:
 
 
 @dataclass(frozen=True)
-class ChannelSummary:
-    """Live statistics of one channel, rad (ground error in m). Field names match the shim's ChannelStatistics."""
+class ChannelSummary(ChannelStatistics):
+    """Live statistics of one channel, rad, and the residual as a ground error, m (physics.md §7)."""
 
-    channel: str
-    count: int
-    mean_rad: float
-    sigma_rad: float
-    three_sigma_rad: float
-    max_abs_rad: float
-    harmonics_rad: dict = field(default_factory=dict)
     ground_mean_m: float = math.nan
     ground_sigma_m: float = math.nan
     ground_max_abs_m: float = math.nan
-
-    @property
-    def limit_low_rad(self) -> float:
-        """mean − 3σ."""
-        return self.mean_rad - self.three_sigma_rad
-
-    @property
-    def limit_high_rad(self) -> float:
-        """mean + 3σ."""
-        return self.mean_rad + self.three_sigma_rad
 
 
 @dataclass(frozen=True)
@@ -690,6 +674,6 @@ class ErrorMonitor:
             angle = self._sets[removed].angles[index]
             ground = self._sets[removed].ground[index]
             harmonics = {int(k): float(a) for k, a in zip(self.config.harmonics, amplitudes[:, first_column + index])}
-            channels.append(ChannelSummary(name, angle.count, angle.mean, angle.sigma, angle.three_sigma,
-                                           angle.max_abs, harmonics, ground.mean, ground.sigma, ground.max_abs))
+            channels.append(ChannelSummary(name, angle.count, angle.mean, angle.sigma, angle.max_abs, harmonics,
+                                           ground.mean, ground.sigma, ground.max_abs))
         return MonitorSummary(removed, tuple(channels), self.counters, self._ring.full_orbit)

@@ -6,7 +6,9 @@ opposite chords — which on an ellipsoid differs from the geocentric vertical
 the ellipsoid for any orbit position and attitude; :func:`oblateness_error`
 is that reading at zero attitude. :func:`closed_form_oblateness` is the
 published approximation, used for on-board compensation and as a cross-check.
-Signs follow :mod:`pmv_ros.core.attitude` (the published convention).
+Signs follow :mod:`pmv_ros.core.attitude` (REP-103); the published table's
+(paper) signs are the opposite for roll and pitch — convert with
+:func:`pmv_ros.core.conventions.convert` where the table is read or printed.
 """
 
 from __future__ import annotations
@@ -82,8 +84,10 @@ def closed_form_oblateness(u_rad, altitude_m, inclination_rad, ellipsoid: Ellips
     * B is taken with ``arctan2(cos i, sin i cos u)`` so that it runs through
       the whole orbit (for u in 90…270° the along-track component changes
       sign, which the single-argument atan of the text would lose);
-    * the published table has roll = −(Δβ)m·sin B (the text writes +); the
-      table's sign is the one the ray geometry confirms, and it is used here.
+    * the published table has roll = −(Δβ)m·sin B (the text writes +) and
+      pitch = (Δβ)m·cos B; the table's signs are the ones the ray geometry
+      confirms. In REP-103, which this function returns, both are reversed:
+      roll = (Δβ)m·sin B, pitch = −(Δβ)m·cos B (physics.md "Sign conventions").
 
     Args:
         u_rad: argument of latitude, rad (array-like).
@@ -93,7 +97,8 @@ def closed_form_oblateness(u_rad, altitude_m, inclination_rad, ellipsoid: Ellips
         mean_radius_m: R of the method, m.
 
     Returns:
-        (meridional_rad, roll_rad, pitch_rad) shaped like ``u_rad``.
+        (meridional_rad, roll_rad, pitch_rad) shaped like ``u_rad``: (Δβ)m as the
+        paper defines it, roll and pitch in REP-103.
     """
     if all(type(value) is float for value in (u_rad, altitude_m, inclination_rad)):
         if not (math.isfinite(u_rad) and math.isfinite(inclination_rad) and 0.0 < altitude_m < math.inf):
@@ -109,7 +114,7 @@ def closed_form_oblateness(u_rad, altitude_m, inclination_rad, ellipsoid: Ellips
     slant = np.sqrt(h * (2.0 * r + h))
     meridional = 0.5 * (np.arctan((r1 - r) / slant) - np.arctan((r2 - r) / slant))
     b_angle = np.arctan2(np.cos(inclination_rad), np.sin(inclination_rad) * np.cos(u))
-    return meridional, -meridional * np.sin(b_angle), meridional * np.cos(b_angle)
+    return meridional, meridional * np.sin(b_angle), -meridional * np.cos(b_angle)
 
 
 def _closed_form_oblateness_scalar(u: float, h: float, inclination: float, ellipsoid: Ellipsoid,
@@ -123,4 +128,4 @@ def _closed_form_oblateness_scalar(u: float, h: float, inclination: float, ellip
               for lat in (subsatellite_lat - offset, subsatellite_lat + offset))
     meridional = 0.5 * (math.atan((r1 - r) / slant) - math.atan((r2 - r) / slant))
     b_angle = math.atan2(math.cos(inclination), math.sin(inclination) * math.cos(u))
-    return meridional, -meridional * math.sin(b_angle), meridional * math.cos(b_angle)
+    return meridional, meridional * math.sin(b_angle), -meridional * math.cos(b_angle)

@@ -85,6 +85,11 @@ class ParamSpec:
         return value, (f"{self.name} = {value!r} is {_kind_of_value(value)}, but it must be {self.kind}"
                        + ("" if allowed == self.kind else f" ({allowed})"))
 
+    def read_only_reason(self) -> str:
+        """Why a run-time update of this read-only parameter is refused (a reason for people)."""
+        return (f"{self.name} is read-only while the node runs: it defines the simulated world (orbit, epoch, "
+                "seeds, correction table, Earth model, clock and attitude source); restart the node to change it")
+
     def check(self, value) -> str | None:
         """Why ``value`` (of the right type) is not allowed (None if it is). Covers what rclpy's ranges do not."""
         if self.choices is not None and value not in self.choices:

@@ -41,9 +41,7 @@ from .ephemeris import Epoch, bright_body_in_chords
 from .geometry import CHORD_AZIMUTHS_RAD, chord_line_of_sight, roll_pitch_from_horizon_angles, tangent_nadir_angles
 from .oblateness import closed_form_oblateness, sensor_axes_eci
 from .orbit import CircularOrbit, eci_to_ecef, geocentric_latitude_longitude
-
-#: Height of the top of the CO₂ layer, m (physics.md §3: ≈ 60 km).
-CO2_LAYER_TOP_M = 60e3
+from .radiance import CO2_TOP_HEIGHT_M
 
 #: Bodies that blind a chord, in the order of :attr:`SensorReading.blinding_body`.
 BRIGHT_BODIES = ("sun", "moon")
@@ -146,7 +144,7 @@ def nominal_scan_start_nadir_rad(altitude_m: float, scan_margin_rad: float = DEF
     if not (0.0 <= scan_margin_rad <= np.radians(20.0)):
         raise ValueError(f"scan_margin_rad = {scan_margin_rad} is outside the allowed range 0 … 0.349 rad")
     phi0, slope = chain.sphere_chord(altitude_m)
-    return float(chain.scan_start_nadir_angle(phi0, slope, CO2_LAYER_TOP_M, params)) + scan_margin_rad
+    return float(chain.scan_start_nadir_angle(phi0, slope, CO2_TOP_HEIGHT_M, params)) + scan_margin_rad
 
 
 #: How the chain's per-chord codes map onto the sensor's chord status.
@@ -334,7 +332,7 @@ class ChainDetector:
     def __call__(self, t_s, horizon_nadir_rad, co2_top_nadir_rad, position_m, sensor_axes):
         """Corrected and uncorrected crossing nadir angles and statuses, each ``(4, N)``."""
         shape = horizon_nadir_rad.shape
-        slope = chain.tangent_height_rate_from_layer(horizon_nadir_rad, co2_top_nadir_rad, CO2_LAYER_TOP_M)
+        slope = chain.tangent_height_rate_from_layer(horizon_nadir_rad, co2_top_nadir_rad, CO2_TOP_HEIGHT_M)
         disc, samples, window = self._chord_radiance(t_s, position_m, sensor_axes)
         readings = chain.sense_horizon_chords(
             horizon_nadir_rad.ravel(), slope.ravel(), disc.ravel(), scan_start_nadir_rad=self.scan_start_rad,
@@ -425,7 +423,7 @@ class SensorModel:
             corrected, uncorrected, status = self._ideal_detection(position, axes)
         else:
             horizon = tangent_nadir_angles(position, axes, self.config.ellipsoid, 0.0)
-            co2_top = tangent_nadir_angles(position, axes, self.config.ellipsoid, CO2_LAYER_TOP_M)
+            co2_top = tangent_nadir_angles(position, axes, self.config.ellipsoid, CO2_TOP_HEIGHT_M)
             corrected, uncorrected, status = self.detector(t, horizon, co2_top, position, axes)
             status = np.where(np.isfinite(horizon), status, ChordStatus.NO_HORIZON).astype(np.int8)
         blinding = np.full(status.shape, -1, np.int8)

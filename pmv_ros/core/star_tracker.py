@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .attitude import quaternion_from_rotation_vector, quaternion_product
+from .attitude import quaternion_from_rotation_vector, quaternion_product, slerp
 from .constants import ARCSEC_RAD
 
 
@@ -189,3 +189,46 @@ def inertial_rate_of_nadir_pointing(mean_motion_rad_s: float, relative_rate_rad_
     # dZ/dt = n·X = ω × Z with ω = n·Y (Y = Z × X, the orbit normal).
     w[1] = w[1] + mean_motion_rad_s
     return np.linalg.norm(w, axis=0)
+
+
+class FrameGrid:
+    """Star-tracker frame times on a regular grid, and the true attitude at each, from a stream of truth.
+
+    Frames fall at multiples of ``period_s``; each frame between two truth
+    samples gets the slerped attitude of the turn between them. A truth gap
+    longer than ``max_gap_s`` (or the first sample, or :meth:`restart`)
+    restarts the grid at the next sample: nothing is interpolated across a gap.
+    """
+
+    def __init__(self, period_s: float, max_gap_s: float):
+        self.period_s = float(period_s)
+        self.max_gap_s = float(max_gap_s)
+        self.previous = None  # (stamp_s, (x, y, z, w)) of the last truth sample
+        self._next_frame_s = None
+
+    def restart(self) -> None:
+        """Forget the timeline (a clock jump): the next truth sample starts the grid again."""
+        self.previous = None
+        self._next_frame_s = None
+
+    def add(self, t_s: float, q_xyzw) -> tuple[list, list, tuple]:
+        """Take one truth sample (stamp s, unit quaternion); return the frames it completes.
+
+        Returns:
+            (frame times, true attitudes as (x, y, z, w) tuples, rate of the turn
+            (3-tuple rad/s, orbital components; zeros when no frame)).
+        """
+        q = tuple(float(c) for c in q_xyzw)
+        previous, self.previous = self.previous, (t_s, q)
+        period = self.period_s
+        if previous is None or self._next_frame_s is None or t_s - previous[0] > self.max_gap_s:
+            self._next_frame_s = math.ceil(t_s / period) * period
+            return [], [], (0.0, 0.0, 0.0)
+        if self._next_frame_s > t_s + 1e-12:
+            return [], [], (0.0, 0.0, 0.0)
+        frames = np.arange(self._next_frame_s, t_s + 1e-12, period).tolist()
+        if not frames:
+            return [], [], (0.0, 0.0, 0.0)
+        attitudes, rate = slerp(previous[0], previous[1], t_s, q, frames)
+        self._next_frame_s = frames[-1] + period
+        return frames, attitudes, rate

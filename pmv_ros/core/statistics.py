@@ -403,29 +403,51 @@ def average_over_orbits(u_rad, values, bin_rad: float | None = None):
 
 
 @dataclass(frozen=True)
-class ChannelResult:
-    """Statistics of one channel (roll, pitch or meridional) of a flight-test analysis, rad.
+class ChannelStatistics:
+    """The statistics of one channel (roll, pitch or meridional), rad: the record the live monitor
+    (:class:`pmv_ros.core.monitor.ChannelSummary`) and the flight-test analysis
+    (:class:`ChannelResult`) share; the shim's ``ChannelStatistics`` has the same field names.
 
+    ``harmonics_rad`` maps k (multiple of the orbital frequency) to an amplitude, rad.
+    """
+
+    channel: str
+    count: int = 0
+    mean_rad: float = math.nan
+    sigma_rad: float = math.nan
+    max_abs_rad: float = math.nan
+    harmonics_rad: dict = field(default_factory=dict)
+
+    @property
+    def three_sigma_rad(self) -> float:
+        """3σ (physics.md §5, step 5)."""
+        return 3.0 * self.sigma_rad
+
+    @property
+    def limit_low_rad(self) -> float:
+        """mean − 3σ."""
+        return self.mean_rad - self.three_sigma_rad
+
+    @property
+    def limit_high_rad(self) -> float:
+        """mean + 3σ."""
+        return self.mean_rad + self.three_sigma_rad
+
+
+@dataclass(frozen=True)
+class ChannelResult(ChannelStatistics):
+    """Statistics of one channel of a flight-test analysis, rad, with its offset and both harmonic sets.
+
+    ``offset_rad`` is the constant removed (K or T; 0 for meridional);
     ``harmonics_rad`` are the amplitudes after the offset and (when asked)
     oblateness removal; ``harmonics_with_oblateness_rad`` before the
     oblateness removal — where the oblateness shows (roll k = 1, pitch k = 2).
     Both are means over the complete orbits (``orbits_in_harmonics``).
     """
 
-    channel: str
-    offset_rad: float
-    count: int
-    mean_rad: float
-    sigma_rad: float
-    max_abs_rad: float
-    harmonics_rad: dict = field(default_factory=dict)
+    offset_rad: float = math.nan
     harmonics_with_oblateness_rad: dict = field(default_factory=dict)
     orbits_in_harmonics: int = 0
-
-    @property
-    def three_sigma_rad(self) -> float:
-        """3σ."""
-        return 3.0 * self.sigma_rad
 
 
 @dataclass(frozen=True)
@@ -487,8 +509,10 @@ def flight_test_statistics(u_rad, roll_rad, pitch_rad, altitude_m: float, inclin
        weighs the same, so uneven coverage of the orbit does not bias them);
        Δβ = β − offset;
     4. δβ_k = Δβ_k − (Δβ)_roll(u), δβ_t = Δβ_t − (Δβ)_pitch(u), the published
-       closed-form oblateness model with its sign convention (physics.md §2.1;
-       :func:`pmv_ros.core.oblateness.closed_form_oblateness`), averaged over
+       closed-form oblateness model (physics.md §2.1;
+       :func:`pmv_ros.core.oblateness.closed_form_oblateness`) in REP-103 like
+       the roll and pitch given here (published telemetry is converted first,
+       :func:`pmv_ros.core.conventions.convert`), averaged over
        the same samples as the data. Skipped when ``remove_oblateness`` is False;
     5. δβ_m = √(δβ_k² + δβ_t²); MO = its mean; σ_m with N − 1; limit MO ± 3σ_m.
 
@@ -500,7 +524,7 @@ def flight_test_statistics(u_rad, roll_rad, pitch_rad, altitude_m: float, inclin
     Args:
         u_rad: ``(N,)`` argument of latitude of each sample, rad (unwrapped or
             not; with ``orbit_index`` None, the orbit of a sample is ⌊u/2π⌋).
-        roll_rad, pitch_rad: ``(N,)`` sensor error against the reference, rad.
+        roll_rad, pitch_rad: ``(N,)`` sensor error against the reference, rad, REP-103.
         altitude_m: orbit altitude H above the mean radius, m (oblateness model).
         inclination_rad: orbit inclination, rad (oblateness model).
         orbit_index: ``(N,)`` orbit number of each sample, or None.
@@ -561,8 +585,9 @@ def flight_test_statistics(u_rad, roll_rad, pitch_rad, altitude_m: float, inclin
                                                      ("meridional", 0.0, meridional, 2, 5)):
         stats = RunningStatistics()
         stats.update(series)
-        channels.append(ChannelResult(name, offset, stats.count, stats.mean, stats.sigma, stats.max_abs,
-                                      table(column), table(raw_column), len(per_orbit)))
+        channels.append(ChannelResult(name, stats.count, stats.mean, stats.sigma, stats.max_abs, table(column),
+                                      offset_rad=offset, harmonics_with_oblateness_rad=table(raw_column),
+                                      orbits_in_harmonics=len(per_orbit)))
     merid_stats = channels[2]
     return FlightTestResult(
         u_rad=group_u, samples_per_u=counts, roll_mean_rad=roll_mean, pitch_mean_rad=pitch_mean,

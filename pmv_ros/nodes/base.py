@@ -5,7 +5,7 @@ from __future__ import annotations
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.event_handler import EventHandler, PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.node import Node
-from rclpy.qos import QoSProfile
+from rclpy.qos import QoSProfile, ReliabilityPolicy
 from threadpoolctl import ThreadpoolController
 
 from .params import coerce_parameters
@@ -43,13 +43,20 @@ def release_single_threaded_blas() -> None:
         _blas_limiter = None
 
 
-#: Every pmv_ros topic: reliable, keep-last 100 (publishers and subscriptions).
-#: At the highest sensor rate (100 Hz) that is one second of messages per
-#: topic; a subscriber that falls further behind loses the oldest, it never
-#: makes the publisher wait or a queue grow. The in-process pipeline drains
-#: the graph after every tick, so its queues hold a handful of messages.
+#: Every pmv_ros publisher: reliable, keep-last 100, volatile. At the highest
+#: sensor rate (100 Hz) that is one second of messages per topic; a
+#: subscriber that falls further behind loses the oldest, it never makes the
+#: publisher wait or a queue grow. The in-process pipeline drains the graph
+#: after every tick, so its queues hold a handful of messages.
 QOS_DEPTH = 100
 QOS = QoSProfile(depth=QOS_DEPTH)
+
+#: Subscriptions to inputs (/attitude/truth, /star_tracker/attitude,
+#: /pmv/attitude, /orbit/odometry): best effort, keep-last 100, volatile. A
+#: best-effort subscription is matched by reliable and best-effort publishers
+#: alike (REP-2003: an estimator publishing with ``qos_profile_sensor_data``
+#: must be able to feed us); a reliable one would never hear a best-effort one.
+INPUT_QOS = QoSProfile(depth=QOS_DEPTH, reliability=ReliabilityPolicy.BEST_EFFORT)
 
 
 class PmvNode(Node):
@@ -68,6 +75,9 @@ class PmvNode(Node):
             with ``use_sim_time`` as usual, but its clock follows this source and
             the /clock subscription ``use_sim_time`` made is dropped: nodes that
             share the process learn the time from the pipeline, not through DDS.
+        reliable_inputs: subscribe to inputs reliably (:data:`QOS`) instead of
+            best effort (:data:`INPUT_QOS`). Default: in lean mode, where every
+            publisher is one of ours and reliable, so the pipeline is lossless.
 
     Parameter updates (in-process ``set_parameters`` and the parameter
     services alike) pass :func:`pmv_ros.nodes.params.coerce_parameters` first:
@@ -77,13 +87,15 @@ class PmvNode(Node):
     :func:`pmv_ros.nodes.params.install_validation`.
     """
 
-    def __init__(self, name: str, *, lean: bool = False, time_source=None, **kwargs):
+    def __init__(self, name: str, *, lean: bool = False, time_source=None, reliable_inputs: bool | None = None,
+                 **kwargs):
         if lean:
             kwargs.setdefault("start_parameter_services", False)
             kwargs.setdefault("enable_rosout", False)  # logs still reach the console and the log file
         self.parameter_specs = {}  # name → ParamSpec, filled by install_validation
         super().__init__(name, **kwargs)
         self._lean = lean
+        self._input_qos = QOS if (lean if reliable_inputs is None else reliable_inputs) else INPUT_QOS
         self._detached = []
         if time_source is not None:
             for subscription in [s for s in self.subscriptions if s.topic_name == "/clock"]:
@@ -139,9 +151,13 @@ class PmvNode(Node):
                                          event_callbacks=PublisherEventCallbacks(use_default_callbacks=False))
         return self.create_publisher(message_type, topic, QOS)
 
-    def subscription(self, message_type, topic: str, callback):
+    def subscription(self, message_type, topic: str, callback, qos: QoSProfile = QOS):
         """A subscription with the project QoS."""
         if self._lean:
-            return self.create_subscription(message_type, topic, callback, QOS,
+            return self.create_subscription(message_type, topic, callback, qos,
                                             event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
-        return self.create_subscription(message_type, topic, callback, QOS)
+        return self.create_subscription(message_type, topic, callback, qos)
+
+    def input_subscription(self, message_type, topic: str, callback):
+        """A subscription to an input: best effort unless the node takes its inputs reliably (see ``__init__``)."""
+        return self.subscription(message_type, topic, callback, self._input_qos)

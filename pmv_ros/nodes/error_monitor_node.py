@@ -2,48 +2,24 @@
 
 Subscribes to ``/pmv/attitude`` (sensor), ``/star_tracker/attitude`` (truth)
 and ``/orbit/odometry`` (where the spacecraft is, for the oblateness model);
-publishes ``/pmv/residual`` for every aligned sample, ``/pmv/error_statistics``
-every ``1/statistics_rate_hz`` seconds of sample time, and ``/diagnostics``.
-The alignment and statistics are :class:`pmv_ros.core.monitor.ErrorMonitor`;
-this node only converts and wires.
+publishes ``/pmv/residual`` (sensed − true, REP-103) for every aligned sample,
+``/pmv/error_statistics`` every ``1/statistics_rate_hz`` seconds of sample
+time, and ``/diagnostics``. The alignment and statistics are
+:class:`pmv_ros.core.monitor.ErrorMonitor`; this node only converts and wires.
 
 Statistics are driven by the sample stamps, so the node behaves the same on
 the wall clock and on a fast-time ``/clock``; a 1 Hz node-clock timer times
 out samples waiting for truth when nothing arrives at all and publishes
-``/diagnostics``. QoS: reliable, keep-last 100 on every topic; memory is
-bounded by the monitor's caps (truth history, pending queue, harmonic ring).
+``/diagnostics``. Inputs are best-effort subscriptions (README "QoS");
+memory is bounded by the monitor's caps.
 
 Bad input is dropped before it touches any state and counted per reason
-(``rejected_<stream>_<reason>`` on ``/diagnostics``): non-finite values, far
-from unit quaternions (near-unit ones are normalised), zero, future,
-duplicate and backward stamps, and messages the shim cannot read
-(``rejected_<stream>_unreadable``). Only accepted sensor samples drive the
-statistics schedule, so a stream with bad messages gives the statistics of
-the same stream without them.
-
-Discontinuities — what the node does:
-
-* Star-tracker outage, however long (hours): sensor samples wait at most
-  ``max_truth_wait_s`` for truth, then are counted ``skipped_stale_truth``;
-  none is compared with truth interpolated across the gap
-  (``max_truth_gap_s``). ``/diagnostics`` says how long truth has been
-  missing. When truth returns, alignment resumes by itself; the running
-  statistics carry on, the harmonics wait for a full orbit without a large
-  hole.
-* A node restarted on the same clock (stamps continue forward after a gap):
-  the same — a gap, then alignment resumes.
-* A clock jump back by more than ``clock_jump_s`` — of the node clock or of a
-  stream's stamps (simulation restarted, a node restarted on a new clock,
-  stamps start over): the alignment is reset (truth history dropped,
-  waiting samples counted ``skipped_reset``, harmonic ring cleared, the
-  statistics schedule restarts), so nothing is interpolated or fitted
-  across the discontinuity; counted ``clock_jumps``/``alignment_resets``.
-  The running statistics — sums over residuals that were each valid —
-  carry on. Messages of the old timeline still in flight are then in the
-  future and rejected.
-* A clock jump forward: samples across it are skipped (truth gap) and the
-  alignment continues on the new stamps.
-* A parameter change rebuilds the monitor: the statistics start over.
+(``rejected_<stream>_<reason>``), messages the shim cannot read as
+``rejected_<stream>_unreadable``; only accepted sensor samples drive the
+statistics schedule. Outages, restarts and clock jumps: README "Truth
+outages and discontinuities" and the core monitor's docstring — in short,
+nothing is interpolated across a gap, a jump back resets the alignment, a
+parameter change starts the statistics over.
 """
 
 from __future__ import annotations
@@ -80,9 +56,9 @@ class ErrorMonitorNode(PmvNode):
                                                                            DiagnosticArray())
         self._pub_statistics = self.publisher(DiagnosticArray, "/pmv/error_statistics")
         self._pub_diagnostics = self.publisher(DiagnosticArray, "/diagnostics")
-        self.subscription(Vector3Stamped, "/pmv/attitude", self._on_sensor)
-        self._truth_subscription = self.subscription(QuaternionStamped, "/star_tracker/attitude", self._on_truth)
-        self.subscription(Odometry, "/orbit/odometry", self._on_odometry)
+        self.input_subscription(Vector3Stamped, "/pmv/attitude", self._on_sensor)
+        self._truth_subscription = self.input_subscription(QuaternionStamped, "/star_tracker/attitude", self._on_truth)
+        self.input_subscription(Odometry, "/orbit/odometry", self._on_odometry)
         self._orbit = None  # (stamp_s, u_rad, inclination_rad, altitude_m, mean_motion_rad_s)
         self._rejected_messages = dict.fromkeys(
             (f"rejected_{stream}_unreadable" for stream in ("sensor", "truth", "odometry")), 0)
@@ -90,6 +66,7 @@ class ErrorMonitorNode(PmvNode):
         self._last_statistics = None
         self._rejected_reported = 0
         self.create_timer(1.0, self._on_timer)
+        self.get_logger().info(f"error_monitor_node: ready, statistics at {self._values['statistics_rate_hz']:g} Hz")
 
     def _rebuild(self, values: dict) -> None:
         # A new configuration starts new statistics: mixing two configurations would mean nothing.
@@ -168,6 +145,11 @@ class ErrorMonitorNode(PmvNode):
         self._pub_statistics.publish(shim.write_error_statistics(self._out_statistics, statistics))
         self._last_statistics = statistics
         return statistics
+
+    @property
+    def latest_orbit_stamp_s(self) -> float | None:
+        """Stamp of the last /orbit/odometry taken, s (None before the first)."""
+        return None if self._orbit is None else self._orbit[0]
 
     @property
     def monitor(self) -> ErrorMonitor:

@@ -1,42 +1,102 @@
-"""One ``main`` for every node executable: start, spin, and fail cleanly on bad configuration."""
+"""One ``main`` for every node executable: start, spin, stop cleanly, fail cleanly on bad configuration."""
 
 from __future__ import annotations
 
+import signal
 import sys
 
 import rclpy
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.impl.implementation_singleton import rclpy_implementation
+from rclpy.signals import SignalHandlerOptions
 
 from .base import hold_single_threaded_blas
 from .params import ParameterError
 
+#: Longest wait of the executor between checks for a stop request, s.
+STOP_CHECK_S = 0.1
+
+_STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+class StopRequest:
+    """SIGINT and SIGTERM ask the spin loop to stop; nothing is interrupted where it stands.
+
+    rclpy's own handlers shut the context down from the signal, under the
+    executor's feet: a callback in the middle of a publish then raised
+    ``RCLError``, and a second Ctrl-C (``ros2 launch`` sends one to the whole
+    process group, a user often a second one) landed inside ``destroy_node``.
+    Here a signal only sets a flag; the loop checks it at least every
+    :data:`STOP_CHECK_S` and between callbacks, and the teardown runs with
+    both signals ignored.
+    """
+
+    def __init__(self):
+        self.requested = False
+        self._previous = {number: signal.signal(number, self._on_signal) for number in _STOP_SIGNALS}
+
+    def _on_signal(self, number, frame) -> None:
+        self.requested = True
+
+    def ignore(self) -> None:
+        """From here on (the teardown) both signals are ignored."""
+        for number in _STOP_SIGNALS:
+            signal.signal(number, signal.SIG_IGN)
+
+    def restore(self) -> None:
+        """Put the handlers back that were there before (for callers in the same process).
+
+        Not after a stop by signal: the process is ending, and a further
+        signal must not turn into a KeyboardInterrupt on the way out (Python
+        then ends itself by SIGINT, status −2).
+        """
+        if self.requested:
+            return
+        for number, handler in self._previous.items():
+            signal.signal(number, handler)
+
 
 def run_node(factory, name: str, args=None) -> int:
-    """Create the node with ``factory()`` and spin it until shutdown; returns the exit status.
+    """Create the node with ``factory()`` and spin it until SIGINT, SIGTERM or shutdown; returns the exit status.
 
-    A bad command line or params file (rclpy refuses to initialise) and an
-    invalid parameter value both end in one line on stderr naming the problem
-    and exit status 1 — no traceback for a configuration mistake.
+    A stop by signal is status 0 with no traceback, also mid-publish and with
+    a second signal during the teardown. A bad command line or params file
+    (rclpy refuses to initialise) and an invalid parameter value end in one
+    line on stderr naming the problem and status 1.
     """
+    stop = StopRequest()
     try:
-        rclpy.init(args=args)
-    except rclpy_implementation.RCLError as error:
-        print(f"{name}: cannot start: {error}", file=sys.stderr)
-        return 1
-    node = None
-    hold_single_threaded_blas()  # for the life of the process
+        try:
+            rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+        except rclpy_implementation.RCLError as error:
+            print(f"{name}: cannot start: {error}", file=sys.stderr)
+            return 1
+        hold_single_threaded_blas()  # for the life of the process
+        return _spin(factory, name, stop)
+    finally:
+        stop.restore()
+
+
+def _spin(factory, name: str, stop: StopRequest) -> int:
+    node = executor = None
+    status = 0
     try:
         node = factory()
-        rclpy.spin(node)
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        while not stop.requested and rclpy.ok():
+            executor.spin_once(timeout_sec=STOP_CHECK_S)
     except ParameterError as error:
         print(f"{name}: invalid parameter: {error}", file=sys.stderr)
-        return 1
+        status = 1
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
+        stop.ignore()
+        if executor is not None:
+            executor.shutdown(timeout_sec=1.0)
         if node is not None:
             node.destroy_node()
         if rclpy.ok():
             rclpy.shutdown()
-    return 0
+    return status

@@ -95,7 +95,8 @@ def coerce_parameters(specs: dict, parameters: Sequence[Parameter]) -> tuple[lis
     """Run-time updates with integers for floats turned into floats, or the reason one is not allowed.
 
     Checks type, range and choices — before rclpy's own descriptor check,
-    whose reasons do not name the allowed values for a type mismatch.
+    whose reasons do not name the allowed values for a type mismatch — and
+    refuses a read-only parameter with the reason it is read-only.
 
     Args:
         specs: ``{name: ParamSpec}``; parameters not in it (rclpy's own) pass unchanged.
@@ -108,7 +109,7 @@ def coerce_parameters(specs: dict, parameters: Sequence[Parameter]) -> tuple[lis
             checked.append(parameter)
             continue
         value, problem = spec.coerce(parameter.value)
-        problem = problem or spec.check(value)
+        problem = problem or spec.check(value) or (spec.read_only_reason() if spec.read_only else None)
         if problem:
             return list(parameters), problem
         checked.append(parameter if value is parameter.value else Parameter(parameter.name, value=value))
@@ -136,7 +137,7 @@ def install_validation(node, specs: Sequence[ParamSpec], values: dict,
             if spec is None:
                 continue  # use_sim_time and friends are rclpy's own
             if spec.read_only:
-                return SetParametersResult(successful=False, reason=f"{spec.name} is read-only")
+                return SetParametersResult(successful=False, reason=spec.read_only_reason())
             value, problem = spec.coerce(parameter.value)
             problem = problem or spec.check(value)
             if problem:

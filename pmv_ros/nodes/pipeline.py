@@ -104,10 +104,13 @@ class Pipeline:
         collect: add the report collector.
         lean: nodes without parameter services and default QoS-event handlers
             (:class:`~pmv_ros.nodes.base.PmvNode`); the graph is private to the process.
+        record: a file to record every topic of the run into, as a rosbag2 MCAP file
+            (:class:`~pmv_ros.nodes.recorder.TopicRecorder`, logged at simulation time); None for none.
     """
 
     def __init__(self, config: str | os.PathLike | None = None, overrides: dict | None = None,
-                 isolated: bool = True, collect: bool = True, lean: bool = True):
+                 isolated: bool = True, collect: bool = True, lean: bool = True,
+                 record: str | os.PathLike | None = None):
         if isolated:
             os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "OFF"
         args = ["--ros-args"]
@@ -133,12 +136,15 @@ class Pipeline:
         # needs no clock.
         self._time_sources = {}  # role → the rclpy TimeSource its node follows
         self._clock_msg = ClockMsg()  # the simulation time last set
+        self.recording = self.recorder = None
         try:
             self.executor = SingleThreadedExecutor(context=self.context)
             self.sensor = self.start_node("sensor")
             self.star_tracker = self.start_node("star_tracker")
             self.monitor = self.start_node("monitor")
             self.collector = self._add(ReportCollector(**self._options(None))) if collect else None
+            if record is not None:
+                self._start_recorder(record)
         except BaseException:
             self.close()
             raise
@@ -147,6 +153,22 @@ class Pipeline:
     ROLES = {"sensor": (SensorNode, False, {"external_drive": True}),
              "star_tracker": (StarTrackerNode, True, {}),
              "monitor": (ErrorMonitorNode, True, {})}
+
+    def _start_recorder(self, path) -> None:
+        """Record every topic the graph has now (all nodes are up) into ``path``, logged at simulation time."""
+        from ..recording import McapRecording
+        from .recorder import TopicRecorder
+
+        self.recording = McapRecording(path)
+        source = self._time_source()
+        self.recorder = self._add(TopicRecorder(self.recording, **self._options(source)))
+        self._time_sources["recorder"] = source
+
+    def _time_source(self) -> TimeSource:
+        source = TimeSource()  # attached to no node: it never subscribes to /clock
+        source.ros_time_is_active = True
+        source.clock_callback(self._clock_msg)  # started mid-run: on the current simulation time
+        return source
 
     def _options(self, time_source: TimeSource | None, overrides: dict | None = None) -> dict:
         values = {**self._settings, **(overrides or {}), "use_sim_time": time_source is not None}
@@ -167,11 +189,7 @@ class Pipeline:
         ``overrides`` are added to the pipeline's parameters for this node.
         """
         node_class, sim_time, arguments = self.ROLES[role]
-        source = None
-        if sim_time:
-            source = TimeSource()  # attached to no node: it never subscribes to /clock
-            source.ros_time_is_active = True
-            source.clock_callback(self._clock_msg)  # started mid-run: on the current simulation time
+        source = self._time_source() if sim_time else None
         node = self._add(node_class(**arguments, **self._options(source, overrides)))
         if source is not None:
             self._time_sources[role] = source
@@ -213,6 +231,8 @@ class Pipeline:
             if self.context.ok():
                 rclpy.shutdown(context=self.context)
         finally:
+            if getattr(self, "recording", None) is not None:
+                self.recording.close()
             if getattr(self, "_holds_blas", False):
                 self._holds_blas = False
                 release_single_threaded_blas()

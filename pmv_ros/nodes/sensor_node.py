@@ -4,37 +4,31 @@ Propagates the orbit on the ROS clock (or on its own simulation clock in
 fast-time mode, publishing ``/clock``), takes the body attitude from its own
 profile (published on ``/attitude/truth``) or follows the user's
 ``/attitude/truth``, runs the four chords through the instrument model and
-publishes crossings, roll/pitch (corrected and uncorrected), odometry and
-health. All physics is in :mod:`pmv_ros.core`; all message layout in
-:mod:`pmv_msgs_shim`.
+publishes crossings, roll/pitch (REP-103, corrected and uncorrected),
+odometry and health. Physics in :mod:`pmv_ros.core`, message layout in
+:mod:`pmv_msgs_shim`, health in :mod:`pmv_ros.core.sensor_health`.
 
-Chord faults (issue 6): a chord whose half-plane has no horizon (a large
-attitude excursion), whose scan found no crossing, or that has the Sun or the
-Moon within ``sensor.bright_body_exclusion_deg`` of its swept arc is invalid:
-its point on ``/pmv/horizon_crossings`` is NaN, and the angle of its pair
-(roll for ±Y, pitch for ±X) is NaN on ``/pmv/attitude`` — the other pair's
-angle is still published. ``/diagnostics`` names the chord and the cause
-(and the body) as soon as the condition starts and again when it ends; the
-chord is used again by itself as soon as it is valid.
+A chord without a horizon, without a crossing, or with the Sun or the Moon
+near its arc is invalid: its point is NaN and so is its pair's angle (roll
+for ±Y, pitch for ±X); ``/diagnostics`` names the chord and the cause.
 
-Follow mode validates ``/attitude/truth``: non-finite or far-from-unit
-quaternions, zero, future, duplicate and backward stamps are dropped and
-counted per reason on ``/diagnostics`` (a stamp older than the latest by more
-than ``attitude.follow_timeout_s`` is a restarted source and accepted).
-
-QoS: outputs are reliable, keep-last 100 — deep enough for a fast-time
-pipeline that is drained every tick, bounded in memory.
+Follow mode (``attitude.source: follow``; README "Follow mode") never
+publishes ``/attitude/truth``. It measures with the attitude at its own
+sample time (:class:`pmv_ros.core.truth_buffer.TruthBuffer`: slerp between
+truth samples, the last body rate for at most
+``attitude.extrapolation_periods`` truth periods past the newest), stamps
+the output with that time, and publishes nothing from stale truth: the stale
+state is an ERROR on ``/diagnostics`` at once and logged once. Bad truth
+(non-finite, far-from-unit, zero, future, duplicate, backward stamps) is
+dropped and counted. Two publishers of ``/attitude/truth`` are a warning.
 """
 
 from __future__ import annotations
 
-import math
 import sys
-from collections import deque
 
-import numpy as np
-from geometry_msgs.msg import PolygonStamped, QuaternionStamped, Vector3Stamped
 from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PolygonStamped, QuaternionStamped, Vector3Stamped
 from nav_msgs.msg import Odometry
 from rclpy.clock import Clock, ClockType
 from rosgraph_msgs.msg import Clock as ClockMsg
@@ -42,27 +36,16 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 import pmv_msgs_shim as shim
 from .base import PmvNode
 from ..core.assembly import SENSOR_PARAMS as PARAMS, build_models
-from ..core.geometry import CHORD_NAMES
 from ..core.monitor import Status, validate_quaternion
-from ..core.sensor import BRIGHT_BODIES, ChordStatus
+from ..core.sample_stream import SampleStream, fast_time_block
+from ..core.sensor_health import SensorHealth, truth_source_warnings
+from ..core.truth_buffer import TruthAt, TruthBuffer
 from .launch import run_node
 from .params import ParameterError, declare, install_validation
 
 
 #: | |q| − 1 | up to which a followed truth quaternion is normalised; beyond it is rejected.
 QUATERNION_NORM_TOLERANCE = 0.01
-
-#: Samples computed per call of the instrument model in fast time with the
-#: own attitude profile (amortises numpy overhead; the output is identical).
-#: 512 samples cost ≈ 35 µs each against ≈ 70 µs in blocks of 64; a parameter
-#: change discards the block.
-FAST_TIME_BLOCK = 512
-
-#: Paced fast time (sim.time_scale > 0): a block should take no longer than one
-#: tick period, or /clock stops while it is computed (512 samples: ≈ 20–45 ms).
-#: Blocks are sized with this cost per sample, the slow end of what these
-#: machines do, and kept between 16 samples and FAST_TIME_BLOCK.
-PACED_SAMPLE_COST_S = 100e-6
 
 
 class SensorNode(PmvNode):
@@ -83,67 +66,63 @@ class SensorNode(PmvNode):
         except ValueError as error:  # a combination, a date or a file the ranges cannot check
             raise ParameterError(str(error)) from None
         install_validation(self, PARAMS, self._values, self._rebuild_live)
-
+        self._following = self._values["attitude.source"] == "follow"
         self._pub_crossings = self.publisher(PolygonStamped, "/pmv/horizon_crossings")
         self._pub_attitude = self.publisher(Vector3Stamped, "/pmv/attitude")
         self._pub_attitude_raw = self.publisher(Vector3Stamped, "/pmv/attitude_uncorrected")
         self._pub_odometry = self.publisher(Odometry, "/orbit/odometry")
         self._pub_diagnostics = self.publisher(DiagnosticArray, "/diagnostics")
-        self._pub_truth = None
-        self._pub_clock = None
-        self._latest_truth = None  # (stamp_s, unit q) in follow mode
-        self._chord_problem_counts = [[0] * 4 for _ in ChordStatus]  # [status][chord]
-        self._rejected = {}  # reason → count (fixed set of reasons: bounded)
-        self._rejected_reported = 0
-        self._samples_published = 0
-        self._last_diagnostics_s = -math.inf
-        self._last_condition = ()  # what the last /diagnostics said, to report changes at once
-        self._pending = deque()  # precomputed fast-time samples
+        self._pub_truth = self._pub_clock = None
+        self._health = SensorHealth()
+        self._truth_state = None  # follow mode: where the last tick's attitude came from
+        self._graph_warnings, self._graph_checked_s = (), None
         # One message per topic, filled in place for every sample (rclpy serialises at publish).
         self._out = dict(truth=QuaternionStamped(), odometry=Odometry(), crossings=PolygonStamped(),
                          attitude=Vector3Stamped(), attitude_raw=Vector3Stamped(), clock=ClockMsg(),
                          diagnostics=DiagnosticArray())
-        if self._values["attitude.source"] == "profile":
-            self._pub_truth = self.publisher(QuaternionStamped, "/attitude/truth")
+        if self._following:
+            self.input_subscription(QuaternionStamped, "/attitude/truth", self._on_truth)
         else:
-            self.subscription(QuaternionStamped, "/attitude/truth", self._on_truth)
-
+            self._pub_truth = self.publisher(QuaternionStamped, "/attitude/truth")
         self._sim_time_s = self._values["sim.start_time_s"]
         self._timer = None
         if self._values["sim.fast_time"]:
             self._pub_clock = self.publisher(ClockMsg, "/clock")
             if not external_drive:
-                self._start_fast_timer(self._values)
+                self._start_timer(self._values)
         else:
-            self._timer = self.create_timer(1.0 / self._values["sensor.rate_hz"], self._on_real_time_tick)
+            self._start_timer(self._values)
+        v = self._values
         self.get_logger().info(
-            f"sensor_node: H = {self._values['orbit.altitude_km']:g} km, i = {self._values['orbit.inclination_deg']:g}°, "
-            f"{self._values['sensor.rate_hz']:g} Hz, attitude from {self._values['attitude.source']}, "
-            f"{'fast time' if self._values['sim.fast_time'] else 'real time'}")
+            f"sensor_node: H = {v['orbit.altitude_km']:g} km, i = {v['orbit.inclination_deg']:g}°, "
+            f"{v['sensor.rate_hz']:g} Hz, attitude from {v['attitude.source']}, "
+            f"{'fast time' if v['sim.fast_time'] else 'real time'}")
 
     # -- parameters ---------------------------------------------------------------------------
 
     def _rebuild(self, values: dict) -> None:
-        self._orbit, self._profile, self._model = build_models(values)
+        orbit, profile, model = build_models(values)
+        self._stream = SampleStream(model, orbit, profile, shim.checked_lines_of_sight)
+        previous = getattr(self, "_truth", None)
+        self._truth = TruthBuffer(values["attitude.extrapolation_periods"], values["attitude.follow_timeout_s"])
+        if previous is not None:  # a parameter change keeps the truth received so far
+            self._truth.take_samples(previous)
+        # Epoch and elements on every /diagnostics, so that recordings can be analysed (issue 13).
+        self._orbit_status = shim.orbit_elements_status(shim.OrbitElements.from_orbit(orbit, values["sim.epoch_utc"]))
 
     def _rebuild_live(self, values: dict) -> None:
-        for fixed in ("attitude.source", "sim.fast_time"):
-            if values[fixed] != self._values[fixed]:
-                raise ValueError(f"{fixed} cannot change while the node runs (restart the node to change it)")
         if values["sim.fast_time"]:
             values = dict(values, **{"sim.start_time_s": self._values["sim.start_time_s"]})
         self._rebuild(values)
-        self._pending.clear()
-        timing = ("sensor.rate_hz", "sim.time_scale")
-        if self._timer is not None and any(values[name] != self._values[name] for name in timing):
+        if self._timer is not None and any(values[k] != self._values[k] for k in ("sensor.rate_hz", "sim.time_scale")):
             self._timer.cancel()
             self.destroy_timer(self._timer)
-            if values["sim.fast_time"]:
-                self._start_fast_timer(values)
-            else:
-                self._timer = self.create_timer(1.0 / values["sensor.rate_hz"], self._on_real_time_tick)
+            self._start_timer(values)
 
-    def _start_fast_timer(self, values: dict) -> None:
+    def _start_timer(self, values: dict) -> None:
+        if not values["sim.fast_time"]:
+            self._timer = self.create_timer(1.0 / values["sensor.rate_hz"], self._on_real_time_tick)
+            return
         scale = values["sim.time_scale"]
         period = 0.0 if scale == 0.0 else 1.0 / (values["sensor.rate_hz"] * scale)
         self._timer = self.create_timer(period, self.step, clock=Clock(clock_type=ClockType.STEADY_TIME))
@@ -157,32 +136,29 @@ class SensorNode(PmvNode):
         return self.get_clock().now().nanoseconds * 1e-9
 
     def _on_truth(self, message: QuaternionStamped) -> None:
-        """Follow mode: keep the latest valid truth; drop and count bad messages."""
+        """Follow mode: keep valid truth in the buffer; drop and count bad messages."""
         try:
             record = shim.attitude_quaternion_from_msg(message)
         except ValueError:  # negative or non-finite stamp
-            self._count_rejected(f"rejected_truth_{Status.ZERO_STAMP.value}")
+            self._health.count(f"rejected_truth_{Status.ZERO_STAMP.value}")
             return
         q, status, _ = validate_quaternion(record.q_xyzw, QUATERNION_NORM_TOLERANCE)
         t_s, timeout = record.stamp_s, self._values["attitude.follow_timeout_s"]
-        latest = self._latest_truth
+        newest = self._truth.newest_stamp_s
         if status is Status.OK:
             if t_s <= 0.0:
                 status = Status.ZERO_STAMP
             elif t_s > self._now_s() + timeout:
                 status = Status.FUTURE_STAMP
-            elif latest is not None and t_s == latest[0]:
+            elif newest is not None and t_s == newest:
                 status = Status.DUPLICATE
-            elif latest is not None and latest[0] - timeout <= t_s < latest[0]:
+            elif newest is not None and newest - timeout <= t_s < newest:
                 # Older by more than the timeout: the source restarted on a new clock; take it.
                 status = Status.BACKWARDS
         if status is not Status.OK:
-            self._count_rejected(f"rejected_truth_{status.value}")
+            self._health.count(f"rejected_truth_{status.value}")
             return
-        self._latest_truth = (t_s, q)
-
-    def _count_rejected(self, reason: str) -> None:
-        self._rejected[reason] = self._rejected.get(reason, 0) + 1
+        self._truth.add(t_s, q)
 
     # -- ticks ----------------------------------------------------------------------------------
 
@@ -191,138 +167,94 @@ class SensorNode(PmvNode):
         """Current simulation time of the fast-time clock, s."""
         return self._sim_time_s
 
+    @property
+    def orbit(self):
+        """The orbit the sensor flies (:class:`pmv_ros.core.orbit.CircularOrbit`)."""
+        return self._stream.orbit
+
+    @property
+    def samples_computed_ahead(self) -> int:
+        """Fast-time samples computed ahead and not yet published (at most one block)."""
+        return self._stream.pending
+
+    @property
+    def samples_published(self) -> int:
+        """Samples published on /pmv/attitude since the start."""
+        return self._health.samples_published
+
     def step(self) -> None:
         """Fast time: advance the simulation clock by one sensor period and publish that sample."""
         period = 1.0 / self._values["sensor.rate_hz"]
         self._sim_time_s += period
         self._pub_clock.publish(shim.write_clock(self._out["clock"], self._sim_time_s))
-        if self._values["attitude.source"] == "profile":
-            if not self._pending:
-                times = self._sim_time_s + period * np.arange(self.fast_time_block)
-                self._pending = deque(self._sense_block(times, self._profile.quaternion(times)))
-            self._publish_sample(*self._pending.popleft())
-        else:
+        if self._following:
             self._sense_following(self._sim_time_s)
+            return
+        self._publish_sample(*self._stream.next_profile_sample(self._sim_time_s, period, self.fast_time_block))
 
     @property
     def fast_time_block(self) -> int:
-        """Samples the instrument model computes per call in fast time (see PACED_SAMPLE_COST_S).
-
-        Stepped by a caller (the in-process pipeline) or as fast as possible:
-        FAST_TIME_BLOCK; paced by the node's own timer: no longer than a tick.
-        """
-        scale = self._values["sim.time_scale"]
-        if scale == 0.0 or self._external_drive:
-            return FAST_TIME_BLOCK
-        tick_s = 1.0 / (self._values["sensor.rate_hz"] * scale)
-        return max(16, min(FAST_TIME_BLOCK, int(tick_s / PACED_SAMPLE_COST_S)))
+        """Samples computed per call in fast time (:func:`pmv_ros.core.sample_stream.fast_time_block`)."""
+        v = self._values
+        return fast_time_block(v["sensor.rate_hz"], v["sim.time_scale"], self._external_drive)
 
     def _on_real_time_tick(self) -> None:
         now_s = self.get_clock().now().nanoseconds * 1e-9
-        if self._values["attitude.source"] == "profile":
-            times = np.array([now_s])
-            self._publish_sample(*self._sense_block(times, self._profile.quaternion(times))[0])
-        else:
+        if self._following:
             self._sense_following(now_s)
+        else:
+            self._publish_sample(*self._stream.profile_sample(now_s))
 
     def _sense_following(self, t_s: float) -> None:
-        truth = self._latest_truth
-        if truth is None or abs(t_s - truth[0]) > self._values["attitude.follow_timeout_s"]:
-            self._count_rejected("skipped_no_fresh_truth")
-            self._maybe_publish_diagnostics(t_s)
+        """Measure with the attitude at ``t_s`` from the truth buffer; nothing when there is none."""
+        q, source = self._truth.attitude_at(t_s)
+        was_stale, self._truth_state = self._truth_state is TruthAt.STALE, source
+        if source is TruthAt.STALE and not was_stale:
+            self.get_logger().error(f"/attitude/truth is stale at t = {t_s:.3f} s (newest "
+                                    f"{self._truth.newest_stamp_s:.3f} s): no angles until it returns")
+        elif was_stale and source.usable:
+            self.get_logger().info(f"/attitude/truth is back at t = {t_s:.3f} s")
+        if not source.usable:
+            self._health.count(f"skipped_{source.value}")
+            self._publish_health(t_s)
             return
-        self._publish_sample(*self._sense_block(np.array([t_s]), truth[1][:, None])[0])
-
-    def _sense_block(self, times: np.ndarray, q: np.ndarray) -> list:
-        """Run the instrument for a block of samples; a list of per-sample tuples of plain values to publish.
-
-        The arrays become Python floats and tuples here, once per block: the
-        per-sample publishing path then does no numpy indexing.
-        """
-        reading = self._model.sense(times, q)
-        position, velocity = self._orbit.state_eci(times)
-        status = reading.chord_status
-        blinding = reading.blinding_body
-        valid = (status == ChordStatus.VALID).T
-        # What a HorizonCrossings record would hold (NaN rows for invalid chords), checked for the whole block.
-        line_of_sight = shim.checked_lines_of_sight(reading.line_of_sight_sensor.transpose(2, 1, 0), valid)
-        columns = (
-            times.tolist(),
-            q.T.tolist(),
-            line_of_sight.tolist(),
-            reading.sensed_roll_rad.tolist(),
-            reading.sensed_pitch_rad.tolist(),
-            reading.sensed_roll_uncorrected_rad.tolist(),
-            reading.sensed_pitch_uncorrected_rad.tolist(),
-            status.T.tolist(),
-            (np.full_like(status, -1) if blinding is None else blinding).T.tolist(),
-            position.T.tolist(),
-            velocity.T.tolist(),
-        )
-        return list(zip(*columns))
+        self._publish_sample(*self._stream.sample(t_s, q))
 
     def _publish_sample(self, t_s, q, line_of_sight, roll, pitch, roll_raw, pitch_raw, status, blinding,
                         position, velocity) -> None:
         out = self._out
         if self._pub_truth is not None:
             self._pub_truth.publish(shim.write_attitude_quaternion(out["truth"], t_s, shim.ORBITAL_FRAME, q))
-        self._pub_odometry.publish(shim.write_orbit_state(out["odometry"], t_s, shim.ECI_FRAME, shim.BODY_FRAME,
+        self._pub_odometry.publish(shim.write_orbit_state(out["odometry"], t_s, shim.ECI_FRAME, shim.ORBITAL_FRAME,
                                                           position, velocity))
         self._pub_crossings.publish(shim.write_horizon_crossings(out["crossings"], t_s, shim.SENSOR_FRAME,
                                                                  line_of_sight))
         self._pub_attitude.publish(shim.write_attitude_angles(out["attitude"], t_s, shim.SENSOR_FRAME, roll, pitch))
         self._pub_attitude_raw.publish(shim.write_attitude_angles(out["attitude_raw"], t_s, shim.SENSOR_FRAME,
                                                                   roll_raw, pitch_raw))
-        for chord, code in enumerate(status):
-            self._chord_problem_counts[code][chord] += 1
-        self._samples_published += 1
-        self._maybe_publish_diagnostics(t_s, status, blinding)
+        self._health.record_sample(status)
+        self._publish_health(t_s, status, blinding)
 
-    def _chord_problems(self, status, blinding) -> list[str]:
-        """One phrase per invalid chord: which chord, and why."""
-        problems = []
-        for chord, code, body in zip(CHORD_NAMES, status, blinding):
-            if code == ChordStatus.SUN_OR_MOON:
-                problems.append(f"chord {chord}: {BRIGHT_BODIES[body]} in the field of view (within "
-                                f"{self._values['sensor.bright_body_exclusion_deg']:g} deg)")
-            elif code == ChordStatus.NO_HORIZON:
-                problems.append(f"chord {chord}: no horizon in the scan")
-            elif code == ChordStatus.NOT_DETECTED:
-                problems.append(f"chord {chord}: no crossing detected")
-        return problems
+    def _publish_health(self, t_s: float, status=None, blinding=None) -> None:
+        """Publish /diagnostics when due (every diagnostics_period_s, and at once on a change)."""
+        period = self._values["diagnostics_period_s"]
+        if self._graph_checked_s is None or not (0.0 <= t_s - self._graph_checked_s < period):
+            self._graph_checked_s, self._graph_warnings = t_s, self._truth_publisher_warnings()
+        newest = self._truth.newest_stamp_s if self._following else None
+        summary = self._health.report(
+            t_s, period, status=status, blinding=blinding, truth=self._truth_state,
+            exclusion_deg=self._values["sensor.bright_body_exclusion_deg"],
+            truth_age_s=float("nan") if newest is None else t_s - newest, warnings=self._graph_warnings)
+        if summary is not None:
+            report = shim.HealthReport(stamp_s=t_s, statuses=(shim.HealthStatus(
+                name="pmv_ros/sensor_node: horizon", level=shim.Level(summary.level), message=summary.message,
+                hardware_id="pmv", values=summary.values), self._orbit_status))
+            self._pub_diagnostics.publish(shim.write_health(self._out["diagnostics"], report))
 
-    def _maybe_publish_diagnostics(self, t_s: float, status=None, blinding=None) -> None:
-        """Publish /diagnostics every diagnostics_period_s, and at once when the chords' condition changes."""
-        condition = () if status is None else (tuple(status), tuple(blinding))
-        due = (t_s - self._last_diagnostics_s >= self._values["diagnostics_period_s"]
-               or t_s < self._last_diagnostics_s)  # the clock went back: a new run
-        if not due and condition == self._last_condition:
-            return
-        self._last_diagnostics_s = t_s
-        self._last_condition = condition
-        problems = [] if status is None else self._chord_problems(status, blinding)
-        values = {"samples_published": self._samples_published}
-        if status is not None:
-            values.update({f"chord_{chord}": ChordStatus(int(code)).name.lower()
-                           for chord, code in zip(CHORD_NAMES, status)})
-        for code in ChordStatus:
-            if code != ChordStatus.VALID:
-                for chord, count in zip(CHORD_NAMES, self._chord_problem_counts[code]):
-                    if count:
-                        values[f"{code.name.lower()}_{chord}"] = int(count)
-        values.update(self._rejected)
-        rejected_total = sum(n for reason, n in self._rejected.items() if reason.startswith("rejected_"))
-        fresh_rejections = rejected_total > self._rejected_reported
-        self._rejected_reported = rejected_total
-        if status is None:
-            problems.append("no sample: no fresh /attitude/truth to follow")
-        elif fresh_rejections:
-            problems.append("rejected /attitude/truth messages")
-        level = shim.Level.WARN if problems else shim.Level.OK
-        message = "; ".join(problems) if problems else "all chords valid"
-        report = shim.HealthReport(stamp_s=t_s, statuses=(shim.HealthStatus(
-            name="pmv_ros/sensor_node: horizon", level=level, message=message, hardware_id="pmv", values=values),))
-        self._pub_diagnostics.publish(shim.write_health(self._out["diagnostics"], report))
+    def _truth_publisher_warnings(self) -> tuple:
+        """Warnings about the sources of /attitude/truth on the graph (more than one, or one besides ours)."""
+        others = self.count_publishers("/attitude/truth") - (self._pub_truth is not None)
+        return truth_source_warnings(others, self._following)
 
 
 def main(args=None) -> int:

@@ -39,12 +39,10 @@ from geometry_msgs.msg import QuaternionStamped
 
 import pmv_msgs_shim as shim
 from .base import PmvNode
-from ..core.attitude import (quaternion_conjugate, quaternion_from_rotation_vector, quaternion_product,
-                              rotation_vector_from_quaternion)
 from ..core.assembly import STAR_TRACKER_PARAMS as PARAMS, build_tracker
 from ..core.constants import GM_EARTH_M3_S2, EARTH_MEAN_RADIUS_M
 from ..core.monitor import Status, validate_quaternion
-from ..core.star_tracker import Outcome, inertial_rate_of_nadir_pointing
+from ..core.star_tracker import FrameGrid, Outcome, inertial_rate_of_nadir_pointing
 from .launch import run_node
 from .params import ParameterError, declare, install_validation
 
@@ -70,9 +68,8 @@ class StarTrackerNode(PmvNode):
         install_validation(self, PARAMS, self._values, self._rebuild)
         self._publisher = self.publisher(QuaternionStamped, "/star_tracker/attitude")
         self._diagnostics = self.publisher(DiagnosticArray, "/diagnostics")
-        self.subscription(QuaternionStamped, "/attitude/truth", self._on_truth)
-        self._previous = None  # (stamp_s, q_xyzw)
-        self._next_frame_s = None
+        self.input_subscription(QuaternionStamped, "/attitude/truth", self._on_truth)
+        self._grid = FrameGrid(1.0 / self._values["rate_hz"], self._values["max_truth_gap_s"])
         self._queue = deque()  # (release_s, frame_s, q_xyzw), bounded by latency × rate
         # Filled in place for every publication (rclpy serialises at publish).
         self._out, self._out_diagnostics = QuaternionStamped(), DiagnosticArray()
@@ -86,9 +83,12 @@ class StarTrackerNode(PmvNode):
         # Measured by arrival on the node clock, so a source whose stamps are on another clock is not "stale".
         self._last_arrival_s = None
         self.create_timer(1.0, self._on_timer)
+        self.get_logger().info(f"star_tracker_node: ready, {self._values['rate_hz']:g} Hz frames, "
+                               f"latency {self._values['latency_s']:g} s")
 
     def _rebuild(self, values: dict) -> None:
         self._tracker = build_tracker(values, self._start_s)
+        self._grid.period_s, self._grid.max_gap_s = 1.0 / values["rate_hz"], values["max_truth_gap_s"]
 
     def _mean_motion(self) -> float:
         return math.sqrt(GM_EARTH_M3_S2 / (EARTH_MEAN_RADIUS_M + self._values["orbit.altitude_km"] * 1e3) ** 3)
@@ -104,7 +104,7 @@ class StarTrackerNode(PmvNode):
             return Status.ZERO_STAMP
         if now is not None and t_s > now + self._values["future_tolerance_s"]:
             return Status.FUTURE_STAMP
-        previous = self._previous
+        previous = self._grid.previous
         if previous is not None:
             if t_s == previous[0]:
                 return Status.DUPLICATE
@@ -119,8 +119,7 @@ class StarTrackerNode(PmvNode):
         self._counters["clock_jumps"] += 1
         self._counters["frames_dropped_at_clock_jump"] += len(self._queue)
         self._queue.clear()
-        self._previous = None
-        self._next_frame_s = None
+        self._grid.restart()
         self._last_diagnostics_s = -math.inf
 
     def _on_truth(self, message: QuaternionStamped) -> None:
@@ -137,37 +136,20 @@ class StarTrackerNode(PmvNode):
             self._counters[f"rejected_truth_{status.value}"] += 1
             return
         self._counters["truth_quaternions_normalised"] += normalised
-        current = q
-        previous = self._previous
-        self._previous = (t_s, current)
-        period = 1.0 / self._values["rate_hz"]
-        if previous is None or self._next_frame_s is None or t_s - previous[0] > self._values["max_truth_gap_s"]:
-            # First sample, or a gap in the truth: restart the frame grid here, never interpolate across.
-            self._next_frame_s = math.ceil(t_s / period) * period
-            previous = None
-        if previous is not None and self._next_frame_s <= t_s + 1e-12:
-            frames = np.arange(self._next_frame_s, t_s + 1e-12, period).tolist()
-            if frames:
-                # The turn from the previous truth to this one (orbital components), in plain floats.
-                q_previous, dt = tuple(previous[1].tolist()), t_s - previous[0]
-                turn = rotation_vector_from_quaternion(quaternion_product(tuple(current.tolist()),
-                                                                          quaternion_conjugate(q_previous)))
-                rate = inertial_rate_of_nadir_pointing(self._mean_motion(), tuple(w / dt for w in turn))
-                # Slerp: a constant-rate turn from the previous truth to this one.
-                q_frames = [quaternion_product(quaternion_from_rotation_vector(
-                    tuple((frame_s - previous[0]) / dt * w for w in turn)), q_previous) for frame_s in frames]
-                if len(frames) == 1:  # the usual case: one frame per truth sample at most
-                    results = [self._tracker.measure(frames[0], q_frames[0], rate)]
-                else:  # one call for all: the same random draws, in the same order, as for any N
-                    measured, outcomes = self._tracker.measure(np.array(frames), np.array(q_frames).T,
-                                                               np.full(len(frames), rate))
-                    results = [(measured[:, k], Outcome(int(code))) for k, code in enumerate(outcomes)]
-                for frame_s, (measured, outcome) in zip(frames, results):
-                    self._outcomes[outcome] += 1
-                    self._last_outcome = outcome
-                    if outcome == Outcome.OK:
-                        self._queue.append((frame_s + self._values["latency_s"], frame_s, measured.tolist()))
-                self._next_frame_s = frames[-1] + period
+        frames, attitudes, turn_rate = self._grid.add(t_s, q)
+        if frames:
+            rate = inertial_rate_of_nadir_pointing(self._mean_motion(), turn_rate)
+            if len(frames) == 1:  # the usual case: one frame per truth sample at most
+                results = [self._tracker.measure(frames[0], attitudes[0], rate)]
+            else:  # one call for all: the same random draws, in the same order, as for any N
+                measured, outcomes = self._tracker.measure(np.array(frames), np.array(attitudes).T,
+                                                           np.full(len(frames), rate))
+                results = [(measured[:, k], Outcome(int(code))) for k, code in enumerate(outcomes)]
+            for frame_s, (measured, outcome) in zip(frames, results):
+                self._outcomes[outcome] += 1
+                self._last_outcome = outcome
+                if outcome == Outcome.OK:
+                    self._queue.append((frame_s + self._values["latency_s"], frame_s, measured.tolist()))
         while self._queue and self._queue[0][0] <= t_s + 1e-9:
             _, frame_s, q_measured = self._queue.popleft()
             self._publisher.publish(shim.write_attitude_quaternion(self._out, frame_s, shim.ORBITAL_FRAME, q_measured))

@@ -1,0 +1,102 @@
+"""The three pmv_ros nodes on one preset: ``ros2 launch pmv_ros pmv.launch.py [argument:=value …]``.
+
+Arguments (``ros2 launch pmv_ros pmv.launch.py --show-args`` lists them):
+
+* ``preset`` — kondor (default), meteor_m2, meteor_m2_2 (the package's
+  ``share/pmv_ros/config/<preset>.yaml``), or the path of your own params file;
+* ``follow`` — true: the sensor follows your ``/attitude/truth`` and the
+  package starts no attitude model (nothing of it publishes ``/attitude/truth``).
+  Passes ``config/follow.yaml`` as a second params file after the preset: a
+  later file's node section wins over the preset's, where a ``-p`` would lose;
+* ``fast_time`` — true: the sensor runs its own simulation clock and publishes
+  ``/clock``, the other nodes run on it; ``time_scale`` — its multiple of real
+  time (default 10; across processes keep rate × scale × 8 messages well below
+  the ≈ 3000 msg/s the machine moves, see the README);
+* ``use_sim_time`` — true: all three nodes take their time from a ``/clock``
+  someone else publishes (a simulator of yours); ignored with fast_time;
+* ``namespace`` — a namespace for the three nodes (their topics are absolute
+  names and stay as they are); the preset's node sections are applied to the
+  namespaced nodes.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+import yaml
+from ament_index_python.packages import get_package_share_directory
+from launch import LaunchDescription
+from launch.actions import DeclareLaunchArgument, OpaqueFunction
+from launch.substitutions import LaunchConfiguration
+from launch_ros.actions import Node
+
+PACKAGE = "pmv_ros"
+PRESETS = ("kondor", "meteor_m2", "meteor_m2_2")
+NODES = ("sensor_node", "star_tracker_node", "error_monitor_node")
+
+ARGUMENTS = (
+    ("preset", "kondor", f"one of {', '.join(PRESETS)}, or the path of a ros__parameters file"),
+    ("follow", "false", "true: the sensor follows /attitude/truth from your stack (no attitude model of its own)"),
+    ("fast_time", "false", "true: the sensor runs a simulation clock and publishes /clock; the others follow it"),
+    ("time_scale", "10.0", "fast time: multiple of real time (0 = as fast as possible, not for several processes)"),
+    ("use_sim_time", "false", "true: every node takes its time from a /clock published by someone else"),
+    ("namespace", "", "namespace of the three nodes (topics are absolute names and do not move)"),
+)
+
+
+class LaunchArgumentError(RuntimeError):
+    """A launch argument that cannot be used; launch prints the message."""
+
+
+def _flag(context, name: str) -> bool:
+    value = LaunchConfiguration(name).perform(context).strip().lower()
+    if value not in ("true", "false"):
+        raise LaunchArgumentError(f"{name}:={value!r}: expected true or false")
+    return value == "true"
+
+
+def _namespaced(files: list[str], namespace: str) -> list[str]:
+    """The params files with their node sections renamed for nodes in ``namespace`` (rcl matches full names)."""
+    if not namespace:
+        return files
+    prefix = "/" + namespace.strip("/")
+    renamed = []
+    for path in files:
+        document = yaml.safe_load(Path(path).read_text()) or {}
+        document = {(f"{prefix}/{key.lstrip('/')}" if key.lstrip("/") in NODES else key): value
+                    for key, value in document.items()}
+        with tempfile.NamedTemporaryFile("w", prefix="pmv_launch_", suffix=".yaml", delete=False) as stream:
+            yaml.safe_dump(document, stream)
+        renamed.append(stream.name)
+    return renamed
+
+
+def _nodes(context):
+    config = Path(get_package_share_directory(PACKAGE)) / "config"
+    preset = LaunchConfiguration("preset").perform(context).strip()
+    path = config / f"{preset}.yaml" if preset in PRESETS else Path(preset).expanduser()
+    if not path.is_file():
+        raise LaunchArgumentError(f"preset:={preset}: not one of {', '.join(PRESETS)} and no such file")
+    follow, fast_time = _flag(context, "follow"), _flag(context, "fast_time")
+    use_sim_time = _flag(context, "use_sim_time")
+    try:
+        time_scale = float(LaunchConfiguration("time_scale").perform(context))
+    except ValueError:
+        raise LaunchArgumentError("time_scale: expected a number") from None
+    namespace = LaunchConfiguration("namespace").perform(context).strip()
+    files = [str(path)] + ([str(config / "follow.yaml")] if follow else [])
+    files = _namespaced(files, namespace)
+    sensor = {"use_sim_time": use_sim_time and not fast_time}
+    if fast_time:
+        sensor.update({"sim.fast_time": True, "sim.time_scale": time_scale})
+    others = {"use_sim_time": use_sim_time or fast_time}
+    return [Node(package=PACKAGE, executable=name, name=name, namespace=namespace, output="screen",
+                 parameters=[*files, sensor if name == "sensor_node" else others])
+            for name in NODES]
+
+
+def generate_launch_description() -> LaunchDescription:
+    """Declare the arguments; the nodes are made once their values are known."""
+    return LaunchDescription([DeclareLaunchArgument(name, default_value=default, description=description)
+                              for name, default, description in ARGUMENTS] + [OpaqueFunction(function=_nodes)])

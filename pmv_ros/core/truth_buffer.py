@@ -1,0 +1,132 @@
+"""The attitude a following sensor measures with: truth at its own sample time, or none.
+
+A sensor in follow mode samples at its own times, the user's attitude stack
+publishes truth at its own. :class:`TruthBuffer` keeps the last samples of
+truth and answers "what was the attitude at t?":
+
+* between two samples: the constant-rate turn between them (slerp,
+  :func:`pmv_ros.core.attitude.slerp`), unless they are further apart than
+  ``max_gap_s`` — nothing is interpolated across a gap;
+* beyond the newest: the last body rate carried on for at most
+  ``extrapolation_periods`` truth periods (the interval of the last two
+  samples), never more than ``max_gap_s``; later than that the truth is
+  stale and there is no attitude — the sensor publishes nothing rather
+  than an angle from an attitude nobody gave it.
+
+Memory is bounded (``capacity`` samples); stamps are taken in increasing
+order (the caller validates them; a stamp at or before the newest clears
+the buffer: a new timeline).
+"""
+
+from __future__ import annotations
+
+import bisect
+import enum
+from collections import deque
+
+from .attitude import slerp
+
+
+class TruthAt(str, enum.Enum):
+    """Where the attitude for a sample time came from, or why there is none (value: the counter name)."""
+
+    INTERPOLATED = "interpolated"  #: between two samples (or at one)
+    EXTRAPOLATED = "extrapolated"  #: past the newest, within the horizon
+    NO_TRUTH = "no_truth"          #: nothing yet to measure with (no sample, or one sample and no rate)
+    TOO_OLD = "too_old"            #: before the oldest sample kept
+    TRUTH_GAP = "truth_gap"        #: the bracketing samples are further apart than max_gap_s
+    STALE = "stale"                #: past the newest by more than the extrapolation horizon
+
+    @property
+    def usable(self) -> bool:
+        """An attitude is given."""
+        return self in (TruthAt.INTERPOLATED, TruthAt.EXTRAPOLATED)
+
+
+#: Samples kept: 5 s of truth at 50 Hz; a following sensor samples within the last few.
+DEFAULT_CAPACITY = 256
+
+#: Stamps this close (s) are the same instant (float stamps from integer nanoseconds).
+_SAME_INSTANT_S = 1e-9
+
+
+class TruthBuffer:
+    """The last ``capacity`` truth samples and the attitude at any time they cover.
+
+    Args:
+        extrapolation_periods: how far past the newest sample the last body
+            rate is carried, in truth periods (the interval of the last two samples).
+        max_gap_s: no interpolation across, and no extrapolation beyond, this many seconds.
+        capacity: samples kept.
+    """
+
+    def __init__(self, extrapolation_periods: float = 2.0, max_gap_s: float = 1.0,
+                 capacity: int = DEFAULT_CAPACITY):
+        if not (0.0 <= extrapolation_periods <= 100.0):
+            raise ValueError(f"extrapolation_periods = {extrapolation_periods} is outside the allowed range 0 … 100")
+        if not (max_gap_s > 0.0):
+            raise ValueError(f"max_gap_s = {max_gap_s} must be > 0 s")
+        self.extrapolation_periods = float(extrapolation_periods)
+        self.max_gap_s = float(max_gap_s)
+        self._stamps = deque(maxlen=capacity)
+        self._attitudes = deque(maxlen=capacity)
+
+    def __len__(self) -> int:
+        return len(self._stamps)
+
+    @property
+    def newest_stamp_s(self) -> float | None:
+        """Stamp of the newest sample, s (None when empty)."""
+        return self._stamps[-1] if self._stamps else None
+
+    def clear(self) -> None:
+        """Forget every sample."""
+        self._stamps.clear()
+        self._attitudes.clear()
+
+    def take_samples(self, other: "TruthBuffer") -> None:
+        """Keep the samples of ``other`` (a buffer reconfigured while truth keeps coming)."""
+        self._stamps.extend(other._stamps)
+        self._attitudes.extend(other._attitudes)
+
+    def add(self, t_s: float, q_xyzw) -> None:
+        """Keep one sample: stamp (s) and unit quaternion (x, y, z, w). A stamp not after the newest starts over."""
+        if self._stamps and t_s <= self._stamps[-1]:
+            self.clear()
+        self._stamps.append(float(t_s))
+        self._attitudes.append(tuple(float(c) for c in q_xyzw))
+
+    def horizon_s(self) -> float:
+        """How far past the newest sample an attitude is still given, s (0 with fewer than two samples,
+        or when the last two are further apart than ``max_gap_s``)."""
+        if len(self._stamps) < 2 or self._stamps[-1] - self._stamps[-2] > self.max_gap_s:
+            return 0.0
+        return min(self.extrapolation_periods * (self._stamps[-1] - self._stamps[-2]), self.max_gap_s)
+
+    def attitude_at(self, t_s: float) -> tuple[tuple | None, TruthAt]:
+        """The attitude (x, y, z, w) at ``t_s`` and where it came from; (None, reason) when there is none."""
+        stamps, attitudes = self._stamps, self._attitudes
+        if not stamps:
+            return None, TruthAt.NO_TRUTH
+        newest = stamps[-1]
+        if abs(t_s - newest) <= _SAME_INSTANT_S:
+            return attitudes[-1], TruthAt.INTERPOLATED
+        if t_s > newest:
+            if len(stamps) < 2:
+                return None, TruthAt.NO_TRUTH
+            if newest - stamps[-2] > self.max_gap_s:  # the last rate would be taken across a gap
+                return None, TruthAt.TRUTH_GAP
+            if t_s - newest > self.horizon_s():
+                return None, TruthAt.STALE
+            (q,), _ = slerp(stamps[-2], attitudes[-2], newest, attitudes[-1], [t_s])
+            return q, TruthAt.EXTRAPOLATED
+        if t_s < stamps[0] - _SAME_INSTANT_S:
+            return None, TruthAt.TOO_OLD
+        after = bisect.bisect_left(stamps, t_s)
+        if abs(stamps[after] - t_s) <= _SAME_INSTANT_S:
+            return attitudes[after], TruthAt.INTERPOLATED
+        before = after - 1
+        if stamps[after] - stamps[before] > self.max_gap_s:
+            return None, TruthAt.TRUTH_GAP
+        (q,), _ = slerp(stamps[before], attitudes[before], stamps[after], attitudes[after], [t_s])
+        return q, TruthAt.INTERPOLATED
