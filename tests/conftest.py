@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
+import importlib.util
 import os
+import subprocess
+import sys
 import tempfile
+from pathlib import Path
 
 import pytest
 
@@ -12,6 +16,8 @@ import pytest
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "OFF")
 os.environ.setdefault("ROS_LOG_DIR", tempfile.mkdtemp(prefix="pmv_ros_test_log_"))
 os.environ.setdefault("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
+
+REPO = Path(__file__).resolve().parents[1]
 
 
 def pytest_addoption(parser):
@@ -39,3 +45,34 @@ def harness():
     yield make
     for item in made:
         item.close()
+
+
+def _colcon_missing() -> str | None:
+    for module in ("colcon_core", "colcon_ros", "colcon_python_setup_py"):
+        if importlib.util.find_spec(module) is None:
+            return (f"colcon is not installed for {sys.executable} ({module} is not importable): "
+                    "`pip install -r requirements.txt` (colcon-common-extensions)")
+    return None
+
+
+@pytest.fixture(scope="session")
+def colcon_install(tmp_path_factory) -> Path:
+    """``colcon build`` of this repository into a temporary workspace, once per run; the install base."""
+    reason = _colcon_missing()
+    if reason:
+        pytest.skip(reason)
+    workspace = tmp_path_factory.mktemp("colcon_ws")
+    leftovers = ("build", "install", "log", "pmv_ros.egg-info")
+    present_before = {name for name in leftovers if (REPO / name).exists()}
+    env = {name: value for name, value in os.environ.items() if name != "COLCON_DEFAULTS_FILE"}
+    env["COLCON_HOME"] = str(workspace / "colcon_home")  # no user defaults or mixins
+    command = [sys.executable, "-c", "import sys; from colcon_core.command import main; sys.exit(main())",
+               "--log-base", str(workspace / "log"),
+               "build", "--base-paths", str(REPO), "--packages-select", "pmv_ros",
+               "--build-base", str(workspace / "build"), "--install-base", str(workspace / "install")]
+    result = subprocess.run(command, cwd=workspace, env=env, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, f"colcon build failed:\n{result.stdout}\n{result.stderr}"
+    assert "1 package finished" in result.stdout, result.stdout
+    left = {name for name in leftovers if (REPO / name).exists()} - present_before
+    assert not left, f"colcon build left {sorted(left)} in the repository"
+    return workspace / "install"

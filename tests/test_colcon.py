@@ -15,7 +15,6 @@ parameter must end the process with one line on stderr, not a traceback.
 
 from __future__ import annotations
 
-import importlib.util
 import math
 import os
 import signal
@@ -53,14 +52,6 @@ FIRST_MESSAGES_TIMEOUT_S = 60.0
 SHUTDOWN_TIMEOUT_S = 15.0
 
 
-def _colcon_missing() -> str | None:
-    for module in ("colcon_core", "colcon_ros", "colcon_python_setup_py"):
-        if importlib.util.find_spec(module) is None:
-            return (f"colcon is not installed for {sys.executable} ({module} is not importable): "
-                    "`pip install -r requirements.txt` (colcon-common-extensions)")
-    return None
-
-
 def _child_env(log_dir: Path, **extra: str) -> dict:
     """The environment of a node started from a fresh shell on our domain, discovery on localhost."""
     env = {name: value for name, value in os.environ.items() if name not in DISCOVERY_ENV + BOOTSTRAP_ENV}
@@ -77,29 +68,6 @@ def _install_env(install: Path, log_dir: Path) -> dict:
         PYTHONPATH=os.pathsep.join(p for p in (str(prefix / PYTHON_LIB), os.environ.get("PYTHONPATH")) if p),
         AMENT_PREFIX_PATH=os.pathsep.join(p for p in (str(prefix), os.environ.get("AMENT_PREFIX_PATH")) if p),
     )
-
-
-@pytest.fixture(scope="module")
-def colcon_install(tmp_path_factory) -> Path:
-    """``colcon build`` of this repository into a temporary workspace; the install base."""
-    reason = _colcon_missing()
-    if reason:
-        pytest.skip(reason)
-    workspace = tmp_path_factory.mktemp("colcon_ws")
-    leftovers = ("build", "install", "log", "pmv_ros.egg-info")
-    present_before = {name for name in leftovers if (REPO / name).exists()}
-    env = {name: value for name, value in os.environ.items() if name != "COLCON_DEFAULTS_FILE"}
-    env["COLCON_HOME"] = str(workspace / "colcon_home")  # no user defaults or mixins
-    command = [sys.executable, "-c", "import sys; from colcon_core.command import main; sys.exit(main())",
-               "--log-base", str(workspace / "log"),
-               "build", "--base-paths", str(REPO), "--packages-select", "pmv_ros",
-               "--build-base", str(workspace / "build"), "--install-base", str(workspace / "install")]
-    result = subprocess.run(command, cwd=workspace, env=env, capture_output=True, text=True, timeout=300)
-    assert result.returncode == 0, f"colcon build failed:\n{result.stdout}\n{result.stderr}"
-    assert "1 package finished" in result.stdout, result.stdout
-    left = {name for name in leftovers if (REPO / name).exists()} - present_before
-    assert not left, f"colcon build left {sorted(left)} in the repository"
-    return workspace / "install"
 
 
 @pytest.mark.colcon

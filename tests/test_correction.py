@@ -71,7 +71,7 @@ def test_unsorted_rows_are_sorted():
 
 @pytest.mark.parametrize("text, fragment", [
     ("", "is empty"),
-    ("del,pop\n1,2\n3,4\n", "line 1: header must be 'del_arcmin,pop_arcmin'"),
+    ("del,pop\n1,2\n3,4\n", "line 1: the header must be 'del_arcmin,pop_arcmin'"),
     ("del_arcmin,pop_arcmin\n1,2\n", "at least 2 rows"),
     ("# note\ndel_arcmin,pop_arcmin\n1,2\nx,4\n", "line 4: expected two finite numbers"),
     ("del_arcmin,pop_arcmin\n1,2\n3,nan\n", "line 3: expected two finite numbers"),

@@ -30,7 +30,7 @@ from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
 from rclpy.executors import SingleThreadedExecutor
 from rosgraph_msgs.msg import Clock
 
-from test_colcon import DISCOVERY_ENV, DOMAIN_ID, PYTHON_LIB, _install_env, colcon_install  # noqa: F401 (fixture)
+from test_colcon import DISCOVERY_ENV, DOMAIN_ID, _install_env
 
 REPO = Path(__file__).resolve().parents[1]
 #: ../shared/vendor beside the repository (as CI lays it out), or where PMV_ROS_VENDOR points.

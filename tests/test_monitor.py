@@ -17,6 +17,7 @@ from pmv_ros.core.monitor import (
     orbit_angles_from_state,
 )
 from pmv_ros.core.orbit import CircularOrbit
+from pmv_ros.core.validation import Rejection
 
 KONDOR_ALTITUDE_M, KONDOR_INCLINATION = 500e3, math.radians(74.5)
 
@@ -119,29 +120,33 @@ def test_bad_samples_are_dropped_or_normalised_and_counted_per_reason():
     }
     for name, value in expected.items():
         assert counters[name] == value, name
-    assert [o.status for o in outcomes] == [Status.NON_FINITE, Status.ZERO_STAMP, Status.OK, Status.DUPLICATE]
+    assert [o.status for o in outcomes] == [Rejection.NON_FINITE, Rejection.ZERO_STAMP, Status.OK, Rejection.DUPLICATE]
     # The normalised truth quaternion reads back as roll 0.01, pitch −0.02 (attitude.py convention).
     assert outcomes[2].residual_roll_rad == pytest.approx(0.0, abs=1e-12)
     assert outcomes[2].residual_pitch_rad == pytest.approx(0.0, abs=1e-12)
     assert set(counters) == set(COUNTER_NAMES)
 
 
-def test_clock_jump_back_resets_alignment_and_never_mixes_epochs():
+def test_clock_jump_back_resets_alignment_once_and_never_mixes_epochs():
     monitor = ErrorMonitor(small_config(remove_oblateness=False))
     for t in np.arange(1000.0, 1610.0, 2.0):     # a little over one 600 s orbit
-        monitor.add_truth(t, 1.0, 0.0)           # old epoch: truth roll 1 rad
-        monitor.add_sensor(t, 1.0, 0.0)
+        monitor.add_truth(t, 0.1, 0.0)           # old epoch: truth roll 0.1 rad
+        monitor.add_sensor(t, 0.1, 0.0)
     assert monitor.summary().harmonics_full_orbit
-    pending = monitor.add_sensor(1610.5, 1.0, 0.0)
+    pending = monitor.add_sensor(1610.5, 0.1, 0.0)
     assert pending == [] and monitor.pending_count == 1
     used_before = monitor.counters["used"]
-    # The simulation restarts: both clocks go back to a few seconds.
-    reset = monitor.add_truth(5.0, 0.0, 0.0)
+    # The simulation restarts: both clocks go back to a few seconds. The first stamp of the new
+    # timeline is only a suspected jump (it could be a single bad stamp) ...
+    assert monitor.add_truth(5.0, 0.0, 0.0) == []
+    assert monitor.counters["rejected_truth_unconfirmed_jump"] == 1 and monitor.pending_count == 1
+    # ... the next one on the new timeline confirms it: one reset.
+    reset = monitor.add_truth(5.2, 0.0, 0.0)
     assert [o.status for o in reset] == [Status.RESET]
-    outcomes = monitor.add_sensor(5.5, 0.0, 0.0)
+    outcomes = monitor.add_sensor(5.5, 0.0, 0.0)   # the first new sensor stamp: after the reset, accepted
     outcomes += monitor.add_truth(6.0, 0.0, 0.0)
     assert [o.status for o in outcomes] == [Status.OK]
-    assert outcomes[0].residual_roll_rad == 0.0  # an old truth of 1 rad would give −1 rad here
+    assert outcomes[0].residual_roll_rad == 0.0  # an old truth of 0.1 rad would give −0.1 rad here
     counters = monitor.counters
     assert counters["clock_jumps"] == 1 and counters["alignment_resets"] == 1 and counters["skipped_reset"] == 1
     summary = monitor.summary()
@@ -149,12 +154,35 @@ def test_clock_jump_back_resets_alignment_and_never_mixes_epochs():
     assert not summary.harmonics_full_orbit                      # ... the time-based ring starts again
 
 
+def test_a_single_forged_stamp_or_clock_jump_is_an_outlier_and_keeps_the_ring():
+    monitor = ErrorMonitor(small_config(remove_oblateness=False))
+    for t in np.arange(1000.0, 1610.0, 2.0):
+        monitor.add_truth(t, 0.0, 0.0, now_s=t)
+        monitor.add_sensor(t, 1e-4, 0.0, now_s=t)
+    assert monitor.summary().harmonics_full_orbit
+    # One sensor stamp 900 s back, then the stream goes on where it was: an outlier.
+    assert [o.status for o in monitor.add_sensor(700.0, 1e-4, 0.0, now_s=1610.0)] == [Rejection.UNCONFIRMED_JUMP]
+    monitor.add_truth(1610.0, 0.0, 0.0, now_s=1610.0)
+    assert [o.status for o in monitor.add_sensor(1610.0, 1e-4, 0.0, now_s=1610.0)] == [Status.OK]
+    # One forged /clock an hour back, and one a year ahead, each contradicted by the next reading.
+    for forged in (1610.0 - 3600.0, 1610.0 + 3.15e7):
+        monitor.poll(now_s=forged)
+        monitor.poll(now_s=1610.5)
+    counters = monitor.counters
+    assert counters["clock_outliers"] == 3
+    assert counters["clock_jumps"] == 0 and counters["alignment_resets"] == 0
+    assert monitor.summary().harmonics_full_orbit and monitor.truth_buffer_length > 2
+    assert counters["skipped_stale_truth"] == 0  # the year-ahead clock timed nothing out
+
+
 def test_clock_jump_of_now_rejects_stragglers_from_the_old_epoch():
     monitor = ErrorMonitor(small_config())
     monitor.add_truth(1000.0, 0.0, 0.0, now_s=1000.0)
-    monitor.poll(now_s=3.0)                       # the node clock went back: reset
+    monitor.poll(now_s=3.0)                       # the node clock went back: suspected ...
+    assert monitor.counters["clock_jumps"] == 0 and monitor.truth_buffer_length == 1
+    monitor.poll(now_s=3.1)                       # ... and confirmed by the next reading: reset
     assert monitor.counters["clock_jumps"] == 1 and monitor.truth_buffer_length == 0
-    monitor.add_truth(1001.0, 0.0, 0.0, now_s=3.0)                      # in flight before the jump
+    monitor.add_truth(1001.0, 0.0, 0.0, now_s=3.1)                      # in flight before the jump
     assert monitor.counters["rejected_truth_future_stamp"] == 1
 
 

@@ -13,7 +13,7 @@ import sys
 from .common import OneLineParser, fail
 
 #: Subcommand modules of this package, in the order ``pmv --help`` lists them.
-SUBCOMMANDS = ("oblateness", "scenario", "analyze", "simulate")
+SUBCOMMANDS = ("oblateness", "scenario", "analyze", "simulate", "campaign")
 
 
 def build_parser() -> OneLineParser:

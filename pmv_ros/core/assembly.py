@@ -19,10 +19,34 @@ from .orbit import CircularOrbit
 from .parameters import ParamSpec
 from .sensor import ChainDetector, RadianceConfig, SensorConfig, SensorModel, nominal_scan_start_nadir_rad
 from .star_tracker import StarTracker, StarTrackerParameters
+from .validation import InputBounds
+
+
+#: Input guards every node has (issue 15; the checks are core/validation.py).
+INPUT_PARAMS = (
+    ParamSpec("input.max_rate_hz", 500.0, "an input stream stamped faster than this is thinned to it and the rest "
+              "counted too_fast (a flood cannot run the stream's clock ahead)", 2.0, 1e5, unit="Hz"),
+    ParamSpec("input.source_timeout_s", 1.0, "only the first publisher heard on an input is used; it is given up "
+              "after this long without a message (then the next one heard is used)", 0.05, 3600.0, unit="s"),
+)
+
+#: Plausibility bounds of the monitor's inputs: what a horizon sensor on a bound Earth orbit can report.
+MONITOR_INPUT_PARAMS = (
+    ParamSpec("input.max_abs_angle_deg", 30.0, "a /pmv/attitude roll or pitch beyond this is not a measurement "
+              "(the PMV sees no horizon there) and is dropped", 0.1, 180.0, unit="deg"),
+    ParamSpec("input.min_orbit_radius_km", 6471.0, "smallest geocentric radius on /orbit/odometry", 6371.0, 1e6,
+              unit="km"),
+    ParamSpec("input.max_orbit_radius_km", 50000.0, "largest geocentric radius on /orbit/odometry", 6371.0, 1e6,
+              unit="km"),
+    ParamSpec("input.min_orbit_speed_km_s", 0.5, "smallest inertial speed on /orbit/odometry", 0.0, 100.0,
+              unit="km/s"),
+    ParamSpec("input.max_orbit_speed_km_s", 11.2, "largest inertial speed on /orbit/odometry (an unbound state "
+              "is refused whatever the speed)", 0.0, 100.0, unit="km/s"),
+)
 
 
 #: Parameters of sensor_node (units in the names; YAML speaks km, deg, arcmin).
-SENSOR_PARAMS = (
+SENSOR_PARAMS = INPUT_PARAMS + (
     ParamSpec("orbit.altitude_km", 500.0, "circular orbit altitude above the 6371 km mean radius", 150.0, 40000.0,
               unit="km", read_only=True),
     ParamSpec("orbit.inclination_deg", 74.5, "orbit inclination", 0.0, 180.0, unit="deg", read_only=True),
@@ -103,8 +127,12 @@ SENSOR_PARAMS = (
 )
 
 
+#: Most scheduled star-tracker outages (entries of outage_start_s / outage_duration_s): a
+#: campaign of solar-flare periods has a handful; the bound keeps a peer from filling memory.
+MAX_OUTAGES = 64
+
 #: Parameters of star_tracker_node.
-STAR_TRACKER_PARAMS = (
+STAR_TRACKER_PARAMS = INPUT_PARAMS + (
     ParamSpec("orbit.altitude_km", 500.0, "orbit altitude (gives the orbital rate for the rate limit)",
               150.0, 40000.0, unit="km", read_only=True),
     ParamSpec("rate_hz", 2.0, "frame rate of the star tracker", 0.01, 50.0, unit="Hz"),
@@ -115,8 +143,9 @@ STAR_TRACKER_PARAMS = (
               unit="arcsec/s"),
     ParamSpec("random_failure_probability", 1e-3, "probability that a single frame fails", 0.0, 1.0),
     ParamSpec("outage_start_s", [-1.0], "start of each scheduled outage after node start (negative: none)",
-              -1.0, 1e9, unit="s"),
-    ParamSpec("outage_duration_s", [0.0], "duration of each scheduled outage", 0.0, 1e9, unit="s"),
+              -1.0, 1e9, unit="s", max_length=MAX_OUTAGES),
+    ParamSpec("outage_duration_s", [0.0], "duration of each scheduled outage", 0.0, 1e9, unit="s",
+              max_length=MAX_OUTAGES),
     ParamSpec("max_truth_gap_s", 5.0, "no frame is interpolated across a truth gap longer than this",
               0.001, 3600.0, unit="s"),
     ParamSpec("clock_jump_s", 1.0, "a truth stamp going back by more than this starts a new timeline "
@@ -142,7 +171,7 @@ def build_tracker(values: dict, start_s: float) -> StarTracker:
 
 
 #: Parameters of error_monitor_node.
-MONITOR_PARAMS = (
+MONITOR_PARAMS = INPUT_PARAMS + MONITOR_INPUT_PARAMS + (
     ParamSpec("orbit.altitude_km", 500.0, "nominal orbit altitude (until /orbit/odometry arrives)", 150.0, 40000.0,
               unit="km", read_only=True),
     ParamSpec("orbit.inclination_deg", 74.5, "nominal inclination (until /orbit/odometry arrives)", 0.0, 180.0,
@@ -178,6 +207,13 @@ def build_monitor(values: dict) -> ErrorMonitor:
         future_tolerance_s=values["future_tolerance_s"],
         roll_offset_rad=values["roll_offset_arcmin"] * ARCMIN_RAD,
         pitch_offset_rad=values["pitch_offset_arcmin"] * ARCMIN_RAD,
+        min_interval_s=1.0 / values["input.max_rate_hz"],
+        bounds=InputBounds(
+            max_abs_angle_rad=math.radians(values["input.max_abs_angle_deg"]),
+            min_orbit_radius_m=values["input.min_orbit_radius_km"] * 1e3,
+            max_orbit_radius_m=values["input.max_orbit_radius_km"] * 1e3,
+            min_orbit_speed_m_s=values["input.min_orbit_speed_km_s"] * 1e3,
+            max_orbit_speed_m_s=values["input.max_orbit_speed_km_s"] * 1e3),
     ))
 
 
@@ -257,11 +293,22 @@ def build_detector(values: dict, orbit: CircularOrbit):
         environment=environment,
         earth_rotation_at_epoch_rad=rotation_at_clock_zero % (2.0 * math.pi),
     )
+    correction = values["_correction"] if "_correction" in values else read_correction(values)
+    return ChainDetector(orbit.altitude_m, radiance, correction, scan_margin_rad=math.radians(values["sensor.scan_margin_deg"]))
+
+
+def read_correction(values: dict):
+    """The brightness-correction table ``sensor.correction`` names (a file is read here); ValueError naming it.
+
+    A node calls this once, at start-up, and keeps the table as
+    ``values["_correction"]`` (``sensor.correction`` and the orbit are
+    read-only): no later parameter change, and so nothing a peer on the
+    network sends, makes the node read a file.
+    """
     try:
-        correction = load_correction(values["sensor.correction"], orbit.altitude_m)
+        return load_correction(values["sensor.correction"], values["orbit.altitude_km"] * 1e3)
     except ValueError as error:
         raise ValueError(f"sensor.correction: {error}") from None
-    return ChainDetector(orbit.altitude_m, radiance, correction, scan_margin_rad=math.radians(values["sensor.scan_margin_deg"]))
 
 
 #: Every node's parameters by node name (params files are keyed by it).

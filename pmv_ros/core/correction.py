@@ -44,6 +44,7 @@ import numpy as np
 from .chain import DEFAULT_CHAIN_PARAMETERS, scan_start_nadir_angle, sense_horizon_chords, sphere_chord
 from .constants import ARCMIN_RAD, EARTH_MEAN_RADIUS_M
 from .radiance import MAX_EARTH_RADIANCE_RU, MIN_EARTH_RADIANCE_RU
+from .validation import read_text_file
 
 #: Rig radiances, r.u.: 1 … 4 in steps of 0.025 (121 points).
 RIG_RADIANCES_RU = tuple(np.round(np.linspace(MIN_EARTH_RADIANCE_RU, MAX_EARTH_RADIANCE_RU, 121), 6))
@@ -100,12 +101,12 @@ class CorrectionTable:
 
     @classmethod
     def from_csv(cls, path) -> "CorrectionTable":
-        """Load a ``del_arcmin,pop_arcmin`` CSV file; ValueError naming the file and line if it is malformed."""
-        try:
-            text = Path(path).read_text(encoding="utf-8")
-        except OSError as error:
-            raise ValueError(f"cannot read correction table {path}: {error.strerror or error}") from None
-        return cls.from_csv_text(text, source=str(path))
+        """Load a ``del_arcmin,pop_arcmin`` CSV file; ValueError naming the file and line if it is malformed.
+
+        Only a regular text file of bounded size is read, without blocking
+        (:func:`pmv_ros.core.validation.read_text_file`); no reason quotes the file.
+        """
+        return cls.from_csv_text(read_text_file(path, "correction table"), source=str(path))
 
     @classmethod
     def from_csv_text(cls, text: str, source: str = "<text>") -> "CorrectionTable":
@@ -117,8 +118,9 @@ class CorrectionTable:
         first_line, header = rows[0]
         names = [c.strip().lower() for c in next(csv.reader(io.StringIO(header)))]
         if names != list(CSV_COLUMNS):
-            raise ValueError(f"correction table {source} line {first_line}: header must be "
-                             f"'{','.join(CSV_COLUMNS)}', got {header.strip()!r}")
+            # The reason names the line, never quotes it: the file may be anything (issue 15).
+            raise ValueError(f"correction table {source} line {first_line}: the header must be "
+                             f"'{','.join(CSV_COLUMNS)}'")
         values = []
         for n, line in rows[1:]:
             cells = next(csv.reader(io.StringIO(line)))
@@ -129,8 +131,7 @@ class CorrectionTable:
                 if not (math.isfinite(del_arcmin) and math.isfinite(pop_arcmin)):
                     raise ValueError
             except ValueError:
-                raise ValueError(f"correction table {source} line {n}: expected two finite numbers, "
-                                 f"got {line.strip()!r}") from None
+                raise ValueError(f"correction table {source} line {n}: expected two finite numbers") from None
             values.append((del_arcmin, pop_arcmin))
         if len(values) < 2:
             raise ValueError(f"correction table {source} needs at least 2 rows, got {len(values)}")

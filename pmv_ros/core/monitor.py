@@ -18,17 +18,28 @@ Alignment (physics.md §6: truth has noise, latency and gaps)
     is given up as ``stale_truth`` — that is what a star-tracker outage
     produces, and alignment resumes by itself when truth returns.
 
-Validation (issue 6)
+Validation (issues 6 and 15; the checks are :mod:`pmv_ros.core.validation`)
     Every incoming sample is checked before it touches any state: non-finite
     values, a zero (unset) or negative stamp, a stamp in the future of
-    ``now_s``, a duplicate or backwards stamp, a quaternion far from unit norm
-    (near-unit ones are normalised and counted). A stamp that goes back by
-    more than ``clock_jump_s`` — or a ``now_s`` that does — is a clock jump
+    ``now_s``, a duplicate or backwards stamp, one stamped faster than the
+    stream may be (``min_interval_s``), a quaternion far from unit norm
+    (near-unit ones are normalised and counted), a sensor angle beyond the
+    plausibility bound, an orbit state that is not a bound Earth orbit. So no
+    statistic can become non-finite: every value that reaches one is finite
+    and bounded.
+
+Clock jumps (the rule of :class:`~pmv_ros.core.validation.JumpDetector`)
+    A stamp that goes back by more than ``clock_jump_s`` — or a ``now_s``
+    that does, or leaps ahead by more than ``max_truth_wait_s`` — is a *suspected* jump; the next
+    observation decides. If it continues the new timeline the jump is real
     (simulation restarted, a node restarted on a new clock): the alignment
-    state and the harmonic ring are reset so that nothing is interpolated or
-    fitted across the discontinuity, while the running statistics, which are
-    sums over valid residuals, carry on. :meth:`ErrorMonitor.reset` clears
-    everything.
+    state and the harmonic ring are reset once, so that nothing is
+    interpolated or fitted across the discontinuity, while the running
+    statistics, which are sums over valid residuals, carry on. If it is back
+    on the old timeline the jump was a single outlier (a forged ``/clock``, a
+    mis-stamped message): counted ``clock_outliers``, and the ring and the
+    alignment are kept. While a jump of ``now_s`` is unconfirmed, the old
+    clock is used. :meth:`ErrorMonitor.reset` clears everything.
 
 Statistics
     Per channel roll, pitch, meridional, both with the oblateness model
@@ -53,13 +64,23 @@ from collections import deque
 from dataclasses import dataclass
 from enum import Enum
 
-import numpy as np
 
 from .attitude import true_roll_pitch
 from .constants import EARTH_MEAN_RADIUS_M
 from .ground_error import nadir_ground_error
 from .oblateness import closed_form_oblateness
 from .orbit import CircularOrbit
+from .validation import (
+    STAMP_REJECTIONS,
+    InputBounds,
+    Jump,
+    JumpDetector,
+    Rejection,
+    StampCheck,
+    check_angles,
+    check_orbit_state,
+    check_quaternion,
+)
 from .statistics import (
     ChannelStatistics,
     DEFAULT_MAX_CONDITION,
@@ -74,7 +95,10 @@ CHANNELS = ("roll", "pitch", "meridional")
 
 
 class Status(str, Enum):
-    """What became of a sample: ``ok`` or the reason it was not used (the value is the counter name)."""
+    """What became of a valid sensor sample: ``ok`` or why it could not be aligned (the value is the counter name).
+
+    A sample rejected by validation has a :class:`~pmv_ros.core.validation.Rejection` instead.
+    """
 
     OK = "ok"
     # Alignment of a valid sensor sample with truth.
@@ -85,13 +109,6 @@ class Status(str, Enum):
     PENDING_OVERFLOW = "pending_overflow"  # pushed out of a full pending queue
     RESET = "reset"                        # still pending when a discontinuity reset the alignment
     NO_VALID_ANGLE = "no_valid_angle"      # the sensor reported neither roll nor pitch (both chord pairs lost)
-    # Validation of an incoming sample (either stream).
-    NON_FINITE = "non_finite"              # NaN/Inf stamp or value
-    ZERO_STAMP = "zero_stamp"              # stamp 0 (unset header) or negative
-    FUTURE_STAMP = "future_stamp"          # later than now_s + future_tolerance_s
-    DUPLICATE = "duplicate"                # same stamp as the previous sample of the stream
-    BACKWARDS = "backwards"                # earlier than the previous sample, by less than clock_jump_s
-    BAD_QUATERNION = "bad_quaternion"      # norm further than the tolerance from 1 (or zero)
 
 
 #: Reasons a valid sensor sample could not be aligned with truth.
@@ -99,17 +116,19 @@ SKIP_REASONS = (Status.NO_VALID_ANGLE, Status.NO_TRUTH, Status.TOO_OLD, Status.T
                 Status.PENDING_OVERFLOW, Status.RESET)
 
 #: Reasons an incoming sample is rejected, per stream.
-SENSOR_REJECTIONS = (Status.NON_FINITE, Status.ZERO_STAMP, Status.FUTURE_STAMP, Status.DUPLICATE, Status.BACKWARDS)
-TRUTH_REJECTIONS = SENSOR_REJECTIONS + (Status.BAD_QUATERNION,)
+SENSOR_REJECTIONS = STAMP_REJECTIONS + (Rejection.IMPLAUSIBLE_ANGLE,)
+TRUTH_REJECTIONS = STAMP_REJECTIONS + (Rejection.BAD_QUATERNION,)
+ODOMETRY_REJECTIONS = STAMP_REJECTIONS + (Rejection.IMPLAUSIBLE_ORBIT,)
 
 
 def _counter_names() -> tuple[str, ...]:
-    names = ["sensor_received", "truth_received", "used"]
+    names = ["sensor_received", "truth_received", "odometry_received", "used"]
     names += [f"skipped_{reason.value}" for reason in SKIP_REASONS]
     names += [f"rejected_sensor_{reason.value}" for reason in SENSOR_REJECTIONS]
     names += [f"rejected_truth_{reason.value}" for reason in TRUTH_REJECTIONS]
+    names += [f"rejected_odometry_{reason.value}" for reason in ODOMETRY_REJECTIONS]
     names += ["used_one_angle", "truth_quaternions_normalised", "used_without_oblateness_model", "clock_jumps",
-              "alignment_resets"]
+              "clock_outliers", "alignment_resets"]
     return tuple(names)
 
 
@@ -138,9 +157,12 @@ class MonitorConfig:
         truth_history_s: how far back truth is kept for late sensor samples, s.
         truth_capacity: hard cap on stored truth samples.
         max_pending: hard cap on sensor samples waiting for truth.
-        clock_jump_s: a stamp (or now) going back by more than this is a clock jump, s.
+        clock_jump_s: a stamp (or now) going back by more than this is a clock jump, s
+            (acted on once it is confirmed: see the module docstring).
         future_tolerance_s: a stamp later than now + this is rejected, s.
-        quaternion_norm_tolerance: | |q| − 1 | up to this is normalised, beyond it rejected.
+        min_interval_s: a stamp closer than this after the previous one of its stream is
+            rejected as too fast (0: no limit), s.
+        bounds: plausibility bounds of sensor angles and orbit states.
         harmonic_bins: bins of the one-orbit ring.
         harmonics: harmonics of the orbital frequency to report (physics.md §5.1).
         max_harmonic_gap_fraction: largest hole in the last orbit for which harmonics are reported.
@@ -158,7 +180,8 @@ class MonitorConfig:
     max_pending: int = 4096
     clock_jump_s: float = 1.0
     future_tolerance_s: float = 1.0
-    quaternion_norm_tolerance: float = 0.01
+    min_interval_s: float = 0.0
+    bounds: InputBounds = InputBounds()
     harmonic_bins: int = 1024
     harmonics: tuple = ORBIT_HARMONICS
     max_harmonic_gap_fraction: float = DEFAULT_MAX_GAP_FRACTION
@@ -176,7 +199,9 @@ class MonitorConfig:
         _positive("truth_history_s", self.truth_history_s, 0.0, 1e6)
         _positive("clock_jump_s", self.clock_jump_s, 0.0, 1e6)
         _positive("future_tolerance_s", self.future_tolerance_s, 0.0, 1e6)
-        _positive("quaternion_norm_tolerance", self.quaternion_norm_tolerance, 0.0, 0.5)
+        if not (math.isfinite(self.min_interval_s) and 0.0 <= self.min_interval_s < self.clock_jump_s):
+            raise ValueError(f"min_interval_s = {self.min_interval_s} is outside the allowed range "
+                             f"[0, clock_jump_s = {self.clock_jump_s})")
         _positive("max_harmonic_gap_fraction", self.max_harmonic_gap_fraction, 0.0, 1.0)
         for name in ("truth_capacity", "max_pending"):
             value = getattr(self, name)
@@ -201,6 +226,8 @@ class MonitorConfig:
 class Outcome:
     """What became of one sensor sample: its residuals (rad) and ground error (m), or why it was skipped.
 
+    ``status`` is :attr:`Status.OK`, a :class:`Status` skip reason, or the
+    :class:`~pmv_ros.core.validation.Rejection` of an invalid sample.
     ``residual_*`` is sensor − truth, as published on /pmv/residual.
     ``roll_rad``/``pitch_rad``/``meridional_rad`` are the residuals that went
     into the reported statistics (offsets removed, oblateness model removed
@@ -208,7 +235,7 @@ class Outcome:
     """
 
     stamp_s: float
-    status: Status
+    status: Status | Rejection
     residual_roll_rad: float = math.nan
     residual_pitch_rad: float = math.nan
     roll_rad: float = math.nan
@@ -270,33 +297,6 @@ class _StatisticsSet:
     def reset(self) -> None:
         for stats in self.angles + self.ground:
             stats.reset()
-
-
-def validate_quaternion(q_xyzw, tolerance: float):
-    """Check a quaternion: (unit quaternion or None, status, normalised flag).
-
-    Non-finite components give NON_FINITE; a norm further than ``tolerance``
-    from 1 gives BAD_QUATERNION; otherwise the quaternion is normalised.
-    """
-    if isinstance(q_xyzw, np.ndarray) and q_xyzw.shape == (4,):
-        q_xyzw = q_xyzw.tolist()
-    if isinstance(q_xyzw, (list, tuple)) and len(q_xyzw) == 4:
-        # One quaternion (every truth sample): plain arithmetic, one array at the end.
-        components = [float(c) for c in q_xyzw]
-        if not all(math.isfinite(c) for c in components):
-            return None, Status.NON_FINITE, False
-        norm = math.sqrt(sum(c * c for c in components))
-        if abs(norm - 1.0) > tolerance:
-            return None, Status.BAD_QUATERNION, False
-        return np.array(components) / norm, Status.OK, abs(norm - 1.0) > 1e-9
-    q = np.asarray(q_xyzw, float).ravel()
-    if q.size != 4 or not np.all(np.isfinite(q)):
-        return None, Status.NON_FINITE, False
-    norm = float(np.linalg.norm(q))
-    if abs(norm - 1.0) > tolerance:
-        return None, Status.BAD_QUATERNION, False
-    # Rounding leaves |q| a few ulp off 1: only a real departure counts as normalised.
-    return q / norm, Status.OK, abs(norm - 1.0) > 1e-9
 
 
 def _ground_components(row, altitude_m: float) -> tuple[float, float, float]:
@@ -361,6 +361,11 @@ class ErrorMonitor:
         self._sets = {True: _StatisticsSet(), False: _StatisticsSet()}
         # Ring columns: roll, pitch, meridional with the oblateness model removed, then kept.
         self._ring = OrbitRing(config.orbital_period_s, 2 * len(CHANNELS), config.harmonic_bins)
+        self._settled: list[Outcome] = []
+        self._stamps = {stream: StampCheck(config.clock_jump_s, config.future_tolerance_s, config.min_interval_s)
+                        for stream in ("sensor", "truth", "odometry")}
+        # Forward, the clock may leap as far as a sample may wait for truth before anyone need doubt it.
+        self._clock = JumpDetector(config.clock_jump_s, forward_threshold_s=config.max_truth_wait_s)
         self._reset_alignment_state()
 
     # ----------------------------------------------------------------- state
@@ -370,8 +375,10 @@ class ErrorMonitor:
         self._truth_roll.clear()
         self._truth_pitch.clear()
         self._truth_pruned = False
-        self._last_stamp = {"sensor": None, "truth": None}
-        self._last_now_s = None
+        for check in self._stamps.values():
+            check.reset()
+        self._clock.reset()
+        self._orbit = None  # (stamp_s, u_rad, inclination_rad, altitude_m, mean_motion_rad_s) from odometry
         self._ring.clear()
 
     def reset_alignment(self) -> list[Outcome]:
@@ -385,6 +392,7 @@ class ErrorMonitor:
     def reset(self) -> None:
         """Forget everything: alignment, statistics and counters."""
         self._pending.clear()
+        self._settled.clear()
         self._reset_alignment_state()
         for statistics in self._sets.values():
             statistics.reset()
@@ -403,12 +411,12 @@ class ErrorMonitor:
     @property
     def latest_truth_stamp_s(self) -> float | None:
         """Stamp of the latest accepted truth sample since the last alignment reset, s (None: none yet)."""
-        return self._last_stamp["truth"]
+        return self._stamps["truth"].latest_s
 
     @property
     def latest_sensor_stamp_s(self) -> float | None:
         """Stamp of the latest accepted sensor sample since the last alignment reset, s (None: none yet)."""
-        return self._last_stamp["sensor"]
+        return self._stamps["sensor"].latest_s
 
     @property
     def pending_count(self) -> int:
@@ -422,42 +430,38 @@ class ErrorMonitor:
 
     # ------------------------------------------------------------ validation
 
-    def _observe_now(self, now_s) -> list[Outcome]:
+    def _observe_now(self, now_s) -> tuple[list[Outcome], float | None]:
+        """Watch the node clock for jumps: (outcomes of a reset, the clock that times out waiting samples).
+
+        While a jump of the clock is unconfirmed, waiting samples are timed
+        by the old clock (a forged /clock a year ahead must not expire them);
+        the future-stamp check takes the clock as it reads.
+        """
         if now_s is None or not math.isfinite(now_s):
-            return []
+            return [], None
+        now_s = float(now_s)
+        verdict = self._clock.observe(now_s)
         outcomes = []
-        if self._last_now_s is not None and now_s < self._last_now_s - self.config.clock_jump_s:
+        if verdict is Jump.CONFIRMED_BACK:
             self._counters["clock_jumps"] += 1
             outcomes = self.reset_alignment()
-        self._last_now_s = float(now_s) if self._last_now_s is None else max(self._last_now_s, float(now_s))
-        return outcomes
+            self._clock.observe(now_s)
+        elif verdict is Jump.OUTLIER:
+            self._counters["clock_outliers"] += 1
+        return outcomes, self._clock.latest_s
 
-    def _check(self, stream: str, t_s: float, values, now_s) -> tuple[Status, list[Outcome]]:
-        """Validate a sample of ``stream``; a clock jump resets the alignment and accepts the sample.
-
-        A sensor angle may be NaN — the sensor's word for "that chord pair is
-        lost" (Sun in a chord, no horizon); ±Inf is malformed. Truth must be complete.
-        """
-        if stream == "sensor":
-            malformed = any(math.isinf(v) for v in values)
-        else:
-            malformed = not all(math.isfinite(v) for v in values)
-        if not math.isfinite(t_s) or malformed:
-            return Status.NON_FINITE, []
-        if t_s <= 0.0:
-            return Status.ZERO_STAMP, []
-        if now_s is not None and math.isfinite(now_s) and t_s > now_s + self.config.future_tolerance_s:
-            return Status.FUTURE_STAMP, []
-        last = self._last_stamp[stream]
-        if last is not None:
-            if t_s == last:
-                return Status.DUPLICATE, []
-            if t_s < last - self.config.clock_jump_s:
-                self._counters["clock_jumps"] += 1
-                return Status.OK, self.reset_alignment()
-            if t_s < last:
-                return Status.BACKWARDS, []
-        return Status.OK, []
+    def _check_stamp(self, stream: str, t_s: float, now_s) -> tuple[Rejection | None, list[Outcome]]:
+        """Check the stamp of a sample of ``stream`` whose values passed; a confirmed jump resets the alignment once."""
+        check = self._stamps[stream]
+        outliers = check.outliers
+        rejection, jumped = check.check(t_s, now_s)
+        self._counters["clock_outliers"] += check.outliers - outliers
+        if not jumped:
+            return rejection, []
+        self._counters["clock_jumps"] += 1
+        outcomes = self.reset_alignment()
+        check.check(t_s, now_s)  # the first stamp of the new timeline
+        return None, outcomes
 
     # ------------------------------------------------------------------ truth
 
@@ -472,20 +476,22 @@ class ErrorMonitor:
             Outcomes of the pending sensor samples this settled.
         """
         self._counters["truth_received"] += 1
-        outcomes = self._observe_now(now_s)
+        outcomes, clock_s = self._observe_now(now_s)
         t_s, roll_rad, pitch_rad = float(t_s), float(roll_rad), float(pitch_rad)
-        status, reset = self._check("truth", t_s, (roll_rad, pitch_rad), now_s)
-        outcomes += reset
-        if status is not Status.OK:
-            self._counters[f"rejected_truth_{status.value}"] += 1
-            return outcomes + self._expire(now_s)
-        self._last_stamp["truth"] = t_s
+        if math.isfinite(roll_rad) and math.isfinite(pitch_rad):  # truth is complete, or it is no truth
+            rejection, reset = self._check_stamp("truth", t_s, now_s)
+            outcomes += reset
+        else:
+            rejection = Rejection.NON_FINITE
+        if rejection is not None:
+            self._counters[f"rejected_truth_{rejection.value}"] += 1
+            return outcomes + self._expire(clock_s)
         self._truth_t.append(t_s)
         self._truth_roll.append(roll_rad)
         self._truth_pitch.append(pitch_rad)
         while self._pending and self._pending[0].stamp_s <= t_s:
             outcomes.append(self._align(self._pending.popleft()))
-        outcomes += self._expire(now_s)
+        outcomes += self._expire(clock_s)
         self._prune_truth()
         return outcomes
 
@@ -496,11 +502,12 @@ class ErrorMonitor:
         read (:func:`pmv_ros.core.attitude.true_roll_pitch`), so yaw cannot
         leak into the comparison.
         """
-        q, status, normalised = validate_quaternion(q_orbital_to_body, self.config.quaternion_norm_tolerance)
-        if status is not Status.OK:
+        q, rejection, normalised = check_quaternion(q_orbital_to_body)
+        if rejection is not None:
             self._counters["truth_received"] += 1
-            self._counters[f"rejected_truth_{status.value}"] += 1
-            return self._observe_now(now_s) + self._expire(now_s)
+            self._counters[f"rejected_truth_{rejection.value}"] += 1
+            outcomes, clock_s = self._observe_now(now_s)
+            return outcomes + self._expire(clock_s)
         if normalised:
             self._counters["truth_quaternions_normalised"] += 1
         roll, pitch = true_roll_pitch(q)
@@ -516,6 +523,56 @@ class ErrorMonitor:
         if drop > 0:
             del self._truth_t[:drop], self._truth_roll[:drop], self._truth_pitch[:drop]
             self._truth_pruned = True
+
+    # ---------------------------------------------------------------- orbit
+
+    def add_odometry(self, t_s: float, position_eci_m, velocity_eci_m_s, *,
+                     now_s: float | None = None) -> Rejection | None:
+        """Take the spacecraft's ECI state (m, m/s) at ``t_s`` for the oblateness model; the rejection, if any.
+
+        A state that is not a bound Earth orbit within the bounds (|r| = 1 km,
+        1e12 m, an escape speed) is rejected and counted, never used: the
+        oblateness model and the ground error would be meaningless.
+        """
+        self._counters["odometry_received"] += 1
+        outcomes, clock_s = self._observe_now(now_s)
+        self._settled.extend(outcomes)
+        rejection = check_orbit_state(position_eci_m, velocity_eci_m_s, self.config.bounds)
+        if rejection is None:
+            rejection, reset = self._check_stamp("odometry", float(t_s), now_s)
+            self._settled.extend(reset)
+        if rejection is not None:
+            self._counters[f"rejected_odometry_{rejection.value}"] += 1
+            return rejection
+        u, inclination, altitude = orbit_angles_from_state(position_eci_m, velocity_eci_m_s)
+        radius = math.hypot(*(float(c) for c in position_eci_m))
+        speed = math.hypot(*(float(c) for c in velocity_eci_m_s))
+        self._orbit = (float(t_s), u, inclination, altitude, speed / radius)
+        return None
+
+    def orbit_at(self, t_s: float, max_age_s: float) -> dict:
+        """``add_sensor`` keywords (u_rad, inclination_rad, altitude_m) at ``t_s`` from the latest accepted
+        odometry no further than ``max_age_s`` from it (u advanced at the mean motion); {} if there is none."""
+        orbit = self._orbit
+        if orbit is None or not abs(t_s - orbit[0]) <= max_age_s:
+            return {}
+        stamp, u, inclination, altitude, rate = orbit
+        return dict(u_rad=u + rate * (t_s - stamp), inclination_rad=inclination, altitude_m=altitude)
+
+    @property
+    def latest_orbit_stamp_s(self) -> float | None:
+        """Stamp of the latest accepted odometry since the last alignment reset, s (None: none yet)."""
+        return None if self._orbit is None else self._orbit[0]
+
+    @property
+    def odometry_period_s(self) -> float | None:
+        """The orbital period the latest accepted odometry flies (2π / mean motion), s; None without odometry."""
+        return None if self._orbit is None else 2.0 * math.pi / self._orbit[4]
+
+    def take_settled(self) -> list[Outcome]:
+        """Outcomes settled by a call that returns no outcomes (an odometry message that reset the alignment)."""
+        outcomes, self._settled = self._settled, []
+        return outcomes
 
     # ----------------------------------------------------------------- sensor
 
@@ -544,16 +601,17 @@ class ErrorMonitor:
             could be aligned at once, and any pending samples that timed out.
         """
         self._counters["sensor_received"] += 1
-        outcomes = self._observe_now(now_s)
+        outcomes, clock_s = self._observe_now(now_s)
         t_s, roll_rad, pitch_rad = float(t_s), float(roll_rad), float(pitch_rad)
-        status, reset = self._check("sensor", t_s, (roll_rad, pitch_rad), now_s)
-        outcomes += reset
-        if status is not Status.OK:
-            self._counters[f"rejected_sensor_{status.value}"] += 1
-            return outcomes + [Outcome(t_s, status)] + self._expire(now_s)
-        self._last_stamp["sensor"] = t_s
+        rejection = check_angles(roll_rad, pitch_rad, self.config.bounds.max_abs_angle_rad, allow_nan=True)
+        if rejection is None:
+            rejection, reset = self._check_stamp("sensor", t_s, now_s)
+            outcomes += reset
+        if rejection is not None:
+            self._counters[f"rejected_sensor_{rejection.value}"] += 1
+            return outcomes + [Outcome(t_s, rejection)] + self._expire(clock_s)
         if math.isnan(roll_rad) and math.isnan(pitch_rad):
-            return outcomes + [self._skip(t_s, Status.NO_VALID_ANGLE)] + self._expire(now_s)
+            return outcomes + [self._skip(t_s, Status.NO_VALID_ANGLE)] + self._expire(clock_s)
         altitude = self.config.altitude_m if altitude_m is None else float(altitude_m)
         model_roll, model_pitch = self._oblateness(u_rad, altitude, inclination_rad,
                                                    oblateness_roll_rad, oblateness_pitch_rad)
@@ -565,7 +623,7 @@ class ErrorMonitor:
             self._pending.append(entry)
             if len(self._pending) > self.config.max_pending:
                 outcomes.append(self._skip(self._pending.popleft().stamp_s, Status.PENDING_OVERFLOW))
-        return outcomes + self._expire(now_s)
+        return outcomes + self._expire(clock_s)
 
     def _oblateness(self, u_rad, altitude, inclination_rad, model_roll, model_pitch) -> tuple[float, float]:
         if model_roll is not None and model_pitch is not None:
@@ -578,11 +636,12 @@ class ErrorMonitor:
 
     def poll(self, now_s: float | None = None) -> list[Outcome]:
         """Time out pending samples by the clock (call from a timer); returns their outcomes."""
-        return self._observe_now(now_s) + self._expire(now_s)
+        outcomes, clock_s = self._observe_now(now_s)
+        return self.take_settled() + outcomes + self._expire(clock_s)
 
     def _expire(self, now_s) -> list[Outcome]:
         """Give up pending samples that have waited longer than max_truth_wait_s."""
-        latest = self._last_stamp["sensor"]
+        latest = self._stamps["sensor"].latest_s
         if now_s is not None and math.isfinite(now_s):
             latest = now_s if latest is None else max(latest, now_s)
         outcomes = []

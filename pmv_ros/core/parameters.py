@@ -8,14 +8,32 @@ and the tests read presets through :func:`preset_values` without rclpy.
 
 An integer given for a floating-point parameter (``rate_hz: 10`` in YAML) is
 taken as that number, not rejected: nobody means anything else by it.
+
+Sizes are bounded (issue 15: anyone on the DDS domain can set parameters): a
+list parameter declares its ``max_length`` (documented in its descriptor), a
+string is at most :data:`MAX_STRING_LENGTH` characters; longer values are
+refused before anything is built from them. A key that no parameter of the
+node has is refused too (:func:`unknown_parameter_problem`), naming the
+nearest valid name — a typo in a params file must not run the node on a
+default silently.
 """
 
 from __future__ import annotations
 
 import array
+import difflib
 import math
 from dataclasses import dataclass
 from typing import Any, Sequence
+
+
+#: Longest string parameter value, characters (a path, a date, a word: never more).
+MAX_STRING_LENGTH = 4096
+
+#: Parameters rclpy itself declares or reads on every node (never ours to refuse).
+ROS_OWN_PARAMETERS = ("use_sim_time", "start_type_description_service")
+#: Prefixes of parameters rclpy reads on every node (QoS overrides of publishers and subscriptions).
+ROS_OWN_PREFIXES = ("qos_overrides.",)
 
 
 @dataclass(frozen=True)
@@ -31,6 +49,8 @@ class ParamSpec:
         unit: unit of the value as written in YAML.
         constraints: what a free-form string must look like (says so in the descriptor).
         read_only: cannot change at run time.
+        max_length: most elements of a list parameter (required for lists: memory is
+            bounded whatever a peer sends); strings are bounded by MAX_STRING_LENGTH.
     """
 
     name: str
@@ -42,6 +62,11 @@ class ParamSpec:
     unit: str = ""
     constraints: str = ""
     read_only: bool = False
+    max_length: int | None = None
+
+    def __post_init__(self) -> None:
+        if isinstance(self.default, (list, tuple)) and not (isinstance(self.max_length, int) and self.max_length > 0):
+            raise ValueError(f"list parameter {self.name} needs a max_length")
 
     @property
     def kind(self) -> str:
@@ -54,8 +79,9 @@ class ParamSpec:
         if self.choices is not None:
             return f"one of {list(self.choices)}"
         if self.low is not None and self.high is not None:
-            each = "each element " if isinstance(self.default, (list, tuple)) else ""
-            return f"{each}in [{self.low}, {self.high}]{unit}"
+            if isinstance(self.default, (list, tuple)):
+                return f"at most {self.max_length} elements, each in [{self.low}, {self.high}]{unit}"
+            return f"in [{self.low}, {self.high}]{unit}"
         if self.constraints:
             return self.constraints
         return self.kind
@@ -92,6 +118,11 @@ class ParamSpec:
 
     def check(self, value) -> str | None:
         """Why ``value`` (of the right type) is not allowed (None if it is). Covers what rclpy's ranges do not."""
+        if isinstance(value, (list, tuple, array.array)) and self.max_length is not None \
+                and len(value) > self.max_length:
+            return f"{self.name} has {len(value)} elements, more than the {self.max_length} allowed"
+        if isinstance(value, str) and len(value) > MAX_STRING_LENGTH:
+            return f"{self.name} is a string of {len(value)} characters, more than the {MAX_STRING_LENGTH} allowed"
         if self.choices is not None and value not in self.choices:
             return f"{self.name} = {value!r} is not one of the allowed values {list(self.choices)}"
         if isinstance(value, float) and not math.isfinite(value):
@@ -144,6 +175,26 @@ class ParameterError(ValueError):
     """A node parameter has a value it must not have (at start-up)."""
 
 
+def is_ros_own(name: str) -> bool:
+    """Whether rclpy itself reads parameter ``name`` on every node (use_sim_time, QoS overrides)."""
+    return name in ROS_OWN_PARAMETERS or name.startswith(ROS_OWN_PREFIXES)
+
+
+def unknown_parameter_problem(name: str, node_name: str, valid_names) -> str | None:
+    """Why ``name`` is no parameter of ``node_name`` (with the nearest valid name), or None if it is one.
+
+    Args:
+        valid_names: every name the node accepts (its own specs; where a shared
+            ``/**`` section can reach it, the other nodes' as well).
+    """
+    valid = set(valid_names)
+    if name in valid or is_ros_own(name):
+        return None
+    nearest = difflib.get_close_matches(name, sorted(valid), n=1, cutoff=0.6)
+    hint = f" (did you mean {nearest[0]!r}?)" if nearest else ""
+    return f"{name!r} is not a parameter of {node_name}{hint}"
+
+
 
 def flatten_parameters(tree: dict, prefix: str = "") -> dict:
     """``{"a": {"b": 1}}`` → ``{"a.b": 1}``: a ``ros__parameters`` tree as dotted parameter names."""
@@ -156,19 +207,36 @@ def flatten_parameters(tree: dict, prefix: str = "") -> dict:
     return flat
 
 
-def preset_values(document: dict, node_name: str, specs: Sequence[ParamSpec], overrides: dict | None = None) -> dict:
+def preset_values(document: dict, node_name: str, specs: Sequence[ParamSpec], overrides: dict | None = None,
+                  shared_specs: Sequence[ParamSpec] | None = None) -> dict:
     """Parameter values of one node from a parsed params file, as rclpy merges them, checked.
 
     The ``/**`` section applies to every node, the node's own section wins
-    over it, ``overrides`` win over both; keys the node does not declare are
-    left to the node (the ``/**`` section is shared by nodes with different
-    parameters). Raises :class:`ParameterError` naming a bad value.
+    over it, ``overrides`` win over both. A key of the node's own section (or
+    of ``overrides``) that the node does not declare is an error; a key of the
+    ``/**`` section only if no node in ``shared_specs`` declares it (that
+    section is shared by nodes with different parameters). Raises
+    :class:`ParameterError` naming a bad value or an unknown key.
+
+    Args:
+        shared_specs: every node's specs, against which the ``/**`` keys are checked
+            (default: the ``/**`` keys are not checked).
     """
     by_name = {spec.name: spec for spec in specs}
+    anyone = None if shared_specs is None else set(by_name) | {spec.name for spec in shared_specs}
     given = {}
-    for section in ("/**", node_name):
+    for section, known in (("/**", anyone), (node_name, by_name)):
         body = (document or {}).get(section) or {}
-        given.update(flatten_parameters(body.get("ros__parameters") or {}))
+        flat = flatten_parameters(body.get("ros__parameters") or {})
+        for name in flat if known is not None else ():
+            problem = unknown_parameter_problem(name, node_name, known)
+            if problem:
+                raise ParameterError(problem)
+        given.update(flat)
+    for name in overrides or {}:
+        problem = unknown_parameter_problem(name, node_name, by_name)
+        if problem:
+            raise ParameterError(problem)
     given.update(overrides or {})
     values = {spec.name: spec.default for spec in specs}
     for name, raw in given.items():

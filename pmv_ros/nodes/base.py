@@ -1,6 +1,8 @@
-"""What the pmv_ros nodes share: QoS, the parameter type gate, and a lean mode for the in-process pipeline."""
+"""What the pmv_ros nodes share: QoS, the parameter type gate, one source per input, and a lean mode."""
 
 from __future__ import annotations
+
+import time
 
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.event_handler import EventHandler, PublisherEventCallbacks, SubscriptionEventCallbacks
@@ -8,7 +10,15 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from threadpoolctl import ThreadpoolController
 
+from ..core.validation import JumpDetector, SourceLock
 from .params import coerce_parameters
+
+#: How often (wall clock, s) the graph is asked how many publishers an input has.
+GRAPH_CHECK_PERIOD_S = 1.0
+
+#: The clock the source locks measure silence on: the node clock, with a single forged /clock
+#: (back by more than 1 s, or ahead by more than 10 s) not believed until the next reading confirms it.
+ARRIVAL_JUMP_BACK_S, ARRIVAL_JUMP_AHEAD_S = 1.0, 10.0
 
 
 _blas_holders = 0
@@ -95,6 +105,9 @@ class PmvNode(Node):
         self.parameter_specs = {}  # name → ParamSpec, filled by install_validation
         super().__init__(name, **kwargs)
         self._lean = lean
+        self.source_locks = {}  # input topic → SourceLock (see input_subscription)
+        self._arrival_clock = JumpDetector(ARRIVAL_JUMP_BACK_S, forward_threshold_s=ARRIVAL_JUMP_AHEAD_S)
+        self._source_problems, self._source_checked_s = [], -float("inf")
         self._input_qos = QOS if (lean if reliable_inputs is None else reliable_inputs) else INPUT_QOS
         self._detached = []
         if time_source is not None:
@@ -158,6 +171,65 @@ class PmvNode(Node):
                                             event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
         return self.create_subscription(message_type, topic, callback, qos)
 
-    def input_subscription(self, message_type, topic: str, callback):
-        """A subscription to an input: best effort unless the node takes its inputs reliably (see ``__init__``)."""
-        return self.subscription(message_type, topic, callback, self._input_qos)
+    def input_subscription(self, message_type, topic: str, callback, source_timeout_s: float = 1.0):
+        """A subscription to an input, from one source only: ``callback(message)`` for the locked publisher's messages.
+
+        Best effort unless the node takes its inputs reliably (see ``__init__``).
+        The message info's publisher GID, or on Jazzy its publication
+        sequence number, goes to a :class:`pmv_ros.core.validation.SourceLock`
+        (the rule is there): the first publisher heard is kept, a second one's
+        messages are dropped and counted, never interleaved;
+        :meth:`input_source_problems` says so for ``/diagnostics``. Silence
+        is measured on the node clock (simulation time under ``use_sim_time``:
+        a source restarted in a fast-time run is taken over after
+        ``source_timeout_s`` of simulation time), through a jump detector: a
+        single forged ``/clock`` cannot make the locked source look silent.
+        """
+        lock = self.source_locks[topic] = SourceLock(source_timeout_s)
+
+        def on_message(message, info) -> None:
+            stamp = message.header.stamp
+            if lock.admit(self._arrival_s(), gid=_publisher_gid(info), sequence=info.get("publication_sequence_number"),
+                          stamp_s=stamp.sec + stamp.nanosec * 1e-9):
+                callback(message)
+
+        return self.subscription(message_type, topic, on_message, self._input_qos)
+
+    def _arrival_s(self) -> float:
+        """Now on the node clock, s, as the source locks see it (a jump counts once the next reading confirms it)."""
+        self._arrival_clock.observe(self.get_clock().now().nanoseconds * 1e-9)
+        return self._arrival_clock.latest_s
+
+    def input_source_problems(self, max_age_s: float = GRAPH_CHECK_PERIOD_S) -> list[str]:
+        """One phrase per input that has more than one publisher (an ERROR on /diagnostics); [] when none has.
+
+        The graph is asked at most every ``max_age_s`` of wall time (a caller with its own cadence passes 0).
+        """
+        wall = time.monotonic()
+        if wall - self._source_checked_s < max_age_s:
+            return list(self._source_problems)
+        self._source_checked_s, problems = wall, []
+        now = self._arrival_s()
+        for topic, lock in self.source_locks.items():
+            count = self.count_publishers(topic)
+            if count > 1 or lock.sources_heard(now) > 1:
+                problems.append(f"{max(count, lock.sources_heard(now))} publishers of {topic}: only the first one "
+                                f"heard is used ({lock.other_source_messages} messages of others dropped)")
+        self._source_problems = problems
+        return list(problems)
+
+    def input_source_counters(self) -> dict:
+        """``other_source_<topic>``: messages dropped per input because a second publisher sent them."""
+        return {f"other_source_{topic.strip('/').replace('/', '_')}": lock.other_source_messages
+                for topic, lock in self.source_locks.items() if lock.other_source_messages}
+
+
+def _publisher_gid(info):
+    """The publisher's GID as bytes from rclpy's message info (rclpy ≥ Kilted), None where it has none (Jazzy)."""
+    gid = info.get("publisher_gid") if isinstance(info, dict) else None
+    if gid is None:
+        return None
+    try:
+        return bytes(gid.get("data", gid) if isinstance(gid, dict) else gid)
+    except (TypeError, ValueError):
+        return None

@@ -14,17 +14,20 @@ out samples waiting for truth when nothing arrives at all and publishes
 memory is bounded by the monitor's caps.
 
 Bad input is dropped before it touches any state and counted per reason
-(``rejected_<stream>_<reason>``), messages the shim cannot read as
+(``rejected_<stream>_<reason>``: the checks of :mod:`pmv_ros.core.validation`,
+with the ``input.*`` plausibility bounds), messages the shim cannot read as
 ``rejected_<stream>_unreadable``; only accepted sensor samples drive the
-statistics schedule. Outages, restarts and clock jumps: README "Truth
-outages and discontinuities" and the core monitor's docstring — in short,
-nothing is interpolated across a gap, a jump back resets the alignment, a
+statistics schedule. Only the first publisher heard on each input is used; a
+second one is an ERROR on ``/diagnostics`` with the publishers' count and its
+messages are dropped (``other_source_<topic>``). Outages, restarts and clock
+jumps: README "Truth outages and discontinuities" and the core monitor's
+docstring — in short, nothing is interpolated across a gap, a confirmed jump
+back resets the alignment once, a single forged jump is an outlier, a
 parameter change starts the statistics over.
 """
 
 from __future__ import annotations
 
-import math
 import sys
 
 from diagnostic_msgs.msg import DiagnosticArray
@@ -34,7 +37,7 @@ from nav_msgs.msg import Odometry
 import pmv_msgs_shim as shim
 from .base import PmvNode
 from ..core.assembly import MONITOR_PARAMS as PARAMS, build_monitor
-from ..core.monitor import SENSOR_REJECTIONS, ErrorMonitor, Status, orbit_angles_from_state
+from ..core.monitor import SENSOR_REJECTIONS, ErrorMonitor, Status
 from .launch import run_node
 from .params import ParameterError, declare, install_validation
 
@@ -56,10 +59,11 @@ class ErrorMonitorNode(PmvNode):
                                                                            DiagnosticArray())
         self._pub_statistics = self.publisher(DiagnosticArray, "/pmv/error_statistics")
         self._pub_diagnostics = self.publisher(DiagnosticArray, "/diagnostics")
-        self.input_subscription(Vector3Stamped, "/pmv/attitude", self._on_sensor)
-        self._truth_subscription = self.input_subscription(QuaternionStamped, "/star_tracker/attitude", self._on_truth)
-        self.input_subscription(Odometry, "/orbit/odometry", self._on_odometry)
-        self._orbit = None  # (stamp_s, u_rad, inclination_rad, altitude_m, mean_motion_rad_s)
+        timeout = self._values["input.source_timeout_s"]
+        self.input_subscription(Vector3Stamped, "/pmv/attitude", self._on_sensor, timeout)
+        self._truth_subscription = self.input_subscription(QuaternionStamped, "/star_tracker/attitude",
+                                                           self._on_truth, timeout)
+        self.input_subscription(Odometry, "/orbit/odometry", self._on_odometry, timeout)
         self._rejected_messages = dict.fromkeys(
             (f"rejected_{stream}_unreadable" for stream in ("sensor", "truth", "odometry")), 0)
         self._next_statistics_s = None
@@ -72,6 +76,8 @@ class ErrorMonitorNode(PmvNode):
         # A new configuration starts new statistics: mixing two configurations would mean nothing.
         self._monitor = build_monitor(values)
         self._next_statistics_s = None
+        for lock in self.source_locks.values():
+            lock.timeout_s = values["input.source_timeout_s"]
 
     def _now_s(self) -> float | None:
         now = self.get_clock().now().nanoseconds * 1e-9
@@ -86,13 +92,12 @@ class ErrorMonitorNode(PmvNode):
     def _on_odometry(self, message: Odometry) -> None:
         try:
             stamp_s, position, velocity = shim.read_orbit_state(message)
-            u, inclination, altitude = orbit_angles_from_state(position, velocity)
         except ValueError:
             self._reject("odometry")
             return
-        radius = math.sqrt(sum(x * x for x in position))
-        speed = math.sqrt(sum(x * x for x in velocity))
-        self._orbit = (stamp_s, u, inclination, altitude, speed / radius)
+        # Validated (a bound Earth orbit, sane stamps) and kept in the core; a confirmed clock jump resets there.
+        self._monitor.add_odometry(stamp_s, position, velocity, now_s=self._now_s())
+        self._handle(self._monitor.take_settled())
 
     def _on_truth(self, message: QuaternionStamped) -> None:
         try:
@@ -108,10 +113,7 @@ class ErrorMonitorNode(PmvNode):
         except ValueError:
             self._reject("sensor")
             return
-        orbit = {}
-        if self._orbit is not None and abs(stamp_s - self._orbit[0]) <= self._values["odometry_timeout_s"]:
-            stamp, u, inclination, altitude, rate = self._orbit
-            orbit = dict(u_rad=u + rate * (stamp_s - stamp), inclination_rad=inclination, altitude_m=altitude)
+        orbit = self._monitor.orbit_at(stamp_s, self._values["odometry_timeout_s"])
         if self._values["sensor.oblateness_compensation"]:
             # Removed on board already: the model left in the sensor's output is zero.
             orbit.update(oblateness_roll_rad=0.0, oblateness_pitch_rad=0.0)
@@ -149,7 +151,7 @@ class ErrorMonitorNode(PmvNode):
     @property
     def latest_orbit_stamp_s(self) -> float | None:
         """Stamp of the last /orbit/odometry taken, s (None before the first)."""
-        return None if self._orbit is None else self._orbit[0]
+        return self._monitor.latest_orbit_stamp_s
 
     @property
     def monitor(self) -> ErrorMonitor:
@@ -162,9 +164,9 @@ class ErrorMonitorNode(PmvNode):
 
     def _period_mismatch(self) -> str | None:
         """A warning when /orbit/odometry flies another orbit than the parameters describe, else None."""
-        if self._orbit is None or not self._orbit[4] > 0.0:
+        measured_s = self._monitor.odometry_period_s
+        if measured_s is None:
             return None
-        measured_s = 2.0 * math.pi / self._orbit[4]
         configured_s = self._monitor.config.orbital_period_s
         if abs(measured_s - configured_s) <= self.PERIOD_MISMATCH * configured_s:
             return None
@@ -178,7 +180,8 @@ class ErrorMonitorNode(PmvNode):
         skipped = {k: v for k, v in counters.items() if k.startswith("skipped_") and v}
         rejected = {k: v for k, v in counters.items() if k.startswith("rejected_") and v}
         rejected.update({k: v for k, v in self._rejected_messages.items() if v})
-        problems = []
+        problems = self.input_source_problems()  # a second publisher on an input: ERROR
+        source_error = bool(problems)
         latest_truth = self._monitor.latest_truth_stamp_s
         if counters["truth_received"] == 0:
             problems.append("no star-tracker truth received yet")
@@ -192,10 +195,10 @@ class ErrorMonitorNode(PmvNode):
         if rejected_total > self._rejected_reported:
             problems.append("rejected input messages")
         self._rejected_reported = rejected_total
-        level = shim.Level.WARN if problems else shim.Level.OK
-        values = {"used": counters["used"], **skipped, **rejected,
-                  **{k: counters[k] for k in ("truth_quaternions_normalised", "clock_jumps", "alignment_resets")
-                     if counters[k]},
+        level = shim.Level.ERROR if source_error else shim.Level.WARN if problems else shim.Level.OK
+        values = {"used": counters["used"], **skipped, **rejected, **self.input_source_counters(),
+                  **{k: counters[k] for k in ("truth_quaternions_normalised", "clock_jumps", "clock_outliers",
+                                              "alignment_resets") if counters[k]},
                   "pending": self._monitor.pending_count, "truth_buffer": self._monitor.truth_buffer_length}
         self._pub_diagnostics.publish(shim.write_health(self._out_diagnostics, shim.HealthReport(
             stamp_s=now or 0.0, statuses=(shim.HealthStatus(

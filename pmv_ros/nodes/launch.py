@@ -11,7 +11,7 @@ from rclpy.impl.implementation_singleton import rclpy_implementation
 from rclpy.signals import SignalHandlerOptions
 
 from .base import hold_single_threaded_blas
-from .params import ParameterError
+from .params import ParameterError, check_params_files
 
 #: Longest wait of the executor between checks for a stop request, s.
 STOP_CHECK_S = 0.1
@@ -64,6 +64,11 @@ def run_node(factory, name: str, args=None) -> int:
     (rclpy refuses to initialise) and an invalid parameter value end in one
     line on stderr naming the problem and status 1.
     """
+    try:  # a misspelled key in the node's own params-file section: refused like a bad value
+        check_params_files(sys.argv if args is None else args, name)
+    except ParameterError as error:
+        print(f"{name}: invalid parameter: {error}", file=sys.stderr)
+        return 1
     stop = StopRequest()
     try:
         try:

@@ -29,7 +29,7 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.exceptions import ParameterException
 from rclpy.parameter import Parameter
 
-from ..core.parameters import ParameterError, ParamSpec
+from ..core.parameters import MAX_STRING_LENGTH, ParameterError, ParamSpec, unknown_parameter_problem
 
 
 def descriptor(spec: ParamSpec) -> ParameterDescriptor:
@@ -50,6 +50,10 @@ def descriptor(spec: ParamSpec) -> ParameterDescriptor:
             descriptor.additional_constraints = f"each element in [{spec.low}, {spec.high}]"
     elif spec.constraints:
         descriptor.additional_constraints = spec.constraints
+    if spec.max_length is not None:
+        descriptor.additional_constraints += f"; at most {spec.max_length} elements"
+    elif isinstance(spec.default, str):
+        descriptor.additional_constraints += f"; at most {MAX_STRING_LENGTH} characters"
     return descriptor
 
 
@@ -59,12 +63,23 @@ def declare(node, specs: Sequence[ParamSpec]) -> dict:
     Raises:
         ParameterError: an override (YAML, command line) is of the wrong type,
             outside its range or not among its choices; the message names the
-            value and the allowed range.
+            value and the allowed range. Or an override names no parameter of
+            any pmv_ros node (a typo): the message names the nearest valid name.
+            (Overrides reach every node from a shared ``/**`` section, so a key of
+            another pmv_ros node passes here; :func:`check_params_files` checks each
+            node's own section exactly.)
     """
+    from ..core.assembly import NODE_PARAMS  # the names a shared section may carry
+
     # rclpy keeps the overrides of the command line and params files in this
     # attribute (no public accessor); the type check and the int → float
     # coercion must happen before declare_parameter looks at them.
     overrides = getattr(node, "_parameter_overrides", {})
+    anyone = {spec.name for node_specs in NODE_PARAMS.values() for spec in node_specs} | {s.name for s in specs}
+    for name in sorted(overrides):
+        problem = unknown_parameter_problem(name, node.get_name(), anyone)
+        if problem:
+            raise ParameterError(problem)
     values = {}
     for spec in specs:
         if spec.name in overrides:
@@ -85,6 +100,56 @@ def declare(node, specs: Sequence[ParamSpec]) -> dict:
             raise ParameterError(problem)
         values[spec.name] = value
     return values
+
+
+def params_files(args) -> list[str]:
+    """The ``--params-file`` paths of a ROS command line (inside ``--ros-args``), in order."""
+    paths, inside = [], False
+    args = list(args or ())
+    for index, word in enumerate(args):
+        if word == "--ros-args":
+            inside = True
+        elif word == "--":
+            inside = False
+        elif inside and word == "--params-file" and index + 1 < len(args):
+            paths.append(args[index + 1])
+    return paths
+
+
+def check_params_files(args, node_name: str) -> None:
+    """Refuse a key of ``node_name``'s own section of any params file on the command line that it does not declare.
+
+    Read once, at start-up, before rclpy reads the same files (a file rclpy
+    cannot read is left to rclpy's own error). The ``/**`` section may carry
+    any pmv_ros node's parameters; a key no node has is refused there too.
+
+    Raises:
+        ParameterError: one line naming the key, the node and the nearest valid name.
+    """
+    import yaml
+
+    from ..core.assembly import NODE_PARAMS
+    from ..core.parameters import flatten_parameters
+    from ..core.validation import read_text_file
+
+    own = {spec.name for spec in NODE_PARAMS[node_name]}
+    anyone = {spec.name for specs in NODE_PARAMS.values() for spec in specs}
+    for path in params_files(args):
+        try:
+            document = yaml.safe_load(read_text_file(path, "params file")) or {}
+        except (ValueError, yaml.YAMLError):
+            continue  # rclpy refuses it with its own message
+        if not isinstance(document, dict):
+            continue
+        for section, body in document.items():
+            name = str(section).rstrip("/").rsplit("/", 1)[-1]  # "/ns/sensor_node", "/**/sensor_node", "/**"
+            known = own if name == node_name else anyone if name == "**" else None
+            if known is None or not isinstance(body, dict):
+                continue
+            for key in flatten_parameters(body.get("ros__parameters") or {}):
+                problem = unknown_parameter_problem(key, node_name, known)
+                if problem:
+                    raise ParameterError(f"{problem} ({path}, section {section})")
 
 
 def _explain(spec: ParamSpec, error: Exception) -> str:

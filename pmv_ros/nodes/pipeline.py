@@ -23,8 +23,10 @@ from rclpy.time_source import TimeSource
 from rosgraph_msgs.msg import Clock as ClockMsg
 
 import pmv_msgs_shim as shim
+from ..core.assembly import NODE_PARAMS
 from .base import PmvNode, hold_single_threaded_blas, release_single_threaded_blas
 from .error_monitor_node import ErrorMonitorNode
+from .params import check_params_files
 from .sensor_node import SensorNode
 from .star_tracker_node import StarTrackerNode
 
@@ -119,6 +121,8 @@ class Pipeline:
             if not path.is_file():
                 raise ValueError(f"config file {str(path)!r} does not exist")
             args += ["--params-file", str(path)]
+            for node_name in NODE_PARAMS:  # a misspelled key in a node's section: ParameterError, as a bad value
+                check_params_files(args, node_name)
         settings = {"sim.fast_time": True, **(overrides or {})}
         # Constructor overrides outrank the preset's node sections (a global -p would not).
         self.context = rclpy.Context()

@@ -19,8 +19,15 @@ truth samples, the last body rate for at most
 ``attitude.extrapolation_periods`` truth periods past the newest), stamps
 the output with that time, and publishes nothing from stale truth: the stale
 state is an ERROR on ``/diagnostics`` at once and logged once. Bad truth
-(non-finite, far-from-unit, zero, future, duplicate, backward stamps) is
-dropped and counted. Two publishers of ``/attitude/truth`` are a warning.
+(non-finite, far-from-unit, zero, future, duplicate, backward, too-fast
+stamps: :mod:`pmv_ros.core.validation`) is dropped and counted; a truth clock
+that jumps back by more than ``attitude.follow_timeout_s`` starts a new
+timeline once the next stamp confirms it. Only the first publisher of
+``/attitude/truth`` heard is followed; a second one is an ERROR on
+``/diagnostics`` (:class:`pmv_ros.core.validation.SourceLock`).
+
+``sensor.correction`` is read once, at start-up, and is read-only: no
+parameter change, and nothing from the network, makes the node read a file.
 """
 
 from __future__ import annotations
@@ -35,17 +42,15 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 
 import pmv_msgs_shim as shim
 from .base import PmvNode
-from ..core.assembly import SENSOR_PARAMS as PARAMS, build_models
-from ..core.monitor import Status, validate_quaternion
+from ..core.assembly import SENSOR_PARAMS as PARAMS, build_models, read_correction
 from ..core.sample_stream import SampleStream, fast_time_block
 from ..core.sensor_health import SensorHealth, truth_source_warnings
 from ..core.truth_buffer import TruthAt, TruthBuffer
+from ..core.validation import Jump, JumpDetector, Rejection, StampCheck, check_quaternion
 from .launch import run_node
 from .params import ParameterError, declare, install_validation
 
 
-#: | |q| − 1 | up to which a followed truth quaternion is normalised; beyond it is rejected.
-QUATERNION_NORM_TOLERANCE = 0.01
 
 
 class SensorNode(PmvNode):
@@ -62,6 +67,7 @@ class SensorNode(PmvNode):
         self._external_drive = external_drive
         self._values["_epoch_s"] = self.get_clock().now().nanoseconds * 1e-9
         try:
+            self._values["_correction"] = read_correction(self._values)  # the one file read: here, at start-up
             self._rebuild(self._values)
         except ValueError as error:  # a combination, a date or a file the ranges cannot check
             raise ParameterError(str(error)) from None
@@ -75,13 +81,16 @@ class SensorNode(PmvNode):
         self._pub_truth = self._pub_clock = None
         self._health = SensorHealth()
         self._truth_state = None  # follow mode: where the last tick's attitude came from
-        self._graph_warnings, self._graph_checked_s = (), None
+        self._graph_warnings, self._source_errors, self._graph_checked_s = (), (), None
+        # Real time on a /clock someone else publishes: a tick on a single forged time is skipped, not measured.
+        self._tick_clock = JumpDetector(1.0, forward_threshold_s=10.0)
         # One message per topic, filled in place for every sample (rclpy serialises at publish).
         self._out = dict(truth=QuaternionStamped(), odometry=Odometry(), crossings=PolygonStamped(),
                          attitude=Vector3Stamped(), attitude_raw=Vector3Stamped(), clock=ClockMsg(),
                          diagnostics=DiagnosticArray())
         if self._following:
-            self.input_subscription(QuaternionStamped, "/attitude/truth", self._on_truth)
+            self.input_subscription(QuaternionStamped, "/attitude/truth", self._on_truth,
+                                    self._values["input.source_timeout_s"])
         else:
             self._pub_truth = self.publisher(QuaternionStamped, "/attitude/truth")
         self._sim_time_s = self._values["sim.start_time_s"]
@@ -103,6 +112,12 @@ class SensorNode(PmvNode):
     def _rebuild(self, values: dict) -> None:
         orbit, profile, model = build_models(values)
         self._stream = SampleStream(model, orbit, profile, shim.checked_lines_of_sight)
+        timeout = values["attitude.follow_timeout_s"]
+        # Older by more than the timeout: the source restarted on a new clock (once the next stamp confirms it).
+        stamps = getattr(self, "_truth_stamps", None) or StampCheck(timeout, timeout)
+        self._truth_stamps = stamps.reconfigured(timeout, timeout, 1.0 / values["input.max_rate_hz"])
+        for lock in self.source_locks.values():
+            lock.timeout_s = values["input.source_timeout_s"]
         previous = getattr(self, "_truth", None)
         self._truth = TruthBuffer(values["attitude.extrapolation_periods"], values["attitude.follow_timeout_s"])
         if previous is not None:  # a parameter change keeps the truth received so far
@@ -140,25 +155,21 @@ class SensorNode(PmvNode):
         try:
             record = shim.attitude_quaternion_from_msg(message)
         except ValueError:  # negative or non-finite stamp
-            self._health.count(f"rejected_truth_{Status.ZERO_STAMP.value}")
+            self._health.count(f"rejected_truth_{Rejection.ZERO_STAMP.value}")
             return
-        q, status, _ = validate_quaternion(record.q_xyzw, QUATERNION_NORM_TOLERANCE)
-        t_s, timeout = record.stamp_s, self._values["attitude.follow_timeout_s"]
-        newest = self._truth.newest_stamp_s
-        if status is Status.OK:
-            if t_s <= 0.0:
-                status = Status.ZERO_STAMP
-            elif t_s > self._now_s() + timeout:
-                status = Status.FUTURE_STAMP
-            elif newest is not None and t_s == newest:
-                status = Status.DUPLICATE
-            elif newest is not None and newest - timeout <= t_s < newest:
-                # Older by more than the timeout: the source restarted on a new clock; take it.
-                status = Status.BACKWARDS
-        if status is not Status.OK:
-            self._health.count(f"rejected_truth_{status.value}")
+        q, rejection, _ = check_quaternion(record.q_xyzw)
+        if rejection is None:
+            outliers = self._truth_stamps.outliers
+            rejection, jumped = self._truth_stamps.check(record.stamp_s, self._now_s())
+            if self._truth_stamps.outliers > outliers:
+                self._health.count("clock_outliers")
+            if jumped:
+                self._health.count("clock_jumps")
+                self._truth.clear()
+        if rejection is not None:
+            self._health.count(f"rejected_truth_{rejection.value}")
             return
-        self._truth.add(t_s, q)
+        self._truth.add(record.stamp_s, q)
 
     # -- ticks ----------------------------------------------------------------------------------
 
@@ -200,6 +211,12 @@ class SensorNode(PmvNode):
 
     def _on_real_time_tick(self) -> None:
         now_s = self.get_clock().now().nanoseconds * 1e-9
+        jump = self._tick_clock.observe(now_s)
+        if jump is Jump.OUTLIER:
+            self._health.count("clock_outliers")
+        if jump is Jump.SUSPECTED:
+            self._health.count("skipped_unconfirmed_clock_jump")
+            return
         if self._following:
             self._sense_following(now_s)
         else:
@@ -240,19 +257,26 @@ class SensorNode(PmvNode):
         period = self._values["diagnostics_period_s"]
         if self._graph_checked_s is None or not (0.0 <= t_s - self._graph_checked_s < period):
             self._graph_checked_s, self._graph_warnings = t_s, self._truth_publisher_warnings()
+            self._source_errors = tuple(self.input_source_problems(max_age_s=0.0))  # a second truth source
+        source_errors = self._source_errors
         newest = self._truth.newest_stamp_s if self._following else None
         summary = self._health.report(
             t_s, period, status=status, blinding=blinding, truth=self._truth_state,
             exclusion_deg=self._values["sensor.bright_body_exclusion_deg"],
-            truth_age_s=float("nan") if newest is None else t_s - newest, warnings=self._graph_warnings)
+            truth_age_s=float("nan") if newest is None else t_s - newest,
+            warnings=self._graph_warnings + source_errors)
         if summary is not None:
+            level = max(summary.level, shim.Level.ERROR if source_errors else shim.Level.OK)  # a second source
             report = shim.HealthReport(stamp_s=t_s, statuses=(shim.HealthStatus(
-                name="pmv_ros/sensor_node: horizon", level=shim.Level(summary.level), message=summary.message,
-                hardware_id="pmv", values=summary.values), self._orbit_status))
+                name="pmv_ros/sensor_node: horizon", level=shim.Level(level), message=summary.message,
+                hardware_id="pmv", values={**summary.values, **self.input_source_counters()}), self._orbit_status))
             self._pub_diagnostics.publish(shim.write_health(self._out["diagnostics"], report))
 
     def _truth_publisher_warnings(self) -> tuple:
-        """Warnings about the sources of /attitude/truth on the graph (more than one, or one besides ours)."""
+        """A warning when /attitude/truth has a publisher besides this sensor's own model (following, a second
+        source is an ERROR from :meth:`input_source_problems`: only the first one heard is followed)."""
+        if self._following:
+            return ()
         others = self.count_publishers("/attitude/truth") - (self._pub_truth is not None)
         return truth_source_warnings(others, self._following)
 

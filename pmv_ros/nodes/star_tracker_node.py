@@ -11,17 +11,22 @@ Frames are driven by the truth stream, so the node runs the same on the wall
 clock and on a fast-time ``/clock``. QoS: reliable, keep-last 100; the
 release queue holds at most ``latency_s × rate_hz`` frames.
 
-Bad input (issue 6): a truth message with a non-finite or far-from-unit
-quaternion, a zero, future (beyond ``future_tolerance_s`` of the node clock),
-duplicate or backward stamp is dropped and counted per reason on
+Bad input (issues 6, 15; the checks are :mod:`pmv_ros.core.validation`): a
+truth message with a non-finite or far-from-unit quaternion, a zero, future
+(beyond ``future_tolerance_s`` of the node clock), duplicate, backward or
+too-fast (``input.max_rate_hz``) stamp is dropped and counted per reason on
 ``/diagnostics``; a near-unit quaternion is normalised. None of them moves
-the frame grid, so the frames published are those of the clean stream.
+the frame grid, so the frames published are those of the clean stream. Only
+the first publisher of ``/attitude/truth`` heard is used; a second one is an
+ERROR on ``/diagnostics`` and its messages are dropped.
 
 Discontinuities: a truth gap longer than ``max_truth_gap_s`` (the sensor
 stopped, or was restarted and continues on the same clock) restarts the frame
 grid at the next truth sample — nothing is interpolated across it. A stamp
 that goes back by more than ``clock_jump_s`` (the simulation or the sensor
-restarted on a new clock) starts a new timeline: frames of the old one still
+restarted on a new clock), once the next stamp confirms it (a single stamp
+that the next one contradicts is an outlier, counted ``clock_outliers``),
+starts a new timeline: frames of the old one still
 waiting for release are dropped (counted), the grid restarts. No truth
 arriving for longer than ``max_truth_gap_s`` (by the node clock) is reported
 on ``/diagnostics`` as a stale input.
@@ -41,17 +46,13 @@ import pmv_msgs_shim as shim
 from .base import PmvNode
 from ..core.assembly import STAR_TRACKER_PARAMS as PARAMS, build_tracker
 from ..core.constants import GM_EARTH_M3_S2, EARTH_MEAN_RADIUS_M
-from ..core.monitor import Status, validate_quaternion
 from ..core.star_tracker import FrameGrid, Outcome, inertial_rate_of_nadir_pointing
+from ..core.validation import STAMP_REJECTIONS, Rejection, StampCheck, check_quaternion
 from .launch import run_node
 from .params import ParameterError, declare, install_validation
 
-#: | |q| − 1 | up to which a truth quaternion is normalised; beyond it is rejected.
-QUATERNION_NORM_TOLERANCE = 0.01
-
 #: Reasons a truth message is dropped (the /diagnostics keys are rejected_truth_<reason>).
-TRUTH_REJECTIONS = (Status.NON_FINITE, Status.BAD_QUATERNION, Status.ZERO_STAMP, Status.FUTURE_STAMP,
-                    Status.DUPLICATE, Status.BACKWARDS)
+TRUTH_REJECTIONS = STAMP_REJECTIONS + (Rejection.BAD_QUATERNION,)
 
 
 class StarTrackerNode(PmvNode):
@@ -63,19 +64,24 @@ class StarTrackerNode(PmvNode):
         self._start_s = self.get_clock().now().nanoseconds * 1e-9
         try:
             self._tracker = build_tracker(self._values, self._start_s)
+            self._stamps = StampCheck(1.0, 1.0).reconfigured(self._values["clock_jump_s"],
+                                                             self._values["future_tolerance_s"],
+                                                             1.0 / self._values["input.max_rate_hz"])
         except ValueError as error:  # a combination the ranges cannot check
             raise ParameterError(str(error)) from None
         install_validation(self, PARAMS, self._values, self._rebuild)
         self._publisher = self.publisher(QuaternionStamped, "/star_tracker/attitude")
         self._diagnostics = self.publisher(DiagnosticArray, "/diagnostics")
-        self.input_subscription(QuaternionStamped, "/attitude/truth", self._on_truth)
+        self.input_subscription(QuaternionStamped, "/attitude/truth", self._on_truth,
+                                self._values["input.source_timeout_s"])
         self._grid = FrameGrid(1.0 / self._values["rate_hz"], self._values["max_truth_gap_s"])
         self._queue = deque()  # (release_s, frame_s, q_xyzw), bounded by latency × rate
         # Filled in place for every publication (rclpy serialises at publish).
         self._out, self._out_diagnostics = QuaternionStamped(), DiagnosticArray()
         self._outcomes = {outcome: 0 for outcome in Outcome}
         self._counters = {f"rejected_truth_{reason.value}": 0 for reason in TRUTH_REJECTIONS}
-        self._counters.update(truth_quaternions_normalised=0, clock_jumps=0, frames_dropped_at_clock_jump=0)
+        self._counters.update(truth_quaternions_normalised=0, clock_jumps=0, clock_outliers=0,
+                              frames_dropped_at_clock_jump=0)
         self._rejected_reported = 0
         self._last_outcome = Outcome.OK
         self._last_diagnostics_s = -math.inf
@@ -88,6 +94,10 @@ class StarTrackerNode(PmvNode):
 
     def _rebuild(self, values: dict) -> None:
         self._tracker = build_tracker(values, self._start_s)
+        self._stamps = self._stamps.reconfigured(values["clock_jump_s"], values["future_tolerance_s"],
+                                                 1.0 / values["input.max_rate_hz"])
+        for lock in self.source_locks.values():
+            lock.timeout_s = values["input.source_timeout_s"]
         self._grid.period_s, self._grid.max_gap_s = 1.0 / values["rate_hz"], values["max_truth_gap_s"]
 
     def _mean_motion(self) -> float:
@@ -96,23 +106,6 @@ class StarTrackerNode(PmvNode):
     def _now_s(self) -> float | None:
         now = self.get_clock().now().nanoseconds * 1e-9
         return now if now > 0.0 else None  # sim time before the first /clock: unknown
-
-    def _check_stamp(self, t_s: float, now: float | None) -> Status:
-        """Validate a truth stamp against the node clock ``now`` (s, None: unknown); a jump back by more than
-        clock_jump_s starts a new timeline."""
-        if t_s <= 0.0:
-            return Status.ZERO_STAMP
-        if now is not None and t_s > now + self._values["future_tolerance_s"]:
-            return Status.FUTURE_STAMP
-        previous = self._grid.previous
-        if previous is not None:
-            if t_s == previous[0]:
-                return Status.DUPLICATE
-            if t_s < previous[0] - self._values["clock_jump_s"]:
-                self._new_timeline()
-            elif t_s < previous[0]:
-                return Status.BACKWARDS
-        return Status.OK
 
     def _new_timeline(self) -> None:
         """The truth clock went back: forget the old timeline (frames not yet released are dropped)."""
@@ -126,14 +119,18 @@ class StarTrackerNode(PmvNode):
         try:
             t_s, q_xyzw = shim.read_attitude_quaternion(message)
         except ValueError:  # a negative or non-finite stamp
-            self._counters[f"rejected_truth_{Status.ZERO_STAMP.value}"] += 1
+            self._counters[f"rejected_truth_{Rejection.ZERO_STAMP.value}"] += 1
             return
         now_s = self._last_arrival_s = self._now_s()
-        q, status, normalised = validate_quaternion(q_xyzw, QUATERNION_NORM_TOLERANCE)
-        if status is Status.OK:
-            status = self._check_stamp(t_s, now_s)
-        if status is not Status.OK:
-            self._counters[f"rejected_truth_{status.value}"] += 1
+        q, rejection, normalised = check_quaternion(q_xyzw)
+        if rejection is None:
+            outliers = self._stamps.outliers
+            rejection, jumped = self._stamps.check(t_s, now_s)
+            self._counters["clock_outliers"] += self._stamps.outliers - outliers
+            if jumped:
+                self._new_timeline()
+        if rejection is not None:
+            self._counters[f"rejected_truth_{rejection.value}"] += 1
             return
         self._counters["truth_quaternions_normalised"] += normalised
         frames, attitudes, turn_rate = self._grid.add(t_s, q)
@@ -177,12 +174,15 @@ class StarTrackerNode(PmvNode):
     def _publish_diagnostics(self, t_s: float, problems: list) -> None:
         values = {f"frames_{o.name.lower()}": n for o, n in self._outcomes.items()}
         values.update(self._counters)
+        values.update(self.input_source_counters())
         values["release_queue"] = len(self._queue)
         rejected = sum(self._counters[f"rejected_truth_{reason.value}"] for reason in TRUTH_REJECTIONS)
         if rejected > self._rejected_reported:
             problems = problems + ["rejected /attitude/truth messages"]
         self._rejected_reported = rejected
-        level = shim.Level.WARN if problems else shim.Level.OK
+        source_errors = self.input_source_problems()
+        problems = source_errors + problems
+        level = shim.Level.ERROR if source_errors else shim.Level.WARN if problems else shim.Level.OK
         report = shim.HealthReport(stamp_s=t_s, statuses=(shim.HealthStatus(
             name="pmv_ros/star_tracker_node", level=level, message="; ".join(problems) or "attitude available",
             hardware_id="star_tracker", values=values),))

@@ -1,0 +1,139 @@
+"""Campaign throughput in one run: the core on one Dask worker against the ROS pipeline, and 2 workers against 1.
+
+Three measurements, on the same preset (Meteor-M No.2, its environment on)
+at the same sensor rate (10 Hz):
+
+* pipeline — the three nodes in one process in fast time
+  (:class:`pmv_ros.nodes.pipeline.Pipeline`, what ``pmv simulate`` runs):
+  simulated sensor samples per wall second;
+* 1 worker — ``pmv campaign``'s own path (:func:`pmv_ros.campaign.run_campaign`:
+  submit, fly through :mod:`pmv_ros.core.flight`, gather, write Parquet) on an
+  embedded LocalCluster of one worker process: samples per wall second;
+* 2 workers — the same tasks on a LocalCluster of two worker processes.
+
+Both clusters are started before the rounds (their start-up is not a
+campaign's steady state) and each round writes into a fresh folder, so no
+task is skipped. The machine may be shared: the measurements alternate
+over ``--rounds`` rounds (pipeline, 1 worker, 2 workers, then again) and each
+rate is the best of its rounds — a busy neighbour slows whichever
+measurement it overlaps — with the per-round figures and the load average
+printed beside them. Targets: 1 worker ≥ 25× the pipeline; 2 workers ≥ 1.7× 1.
+
+    .venv/bin/python benchmarks/bench_campaign.py [--rounds R] [--tasks N] [--orbits K] [--ticks T] [--json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import tempfile
+import time
+from pathlib import Path
+
+os.environ.setdefault("ROS_LOG_DIR", tempfile.mkdtemp(prefix="pmv_bench_log_"))
+os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "OFF"
+
+import logging  # noqa: E402
+
+import yaml  # noqa: E402
+
+from pmv_ros import campaign  # noqa: E402
+
+REPO = Path(__file__).resolve().parents[1]
+PRESET = REPO / "config" / "meteor_m2.yaml"
+RATE_HZ = 10.0
+
+
+def load_average() -> float:
+    """The one-minute load average (processes wanting a CPU; the machine has os.cpu_count())."""
+    try:
+        return float(Path("/proc/loadavg").read_text().split()[0])
+    except (OSError, ValueError, IndexError):
+        return float("nan")
+
+
+def pipeline_rate(ticks: int) -> float:
+    """Simulated samples per wall second of the in-process pipeline (after a short warm-up)."""
+    from pmv_ros.nodes.pipeline import Pipeline
+
+    with Pipeline(PRESET, {"sensor.rate_hz": RATE_HZ}) as pipeline:
+        pipeline.step(50)
+        started = time.perf_counter()
+        pipeline.step(ticks)
+        return ticks / (time.perf_counter() - started)
+
+
+def campaign_rate(client, settings, tasks, scratch: Path) -> tuple[float, float]:
+    """Samples per wall second of a campaign of ``tasks`` on ``client``, and the wall time."""
+    out = Path(tempfile.mkdtemp(dir=scratch))
+    try:
+        report = campaign.run_campaign(settings, tasks, out, progress=False, client=client)
+    finally:
+        shutil.rmtree(out, ignore_errors=True)
+    assert report["ran"] == len(tasks)
+    return report["samples"] / report["wall_s"], report["wall_s"]
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--tasks", type=int, default=6, help="tasks per campaign measurement (default 6)")
+    parser.add_argument("--orbits", type=float, default=0.25, help="orbits per task (default 0.25)")
+    parser.add_argument("--ticks", type=int, default=3000, help="pipeline ticks per measurement (default 3000)")
+    parser.add_argument("--json", action="store_true")
+    args = parser.parse_args(argv)
+    logging.getLogger("distributed").setLevel(logging.ERROR)  # the clusters' start and close notices
+
+    settings = campaign.Settings(yaml.safe_load(PRESET.read_text()), "2024-01-15T00:00:00Z", RATE_HZ, args.orbits)
+    tasks = [campaign.Task(day=1 + 30 * (k % 12), seed=k // 12) for k in range(args.tasks)]
+    scratch = Path(tempfile.mkdtemp(prefix="pmv_bench_campaign_"))
+    clients = {}
+    rounds = []
+    loads = [load_average()]
+    try:
+        for workers in (1, 2):
+            clients[workers] = campaign.open_client(None, workers)
+            campaign_rate(clients[workers][0], settings, tasks[:workers], scratch)  # warm-up: imports on each worker
+        for _ in range(args.rounds):
+            measured = {"pipeline": pipeline_rate(args.ticks)}
+            for workers in (1, 2):
+                measured[f"workers_{workers}"], _ = campaign_rate(clients[workers][0], settings, tasks, scratch)
+            measured["load"] = load_average()
+            rounds.append(measured)
+            loads.append(measured["load"])
+    finally:
+        for client, cluster in clients.values():
+            client.close()
+            cluster.close()
+        shutil.rmtree(scratch, ignore_errors=True)
+
+    best = {key: max(r[key] for r in rounds) for key in ("pipeline", "workers_1", "workers_2")}
+    result = {
+        "preset": PRESET.name, "rate_hz": RATE_HZ, "rounds": rounds, "best_samples_per_s": best,
+        "core_1_worker_over_pipeline": best["workers_1"] / best["pipeline"],
+        "workers_2_over_1": best["workers_2"] / best["workers_1"],
+        "per_round_core_over_pipeline": [r["workers_1"] / r["pipeline"] for r in rounds],
+        "per_round_2_over_1": [r["workers_2"] / r["workers_1"] for r in rounds],
+        "load_average": loads, "cpus": os.cpu_count(),
+        "targets": {"core_1_worker_over_pipeline": 25.0, "workers_2_over_1": 1.7},
+    }
+    if args.json:
+        print(json.dumps(result))
+        return 0
+    print(f"{PRESET.name} at {RATE_HZ:g} Hz, {args.tasks} tasks of {args.orbits:g} orbit, {args.rounds} rounds "
+          f"(load average {', '.join(f'{x:.1f}' for x in loads)} on {os.cpu_count()} CPUs)")
+    for index, r in enumerate(rounds, 1):
+        print(f"  round {index}: pipeline {r['pipeline']:8.0f}  1 worker {r['workers_1']:8.0f}  "
+              f"2 workers {r['workers_2']:8.0f} samples/s   core/pipeline {r['workers_1'] / r['pipeline']:5.1f}×  "
+              f"2/1 {r['workers_2'] / r['workers_1']:4.2f}×")
+    print(f"best: pipeline {best['pipeline']:.0f}, 1 worker {best['workers_1']:.0f}, 2 workers {best['workers_2']:.0f} "
+          "samples/s")
+    print(f"core on 1 worker / pipeline: {result['core_1_worker_over_pipeline']:.1f}× (target ≥ 25×)")
+    print(f"2 workers / 1 worker:        {result['workers_2_over_1']:.2f}× (target ≥ 1.7×)")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,567 @@
+"""Monte-Carlo error budgets over a year on Dask: tasks, their result files, and the budget (``pmv campaign``).
+
+A campaign is a set of tasks (day of year, seed[, environment component]);
+each flies K orbits from 00:00 of the preset's time of day on that day
+through the core (:func:`pmv_ros.core.flight.fly`: the nodes' models and the
+monitor's statistics, no ROS) on a Dask worker. Every finished task becomes
+one Parquet file in the output folder, written by the client under a
+temporary name and renamed into place, so a file is either whole or absent:
+a re-run skips the tasks whose file is there, a killed worker or campaign
+loses only the tasks in flight, and no task is counted twice. Dask reruns a
+task whose worker died (the scheduler's ``allowed-failures``).
+
+The budget reads the task files back, one at a time: statistics per channel
+(roll, pitch, meridional: count, mean, σ, mean ± 3σ, max |e|) by season and
+over the year, per day of year, on a latitude × day map, and — with
+components — each environment component alone beside the total with their
+root sum of squares (physics.md §4, last sentence). It writes
+``budget.json`` and two PNG plots.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import json
+import math
+import os
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .core.constants import ARCMIN_RAD
+from .core.flight import OUTCOME_CODES, flight_values, fly
+from .core.monitor import CHANNELS, Status
+from .core.orbit import CircularOrbit
+from .core.statistics import RunningStatistics
+
+#: Environment components a campaign can fly alone (``--components``), with the overrides that isolate each.
+#: "total" is the preset as it is. The oblateness component keeps the GRS80 Earth under a uniform
+#: horizon, so what it shows is what is left after the monitor removes the closed-form model; the
+#: others fly a spherical Earth (nothing to remove: the monitor keeps its oblateness-free statistics).
+COMPONENTS = {
+    "total": {},
+    "oblateness": {"sensor.earth_model": "GRS80", "environment.climatology": False, "environment.weather": False,
+                   "environment.height_variation": False},
+    "climatology": {"sensor.earth_model": "sphere", "environment.climatology": True, "environment.weather": False,
+                    "environment.height_variation": False, "remove_oblateness": False},
+    "weather": {"sensor.earth_model": "sphere", "environment.climatology": False, "environment.weather": True,
+                "environment.height_variation": False, "remove_oblateness": False},
+    "height": {"sensor.earth_model": "sphere", "environment.climatology": False, "environment.weather": False,
+               "environment.height_variation": True, "remove_oblateness": False},
+}
+
+#: Meteorological seasons of the northern hemisphere, by month.
+SEASONS = {"DJF": (12, 1, 2), "MAM": (3, 4, 5), "JJA": (6, 7, 8), "SON": (9, 10, 11)}
+
+#: Latitude bins of the latitude × day map, deg.
+LATITUDE_BIN_DEG = 10.0
+
+#: Largest number of seeds and of orbits per task a campaign accepts (typo guards).
+MAX_SEEDS = 100_000
+MAX_ORBITS_PER_TASK = 100.0
+
+#: Most sensor samples one task may fly: a task holds its samples in memory (≈ 250 bytes each while it
+#: runs), so 5 million is ≈ 1.3 GB on a worker. More orbits at a high rate: more days or seeds instead.
+MAX_TASK_SAMPLES = 5_000_000
+
+#: Key of the task description in each result file's Parquet metadata.
+METADATA_KEY = b"pmv_campaign"
+
+#: The settings that decide what a task computes; a folder holds one campaign's.
+MANIFEST = "campaign.json"
+
+
+def parse_days(spec: str, year: int) -> list[int]:
+    """Days of year from ``"1,91,182,274"``, ``"1-365:7"`` or a mix; ValueError naming a bad item.
+
+    Days run 1 … 365 (366 in a leap year of the preset's epoch); a range
+    ``a-b:s`` takes a, a + s, … up to b.
+    """
+    last = 366 if _is_leap(year) else 365
+    days = set()
+    for item in str(spec).split(","):
+        item = item.strip()
+        if not item:
+            raise ValueError(f"--days {spec!r} has an empty item")
+        body, _, step_text = item.partition(":")
+        first_text, dash, last_text = body.partition("-")
+        try:
+            first = int(first_text)
+            stop = int(last_text) if dash else first
+            step = int(step_text) if step_text else 1
+        except ValueError:
+            raise ValueError(f"--days item {item!r} is not a day, a range a-b or a range a-b:step") from None
+        for day in (first, stop):
+            if not 1 <= day <= last:
+                raise ValueError(f"--days: day {day} is outside the allowed range 1 … {last} "
+                                 f"(days of year {year})")
+        if step < 1:
+            raise ValueError(f"--days item {item!r}: the step must be ≥ 1")
+        if stop < first:
+            raise ValueError(f"--days item {item!r}: the range ends before it starts")
+        days.update(range(first, stop + 1, step))
+    return sorted(days)
+
+
+def _is_leap(year: int) -> bool:
+    return year % 4 == 0 and (year % 100 != 0 or year % 400 == 0)
+
+
+def day_epoch(epoch_utc: str, day: int) -> str:
+    """The preset's epoch moved to ``day`` of its year, same time of day, as ISO 8601 UTC."""
+    moment = dt.datetime.fromisoformat(epoch_utc.strip())
+    if moment.tzinfo is None:
+        moment = moment.replace(tzinfo=dt.timezone.utc)
+    moment = moment.astimezone(dt.timezone.utc)
+    start = moment.replace(month=1, day=1) + dt.timedelta(days=day - 1)
+    return start.strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
+def season_of(epoch_utc: str) -> str:
+    """The meteorological season (northern names DJF, MAM, JJA, SON) of a UTC date."""
+    month = dt.datetime.fromisoformat(epoch_utc.replace("Z", "+00:00")).month
+    return next(name for name, months in SEASONS.items() if month in months)
+
+
+@dataclass(frozen=True)
+class Task:
+    """One unit of work: a day of year, a seed, an environment component."""
+
+    day: int
+    seed: int
+    component: str = "total"
+
+    @property
+    def name(self) -> str:
+        """The task's file stem (also its Dask key)."""
+        return f"day{self.day:03d}-seed{self.seed}-{self.component}"
+
+
+@dataclass(frozen=True)
+class Settings:
+    """What every task of a campaign shares: the parsed preset, its epoch, the rate and the length."""
+
+    document: dict
+    epoch_utc: str
+    rate_hz: float | None
+    orbits_per_task: float
+
+    def manifest(self) -> dict:
+        """The settings as JSON-ready data (``campaign.json``)."""
+        return {"preset": self.document, "rate_hz": self.rate_hz, "orbits_per_task": self.orbits_per_task}
+
+
+def plan(days, seeds: int, components: bool) -> list[Task]:
+    """Every task: days × seeds (0 … seeds − 1) × components (just "total" without ``components``)."""
+    names = list(COMPONENTS) if components else ["total"]
+    return [Task(day, seed, name) for name in names for day in days for seed in range(seeds)]
+
+
+def task_overrides(settings: Settings, task: Task) -> dict:
+    """The parameters a task sets on every node: its seed and epoch, the rate, its component."""
+    overrides = {"seed": task.seed, "sim.epoch_utc": day_epoch(settings.epoch_utc, task.day)}
+    if settings.rate_hz is not None:
+        overrides["sensor.rate_hz"] = settings.rate_hz
+    overrides.update(COMPONENTS[task.component])
+    return overrides
+
+
+def task_samples(values, orbits: float) -> int:
+    """Sensor samples in ``orbits`` orbits, counted as ``pmv simulate --orbits`` counts its ticks."""
+    sensor = values.sensor
+    orbit = CircularOrbit(sensor["orbit.altitude_km"] * 1e3, math.radians(sensor["orbit.inclination_deg"]),
+                          j2_node_drift=sensor["orbit.j2_node_drift"])
+    return max(2, round(orbits * orbit.period_s * sensor["sensor.rate_hz"]))
+
+
+def check(settings: Settings, tasks: list[Task]) -> None:
+    """Raise ValueError for settings that no task could fly, before any worker is asked."""
+    first = tasks[0]
+    values = flight_values(settings.document, task_overrides(settings, first))
+    if values.sensor["attitude.source"] != "profile":
+        raise ValueError("attitude.source = follow: a campaign flies the sensor's own attitude profile")
+    if any(task.component != "total" for task in tasks) and values.sensor["radiance.source"] != "environment":
+        raise ValueError("--components needs radiance.source: environment in the preset (the components are "
+                         "the environment's)")
+    samples = task_samples(values, settings.orbits_per_task)
+    if samples > MAX_TASK_SAMPLES:
+        raise ValueError(f"--orbits-per-task {settings.orbits_per_task:g} at {values.sensor['sensor.rate_hz']:g} Hz "
+                         f"is {samples} samples a task, more than {MAX_TASK_SAMPLES} (fly fewer orbits per task)")
+    period = 1.0 / values.sensor["sensor.rate_hz"]
+    if period > values.star_tracker["max_truth_gap_s"]:
+        raise ValueError(f"sensor rate {values.sensor['sensor.rate_hz']:g} Hz: samples {period:g} s apart are "
+                         f"longer than the star tracker's max_truth_gap_s = {values.star_tracker['max_truth_gap_s']:g} s"
+                         ", so it would measure no frame")
+    for name in {task.component for task in tasks} - {first.component}:  # each component's overrides once
+        flight_values(settings.document, task_overrides(settings, Task(first.day, first.seed, name)))
+
+
+def run_task(settings: Settings, task: Task):
+    """Fly one task on this worker; returns ``(pyarrow.Table, compute seconds)``.
+
+    BLAS runs on one thread here whatever the worker was started with: the
+    workers are the parallelism (the sensor's matrix products are small).
+    """
+    import pyarrow as pa
+    from threadpoolctl import threadpool_limits
+
+    started = time.perf_counter()
+    with threadpool_limits(limits=1, user_api="blas"):
+        overrides = task_overrides(settings, task)
+        values = flight_values(settings.document, overrides)
+        flight = fly(values, task_samples(values, settings.orbits_per_task))
+    table = pa.table({
+        "t_s": flight.t_s,
+        "u_rad": flight.u_rad,
+        "latitude_rad": flight.latitude_rad,
+        "outcome": flight.outcome,
+        "roll_rad": flight.roll_rad,
+        "pitch_rad": flight.pitch_rad,
+        "meridional_rad": flight.meridional_rad,
+    })
+    description = {"task": asdict(task), "epoch_utc": overrides["sim.epoch_utc"],
+                   "season": season_of(overrides["sim.epoch_utc"]),
+                   "rate_hz": values.sensor["sensor.rate_hz"], "samples": int(flight.t_s.size),
+                   "outcome_codes": [status.value for status in OUTCOME_CODES],
+                   "summary": summary_to_dict(flight.summary)}
+    table = table.replace_schema_metadata({METADATA_KEY: json.dumps(_finite(description)).encode()})
+    return table, time.perf_counter() - started
+
+
+def summary_to_dict(summary) -> dict:
+    """A :class:`~pmv_ros.core.monitor.MonitorSummary` as JSON-ready data, arcmin and m for people."""
+    channels = {}
+    for channel in summary.channels:
+        channels[channel.channel] = {
+            "count": channel.count, "mean_arcmin": channel.mean_rad / ARCMIN_RAD,
+            "sigma_arcmin": channel.sigma_rad / ARCMIN_RAD,
+            "limit_low_arcmin": channel.limit_low_rad / ARCMIN_RAD,
+            "limit_high_arcmin": channel.limit_high_rad / ARCMIN_RAD,
+            "max_abs_arcmin": channel.max_abs_rad / ARCMIN_RAD,
+            "harmonics_arcmin": {str(k): v / ARCMIN_RAD for k, v in sorted(channel.harmonics_rad.items())},
+            "ground_sigma_m": channel.ground_sigma_m,
+        }
+    return {"oblateness_removed": summary.oblateness_removed, "channels": channels,
+            "counters": {k: v for k, v in summary.counters.items() if v}}
+
+
+def _finite(value):
+    """``value`` with NaN and ±Inf as None (strict JSON)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    return value
+
+
+# ------------------------------------------------------------------------ result files
+
+def task_path(out: Path, task: Task) -> Path:
+    """Where a task's result lives."""
+    return Path(out) / f"{task.name}.parquet"
+
+
+def prepare_folder(out: Path, settings: Settings) -> None:
+    """Create the output folder, or check that the campaign already in it used the same settings.
+
+    Leftover temporary files of a killed campaign are removed (one campaign per folder at a time).
+    """
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    manifest = out / MANIFEST
+    mine = _finite(settings.manifest())
+    if manifest.exists():
+        try:
+            theirs = json.loads(manifest.read_text())
+        except (OSError, ValueError):
+            raise ValueError(f"{manifest} is not a campaign manifest (remove it or use another --out)") from None
+        if theirs != mine:
+            different = [key for key in mine if theirs.get(key) != mine[key]]
+            raise ValueError(f"{out} holds a campaign with other settings ({', '.join(different) or 'manifest'}): "
+                             "use another --out, or the same preset, --rate-hz and --orbits-per-task")
+    else:
+        _write_atomically(manifest, json.dumps(mine, indent=1).encode())
+    for leftover in out.glob(".*.parquet.tmp*"):
+        leftover.unlink(missing_ok=True)
+
+
+def write_result(out: Path, task: Task, table) -> Path:
+    """Write a task's table as Parquet, atomically: a temporary file renamed into place."""
+    import pyarrow.parquet as pq
+
+    final = task_path(out, task)
+    temporary = final.with_name(f".{final.name}.tmp{os.getpid()}")
+    pq.write_table(table, temporary, compression="zstd")
+    os.replace(temporary, final)
+    return final
+
+
+def _write_atomically(path: Path, data: bytes) -> None:
+    temporary = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    temporary.write_bytes(data)
+    os.replace(temporary, path)
+
+
+def read_result(path: Path, columns=None):
+    """A task file: ``(pyarrow.Table, description dict)``."""
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(path, columns=columns)
+    metadata = pq.read_schema(path).metadata or {}
+    return table, json.loads(metadata[METADATA_KEY])
+
+
+# ------------------------------------------------------------------------ running on Dask
+
+#: Environment of the embedded cluster's worker processes: one BLAS/OpenMP thread each, and glibc's own
+#: malloc thresholds. Dask's default also sets MALLOC_TRIM_THRESHOLD_ = 65536, which fixes the mmap
+#: threshold at 128 kB: the sensor model's temporaries are then mapped and unmapped on every call and
+#: a task takes ≈ 1.6× longer (42 against 25 µs a sample, measured 2026-12-01).
+WORKER_ENVIRONMENT = {"OMP_NUM_THREADS": 1, "MKL_NUM_THREADS": 1, "OPENBLAS_NUM_THREADS": 1}
+
+
+def open_client(scheduler: str | None, workers: int, timeout_s: float = 10.0):
+    """A Dask client: on the scheduler at ``scheduler``, or on an embedded LocalCluster of ``workers`` processes.
+
+    The embedded cluster runs one thread per worker process, no dashboard,
+    and reschedules a task whose worker died (``allowed-failures``).
+    Returns ``(client, cluster or None)``; ValueError naming the address if
+    the scheduler cannot be reached within ``timeout_s``.
+    """
+    import logging
+
+    import dask
+    from distributed import Client, LocalCluster
+
+    if scheduler:
+        try:
+            return Client(scheduler, timeout=f"{timeout_s}s"), None
+        except (OSError, TimeoutError, ValueError) as error:
+            reason = str(error).splitlines()[0] if str(error) else type(error).__name__
+            raise ValueError(f"cannot reach the Dask scheduler at {scheduler}: {reason}") from None
+    with dask.config.set({"distributed.scheduler.allowed-failures": 3,
+                          "distributed.nanny.pre-spawn-environ": WORKER_ENVIRONMENT}):
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
+                               dashboard_address=":0",
+                               silence_logs=logging.ERROR)
+    return Client(cluster), cluster
+
+
+def run_campaign(settings: Settings, tasks: list[Task], out: Path, *, scheduler: str | None = None,
+                 workers: int = 2, progress: bool = True, client=None) -> dict:
+    """Run the tasks not yet done on Dask, writing each result as it arrives; returns what ran.
+
+    ``client``: a Dask client to use (and leave open) instead of opening one
+    from ``scheduler``/``workers``. Returns ``{"ran": n, "skipped": m,
+    "wall_s": s, "compute_s": s, "samples": n}``.
+    """
+    from distributed import as_completed
+    from tqdm import tqdm
+
+    out = Path(out)
+    todo = [task for task in tasks if not task_path(out, task).exists()]
+    report = {"ran": 0, "skipped": len(tasks) - len(todo), "wall_s": 0.0, "compute_s": 0.0, "samples": 0}
+    if not todo:
+        return report
+    started = time.perf_counter()
+    own = client is None
+    cluster = None
+    if own:
+        client, cluster = open_client(scheduler, workers)
+    try:
+        futures = {client.submit(run_task, settings, task, key=f"pmv-campaign-{task.name}", pure=False): task
+                   for task in todo}
+        with tqdm(total=len(todo), unit="task", disable=not progress, dynamic_ncols=True,
+                  desc=f"campaign: {len(todo)} of {len(tasks)} tasks to run") as bar:
+            for future in as_completed(futures):
+                task = futures.pop(future)
+                table, compute_s = future.result()
+                write_result(out, task, table)
+                future.release()
+                report["ran"] += 1
+                report["compute_s"] += compute_s
+                report["samples"] += table.num_rows
+                bar.update(1)
+    finally:
+        if own:
+            client.close()
+        if cluster is not None:
+            cluster.close()
+    report["wall_s"] = time.perf_counter() - started
+    return report
+
+
+# ------------------------------------------------------------------------ the budget
+
+def _statistics_dict(stats: RunningStatistics) -> dict:
+    """Count, mean, σ, mean ± 3σ, max |e| and the limit |mean| + 3σ of one channel, arcmin."""
+    mean, sigma = stats.mean / ARCMIN_RAD, stats.sigma / ARCMIN_RAD
+    return {"count": stats.count, "mean_arcmin": mean, "sigma_arcmin": sigma,
+            "limit_low_arcmin": mean - 3.0 * sigma, "limit_high_arcmin": mean + 3.0 * sigma,
+            "limit_arcmin": abs(mean) + 3.0 * sigma, "max_abs_arcmin": stats.max_abs / ARCMIN_RAD}
+
+
+def _new_channels() -> dict:
+    return {channel: RunningStatistics() for channel in CHANNELS}
+
+
+def budget(out: Path, tasks: list[Task]) -> dict:
+    """Aggregate the task files of ``tasks`` into the error budget (JSON-ready, arcmin).
+
+    Keys: ``components`` → component → ``{"year": …, "DJF": …, …}`` → channel
+    → statistics; ``rss`` (with components): the root sum of squares of the
+    components' σ and limits beside the total's; ``by_day`` → component → day
+    → channel → statistics pooled over seeds, with the seeds' σ range;
+    ``latitude_day`` (total): mean roll, pitch and meridional residual per
+    latitude bin and day; ``tasks``: each task's own statistics (the monitor's).
+    """
+    ok = OUTCOME_CODES.index(Status.OK)
+    groups = {}  # component → group → channel → RunningStatistics
+    days = {}  # component → day → channel → RunningStatistics
+    seed_sigma = {}  # component → day → channel → [σ per seed]
+    edges = np.arange(-90.0, 90.0 + LATITUDE_BIN_DEG, LATITUDE_BIN_DEG)
+    task_days = sorted({task.day for task in tasks})
+    grid = {channel: (np.zeros((edges.size - 1, len(task_days))), np.zeros((edges.size - 1, len(task_days))))
+            for channel in CHANNELS}  # sums, counts
+    per_task = []
+    for task in tasks:
+        table, description = read_result(task_path(out, task))
+        used = table.column("outcome").to_numpy() == ok
+        latitude = np.degrees(table.column("latitude_rad").to_numpy())[used]
+        season = description["season"]
+        component = groups.setdefault(task.component, {"year": _new_channels(), **{s: _new_channels() for s in SEASONS}})
+        day = days.setdefault(task.component, {}).setdefault(task.day, _new_channels())
+        sigmas = seed_sigma.setdefault(task.component, {}).setdefault(task.day, {c: [] for c in CHANNELS})
+        row = np.clip(np.digitize(latitude, edges) - 1, 0, edges.size - 2)
+        column = task_days.index(task.day)
+        for channel in CHANNELS:
+            values = table.column(f"{channel}_rad").to_numpy()[used]
+            for target in (component["year"], component[season], day):
+                target[channel].update(values)
+            alone = RunningStatistics()
+            alone.update(values)
+            sigmas[channel].append(alone.sigma / ARCMIN_RAD)
+            if task.component == "total":
+                finite = np.isfinite(values)
+                sums, counts = grid[channel]
+                np.add.at(sums[:, column], row[finite], values[finite])
+                np.add.at(counts[:, column], row[finite], 1.0)
+        per_task.append({**asdict(task), "epoch_utc": description["epoch_utc"], "season": season,
+                         "samples": description["samples"], **description["summary"]})
+    result = {"components": {}, "by_day": {}, "tasks": per_task}
+    for name, by_group in groups.items():
+        result["components"][name] = {group: {c: _statistics_dict(s) for c, s in channels.items()}
+                                      for group, channels in by_group.items() if channels[CHANNELS[0]].count
+                                      or channels[CHANNELS[1]].count}
+    for name, by_day in days.items():
+        result["by_day"][name] = {
+            str(day): {c: {**_statistics_dict(s), "seed_sigma_min_arcmin": min(seed_sigma[name][day][c]),
+                           "seed_sigma_max_arcmin": max(seed_sigma[name][day][c])}
+                       for c, s in channels.items()}
+            for day, channels in sorted(by_day.items())}
+    if "total" in groups:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            result["latitude_day"] = {
+                "latitude_edges_deg": edges.tolist(), "days": task_days,
+                **{f"{c}_mean_arcmin": (grid[c][0] / grid[c][1] / ARCMIN_RAD).tolist() for c in CHANNELS},
+                "count": grid[CHANNELS[0]][1].astype(int).tolist()}
+    parts = [name for name in COMPONENTS if name != "total" and name in groups]
+    if parts and "total" in groups:
+        result["rss"] = _rss(result["components"], parts)
+    return _finite(result)
+
+
+def _rss(components: dict, parts: list[str]) -> dict:
+    """Per group and channel: σ and limit of the total beside the root sum of squares of the components'."""
+    rss = {}
+    for group, channels in components["total"].items():
+        rss[group] = {}
+        for channel, total in channels.items():
+            entries = [components[part].get(group, {}).get(channel) for part in parts]
+            if any(entry is None for entry in entries):
+                continue
+            rss[group][channel] = {
+                "total_sigma_arcmin": total["sigma_arcmin"], "total_limit_arcmin": total["limit_arcmin"],
+                "rss_sigma_arcmin": math.sqrt(sum(e["sigma_arcmin"] ** 2 for e in entries)),
+                "rss_limit_arcmin": math.sqrt(sum(e["limit_arcmin"] ** 2 for e in entries)),
+                **{f"{part}_sigma_arcmin": e["sigma_arcmin"] for part, e in zip(parts, entries)},
+                **{f"{part}_limit_arcmin": e["limit_arcmin"] for part, e in zip(parts, entries)},
+            }
+    return rss
+
+
+def write_budget(out: Path, result: dict) -> list[str]:
+    """Write ``budget.json`` and the plots into ``out``; returns the file names."""
+    out = Path(out)
+    _write_atomically(out / "budget.json", json.dumps(result, indent=1, allow_nan=False).encode())
+    return ["budget.json"] + _plot(out, result)
+
+
+def _plot(out: Path, result: dict) -> list[str]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    files = []
+    by_day = result["by_day"]
+    fig, axes = plt.subplots(len(CHANNELS), 1, figsize=(9, 9), sharex=True)
+    for axis, channel in zip(axes, CHANNELS):
+        for name, series in by_day.items():
+            day = np.array([int(d) for d in series])
+            sigma = np.array([series[d][channel]["sigma_arcmin"] for d in series], float)
+            limit = np.array([series[d][channel]["limit_arcmin"] for d in series], float)
+            if name == "total":
+                low = np.array([series[d][channel]["seed_sigma_min_arcmin"] for d in series], float)
+                high = np.array([series[d][channel]["seed_sigma_max_arcmin"] for d in series], float)
+                axis.vlines(day, low, high, color="C0", alpha=0.5, lw=4, label="σ of each seed: range")
+                axis.plot(day, sigma, "o-", color="C0", label="σ, all seeds")
+                axis.plot(day, limit, "s--", color="C3", label="limit |mean| + 3σ")
+            else:
+                axis.plot(day, sigma, ".:", label=f"σ, {name} alone")
+        axis.set_ylabel(f"{channel}, ′")
+        axis.grid(alpha=0.3)
+    axes[0].legend(fontsize=7, ncol=2)
+    axes[-1].set_xlabel("day of year")
+    fig.suptitle("Methodical error over the year (residual sensor − star tracker)")
+    fig.tight_layout()
+    fig.savefig(out / "sigma_limit.png", dpi=110)
+    plt.close(fig)
+    files.append("sigma_limit.png")
+
+    grid = result.get("latitude_day")
+    if grid:
+        fig, axes = plt.subplots(1, len(CHANNELS), figsize=(13, 4.5), sharey=True)
+        days, edges = grid["days"], np.array(grid["latitude_edges_deg"])
+        x_edges = _day_edges(days)
+        for axis, channel in zip(axes, CHANNELS):
+            values = np.array(grid[f"{channel}_mean_arcmin"], float)
+            finite = values[np.isfinite(values)]
+            if channel == "meridional":
+                mesh = axis.pcolormesh(x_edges, edges, values, cmap="viridis", shading="flat")
+            else:
+                bound = float(np.max(np.abs(finite))) if finite.size else 1.0
+                mesh = axis.pcolormesh(x_edges, edges, values, cmap="RdBu_r", vmin=-bound, vmax=bound, shading="flat")
+            fig.colorbar(mesh, ax=axis, label="mean residual, ′")
+            axis.set_title(channel)
+            axis.set_xlabel("day of year (DJF · MAM · JJA · SON)")
+        axes[0].set_ylabel("sub-satellite latitude, deg")
+        fig.suptitle("Mean residual by latitude and day of year (all seeds)")
+        fig.tight_layout()
+        fig.savefig(out / "latitude_season.png", dpi=110)
+        plt.close(fig)
+        files.append("latitude_season.png")
+    return files
+
+
+def _day_edges(days: list[int]) -> np.ndarray:
+    """Cell edges between the campaign's days (midpoints; half a step beyond the ends)."""
+    centres = np.asarray(days, float)
+    if centres.size == 1:
+        return np.array([centres[0] - 0.5, centres[0] + 0.5])
+    middle = 0.5 * (centres[1:] + centres[:-1])
+    return np.r_[centres[0] - (middle[0] - centres[0]), middle, centres[-1] + (centres[-1] - middle[-1])]

@@ -1,0 +1,157 @@
+"""``pmv campaign``: a Monte-Carlo error budget over days, seasons and seeds, on Dask, with the ROS-free core."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+from pathlib import Path
+
+from .common import add_json_flag, format_table, print_json, ranged_float
+
+COLUMNS = [
+    ("group", "group", ""),
+    ("channel", "channel", ""),
+    ("count", "N", "d"),
+    ("mean_arcmin", "mean, ′", "+.2f"),
+    ("sigma_arcmin", "σ, ′", ".2f"),
+    ("limit", "mean ± 3σ, ′", ""),
+    ("max_abs_arcmin", "max |e|, ′", ".2f"),
+]
+
+RSS_COLUMNS = [
+    ("group", "group", ""),
+    ("channel", "channel", ""),
+    ("total_sigma_arcmin", "σ total, ′", ".2f"),
+    ("rss_sigma_arcmin", "σ RSS, ′", ".2f"),
+    ("total_limit_arcmin", "limit total, ′", ".2f"),
+    ("rss_limit_arcmin", "limit RSS, ′", ".2f"),
+]
+
+#: Most worker processes an embedded cluster starts (a typo guard).
+MAX_WORKERS = 256
+
+
+def _positive_int(low: int, high: int):
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"{text} is outside the allowed range {low} … {high}")
+        return value
+    return parse
+
+
+def add_parser(subparsers) -> None:
+    """Register ``pmv campaign``."""
+    from ..campaign import MAX_ORBITS_PER_TASK, MAX_SEEDS
+
+    parser = subparsers.add_parser(
+        "campaign", help="Monte-Carlo error budget over days of the year and seeds, on Dask",
+        description="Fly K orbits for every (day of year, seed[, environment component]) through the ROS-free "
+                    "core (the nodes' models and the monitor's statistics) on Dask — an embedded local cluster "
+                    "by default, or the cluster of --scheduler — one Parquet file per task in --out (a re-run "
+                    "skips finished tasks), then the budget: statistics per channel by season and over the "
+                    "year, budget.json and PNG plots.")
+    parser.add_argument("--config", required=True, help="ros__parameters preset, e.g. config/meteor_m2.yaml")
+    parser.add_argument("--days", required=True,
+                        help="days of year of the preset's year: a list and/or ranges, e.g. 1,91,182,274 or 1-365:7")
+    parser.add_argument("--seeds", required=True, type=_positive_int(1, MAX_SEEDS),
+                        help="seeds per day: 0 … N−1, each the seed of every node's random processes")
+    parser.add_argument("--orbits-per-task", type=ranged_float(0.0, MAX_ORBITS_PER_TASK, low_open=True), default=1.0,
+                        help="orbits flown by each task (default 1)")
+    parser.add_argument("--rate-hz", type=ranged_float(0.1, 100.0, " Hz"), default=None,
+                        help="sensor output rate (default: the preset's)")
+    parser.add_argument("--components", action="store_true",
+                        help="also fly each environment component alone (oblateness, climatology, weather, layer "
+                             "height) and give their root sum of squares beside the total")
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument("--scheduler", default=None,
+                       help="address of a running Dask scheduler, e.g. tcp://host:8786 (default: an embedded cluster)")
+    where.add_argument("--workers", type=_positive_int(1, MAX_WORKERS), default=None,
+                       help="worker processes of the embedded cluster (default: the CPU count)")
+    parser.add_argument("--out", required=True, help="folder for the task files, budget.json and the plots")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_json_flag(parser)
+    parser.set_defaults(func=run)
+
+
+def _rows(components: dict) -> list[dict]:
+    rows = []
+    for name, groups in components.items():
+        for group, channels in groups.items():
+            for channel, stats in channels.items():
+                limit = ("—" if stats["mean_arcmin"] is None or stats["sigma_arcmin"] is None
+                         else f"{stats['limit_low_arcmin']:+.2f} … {stats['limit_high_arcmin']:+.2f}")
+                rows.append({"group": f"{name} {group}", "channel": channel, "count": stats["count"],
+                             "mean_arcmin": stats["mean_arcmin"], "sigma_arcmin": stats["sigma_arcmin"],
+                             "limit": limit, "max_abs_arcmin": stats["max_abs_arcmin"]})
+    return rows
+
+
+def run(args) -> int:
+    """Plan the tasks, run those not done on Dask, aggregate and report."""
+    import yaml
+
+    from .. import campaign
+    from ..core.assembly import SENSOR_PARAMS, parse_epoch
+    from ..core.parameters import ParameterError, preset_values
+
+    path = Path(args.config)
+    if not path.is_file():
+        raise ValueError(f"config file {str(path)!r} does not exist")
+    try:
+        document = yaml.safe_load(path.read_text()) or {}
+    except yaml.YAMLError as error:
+        raise ValueError(f"{path}: not a YAML params file ({str(error).splitlines()[0]})") from None
+    if not isinstance(document, dict):
+        raise ValueError(f"{path}: not a ros__parameters params file")
+    try:
+        epoch_utc = preset_values(document, "sensor_node", SENSOR_PARAMS)["sim.epoch_utc"]
+        parse_epoch(epoch_utc)
+        year = int(epoch_utc.strip()[:4])
+        days = campaign.parse_days(args.days, year)
+        settings = campaign.Settings(document, epoch_utc, args.rate_hz, args.orbits_per_task)
+        tasks = campaign.plan(days, args.seeds, args.components)
+        campaign.check(settings, tasks)
+    except ParameterError as error:
+        raise ValueError(f"{path}: {error}") from None
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out {str(out)!r} exists and is not a folder")
+    campaign.prepare_folder(out, settings)
+    workers = args.workers or os.cpu_count() or 1
+    started = time.perf_counter()
+    ran = campaign.run_campaign(settings, tasks, out, scheduler=args.scheduler, workers=workers,
+                                progress=not args.quiet)
+    result = campaign.budget(out, tasks)
+    files = campaign.write_budget(out, result)
+    wall_s = time.perf_counter() - started
+    summary = {
+        "config": str(path), "out": str(out), "days": days, "seeds": args.seeds,
+        "components": list(result["components"]), "orbits_per_task": args.orbits_per_task,
+        "scheduler": args.scheduler or f"embedded LocalCluster, {workers} worker process(es)",
+        "tasks": len(tasks), "ran": ran["ran"], "skipped": ran["skipped"], "wall_s": wall_s,
+        "task_compute_s": ran["compute_s"], "samples_run": ran["samples"],
+        "samples_per_s_per_worker": ran["samples"] / ran["compute_s"] if ran["compute_s"] else None,
+        "files": files,
+        "budget": {key: result[key] for key in ("components", "rss") if key in result},
+        "tasks_statistics": result["tasks"],
+    }
+    if args.json:
+        print_json(summary)
+        return 0
+    print(f"{path}: {len(tasks)} tasks ({len(days)} days × {args.seeds} seeds"
+          f"{' × ' + str(len(campaign.COMPONENTS)) + ' components' if args.components else ''}), "
+          f"{ran['ran']} run, {ran['skipped']} already done, in {wall_s:.1f} s wall on {summary['scheduler']}; "
+          "residual statistics (sensor − star tracker as on /pmv/residual, arcmin):")
+    print(format_table(_rows(result["components"]), COLUMNS))
+    if "rss" in result:
+        rows = [{"group": group, "channel": channel, **values}
+                for group, channels in result["rss"].items() for channel, values in channels.items()]
+        print("components alone and their root sum of squares (limit = |mean| + 3σ):")
+        print(format_table(rows, RSS_COLUMNS))
+    print(f"results: {out}/ (one Parquet file per task), " + ", ".join(files))
+    return 0

@@ -1,0 +1,517 @@
+"""What every node checks on its inputs before anything touches its state — one home, no ROS.
+
+Everything a message from the network carries is checked here, with one
+reason code per way of being wrong (:class:`Rejection`); the nodes and the
+monitor core only call these checks, count the reasons and say so on
+``/diagnostics``. Nothing here raises for a bad sample.
+
+* **Values** — :func:`check_quaternion` (finite, norm within
+  :data:`QUATERNION_NORM_TOLERANCE` of 1, then normalised),
+  :func:`check_angles` (finite or NaN where the stream allows "lost", and
+  within a plausibility bound: a horizon sensor that reads 1e308 rad has not
+  measured anything), :func:`check_orbit_state` (a bound Earth orbit: radius
+  and speed within bounds, negative specific energy). The bounds are
+  :class:`InputBounds`, set from node parameters.
+* **Stamps** — :class:`StampCheck`, one per stream: NaN/Inf, zero or negative,
+  in the future of the node clock, duplicate, backwards, and faster than the
+  stream may be (a flood that stamps faster than the stream's rate is
+  limited, and a flood can never move the stream's "latest" forward by more
+  than the future tolerance).
+* **Clock jumps** — :class:`JumpDetector` (the rule is in its docstring): a
+  jump is acted on once, and only when the next observation confirms it; a
+  single forged ``/clock`` message or stamp that time then contradicts is an
+  outlier, counted, and changes nothing.
+* **One source per stream** — :class:`SourceLock` (the rule is in its
+  docstring): the first publisher heard is kept; messages of any other are
+  dropped, never interleaved.
+* **Files** — :func:`read_text_file`: a regular text file of bounded size,
+  opened without blocking; errors never echo the file's contents.
+
+Times are seconds (float), angles radians, lengths metres.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import stat
+from dataclasses import dataclass
+from enum import Enum
+
+import numpy as np
+
+from .constants import EARTH_MEAN_RADIUS_M, GM_EARTH_M3_S2
+
+#: | |q| − 1 | up to which a quaternion is normalised (and counted); beyond it, rejected.
+#: Rounding in a float32 stack or a serialiser leaves ~1e-7; 1e-2 admits a stack that
+#: normalises now and then, and refuses anything that is not an attitude.
+QUATERNION_NORM_TOLERANCE = 0.01
+
+#: |q| − 1 below which a quaternion is taken as unit already (rounding of a float64 normalisation).
+_UNIT_ROUNDING = 1e-9
+
+
+class Rejection(str, Enum):
+    """Why an incoming sample was dropped (the value is the counter suffix: ``rejected_<stream>_<value>``)."""
+
+    NON_FINITE = "non_finite"                # NaN/Inf stamp or value
+    ZERO_STAMP = "zero_stamp"                # stamp 0 (unset header) or negative
+    FUTURE_STAMP = "future_stamp"            # later than the node clock + future tolerance
+    DUPLICATE = "duplicate"                  # same stamp as the previous sample of the stream
+    BACKWARDS = "backwards"                  # earlier than the previous sample, by less than the jump threshold
+    UNCONFIRMED_JUMP = "unconfirmed_jump"    # a jump back that the next sample has not confirmed (yet)
+    TOO_FAST = "too_fast"                    # stamped closer to the previous sample than the stream's rate allows
+    BAD_QUATERNION = "bad_quaternion"        # norm further than the tolerance from 1 (or zero)
+    IMPLAUSIBLE_ANGLE = "implausible_angle"  # |roll| or |pitch| beyond the plausibility bound
+    IMPLAUSIBLE_ORBIT = "implausible_orbit"  # radius, speed or energy not those of a bound Earth orbit
+    OTHER_SOURCE = "other_source"            # from a second publisher on the stream (see SourceLock)
+
+
+#: The stamp reasons, in the order :class:`StampCheck` tries them.
+STAMP_REJECTIONS = (Rejection.NON_FINITE, Rejection.ZERO_STAMP, Rejection.FUTURE_STAMP, Rejection.DUPLICATE,
+                    Rejection.BACKWARDS, Rejection.UNCONFIRMED_JUMP, Rejection.TOO_FAST)
+
+
+# ----------------------------------------------------------------------------------- values
+
+@dataclass(frozen=True)
+class InputBounds:
+    """Plausibility bounds on input values (SI, rad); ValueError for bounds that admit nothing.
+
+    Args:
+        max_abs_angle_rad: largest |roll|, |pitch| a sensor sample may have (default 30°:
+            the PMV sees the horizon on all four chords only within a few degrees; beyond
+            30° it sees none, so a reading out there is not a measurement).
+        min_orbit_radius_m, max_orbit_radius_m: geocentric radius of the spacecraft
+            (default 100 km above the mean radius … 50,000 km, beyond geostationary).
+        min_orbit_speed_m_s, max_orbit_speed_m_s: inertial speed (default 0.5 … 11.2 km/s;
+            the energy check refuses an unbound state inside these as well).
+    """
+
+    max_abs_angle_rad: float = math.radians(30.0)
+    min_orbit_radius_m: float = EARTH_MEAN_RADIUS_M + 100e3
+    max_orbit_radius_m: float = 5.0e7
+    min_orbit_speed_m_s: float = 500.0
+    max_orbit_speed_m_s: float = 11200.0
+
+    def __post_init__(self) -> None:
+        if not (0.0 < self.max_abs_angle_rad <= math.pi):
+            raise ValueError(f"max_abs_angle_rad = {self.max_abs_angle_rad} is outside the allowed range (0, π]")
+        if not (EARTH_MEAN_RADIUS_M <= self.min_orbit_radius_m < self.max_orbit_radius_m <= 1e9):
+            raise ValueError(f"orbit radius bounds [{self.min_orbit_radius_m}, {self.max_orbit_radius_m}] m must "
+                             f"satisfy {EARTH_MEAN_RADIUS_M:g} ≤ min < max ≤ 1e9")
+        if not (0.0 <= self.min_orbit_speed_m_s < self.max_orbit_speed_m_s <= 1e5):
+            raise ValueError(f"orbit speed bounds [{self.min_orbit_speed_m_s}, {self.max_orbit_speed_m_s}] m/s "
+                             "must satisfy 0 ≤ min < max ≤ 1e5")
+
+
+def check_quaternion(q_xyzw, tolerance: float = QUATERNION_NORM_TOLERANCE):
+    """Validate a quaternion (x, y, z, w): (unit quaternion as a (4,) array or None, Rejection or None, normalised).
+
+    Non-finite components give NON_FINITE; a norm further than ``tolerance``
+    from 1 (a zero quaternion, a component of 1e308 whose square overflows)
+    gives BAD_QUATERNION; otherwise the quaternion is returned normalised, and
+    ``normalised`` says whether that changed more than rounding. The norm
+    bound is the components' plausibility bound: an accepted quaternion has
+    every |component| ≤ 1 + ``tolerance``.
+    """
+    try:
+        components = [float(c) for c in q_xyzw]
+    except (TypeError, ValueError):
+        return None, Rejection.NON_FINITE, False
+    if len(components) != 4 or not all(math.isfinite(c) for c in components):
+        return None, Rejection.NON_FINITE, False
+    # hypot does not overflow for finite components: 1e308 gives a norm of 1e308, refused below.
+    norm = math.hypot(*components)
+    if not abs(norm - 1.0) <= tolerance:
+        return None, Rejection.BAD_QUATERNION, False
+    return np.array(components) / norm, None, abs(norm - 1.0) > _UNIT_ROUNDING
+
+
+def check_angles(roll_rad: float, pitch_rad: float, max_abs_rad: float, *, allow_nan: bool) -> Rejection | None:
+    """Why a (roll, pitch) pair is not a plausible measurement, or None.
+
+    ``allow_nan``: NaN is the sensor's word for "this chord pair lost the
+    horizon" and passes; ±Inf never does. A magnitude beyond ``max_abs_rad``
+    is IMPLAUSIBLE_ANGLE.
+    """
+    for value in (roll_rad, pitch_rad):
+        if math.isnan(value):
+            if not allow_nan:
+                return Rejection.NON_FINITE
+        elif math.isinf(value):
+            return Rejection.NON_FINITE
+        elif abs(value) > max_abs_rad:
+            return Rejection.IMPLAUSIBLE_ANGLE
+    return None
+
+
+def check_orbit_state(position_m, velocity_m_s, bounds: InputBounds) -> Rejection | None:
+    """Why an ECI position (m) and velocity (m/s) are not a state of a bound Earth orbit, or None.
+
+    Radius and speed within ``bounds``, and negative specific energy
+    v²/2 − GM/r (a hyperbolic state is no orbit the sensor flies).
+    """
+    try:
+        rx, ry, rz = (float(c) for c in position_m)
+        vx, vy, vz = (float(c) for c in velocity_m_s)
+    except (TypeError, ValueError):
+        return Rejection.NON_FINITE
+    if not all(math.isfinite(c) for c in (rx, ry, rz, vx, vy, vz)):
+        return Rejection.NON_FINITE
+    radius, speed = math.hypot(rx, ry, rz), math.hypot(vx, vy, vz)
+    if not (bounds.min_orbit_radius_m <= radius <= bounds.max_orbit_radius_m):
+        return Rejection.IMPLAUSIBLE_ORBIT
+    if not (bounds.min_orbit_speed_m_s <= speed <= bounds.max_orbit_speed_m_s):
+        return Rejection.IMPLAUSIBLE_ORBIT
+    if 0.5 * speed * speed - GM_EARTH_M3_S2 / radius >= 0.0:
+        return Rejection.IMPLAUSIBLE_ORBIT
+    return None
+
+
+# ------------------------------------------------------------------------------ clock jumps
+
+class Jump(str, Enum):
+    """What :meth:`JumpDetector.observe` made of one time observation."""
+
+    NONE = "none"                    # on the current timeline
+    SUSPECTED = "suspected"          # off the timeline by more than the threshold: waiting for the next one
+    CONFIRMED_BACK = "back"          # the timeline went back (a restart): act on it now, once
+    CONFIRMED_FORWARD = "forward"    # the timeline went forward by more than the threshold (a gap)
+    OUTLIER = "outlier"              # the suspected jump was contradicted: a single bad observation
+
+
+class JumpDetector:
+    """Tell a real clock jump from a single bad time observation; act on a jump once.
+
+    Rule: an observation more than ``threshold_s`` before the latest time on
+    the current timeline, or more than ``forward_threshold_s`` after it, is a
+    *suspected* jump and is not used. The next observation decides:
+
+    * on the new timeline — later than the suspect, and on the same side of
+      the old timeline — the jump is *confirmed*: reported once
+      (CONFIRMED_BACK or CONFIRMED_FORWARD) and the new timeline is current;
+    * back on the old timeline — the suspected jump was an *outlier* (a
+      forged ``/clock``, a mis-stamped message): OUTLIER, and nothing else
+      changes;
+    * anywhere else (or equal to the suspect: a clock that has not ticked
+      since) — it is the suspect now, and the one after decides.
+
+    So a single forged jump costs one observation and never a reset; a real
+    restart costs one observation and exactly one reset.
+
+    Args:
+        threshold_s: how far back an observation must be to be a jump, s.
+        forward_threshold_s: how far ahead an observation must be to be a jump, s (a
+            node clock: a forged ``/clock`` a year ahead must not become "now");
+            None: time may leap forward freely (stamps after a gap — the future
+            check bounds them).
+    """
+
+    def __init__(self, threshold_s: float, *, forward_threshold_s: float | None = None) -> None:
+        for value in (threshold_s, threshold_s if forward_threshold_s is None else forward_threshold_s):
+            if not (math.isfinite(value) and value > 0.0):
+                raise ValueError(f"a jump threshold of {value} s is not a positive number of seconds")
+        self.threshold_s = float(threshold_s)
+        self.forward_threshold_s = math.inf if forward_threshold_s is None else float(forward_threshold_s)
+        self.latest_s: float | None = None
+        self.suspect_s: float | None = None
+
+    def reset(self) -> None:
+        """Forget the timeline (the next observation starts a new one)."""
+        self.latest_s = None
+        self.suspect_s = None
+
+    def observe(self, t_s: float) -> Jump:
+        """Classify one finite time observation, s, and move the timeline (see the class docstring)."""
+        latest, threshold = self.latest_s, self.threshold_s
+        if latest is None:
+            self.latest_s = t_s
+            return Jump.NONE
+        suspect = self.suspect_s
+        if latest - threshold <= t_s <= latest + self.forward_threshold_s:
+            self.latest_s = max(latest, t_s)
+            if suspect is None:
+                return Jump.NONE
+            self.suspect_s = None
+            return Jump.OUTLIER
+        if suspect is not None and t_s > suspect and (t_s < latest) == (suspect < latest):
+            self.suspect_s, self.latest_s = None, t_s
+            return Jump.CONFIRMED_BACK if t_s < latest else Jump.CONFIRMED_FORWARD
+        self.suspect_s = t_s  # a new suspect, or the same one again (a clock that has not ticked)
+        return Jump.SUSPECTED
+
+
+# ------------------------------------------------------------------------------------ stamps
+
+class StampCheck:
+    """The stamp checks of one input stream, with its clock-jump rule and its rate limit.
+
+    Args:
+        jump_threshold_s: a stamp more than this before the latest one is a clock jump
+            (confirmed by the next stamp, see :class:`JumpDetector`); less is BACKWARDS.
+        future_tolerance_s: a stamp later than ``now_s`` + this is FUTURE_STAMP.
+        min_interval_s: a stamp closer than this after the latest accepted one is
+            TOO_FAST (0: no limit) — a flood stamping faster than the stream's rate is
+            thinned to that rate, and cannot run the stream's clock ahead.
+    """
+
+    def __init__(self, jump_threshold_s: float, future_tolerance_s: float, min_interval_s: float = 0.0) -> None:
+        if not (math.isfinite(future_tolerance_s) and future_tolerance_s > 0.0):
+            raise ValueError(f"future_tolerance_s = {future_tolerance_s} must be a positive number of seconds")
+        if not (math.isfinite(min_interval_s) and 0.0 <= min_interval_s < jump_threshold_s):
+            raise ValueError(f"min_interval_s = {min_interval_s} must be in [0, jump threshold "
+                             f"{jump_threshold_s:g} s)")
+        self.jumps = JumpDetector(jump_threshold_s)
+        self.future_tolerance_s = float(future_tolerance_s)
+        self.min_interval_s = float(min_interval_s)
+        self.outliers = 0  # suspected jumps that the next stamp contradicted
+
+    @property
+    def latest_s(self) -> float | None:
+        """The latest accepted stamp, s (None: none since the start or the last reset)."""
+        return self.jumps.latest_s
+
+    def reconfigured(self, jump_threshold_s: float, future_tolerance_s: float,
+                     min_interval_s: float = 0.0) -> "StampCheck":
+        """A check with new limits on the same timeline (a parameter change; ValueError for bad limits)."""
+        check = StampCheck(jump_threshold_s, future_tolerance_s, min_interval_s)
+        check.jumps.latest_s, check.outliers = self.jumps.latest_s, self.outliers
+        return check
+
+    def reset(self) -> None:
+        """Start a new timeline: the next valid stamp is accepted whatever it is."""
+        self.jumps.reset()
+
+    def check(self, t_s: float, now_s: float | None = None) -> tuple[Rejection | None, bool]:
+        """(why ``t_s`` is rejected or None, whether it confirmed a jump back).
+
+        A confirmed jump back is accepted as the first stamp of the new
+        timeline; the caller resets what depends on the old one — once.
+        ``now_s``: the node clock, s (None or non-finite: no future check).
+        """
+        if not math.isfinite(t_s):
+            return Rejection.NON_FINITE, False
+        if t_s <= 0.0:
+            return Rejection.ZERO_STAMP, False
+        if now_s is not None and math.isfinite(now_s) and t_s > now_s + self.future_tolerance_s:
+            return Rejection.FUTURE_STAMP, False
+        jumps = self.jumps
+        latest = jumps.latest_s
+        if latest is None or t_s >= latest - jumps.threshold_s:
+            # On the current timeline: the ordinary checks, then the detector (which may call a
+            # pending jump an outlier now that this stamp contradicts it).
+            if latest is not None:
+                if t_s == latest:
+                    return Rejection.DUPLICATE, False
+                if t_s < latest:
+                    return Rejection.BACKWARDS, False
+                if t_s - latest < self.min_interval_s:
+                    return Rejection.TOO_FAST, False
+            if jumps.observe(t_s) is Jump.OUTLIER:
+                self.outliers += 1
+            return None, False
+        if jumps.observe(t_s) is Jump.SUSPECTED:
+            return Rejection.UNCONFIRMED_JUMP, False
+        return None, True
+
+
+# ------------------------------------------------------------------------------- one source
+
+class SourceLock:
+    """Keep one publisher per input stream: the first heard; drop the others' messages, never interleave.
+
+    Rule (how the source is chosen and kept):
+
+    * A message's source is the publisher's GID when the middleware gives it
+      (``publisher_gid`` in rclpy's message info, rclpy ≥ Kilted). Jazzy's rclpy
+      gives only the publisher's own sequence number (each publisher numbers
+      its messages 1, 2, 3, …), so there a source is a *track* of sequence
+      numbers: a message continues the track whose last number is below its
+      own by at most ``max_sequence_gap`` (lost best-effort messages leave
+      gaps); where several could take it, the smallest step wins (a reliable
+      publisher's next message is exactly one on), then the track whose
+      expected next stamp (last stamp + its stamp interval; before that is
+      known, + the arrival interval) is nearest. A single
+      publisher is therefore always one track, whatever its stamps do (its
+      clock jumps are the stamp checks' business). Two publishers numbering
+      in lockstep are told apart by their stamps only: where those coincide
+      too, only a GID can separate them.
+    * The first source heard is locked. Its messages pass; every other
+      source's are OTHER_SOURCE, counted, and the number of sources heard
+      within ``timeout_s`` is what :attr:`sources_heard` reports.
+    * The lock moves only when the locked source has been silent (by arrival
+      time, on the clock the caller gives) for ``timeout_s`` — it stopped, or was restarted (a restarted
+      publisher numbers from 1 again: a new track); the next source heard is
+      then locked (counted in :attr:`lock_changes`).
+    * A message with neither GID nor sequence number (an in-process call)
+      counts as the locked source.
+
+    Memory: at most ``max_tracks`` tracks (the least recently heard other
+    source is forgotten first).
+
+    Args:
+        timeout_s: silence after which the locked source is given up, s (arrival clock).
+        max_sequence_gap: largest jump in a source's sequence numbers still taken as the same source.
+        max_tracks: sources remembered at once.
+    """
+
+    def __init__(self, timeout_s: float = 1.0, *, max_sequence_gap: int = 1000, max_tracks: int = 8) -> None:
+        if not (math.isfinite(timeout_s) and timeout_s > 0.0):
+            raise ValueError(f"timeout_s = {timeout_s} must be a positive number of seconds")
+        if max_tracks < 2 or max_sequence_gap < 1:
+            raise ValueError("max_tracks must be ≥ 2 and max_sequence_gap ≥ 1")
+        self.timeout_s = float(timeout_s)
+        self.max_sequence_gap = int(max_sequence_gap)
+        self.max_tracks = int(max_tracks)
+        self._tracks: list[_Track] = []
+        self._locked: _Track | None = None
+        self.lock_changes = 0
+        self.other_source_messages = 0
+
+    def admit(self, arrival_s: float, *, gid=None, sequence: int | None = None,
+              stamp_s: float = math.nan) -> bool:
+        """Whether a message that arrived at ``arrival_s`` (s, the node clock) is from the locked source."""
+        if gid is None and sequence is None:
+            return True
+        track = self._track_for(gid, sequence, stamp_s, arrival_s)
+        locked = self._locked
+        # Silent for the timeout — or the clock went back by more (a restarted simulation): given up.
+        if locked is None or (locked is not track and abs(arrival_s - locked.arrival_s) > self.timeout_s):
+            if locked is not None:
+                self.lock_changes += 1
+            self._locked = locked = track
+        track.hear(sequence, stamp_s, arrival_s)
+        if track is locked:
+            return True
+        self.other_source_messages += 1
+        return False
+
+    def sources_heard(self, now_s: float) -> int:
+        """Sources heard within ``timeout_s`` before ``now_s`` (arrival clock)."""
+        return sum(1 for track in self._tracks if abs(now_s - track.arrival_s) <= self.timeout_s)
+
+    def _track_for(self, gid, sequence, stamp_s, arrival_s) -> "_Track":
+        tracks = self._tracks
+        if gid is not None:
+            key = bytes(gid)
+            for track in tracks:
+                if track.gid == key:
+                    return track
+            return self._new_track(_Track(gid=key))
+        best, best_key = None, None
+        for track in tracks:
+            if track.gid is not None or track.sequence is None:
+                continue
+            gap = sequence - track.sequence
+            if not 0 < gap <= self.max_sequence_gap:
+                continue
+            # The next number first (a reliable publisher never skips one), then the nearest stamp.
+            miss = abs(stamp_s - track.expected_stamp_s(arrival_s))
+            key = (gap, miss if math.isfinite(miss) else 0.0, track is not self._locked)
+            if best_key is None or key < best_key:
+                best, best_key = track, key
+        return best if best is not None else self._new_track(_Track())
+
+    def _new_track(self, track: "_Track") -> "_Track":
+        if len(self._tracks) >= self.max_tracks:
+            others = [t for t in self._tracks if t is not self._locked]
+            self._tracks.remove(min(others, key=lambda t: t.arrival_s))
+        self._tracks.append(track)
+        return track
+
+
+class _Track:
+    """What a :class:`SourceLock` remembers of one source."""
+
+    __slots__ = ("gid", "sequence", "stamp_s", "interval_s", "arrival_s")
+
+    def __init__(self, gid: bytes | None = None) -> None:
+        self.gid = gid
+        self.sequence = None
+        self.stamp_s = math.nan
+        self.interval_s = math.nan
+        self.arrival_s = -math.inf
+
+    def expected_stamp_s(self, arrival_s: float) -> float:
+        """The stamp this source's next message should carry: one interval on (or, before the interval is
+        known, as much as the arrival time moved on)."""
+        step = self.interval_s if math.isfinite(self.interval_s) else arrival_s - self.arrival_s
+        return self.stamp_s + step
+
+    def hear(self, sequence, stamp_s: float, arrival_s: float) -> None:
+        if math.isfinite(stamp_s) and stamp_s > 0.0:  # a bad stamp says nothing about the cadence
+            if math.isfinite(self.stamp_s) and stamp_s > self.stamp_s:
+                step = stamp_s - self.stamp_s
+                self.interval_s = step if not math.isfinite(self.interval_s) else 0.8 * self.interval_s + 0.2 * step
+            self.stamp_s = stamp_s
+        if sequence is not None:
+            self.sequence = sequence
+        self.arrival_s = arrival_s
+
+
+# ------------------------------------------------------------------------------------- files
+
+#: Largest file a file-valued parameter may name, bytes (a correction table of 121 rows is ≈ 3 kB).
+MAX_PARAMETER_FILE_BYTES = 1 << 20
+
+
+def read_text_file(path, what: str, max_bytes: int = MAX_PARAMETER_FILE_BYTES) -> str:
+    """The text of a regular UTF-8 file of at most ``max_bytes`` bytes; ValueError with a one-line reason.
+
+    Never blocks and never reads more than ``max_bytes + 1`` bytes: the path
+    is stat'ed first and must be a regular file (a FIFO, a device, a directory
+    or a socket is refused before it is opened), then opened with
+    ``O_NONBLOCK`` and checked again on the open descriptor (the name may have
+    been swapped in between). A file with a NUL byte or that is not UTF-8 is
+    refused as binary. The reason names the file and what is wrong with it —
+    never its contents.
+
+    Args:
+        path: file name.
+        what: what the file is, for the reason ("correction table").
+    """
+    name = os.fsdecode(path) if isinstance(path, (bytes, os.PathLike)) else str(path)
+    try:
+        info = os.stat(name)
+    except OSError as error:
+        raise ValueError(f"cannot read {what} {name}: {error.strerror or error}") from None
+    _check_regular(info, name, what, max_bytes)
+    flags = os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_NOCTTY", 0) | getattr(os, "O_CLOEXEC", 0)
+    try:
+        descriptor = os.open(name, flags)
+    except OSError as error:
+        raise ValueError(f"cannot read {what} {name}: {error.strerror or error}") from None
+    try:
+        _check_regular(os.fstat(descriptor), name, what, max_bytes)
+        chunks, size = [], 0
+        while size <= max_bytes:
+            chunk = os.read(descriptor, max_bytes + 1 - size)
+            if not chunk:
+                break
+            chunks.append(chunk)
+            size += len(chunk)
+    except OSError as error:
+        raise ValueError(f"cannot read {what} {name}: {error.strerror or error}") from None
+    finally:
+        os.close(descriptor)
+    data = b"".join(chunks)
+    if len(data) > max_bytes:
+        raise ValueError(f"{what} {name} is larger than the {max_bytes} bytes allowed")
+    if b"\0" in data:
+        raise ValueError(f"{what} {name} is a binary file, not text")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError:
+        raise ValueError(f"{what} {name} is not UTF-8 text") from None
+
+
+def _check_regular(info: os.stat_result, name: str, what: str, max_bytes: int) -> None:
+    mode = info.st_mode
+    if not stat.S_ISREG(mode):
+        kind = ("a directory" if stat.S_ISDIR(mode) else "a FIFO" if stat.S_ISFIFO(mode)
+                else "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
+                else "a socket" if stat.S_ISSOCK(mode) else "not a regular file")
+        raise ValueError(f"{what} {name} is {kind}, not a regular file")
+    if info.st_size > max_bytes:
+        raise ValueError(f"{what} {name} is {info.st_size} bytes, more than the {max_bytes} allowed")
