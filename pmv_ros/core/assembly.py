@@ -22,26 +22,27 @@ from .star_tracker import StarTracker, StarTrackerParameters
 from .validation import InputBounds
 
 
-#: Input guards every node has (issue 15; the checks are core/validation.py).
+#: Input guards every node has (issue 15; the checks are core/validation.py). Read-only while the node runs:
+#: anyone on the DDS domain can set parameters, and a guard a neighbour could loosen guards nothing.
 INPUT_PARAMS = (
     ParamSpec("input.max_rate_hz", 500.0, "an input stream stamped faster than this is thinned to it and the rest "
-              "counted too_fast (a flood cannot run the stream's clock ahead)", 2.0, 1e5, unit="Hz"),
+              "counted too_fast (a flood cannot run the stream's clock ahead)", 2.0, 1e5, unit="Hz", read_only=True),
     ParamSpec("input.source_timeout_s", 1.0, "only the first publisher heard on an input is used; it is given up "
-              "after this long without a message (then the next one heard is used)", 0.05, 3600.0, unit="s"),
+              "after this long without a message (then the next one heard is used)", 0.05, 3600.0, unit="s", read_only=True),
 )
 
 #: Plausibility bounds of the monitor's inputs: what a horizon sensor on a bound Earth orbit can report.
 MONITOR_INPUT_PARAMS = (
     ParamSpec("input.max_abs_angle_deg", 30.0, "a /pmv/attitude roll or pitch beyond this is not a measurement "
-              "(the PMV sees no horizon there) and is dropped", 0.1, 180.0, unit="deg"),
+              "(the PMV sees no horizon there) and is dropped", 0.1, 180.0, unit="deg", read_only=True),
     ParamSpec("input.min_orbit_radius_km", 6471.0, "smallest geocentric radius on /orbit/odometry", 6371.0, 1e6,
-              unit="km"),
+              unit="km", read_only=True),
     ParamSpec("input.max_orbit_radius_km", 50000.0, "largest geocentric radius on /orbit/odometry", 6371.0, 1e6,
-              unit="km"),
+              unit="km", read_only=True),
     ParamSpec("input.min_orbit_speed_km_s", 0.5, "smallest inertial speed on /orbit/odometry", 0.0, 100.0,
-              unit="km/s"),
+              unit="km/s", read_only=True),
     ParamSpec("input.max_orbit_speed_km_s", 11.2, "largest inertial speed on /orbit/odometry (an unbound state "
-              "is refused whatever the speed)", 0.0, 100.0, unit="km/s"),
+              "is refused whatever the speed)", 0.0, 100.0, unit="km/s", read_only=True),
 )
 
 
