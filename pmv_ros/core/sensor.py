@@ -281,10 +281,14 @@ class ChainDetector:
                     np.full(shape, self.radiance.window_height_m))
         points = 1 + len(chain.DISC_SAMPLE_INWARD_RAD)
 
+        located = {}  # the ground points of a node set, shared by fields on the same grid (short blocks)
+
         def along_track(spacing_s, inner, evaluate):
             nodes = _grid_nodes(t, spacing_s)
-            lat, lon, t_points = self._ground_points(t[nodes], position_m[:, nodes], sensor_axes[:, :, nodes], inner)
-            values = [v.reshape(points if inner else 1, 4, nodes.size) for v in evaluate(lat, lon, t_points)]
+            key = (inner, nodes.tobytes())
+            if key not in located:
+                located[key] = self._ground_points(t[nodes], position_m[:, nodes], sensor_axes[:, :, nodes], inner)
+            values = [v.reshape(points if inner else 1, 4, nodes.size) for v in evaluate(*located[key])]
             return [_interpolate_in_time(t, nodes, v) for v in values]
 
         mean, background = along_track(self.grid_s, True, self.environment.weather_parts)
