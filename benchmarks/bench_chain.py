@@ -89,14 +89,29 @@ def time_reference(batch: dict, table, chords, repeats: int) -> float:
     return total
 
 
+def flight_environment():
+    """The environment the presets fly (config/kondor.yaml's, calibrated by tools/calibrate_environment.py)."""
+    import yaml
+
+    from pmv_ros.core import parameters
+    from pmv_ros.core.assembly import SENSOR_PARAMS, build_detector, build_models
+
+    document = yaml.safe_load((Path(__file__).resolve().parents[1] / "config" / "kondor.yaml").read_text())
+    values = parameters.preset_values(document, "sensor_node", SENSOR_PARAMS,
+                                      {"sim.fast_time": True, "radiance.source": "environment"})
+    orbit, _, _ = build_models(values)
+    return build_detector(values, orbit).radiance
+
+
 def time_instrument(samples: int, repeats: int, sources=("uniform", "environment")) -> dict:
     """Chords/s of the whole instrument (geometry + radiance + chain + pair angles) over a Kondor orbit.
 
     Per source of radiance: "uniform" (one disc radiance) or "environment"
-    (climatology, weather and layer height sampled on the rotating Earth at
-    each chord's horizon point and 300 km inside it). The sources alternate
-    repeat by repeat and each keeps its best, so a slow minute of the machine
-    does not land on one of them only.
+    (the flight environment of the presets: climatology, synoptic weather and
+    window-layer height sampled on the rotating Earth along each chord's line
+    of sight, on the coarse track grid). The sources alternate repeat by
+    repeat and each keeps its best, so a slow minute of the machine does not
+    land on one of them only.
     """
     import math
 
@@ -108,7 +123,8 @@ def time_instrument(samples: int, repeats: int, sources=("uniform", "environment
     q = np.tile(np.array([[0.0], [0.0], [0.0], [1.0]]), samples)
     models = {}
     for source in sources:
-        detector = ChainDetector(orbit.altitude_m, RadianceConfig(source=source), calibrated_correction_table(500e3))
+        radiance = flight_environment() if source == "environment" else RadianceConfig(source=source)
+        detector = ChainDetector(orbit.altitude_m, radiance, calibrated_correction_table(500e3))
         models[source] = SensorModel(orbit, SensorConfig(), detector)
         models[source].sense(t[:64], q[:, :64])  # warm-up
     best = dict.fromkeys(sources, math.inf)
@@ -171,7 +187,7 @@ def main(argv=None) -> int:
         print(f"ratio:          {result['ratio']:12,.0f} ×        (targets: ≥ 20,000 chords/s and ≥ 1,000 ×)")
         print(f"instrument (geometry + chain), uniform radiance:  {uniform_rate:10,.0f} chords/s")
         print(f"instrument (geometry + chain), flight environment: {environment_rate:9,.0f} chords/s  "
-              f"(cost factor {result['environment_cost_factor']:.2f}; target ≤ 2)")
+              f"(cost factor {result['environment_cost_factor']:.2f}; target ≤ 1.5)")
     return 0
 
 

@@ -7,13 +7,16 @@ Plots (PNG, matplotlib's Agg backend, no display needed):
   drawn over them, like the figures of the flight-test papers;
 * ``spectrum.png`` — amplitude of the residual at each harmonic k of the
   orbital frequency (least squares over the whole record), with the monitor's
-  live k = 1, 2, 15–25 values marked (physics.md §5.1).
+  live k = 1, 2, 15–25 values marked (physics.md §5.1), and — when the preset
+  names a flight record (``sim.flight_record``) — the record's published
+  points beside it (:func:`flight_record`, pmv_ros/data/flight_records.json).
 """
 
 from __future__ import annotations
 
 import json
 import math
+from importlib import resources
 from pathlib import Path
 
 import numpy as np
@@ -42,6 +45,19 @@ def harmonic_spectrum(t_s, values, period_s: float, max_k: int = 40):
     return k, np.hypot(coefficients[1:max_k + 1], coefficients[max_k + 1:])
 
 
+def flight_record(name: str) -> dict | None:
+    """The published points of a named flight record: ``{"title", "pitch": {k: ′}, "roll": {k: ′}}``; None for "".
+
+    ValueError for a name that pmv_ros/data/flight_records.json does not hold.
+    """
+    if not name:
+        return None
+    records = json.loads(resources.files("pmv_ros").joinpath("data", "flight_records.json").read_text("utf-8"))
+    if name not in records["records"]:
+        raise ValueError(f"flight record {name!r} is not one of {sorted(records['records'])}")
+    return records["records"][name]
+
+
 def statistics_to_dict(statistics) -> dict:
     """Final statistics (a shim ErrorStatistics) as plain JSON-ready data, arcmin for people."""
     channels = {}
@@ -62,7 +78,8 @@ def statistics_to_dict(statistics) -> dict:
             "counters": dict(statistics.counters)}
 
 
-def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_harmonics: dict | None = None) -> dict:
+def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_harmonics: dict | None = None,
+                 record: dict | None = None) -> dict:
     """Write ``statistics.json``, ``residuals.png`` and ``spectrum.png`` into ``directory``.
 
     Returns the summary as written: the input plus ``residual_spectrum_arcmin``
@@ -74,6 +91,7 @@ def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_ha
         residuals: ``(3, N)`` stamp (s), roll and pitch residual (rad).
         orbit: the :class:`~pmv_ros.core.orbit.CircularOrbit` flown (for u and the model).
         live_harmonics: {channel: {k: amplitude_arcmin}} from the monitor, marked on the spectrum.
+        record: a flight record (:func:`flight_record`) whose published points are drawn on the spectrum.
     """
     import matplotlib
 
@@ -110,13 +128,22 @@ def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_ha
     plt.close(figure)
 
     figure, axis = plt.subplots(figsize=(9, 4.5))
+    colours = {}
     for name, marker in (("roll", "o"), ("pitch", "s")):
         k, amplitude = spectra[name]
-        axis.plot(k, amplitude / ARCMIN_RAD, marker + "-", markersize=3, label=f"{name} (whole record)")
+        line, = axis.plot(k, amplitude / ARCMIN_RAD, marker + "-", markersize=3, label=f"{name} (whole record)")
+        colours[name] = line.get_color()
         if live_harmonics and name in live_harmonics:
             live = live_harmonics[name]
             axis.plot([int(x) for x in live], list(live.values()), marker, markersize=8, fillstyle="none",
                       label=f"{name}, monitor's last orbit (oblateness removed)")
+    if record:
+        for name, marker in (("roll", "*"), ("pitch", "P")):
+            points = record.get(name) or {}
+            if points:
+                axis.plot([int(k) for k in points], list(points.values()), marker, color=colours[name], markersize=13,
+                          markeredgecolor="black", linestyle="none", label=f"{name}, flight record (published)")
+        axis.set_title(record["title"], fontsize=9)
     axis.axvspan(15, 25, color="orange", alpha=0.12, label="k = 15…25: horizon radiance zones")
     axis.set_xlabel("k = ω / Ω (harmonic of the orbital frequency)")
     axis.set_ylabel("amplitude, arcmin")

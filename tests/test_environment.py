@@ -18,6 +18,7 @@ from pmv_ros.core.environment import (
     GaussianSphereField,
     LayerHeightField,
     RadianceEnvironment,
+    SynopticBandField,
     WeatherField,
     horizon_radiance_climatology,
 )
@@ -83,6 +84,46 @@ def test_weather_correlation_is_exponential_with_radius(radius_m):
         assert measured == pytest.approx(math.exp(-chord_m / radius_m), abs=CORRELATION_TOLERANCE), multiple
 
 
+@pytest.mark.parametrize("fraction", [0.2, 0.5])
+def test_synoptic_weather_has_the_documented_covariance(fraction):
+    # WeatherField: C(ψ) = w·mean_ℓ P_ℓ(cos ψ) + (1 − w)·exp(−c/R_b), R_b such that C(R_x) = e⁻¹.
+    # Measured over 10 independent epochs, as the exponential test above (same tolerance and reason).
+    weather = WeatherField(correlation_radius_m=700e3, synoptic_fraction=fraction, seed=21)
+    rng = np.random.default_rng(8)
+    t = epochs(N_PAIRS, N_EPOCHS, 10 * weather.time_scale_s)
+    for distance_m in (350e3, 700e3, 1000e3, 1500e3):
+        lat1, lon1, lat2, lon2 = points_at_distance(rng, N_PAIRS, distance_m)
+        measured = np.corrcoef(weather.relative_anomaly(lat1, lon1, t), weather.relative_anomaly(lat2, lon2, t))[0, 1]
+        expected = float(weather.correlation(distance_m / EARTH_MEAN_RADIUS_M))
+        assert measured == pytest.approx(expected, abs=CORRELATION_TOLERANCE), distance_m
+    assert float(weather.correlation(700e3 / EARTH_MEAN_RADIUS_M)) == pytest.approx(math.exp(-1.0), abs=1e-9)
+    lat, lon = random_points(rng, N_PAIRS)
+    assert np.std(weather.relative_anomaly(lat, lon, t)) == pytest.approx(1.0, rel=ETA_RELATIVE_TOLERANCE)
+
+
+def test_the_synoptic_band_peaks_along_a_ground_track():
+    # Zones of 2000 km (degrees 15 … 25): along a great circle a degree-ℓ field has its power at orders
+    # m ≤ ℓ with density ∝ 1/√(ℓ² − m²), so the band's spectrum rises towards m ≈ 15 … 25 (measured:
+    # ≈ 1.6× the power per order of m = 1 … 9) and stops above 25; an exponential covariance's falls with
+    # m. Power averaged over 40 circles of random orientation.
+    def track_power(field):
+        rng = np.random.default_rng(2)
+        angle = np.linspace(0.0, 2.0 * math.pi, 512, endpoint=False)
+        power = np.zeros(257)
+        for _ in range(40):
+            a, b = np.linalg.qr(rng.standard_normal((3, 3)))[0][:, :2].T
+            circle = np.cos(angle)[:, None] * a + np.sin(angle)[:, None] * b
+            power += np.abs(np.fft.rfft(field(np.arcsin(circle[:, 2]), np.arctan2(circle[:, 1], circle[:, 0]),
+                                              0.0))) ** 2
+        return power
+
+    band = track_power(SynopticBandField(15, 25, time_scale_s=math.inf, seed=4))
+    assert np.mean(band[15:26]) > 1.3 * np.mean(band[1:10])
+    assert np.sum(band[27:]) < 1e-6 * np.sum(band)  # band-limited: nothing above ℓ_max
+    red = track_power(GaussianSphereField(700e3, time_scale_s=math.inf, seed=4))
+    assert np.mean(red[15:26]) < 0.5 * np.mean(red[1:10])
+
+
 @pytest.mark.parametrize("radius_m", [700e3, 300e3])
 def test_weather_relative_variability_matches_eta(radius_m):
     weather = WeatherField(relative_variability=0.15, correlation_radius_m=radius_m, seed=3)
@@ -131,13 +172,17 @@ def test_fast_synthesis_matches_a_float64_sum(t_s):
     np.testing.assert_allclose(field(lat, lon, t), reference, atol=1e-3)
 
 
-def test_radiance_is_clipped_at_the_floor():
-    # η′ = 1 around 0.5 r.u. reaches the 0.3 r.u. floor at a = −0.4: a third of the points.
+def test_weather_keeps_the_radiance_inside_1_to_4_ru():
+    # physics.md §3.2 item 2: the horizon radiance stays inside L_min … L_max = 1 … 4 r.u.
+    # whatever the weather does. η = 1 around 2.4 r.u. leaves the range for |a| > 0.58 or 0.67:
+    # roughly half the points, split between the two bounds.
     weather = WeatherField(relative_variability=1.0, seed=2)
     lat, lon = random_points(np.random.default_rng(9), 5000)
-    radiance = weather.radiance_ru(0.5, lat, lon, 0.0)
-    assert radiance.min() == 0.3
-    assert 0.2 < np.mean(radiance == 0.3) < 0.5
+    radiance = weather.radiance_ru(2.4, lat, lon, 0.0)
+    assert radiance.min() == 1.0 and radiance.max() == 4.0
+    assert 0.15 < np.mean(radiance == 1.0) < 0.4 and 0.15 < np.mean(radiance == 4.0) < 0.4
+    # A (test) mean already below 1 r.u. is not pushed further out.
+    assert weather.radiance_ru(0.5, lat, lon, 0.0).min() == 0.5
 
 
 # --------------------------------------------------------------------------
@@ -202,19 +247,21 @@ def test_radiance_without_the_layers_is_the_same_radiance():
 # Layer heights
 # --------------------------------------------------------------------------
 
-def test_window_layer_height_is_uniform_on_40_plus_minus_20_km():
+def test_window_layer_height_is_uniform_with_sigma_10_km():
+    # physics.md §3.2 item 4: σ_h = 10 km, 40 ± 20 km read as ±2σ of a uniform law: half-width 17.3 km.
     layer = LayerHeightField(seed=5)
     lat, lon = random_points(np.random.default_rng(12), N_PAIRS)
     height_km = layer.height_m(lat, lon, epochs(N_PAIRS, N_EPOCHS, 10 * DAY_S)) / 1e3
-    assert height_km.min() >= 20.0 and height_km.max() <= 60.0
-    # Quantiles of U(20, 60) km within 1.5 km (seed-to-seed scatter ≈ 0.4 km).
+    low, width = 40.0 - 10.0 * math.sqrt(3.0), 20.0 * math.sqrt(3.0)
+    assert height_km.min() >= low and height_km.max() <= low + width
+    # Quantiles of U(22.7, 57.3) km within 1.5 km (seed-to-seed scatter ≈ 0.4 km).
     probabilities = np.array([0.05, 0.1, 0.25, 0.5, 0.75, 0.9, 0.95])
-    np.testing.assert_allclose(np.quantile(height_km, probabilities), 20.0 + 40.0 * probabilities, atol=1.5)
-    assert np.std(height_km) == pytest.approx(40.0 / math.sqrt(12.0), rel=0.05)
+    np.testing.assert_allclose(np.quantile(height_km, probabilities), low + width * probabilities, atol=1.5)
+    assert np.std(height_km) == pytest.approx(10.0, rel=0.05)
     # The points are correlated, so a KS p-value means little; the distance
     # itself stays ≈ 0.012 ± 0.005 over seeds, and a normal of the same mean
     # and σ would give 0.06.
-    assert stats.kstest((height_km - 20.0) / 40.0, "uniform").statistic < 0.04
+    assert stats.kstest((height_km - low) / width, "uniform").statistic < 0.04
 
 
 def test_window_layer_height_is_correlated_like_the_weather():
@@ -392,7 +439,8 @@ def test_shapes_broadcast_and_nan_propagates():
     ("n_components", 64.5, "spectral components"),
     ("uniform_radiance_ru", 0.0, "uniform radiance"),
     ("epoch_day_of_year", 400.0, "day of year"),
-    ("radiance_floor_ru", -1.0, "radiance floor"),
+    ("synoptic_fraction", 0.99, "synoptic fraction"),
+    ("synoptic_fraction", 0.8, "cannot be reached"),  # 700 km is out of reach with 80 % in the band
     ("window_height_mean_m", 200e3, "window layer height"),
     ("window_height_half_range_m", 50e3, "window layer half-range"),
     ("co2_height_m", 50e3, "top of the window layer"),

@@ -87,7 +87,7 @@ def test_a_second_sensor_on_the_domain_is_an_error_and_never_interleaved(harness
 
 @pytest.mark.parametrize("node_class, overrides, prefix", [
     (StarTrackerNode, {}, "pmv_ros/star_tracker_node"),
-    (SensorNode, {"attitude.source": "follow"}, "pmv_ros/sensor_node"),
+    (SensorNode, {"attitude.source": "follow"}, "pmv_ros/sensor_node: horizon"),
 ])
 def test_a_second_truth_publisher_is_an_error_for_the_tracker_and_the_following_sensor(harness, node_class,
                                                                                         overrides, prefix):
@@ -363,7 +363,7 @@ def test_a_following_sensor_skips_the_tick_of_a_single_forged_clock(harness):
     stamps = [shim.time_from_msg(m.header.stamp) for m in attitude]
     assert stamps and max(stamps) < 111.0  # nothing at the forged hour
     assert len(stamps) >= 8
-    values = dict(statuses(diagnostics, "pmv_ros/sensor_node")[-1].values)
+    values = dict(statuses(diagnostics, "pmv_ros/sensor_node: horizon")[-1].values)
     # The forged tick was skipped as an unconfirmed jump — not measured at, nor called stale truth.
     assert int(values["skipped_unconfirmed_clock_jump"]) == 1 and "skipped_stale" not in values, values
     assert int(values["clock_outliers"]) == 1, values

@@ -96,8 +96,8 @@ def test_round_trip_statistics_agree_with_the_live_ones(round_trip, capsys):
     for channel in ("roll", "pitch"):
         ratio = report["channels"][channel]["sigma_arcmin"] / live["channels"][channel]["sigma_arcmin"]
         assert 0.9 < ratio <= 1.0, ratio
-    # 1° bins over one orbit; the Sun in a chord blanks one angle or the other for ≈ 40 s of the orbit
-    # (kondor.yaml, 15 Jan 2024: 36 samples with a lost pair), so one or two bins may be empty.
+    # 1° bins over one orbit; the Sun in a chord can blank one angle or the other for tens of seconds of
+    # the orbit (≈ 40 s on 15 Jan 2024; none on kondor.yaml's 10 Sep 2013), so one or two bins may be empty.
     assert report["orbits"] == 1 and 355 <= report["orbital_angles"] <= 360
 
 
@@ -155,7 +155,10 @@ def test_the_epoch_and_elements_are_on_the_sensors_diagnostics(round_trip):
     found = [e for e in (shim.find_orbit_elements(m.message) for m in topics["/diagnostics"]) if e is not None]
     assert found and all(e == found[0] for e in found)
     elements = found[0]
-    assert elements.epoch_utc == "2024-01-15T00:00:00Z"   # kondor.yaml sim.epoch_utc
+    import yaml
+
+    preset = yaml.safe_load(KONDOR.read_text())["sensor_node"]["ros__parameters"]
+    assert elements.epoch_utc == preset["sim"]["epoch_utc"]   # kondor.yaml sim.epoch_utc
     assert (elements.altitude_km, elements.inclination_deg, elements.arg_latitude_deg) == (500.0, 74.5, 0.0)
     assert elements.roll_pitch_convention == shim.WIRE_CONVENTION
     # Anyone can put the spacecraft where the odometry says it was from the elements and a stamp:
@@ -215,7 +218,11 @@ def test_a_wall_clock_recording_is_analysed_at_the_right_phase(wall_clock_run, c
 
     # Right phase: the residual is the live monitor's (above, 2 %), the flight-test MO is the per-sample
     # meridional mean it should be, and each channel's mean is small against its methodical scatter.
-    assert report["mo_arcmin"] == pytest.approx(report["per_sample"]["meridional"]["mean_arcmin"], rel=AGREEMENT)
+    # MO is the mean magnitude of 1° bin averages (≈ 17 samples each): the flight environment's mesoscale
+    # window-layer scatter (correlated over ≈ 15 s of track, physics.md §3.2 item 4) partly averages out
+    # in a bin, so MO runs a little below the per-sample mean (measured ×0.91), never above it.
+    per_sample_mo = report["per_sample"]["meridional"]["mean_arcmin"]
+    assert 0.85 * per_sample_mo < report["mo_arcmin"] <= (1.0 + AGREEMENT) * per_sample_mo
     for channel in ("roll", "pitch"):
         assert abs(report["per_sample"][channel]["mean_arcmin"]) < report["per_sample"][channel]["sigma_arcmin"]
     # Stamp phase: the model (≈ 5′ roll, 9′ pitch, physics.md §2.1) removed at the wrong u stays in the

@@ -58,7 +58,7 @@ def angles(messages) -> np.ndarray:
                      for m in messages]).reshape(-1, 3)
 
 
-def statuses(messages, prefix="pmv_ros/sensor_node"):
+def statuses(messages, prefix="pmv_ros/sensor_node: horizon"):
     """(stamp s, HealthStatus) of the /diagnostics statuses whose name starts with ``prefix``."""
     out = []
     for message in messages:

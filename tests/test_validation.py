@@ -196,6 +196,21 @@ def test_two_publishers_in_lockstep_are_told_apart_by_sequence_and_stamp():
     assert set(kept) == {"first"} and len(kept) == 399
 
 
+@pytest.mark.parametrize("seed", range(50))
+def test_a_faster_second_sensor_whose_count_catches_up_never_takes_the_lock(seed):
+    # The adversarial suite's attack: the real sensor at 10 Hz (numbered from 50, it started first);
+    # a neighbour from 1 s on at 40 Hz numbered from 1, stamping near the real grid. Its count meets the
+    # real one's once (near 3 s): the step then ties, and only the numbering rates tell the two apart.
+    rng = np.random.default_rng(seed)
+    lock = SourceLock(timeout_s=1.0)
+    events = [(0.1 * k + rng.uniform(0.0, 0.02), 49 + k, 100.0 + 0.1 * k, "real") for k in range(1, 61)]
+    events += [(1.0 + 0.025 * k + rng.uniform(0.0, 0.01), k, 101.0 + 0.025 * k + rng.uniform(-0.05, 0.05),
+                "neighbour") for k in range(1, 161)]
+    events.sort()
+    kept = [who for arrival, sequence, stamp, who in events if lock.admit(arrival, sequence=sequence, stamp_s=stamp)]
+    assert kept.count("real") == 60 and "neighbour" not in kept
+
+
 def test_a_flood_from_a_second_publisher_never_takes_the_lock():
     # A 2 Hz tracker stamps its frames (released 0.25 s later); a 5 kHz flood stamps "now".
     lock = SourceLock(timeout_s=1.0)

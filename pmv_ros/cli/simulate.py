@@ -34,12 +34,29 @@ def add_parser(subparsers) -> None:
                         help="how many orbits to fly (default 1)")
     parser.add_argument("--rate-hz", type=ranged_float(0.1, 100.0, " Hz"), default=None,
                         help="sensor output rate (default: the preset's)")
+    parser.add_argument("--seed", type=_seed, default=None,
+                        help="seed of the run's random processes, 0 … 2^31−1 (default: the preset's)")
+    parser.add_argument("--epoch", default=None, metavar="ISO8601",
+                        help="UTC start of the run, e.g. 2016-11-11T00:00:00Z (default: the preset's sim.epoch_utc)")
     parser.add_argument("--report", default=None, help="write statistics.json and PNG plots into this folder")
     parser.add_argument("--record", default=None, metavar="FILE.mcap",
                         help="record every topic of the run into a new rosbag2 MCAP file (logged at simulation time)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     add_json_flag(parser)
     parser.set_defaults(func=run)
+
+
+def _seed(text: str) -> int:
+    """``--seed``: an integer 0 … 2^31 − 1."""
+    import argparse
+
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if not 0 <= value <= 2**31 - 1:
+        raise argparse.ArgumentTypeError(f"{value} is outside the allowed range 0 … 2147483647")
+    return value
 
 
 def _rows(statistics_dict: dict) -> list[dict]:
@@ -64,9 +81,16 @@ def run(args) -> int:
 
     from ..nodes.params import ParameterError
     from ..nodes.pipeline import Pipeline
-    from ..report import statistics_to_dict, write_report
+    from ..report import flight_record, statistics_to_dict, write_report
+
+    from ..core.assembly import parse_epoch
 
     overrides = {} if args.rate_hz is None else {"sensor.rate_hz": args.rate_hz}
+    if args.seed is not None:
+        overrides["seed"] = args.seed
+    if args.epoch is not None:
+        parse_epoch(args.epoch)  # a bad date: one line, exit 2, before any node starts
+        overrides["sim.epoch_utc"] = args.epoch
     try:
         pipeline = Pipeline(args.config, overrides, record=args.record)
     except ParameterError as error:
@@ -98,6 +122,8 @@ def run(args) -> int:
             "config": str(args.config), "orbits": args.orbits, "rate_hz": rate,
             "simulated_s": pipeline.sensor.sim_time_s - orbit.epoch_s, "wall_s": wall_s,
             "altitude_km": orbit.altitude_m / 1e3, "inclination_deg": math.degrees(orbit.inclination_rad),
+            "seed": pipeline.sensor.get_parameter("seed").value,
+            "epoch_utc": pipeline.sensor.get_parameter("sim.epoch_utc").value,
         })
         if pipeline.recording is not None:
             pipeline.recording.close()
@@ -105,7 +131,8 @@ def run(args) -> int:
         if args.report:
             live = {name: {int(k): v for k, v in c["harmonics_arcmin"].items()}
                     for name, c in result["channels"].items()}
-            result = write_report(args.report, result, pipeline.collector.residual_array(), orbit, live)
+            record = flight_record(pipeline.sensor.get_parameter("sim.flight_record").value)
+            result = write_report(args.report, result, pipeline.collector.residual_array(), orbit, live, record)
     if args.json:
         print_json(result)
         return 0

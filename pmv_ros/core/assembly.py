@@ -22,26 +22,27 @@ from .star_tracker import StarTracker, StarTrackerParameters
 from .validation import InputBounds
 
 
-#: Input guards every node has (issue 15; the checks are core/validation.py).
+#: Input guards every node has (issue 15; the checks are core/validation.py). Read-only while the node runs:
+#: anyone on the DDS domain can set parameters, and a guard a neighbour could loosen guards nothing.
 INPUT_PARAMS = (
     ParamSpec("input.max_rate_hz", 500.0, "an input stream stamped faster than this is thinned to it and the rest "
-              "counted too_fast (a flood cannot run the stream's clock ahead)", 2.0, 1e5, unit="Hz"),
+              "counted too_fast (a flood cannot run the stream's clock ahead)", 2.0, 1e5, unit="Hz", read_only=True),
     ParamSpec("input.source_timeout_s", 1.0, "only the first publisher heard on an input is used; it is given up "
-              "after this long without a message (then the next one heard is used)", 0.05, 3600.0, unit="s"),
+              "after this long without a message (then the next one heard is used)", 0.05, 3600.0, unit="s", read_only=True),
 )
 
 #: Plausibility bounds of the monitor's inputs: what a horizon sensor on a bound Earth orbit can report.
 MONITOR_INPUT_PARAMS = (
     ParamSpec("input.max_abs_angle_deg", 30.0, "a /pmv/attitude roll or pitch beyond this is not a measurement "
-              "(the PMV sees no horizon there) and is dropped", 0.1, 180.0, unit="deg"),
+              "(the PMV sees no horizon there) and is dropped", 0.1, 180.0, unit="deg", read_only=True),
     ParamSpec("input.min_orbit_radius_km", 6471.0, "smallest geocentric radius on /orbit/odometry", 6371.0, 1e6,
-              unit="km"),
+              unit="km", read_only=True),
     ParamSpec("input.max_orbit_radius_km", 50000.0, "largest geocentric radius on /orbit/odometry", 6371.0, 1e6,
-              unit="km"),
+              unit="km", read_only=True),
     ParamSpec("input.min_orbit_speed_km_s", 0.5, "smallest inertial speed on /orbit/odometry", 0.0, 100.0,
-              unit="km/s"),
+              unit="km/s", read_only=True),
     ParamSpec("input.max_orbit_speed_km_s", 11.2, "largest inertial speed on /orbit/odometry (an unbound state "
-              "is refused whatever the speed)", 0.0, 100.0, unit="km/s"),
+              "is refused whatever the speed)", 0.0, 100.0, unit="km/s", read_only=True),
 )
 
 
@@ -76,10 +77,11 @@ SENSOR_PARAMS = INPUT_PARAMS + (
               read_only=True),
     ParamSpec("sensor.detector", "chain", "chain: the signal chain of physics.md §4; ideal: the geometric horizon "
               "of the emitting layer (geometry-only studies)", choices=("chain", "ideal")),
-    ParamSpec("sensor.correction", "calibrated", "brightness-correction table: calibrated (the rig table), none, "
+    ParamSpec("sensor.correction", "calibrated", "brightness-correction table: calibrated (the rig table), "
+              "meteor_m2_2 (the over-correcting curve inferred for Meteor-M No.2-2), none, "
               "or the path of a CSV file del_arcmin,pop_arcmin",
-              constraints="calibrated, none, or the path of a readable CSV file with columns del_arcmin,pop_arcmin",
-              read_only=True),
+              constraints="calibrated, meteor_m2_2, none, or the path of a readable CSV file with columns "
+                          "del_arcmin,pop_arcmin", read_only=True),
     ParamSpec("sensor.scan_margin_deg", 3.0, "scan start beyond the CO2 top + half IFOV (covers oblateness and "
               "attitude excursions)", 0.0, 20.0, unit="deg"),
     ParamSpec("sensor.bright_body_exclusion_deg", 3.0, "a chord is invalid while the Sun or the Moon is within this "
@@ -93,19 +95,27 @@ SENSOR_PARAMS = INPUT_PARAMS + (
               unit="r.u."),
     ParamSpec("radiance.window_height_km", 40.0, "uniform source: height of the window emitting layer", 0.0, 100.0,
               unit="km"),
-    ParamSpec("radiance.probe_distance_km", 300.0, "environment: ground distance inside the horizon where the "
-              "weather jump sits (physics.md §3.1 Model C)", 10.0, 2000.0, unit="km"),
     ParamSpec("environment.climatology", True, "latitude/season climatology (off: uniform 2.4 r.u.)"),
     ParamSpec("environment.weather", True, "correlated random weather field"),
-    ParamSpec("environment.height_variation", True, "varying window-layer height, 40 ± 20 km"),
-    ParamSpec("environment.relative_variability", 0.15, "weather: relative variability eta'", 0.0, 1.0),
-    ParamSpec("environment.correlation_radius_km", 700.0, "weather and height: correlation radius", 10.0, 6371.0,
-              unit="km"),
+    ParamSpec("environment.height_variation", True, "varying window-layer height, 40 km with sigma 10 km (uniform)"),
+    ParamSpec("environment.relative_variability", 0.15, "weather: relative variability eta = sigma_B/B_mean at a "
+              "point (radiance kept inside 1 ... 4 r.u.)", 0.0, 1.0),
+    ParamSpec("environment.correlation_radius_km", 700.0, "weather: e-folding distance of its correlation",
+              10.0, 6371.0, unit="km"),
+    ParamSpec("environment.synoptic_fraction", 0.0, "weather: share of its variance in the synoptic band of "
+              "zones (0: exponential weather)", 0.0, 0.95),
+    ParamSpec("environment.synoptic_zone_km", 2000.0, "weather: length of the synoptic zones along the track",
+              500.0, 10000.0, unit="km"),
+    ParamSpec("environment.height_correlation_radius_km", 700.0, "window-layer height: e-folding distance of its "
+              "correlation (independent of the weather)", 10.0, 6371.0, unit="km"),
     ParamSpec("environment.time_scale_h", 24.0, "weather and height: time scale of change", 1.0 / 60.0, 1e5,
               unit="h"),
     ParamSpec("sim.epoch_utc", "2024-01-15T00:00:00Z", "UTC date and time at the start of the run (simulation "
               "time 0 in fast time): sets the season, the Earth's rotation and where the Sun and Moon are",
               constraints="an ISO 8601 date-time such as 2024-01-15T00:00:00Z, 1900 … 2100", read_only=True),
+    ParamSpec("sim.flight_record", "", "the flight record this preset reproduces: pmv simulate --report draws its "
+              "published points on spectrum.png (pmv_ros/data/flight_records.json); empty: none",
+              choices=("", "meteor_m2_121163", "meteor_m2_2_229"), read_only=True),
     ParamSpec("sensor.oblateness_compensation", False, "subtract the closed-form oblateness model on board"),
     ParamSpec("sim.fast_time", False, "run on an own simulation clock as fast as allowed and publish /clock",
               read_only=True),
@@ -270,6 +280,9 @@ def build_detector(values: dict, orbit: CircularOrbit):
         height_variation_enabled=values["environment.height_variation"],
         relative_variability=values["environment.relative_variability"],
         correlation_radius_m=values["environment.correlation_radius_km"] * 1e3,
+        synoptic_fraction=values["environment.synoptic_fraction"],
+        synoptic_zone_m=values["environment.synoptic_zone_km"] * 1e3,
+        height_correlation_radius_m=values["environment.height_correlation_radius_km"] * 1e3,
         time_scale_s=values["environment.time_scale_h"] * 3600.0,
         epoch_day_of_year=day_at_clock_zero,
         seed=values["seed"],
@@ -279,7 +292,6 @@ def build_detector(values: dict, orbit: CircularOrbit):
         disc_radiance_ru=values["radiance.disc_ru"],
         window_height_m=values["radiance.window_height_km"] * 1e3,
         environment=environment,
-        probe_distance_m=values["radiance.probe_distance_km"] * 1e3,
         earth_rotation_at_epoch_rad=rotation_at_clock_zero % (2.0 * math.pi),
     )
     correction = values["_correction"] if "_correction" in values else read_correction(values)

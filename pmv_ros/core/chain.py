@@ -583,6 +583,16 @@ EVALUATION_CHUNK = 1 << 16
 GROUND_DISTANCE_POWERS = (0.5, 1.0, 1.5, 2.0)
 #: Fit range of d(x): x ≤ 10° (and ≤ half the disc), rad.
 GROUND_DISTANCE_FIT_RAD = math.radians(10.0)
+#: Inward angles x from the hard-Earth horizon, rad, at which a sampled disc profile is given
+#: (:func:`sense_horizon_chords` ``disc_samples_ru``): ≈ 440, 830 and 1400 km of ground inside the horizon
+#: at 835 km. They span the ground the IFOV covers while the comparators fire: the far edge of the field
+#: reaches x ≈ 1.4° (4 r.u.) … 2.0° (2.4 r.u.) … 4.9° (1 r.u., the darkest horizon, whose J(2) crossing
+#: comes late) at t(2), at 500 and 835 km alike. Through them and B_m at x = 0, the powers
+#: :data:`DISC_SAMPLE_POWERS` carry a radiance linear in ground distance to ≈ 1 km of distance.
+DISC_SAMPLE_INWARD_RAD = tuple(math.radians(x) for x in (0.3, 1.2, 4.5))
+#: Powers of x in the interpolant of the disc samples: x and x² share the window ramp's lowest knot, so a
+#: sampled disc costs the chain one term (x^½) more than a uniform one.
+DISC_SAMPLE_POWERS = (0.5, 1.0, 2.0)
 
 # The elementary shapes, their table rows.
 _STEP, _LINEAR, _QUADRATIC, _SQRT, _POW15 = range(5)
@@ -675,6 +685,32 @@ def _ground_distance_coefficients(kappa):
     return np.stack([np.interp(x, log_kappa, table[:, j]) for j in range(table.shape[1])], axis=1)
 
 
+@lru_cache(maxsize=1)
+def _disc_sample_inverse():
+    """Inverse of V[k, j] = x_k^p_j: the powers' coefficients that pass through the disc samples."""
+    x = np.asarray(DISC_SAMPLE_INWARD_RAD)
+    return np.linalg.inv(x[:, None] ** np.asarray(DISC_SAMPLE_POWERS)[None, :])
+
+
+def disc_sample_profile(inward_rad, horizon_radiance_ru, disc_samples_ru):
+    """The disc radiance the chain flies for sampled points, r.u., at inward angles x (rad) from the horizon.
+
+    B(x) = B_m + Σ_j c_j·x^p_j (p = ½, 1, 2), the c_j chosen so that B passes
+    through B_m at x = 0 and through each sample at :data:`DISC_SAMPLE_INWARD_RAD`:
+    an interpolation in √x — close to one in ground distance, d ∝ √x near the
+    horizon — never a gradient extrapolated across the disc.
+
+    Args:
+        inward_rad: (P,) inward angles, rad.
+        horizon_radiance_ru: (N,) B_m, r.u.
+        disc_samples_ru: (N, 3) radiance at the sample angles, r.u.
+    """
+    b_m = np.asarray(horizon_radiance_ru, float)
+    c = (np.asarray(disc_samples_ru, float) - b_m[..., None]) @ _disc_sample_inverse().T
+    x = np.asarray(inward_rad, float)
+    return b_m[..., None] + np.sum(c[..., None, :] * x[:, None] ** np.asarray(DISC_SAMPLE_POWERS), axis=-1)
+
+
 def _as_chords(value, n, name):
     array = np.asarray(value, float)
     try:
@@ -686,7 +722,7 @@ def _as_chords(value, n, name):
 def sense_horizon_chords(horizon_nadir_rad, tangent_height_rate_m, disc_radiance_ru, *,
                          scan_start_nadir_rad=None, gradient_ru_per_m=0.0, jump_ru=0.0, jump_distance_m=math.inf,
                          window_height_m=None, co2_radiance_ru=None, co2_top_height_m=None,
-                         earth_radius_m=EARTH_MEAN_RADIUS_M, correction=None,
+                         disc_samples_ru=None, earth_radius_m=EARTH_MEAN_RADIUS_M, correction=None,
                          params: ChainParameters = DEFAULT_CHAIN_PARAMETERS) -> ChordReadings:
     """Gam, Del, Gam′ and the sensed horizon of N chords at once: the fast signal chain.
 
@@ -712,6 +748,10 @@ def sense_horizon_chords(horizon_nadir_rad, tangent_height_rate_m, disc_radiance
         window_height_m: h_w, m, in [0, 100 km] (default ``params.window_height_m``).
         co2_radiance_ru: B_a, r.u., in [0, J(1)) (default ``params.co2_radiance_ru``).
         co2_top_height_m: top of the CO₂ layer, m, in [0, 100 km] (default ``params.co2_top_height_m``).
+        disc_samples_ru: ``(N, 3)`` radiance of the disc at the inward angles
+            :data:`DISC_SAMPLE_INWARD_RAD` from the horizon, r.u., interpolated
+            with B_m at the horizon (:func:`disc_sample_profile`); it adds to any
+            gradient and jump. None: no sampled profile.
         earth_radius_m: local Earth radius R, m (the chord's curvature; mean radius by default).
         correction: the brightness-correction table F (callable Del → POP, rad) or None.
         params: chain parameters.
@@ -737,6 +777,17 @@ def sense_horizon_chords(horizon_nadir_rad, tangent_height_rate_m, disc_radiance
     b_a = _as_chords(params.co2_radiance_ru if co2_radiance_ru is None else co2_radiance_ru, n, "co2_radiance_ru")
     h_co2 = _as_chords(params.co2_top_height_m if co2_top_height_m is None else co2_top_height_m, n,
                        "co2_top_height_m")
+    if disc_samples_ru is None:
+        disc_c = None
+    else:
+        samples = np.asarray(disc_samples_ru, float)
+        try:
+            samples = np.broadcast_to(samples, (n, len(DISC_SAMPLE_INWARD_RAD)))
+        except ValueError:
+            raise ValueError(f"disc_samples_ru has shape {samples.shape}, which does not broadcast to "
+                             f"({n}, {len(DISC_SAMPLE_INWARD_RAD)})") from None
+        with np.errstate(invalid="ignore"):
+            disc_c = (samples - b_m[:, None]) @ _disc_sample_inverse().T
 
     with np.errstate(invalid="ignore"):
         valid = (np.isfinite(phi0) & (phi0 > 0.0) & (phi0 <= 0.5 * math.pi)
@@ -746,6 +797,9 @@ def sense_horizon_chords(horizon_nadir_rad, tangent_height_rate_m, disc_radiance
                  & (h_w >= 0.0) & (h_w <= MAX_LAYER_HEIGHT_M)
                  & (b_a >= 0.0) & (b_a < params.threshold_1_ru)
                  & (h_co2 >= 0.0) & (h_co2 <= MAX_LAYER_HEIGHT_M))
+        if disc_c is not None:
+            valid &= np.all(np.isfinite(disc_c), axis=1)
+            disc_c[~valid] = 0.0
     # Neutral stand-ins keep the arithmetic quiet on invalid chords; their results are discarded.
     phi0[~valid], slope[~valid], radius[~valid], b_m[~valid] = 1.0, 2.5e6, EARTH_MEAN_RADIUS_M, 1.0
     gradient[~valid], jump[~valid], jump_d[~valid], h_w[~valid] = 0.0, 0.0, math.inf, 40e3
@@ -764,7 +818,7 @@ def sense_horizon_chords(horizon_nadir_rad, tangent_height_rate_m, disc_radiance
     status[started_inside] = ChordStatus.SCAN_STARTED_IN_ATMOSPHERE
 
     origins, coefficients, shapes = _profile_terms(phi0, slope, radius, b_m, gradient, jump, jump_d, h_w, b_a,
-                                                   phi_top, params)
+                                                   phi_top, params, disc_c)
     tables = response_tables(params)
     # Geometry with no real solution (e.g. a layer above the orbit of the equivalent sphere) is bad input.
     finite = np.all(np.isfinite(origins) & np.isfinite(coefficients), axis=1)
@@ -787,10 +841,13 @@ def sense_horizon_chords(horizon_nadir_rad, tangent_height_rate_m, disc_radiance
     return _readings(theta0, t1, t2, status, correction, params)
 
 
-def _profile_terms(phi0, slope, radius, b_m, gradient, jump, jump_d, h_w, b_a, phi_top, params):
+def _profile_terms(phi0, slope, radius, b_m, gradient, jump, jump_d, h_w, b_a, phi_top, params, disc_c=None):
     """Decompose each chord's profile into elementary shapes: origins (N, K), coefficients (N, K), shapes (K,).
 
-    Shapes whose coefficient is zero on every chord are dropped.
+    Shapes whose coefficient is zero on every chord are dropped. The disc's
+    powers x^p (gradient, sampled profile) start at the horizon φ₀, where the
+    window ramp has its lowest knot: its x and x² terms share that knot's
+    terms (one look-up each instead of two).
     """
     n = phi0.size
     origins, coefficients, shapes = [], [], []
@@ -828,17 +885,28 @@ def _profile_terms(phi0, slope, radius, b_m, gradient, jump, jump_d, h_w, b_a, p
     quad_after = np.hstack([quadratic, zeros])
     jump_in_slope = np.where(flat[:, None], 0.0, lin_after - lin_before)
     jump_in_curve = np.where(flat[:, None], 0.0, quad_after - quad_before)
+
+    # The disc: a gradient along the surface, d(x) ≈ R Σ c_j x^p_j, and a sampled profile Σ c_j x^p_j.
+    disc = np.zeros((n, len(GROUND_DISTANCE_POWERS)))
+    if np.any(gradient != 0.0):
+        disc += _ground_distance_coefficients(slope / radius) * (gradient * radius)[:, None]
+    if disc_c is not None:
+        for j, power in enumerate(DISC_SAMPLE_POWERS):
+            disc[:, list(GROUND_DISTANCE_POWERS).index(power)] += disc_c[:, j]
+    powers = list(GROUND_DISTANCE_POWERS)
+    lowest = knot_u.size - 1 if knot_u[-1] == 0.0 else None
+    if lowest is not None:  # the ramp's lowest knot is the horizon φ₀: share its x and x² terms
+        jump_in_slope[:, lowest] += disc[:, powers.index(1.0)]
+        jump_in_curve[:, lowest] += disc[:, powers.index(2.0)]
     for k in range(knot_u.size):
         add(_LINEAR, knot_nadir[:, k], jump_in_slope[:, k])
         add(_QUADRATIC, knot_nadir[:, k], jump_in_curve[:, k])
     add(_STEP, phi0, np.where(flat, b_m - b_a, 0.0))
-
-    # The disc: a gradient along the surface, d(x) ≈ R Σ c_j x^p_j, and a jump.
-    if np.any(gradient != 0.0):
-        c = _ground_distance_coefficients(slope / radius) * (gradient * radius)[:, None]
-        for j, power in enumerate(GROUND_DISTANCE_POWERS):
-            shape = {0.5: _SQRT, 1.0: _LINEAR, 1.5: _POW15, 2.0: _QUADRATIC}[power]
-            add(shape, phi0, c[:, j])
+    for j, power in enumerate(powers):
+        if lowest is not None and power in (1.0, 2.0):
+            continue
+        shape = {0.5: _SQRT, 1.0: _LINEAR, 1.5: _POW15, 2.0: _QUADRATIC}[power]
+        add(shape, phi0, disc[:, j])
     if np.any(jump != 0.0):
         jump_nadir = chord_nadir_of_ground_distance(np.where(np.isfinite(jump_d), jump_d, 0.0), phi0, slope, radius)
         add(_STEP, jump_nadir, np.where(np.isfinite(jump_d), jump, 0.0))

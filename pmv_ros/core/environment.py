@@ -5,10 +5,14 @@ tangent point lies and when. This module gives, at any Earth-fixed point and
 time, the three quantities the horizon profile of physics.md §3 needs:
 
 * the horizon radiance B_m, r.u. — a zonal latitude/season climatology
-  (:func:`horizon_radiance_climatology`) times ``1 + η′·a``, where ``a`` is a
-  correlated random weather anomaly (:class:`WeatherField`);
-* the height h_w of the window-emitting layer, uniformly distributed on
-  40 ± 20 km and spatially correlated like the weather
+  (:func:`horizon_radiance_climatology`) times ``1 + η·a``, kept inside
+  1 … 4 r.u., where ``a`` is a correlated random weather anomaly
+  (:class:`WeatherField`): a synoptic band of zones (:class:`SynopticBandField`,
+  the hump of the Meteor-M No.2-2 record) over a red exponential background,
+  the covariance documented there (physics.md §3.2);
+* the height h_w of the window-emitting layer, uniformly distributed with
+  σ_h = 10 km about 40 km (half-width 17.3 km) and spatially correlated, by
+  default like the weather, in flight on mesoscales
   (:class:`LayerHeightField`);
 * the height of the CO₂ layer, ≈ 60 km, fixed unless a small spread is asked for.
 
@@ -25,8 +29,9 @@ NaN inputs give NaN outputs (nothing raises in array code).
 
 The random fields are evaluated directly at the points asked for — a sum of
 cosines of random wave vectors (spectral synthesis, "random Fourier features":
-Shinozuka & Deodatis 1991; Rahimi & Recht 2007) — so nothing is stored on a
-global grid.
+Shinozuka & Deodatis 1991; Rahimi & Recht 2007), or of sectoral spherical
+harmonics about random axes for the synoptic band — so nothing is stored on a
+global grid. The flight presets' values come from tools/calibrate_environment.py.
 """
 
 from __future__ import annotations
@@ -36,11 +41,14 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.polynomial import legendre
-from scipy.special import ndtr, ndtri
+from scipy.special import eval_legendre, gammaln, ndtr, ndtri
 
 from .constants import EARTH_MEAN_RADIUS_M
 from .orbit import check_range
-from .radiance import CO2_TOP_HEIGHT_M
+from .radiance import CO2_TOP_HEIGHT_M, MAX_EARTH_RADIANCE_RU, MIN_EARTH_RADIANCE_RU
+
+#: Half-width of the uniform window-layer height spread, m: σ_h = 10 km (physics.md §3.2 item 4) → √3·σ_h.
+WINDOW_HALF_RANGE_M = math.sqrt(3.0) * 10e3
 
 # --------------------------------------------------------------------------
 # 1. Climatology
@@ -165,6 +173,18 @@ def horizon_radiance_climatology(lat_rad, day_of_year):
 #: where float32 arithmetic is still good to ≈ 3·10⁻³ rad.
 MIN_WAVELENGTH_M = 1000.0
 
+#: Shortest wavelength of the flight environment's fields, m: the sensor's IFOV is 2γ = 2.2° wide across
+#: its chord, ≈ 100 km of limb at the slant range of 500 km (≈ 130 km at 835 km), so structure finer than
+#: this reaches the comparators averaged out. Components drawn beyond it are clipped to it (the variance,
+#: e.g. σ_h = 10 km, is kept); it also bounds how fast a field can change along a chord's track, which lets
+#: the sensor evaluate it on a coarse grid (pmv_ros/core/sensor.py).
+IFOV_MIN_WAVELENGTH_M = 100e3
+#: Shortest wavelength of the flight weather, m: a chord samples the weather at points ≈ 400 … 600 km apart
+#: along its line of sight (pmv_ros.core.chain.DISC_SAMPLE_INWARD_RAD), so finer weather would only alias.
+#: The synoptic band (zones ≥ 1600 km) is far above it; ≈ 10 % of the red background's variance is moved
+#: up to it at R_b ≈ 1000 km.
+WEATHER_MIN_WAVELENGTH_M = 300e3
+
 #: Float32 elements of the (points × components) work array evaluated at a
 #: time: ≈ 2 MB, so it stays in cache.
 _BLOCK_ELEMENTS = 1 << 19
@@ -224,10 +244,12 @@ class GaussianSphereField:
         n_components: number of cosines M (16 … 8192).
         seed: an int ≥ 0 or a ``numpy.random.SeedSequence``; the same seed
             gives the same field.
+        min_wavelength_m: components of shorter wavelength are clipped to it, m
+            (0.1 … 1000 km; :data:`MIN_WAVELENGTH_M` by default).
     """
 
     def __init__(self, correlation_radius_m: float = 700e3, time_scale_s: float = 86400.0,
-                 n_components: int = 256, seed=0) -> None:
+                 n_components: int = 256, seed=0, min_wavelength_m: float = MIN_WAVELENGTH_M) -> None:
         self.correlation_radius_m = check_range(
             "correlation radius", correlation_radius_m / 1e3, 10.0, EARTH_MEAN_RADIUS_M / 1e3, " km") * 1e3
         self.time_scale_s = check_range("time scale", time_scale_s, 60.0, math.inf, " s")
@@ -243,7 +265,8 @@ class GaussianSphereField:
         # Magnitudes, one per quantile stratum of the radial spectrum.
         strata = (np.arange(m) + rng.uniform(0.0, 1.0, m)) / m
         wavenumber_rad_m = _exponential_wavenumbers(strata) / self.correlation_radius_m
-        wavenumber_rad_m = np.minimum(wavenumber_rad_m, 2.0 * math.pi / MIN_WAVELENGTH_M)
+        self.min_wavelength_m = check_range("shortest wavelength", min_wavelength_m / 1e3, 0.1, 1000.0, " km") * 1e3
+        wavenumber_rad_m = np.minimum(wavenumber_rad_m, 2.0 * math.pi / self.min_wavelength_m)
         # Applied to unit position vectors: phase = (k·R_E)·n̂.
         wave_vectors = directions * (wavenumber_rad_m * EARTH_MEAN_RADIUS_M)
         # Frequencies, stratified over the Gaussian quantiles, shuffled so they
@@ -328,6 +351,151 @@ class _SpectralBank:
         return out
 
 
+class SynopticBandField:
+    """A zero-mean, unit-variance random field whose variance sits at synoptic scales: a band of degrees ℓ.
+
+    Its angular power spectrum is flat over the spherical-harmonic degrees
+    ℓ_lo … ℓ_hi and zero elsewhere, so its covariance at great-circle angle ψ is
+
+        ρ(ψ) = (1/n) Σ_{ℓ = ℓ_lo … ℓ_hi} P_ℓ(cos ψ)     (:meth:`correlation`),
+
+    a "hole-effect" covariance (it dips negative at about half a zone) whose
+    spectrum along any great circle — a ground track — rises towards the band
+    and stops above it: an isotropic degree-ℓ field sampled along a great
+    circle has its power at orders m ≤ ℓ with density ≈ 1/√(ℓ² − m²), largest
+    just below m = ℓ (for degrees 15 … 25, ≈ 1.6× more power per order at
+    m = 15 … 25 than at m = 1 … 9; tests/test_environment.py). A
+    zone of length λ along a track is degree ℓ ≈ 2πR/λ (2000 km → ℓ ≈ 20).
+    An isotropic covariance in 3-D (like :class:`GaussianSphereField`'s)
+    cannot do this: its spectrum along a line is flat or falling up to any
+    cut-off — "red", as physics.md §3.2 item 2 says.
+
+    Construction: f(x, t) = Σⱼ aⱼ·Re[(x·wⱼ)^ℓⱼ · e^{i(ωⱼt + bⱼ)}] over M
+    components, with wⱼ = e₁ⱼ + i·e₂ⱼ from a uniformly random orthonormal
+    frame: (x·w)^ℓ is the sectoral harmonic Y_ℓ^ℓ about a random axis e₃ (a
+    polynomial in x, smooth everywhere), so the sum is isotropic and stays in
+    the degree-ℓ harmonics. Degrees are shared equally over the band,
+    frequencies ωⱼ ~ N(0, 2/τ²) as in :class:`GaussianSphereField`, phases bⱼ
+    uniform; aⱼ = √(2/(M·E_ℓ)) with E_ℓ = E[sin^{2ℓ}θ] = √π·ℓ!/(2Γ(ℓ + 3/2))
+    gives unit variance.
+
+    Args:
+        degree_low: ℓ_lo (2 … 200).
+        degree_high: ℓ_hi (ℓ_lo … 200).
+        time_scale_s: e-folding time τ, s (≥ 60 s; ``math.inf`` freezes the field).
+        n_components: number of sectoral components M (16 … 8192).
+        seed: an int ≥ 0 or a ``numpy.random.SeedSequence``.
+    """
+
+    def __init__(self, degree_low: int = 15, degree_high: int = 25, time_scale_s: float = 86400.0,
+                 n_components: int = 128, seed=0) -> None:
+        self.degree_low = _check_count("lowest synoptic degree", degree_low, 2, 200)
+        self.degree_high = _check_count("highest synoptic degree", degree_high, self.degree_low, 200)
+        self.time_scale_s = check_range("time scale", time_scale_s, 60.0, math.inf, " s")
+        self.n_components = _check_count("number of spectral components", n_components, 16, 8192)
+        rng = np.random.default_rng(_seed_sequence(seed))
+        m = self.n_components
+        # Random orthonormal frames: QR of Gaussian matrices, signs fixed so the law is Haar.
+        gaussian = rng.standard_normal((m, 3, 3))
+        q, r = np.linalg.qr(gaussian)
+        q = q * np.sign(np.diagonal(r, axis1=1, axis2=2))[:, None, :]
+        # (3, 2M): e₁ of every component, then e₂.
+        self._frame = np.hstack([q[:, :, 0].T, q[:, :, 1].T]).astype(np.float32)
+        band = np.arange(self.degree_low, self.degree_high + 1)
+        self.degrees = band[rng.permutation(np.arange(m) % band.size)].astype(np.float32)
+        mean_power = np.exp(0.5 * math.log(math.pi) + gammaln(self.degrees + 1.0)
+                            - gammaln(self.degrees + 1.5) - math.log(2.0))
+        self._amplitude = np.sqrt(2.0 / (m * mean_power)).astype(np.float32)
+        if math.isinf(self.time_scale_s):
+            self._frequency_rad_s = np.zeros(m)
+        else:
+            quantiles = (rng.permutation(m) + rng.uniform(0.0, 1.0, m)) / m
+            self._frequency_rad_s = (math.sqrt(2.0) / self.time_scale_s) * ndtri(quantiles)
+        self._phase_rad = rng.uniform(0.0, 2.0 * math.pi, m)
+
+    def correlation(self, angle_rad):
+        """Ensemble correlation at great-circle angle ψ (rad): the band mean of P_ℓ(cos ψ)."""
+        c = np.cos(np.asarray(angle_rad, float))
+        band = np.arange(self.degree_low, self.degree_high + 1)
+        return np.mean([eval_legendre(int(ell), c) for ell in band], axis=0)
+
+    def __call__(self, lat_rad, lon_rad, t_s):
+        """Field value (dimensionless, zero mean, unit variance) at points and times (NaN-propagating)."""
+        lat, lon, t, shape = _flat_points(lat_rad, lon_rad, t_s)
+        return _shaped(self.evaluate(lat, lon, t), shape)
+
+    def evaluate(self, lat, lon, t):
+        """The field at flat arrays of latitude, longitude (rad) and time (s); ``(N,)``."""
+        out = np.empty(lat.size)
+        if lat.size == 0:
+            return out
+        finite_t = t[np.isfinite(t)]
+        t_ref = float(finite_t[0]) if finite_t.size else 0.0
+        phase_ref = np.mod(self._phase_rad + self._frequency_rad_s * t_ref, 2.0 * math.pi).astype(np.float32)
+        cos_lat = np.cos(lat)
+        unit = np.empty((lat.size, 3), dtype=np.float32)
+        unit[:, 0] = cos_lat * np.cos(lon)
+        unit[:, 1] = cos_lat * np.sin(lon)
+        unit[:, 2] = np.sin(lat)
+        dt = (t - t_ref).astype(np.float32)[:, None]
+        frequency = self._frequency_rad_s.astype(np.float32)
+        m = self.n_components
+        half_degrees = 0.5 * self.degrees
+        block_points = max(64, (_BLOCK_ELEMENTS // 2) // m)
+        for start in range(0, lat.size, block_points):
+            stop = min(start + block_points, lat.size)
+            z = unit[start:stop] @ self._frame  # (n, 2M): the real and imaginary parts of x·w
+            real, imag = z[:, :m], z[:, m:]
+            angle = np.arctan2(imag, real)
+            # |z|^ℓ = (|z|²)^(ℓ/2); the argument ℓ·arg z plus the drifting phase.
+            np.multiply(real, real, out=real)
+            np.multiply(imag, imag, out=imag)
+            np.add(real, imag, out=real)
+            magnitude = np.power(real, half_degrees, out=real)
+            np.multiply(angle, self.degrees, out=angle)
+            angle += phase_ref
+            angle += dt[start:stop] * frequency
+            np.cos(angle, out=angle)
+            np.multiply(angle, magnitude, out=angle)
+            out[start:stop] = angle @ self._amplitude
+        return out
+
+
+def synoptic_degrees(zone_length_m: float, relative_half_width: float = 0.25) -> tuple[int, int]:
+    """The band of degrees ℓ for zones of a given length along the track, m: ℓ₀ = 2πR/λ, ℓ₀·(1 ± half-width).
+
+    2000 km zones give ℓ₀ = 20 and the band 15 … 25 — the k = 15 … 25 of the
+    Meteor-M harmonic analysis (physics.md §5.1), the track being a great circle.
+    """
+    check_range("synoptic zone length", zone_length_m / 1e3, 500.0, 10000.0, " km")
+    centre = 2.0 * math.pi * EARTH_MEAN_RADIUS_M / zone_length_m
+    return max(2, int(round(centre * (1.0 - relative_half_width)))), int(round(centre * (1.0 + relative_half_width)))
+
+
+def background_radius_m(correlation_radius_m: float, synoptic_fraction: float, degrees: tuple[int, int]) -> float:
+    """R_b of the red background that makes the whole weather correlation e⁻¹ at ``correlation_radius_m``.
+
+    The weather correlation is w·ρ_band(ψ) + (1 − w)·exp(−c/R_b) (c the
+    chordal distance, ψ the great-circle angle); physics.md §3.1 defines the
+    correlation radius R_x by r(R_x) = e⁻¹ (the paper's sense). Given R_x and
+    the synoptic share w this fixes R_b. ValueError when no R_b ≤ R_E can do it
+    (the band alone already decorrelates too much or too little at R_x).
+    """
+    w = float(synoptic_fraction)
+    psi = correlation_radius_m / EARTH_MEAN_RADIUS_M
+    chordal = 2.0 * EARTH_MEAN_RADIUS_M * math.sin(0.5 * psi)
+    if w == 0.0:
+        return float(chordal)
+    band = float(np.mean([eval_legendre(ell, math.cos(psi)) for ell in range(degrees[0], degrees[1] + 1)]))
+    target = (math.exp(-1.0) - w * band) / (1.0 - w) if w < 1.0 else -1.0
+    radius = -chordal / math.log(target) if 0.0 < target < 1.0 else math.inf
+    if not radius <= EARTH_MEAN_RADIUS_M:
+        raise ValueError(f"a weather correlation radius of {correlation_radius_m / 1e3:g} km cannot be reached with "
+                         f"{100 * w:g} % of the variance in degrees {degrees[0]} … {degrees[1]}: the synoptic fraction must "
+                         "be lower")
+    return float(radius)
+
+
 def _flat_points(lat_rad, lon_rad, t_s):
     """Broadcast latitude, longitude and time; return them flattened (float) and the broadcast shape."""
     lat, lon, t = np.broadcast_arrays(np.asarray(lat_rad, float), np.asarray(lon_rad, float),
@@ -360,45 +528,84 @@ def _check_count(name: str, value, low: int, high: int) -> int:
 class WeatherField:
     """Correlated random weather: relative anomalies of horizon radiance around the climatology.
 
-    B = B_clim · (1 + η′·a), clipped below at a floor, where a is a
-    :class:`GaussianSphereField` (zero mean, σ = 1, correlation exp(−d/R_x) in
-    chordal distance d, exp(−(Δt/τ)²) in time). Defaults from physics.md §3.1
-    (model C): η′ = 0.15 at 500 km; R_x = 700 km, the effective radius found in
-    flight on Meteor-M No.2-2 (300 km is the cloud-cover value of the theory).
-    τ = 1 day is our assumption: synoptic cloud and temperature patterns
-    renew within about a day, and over one orbit (≈ 100 min) the pattern a
-    chord sweeps changes mostly because the spacecraft and the Earth move.
+    B = B_clim·(1 + η·a), kept inside 1 … 4 r.u. (:meth:`radiance_from_anomaly`),
+    where a (zero mean, σ = 1) is the sum of two independent fields:
+
+        a = √w·s + √(1 − w)·g,
+
+    s a :class:`SynopticBandField` (degrees ℓ for zones of ``synoptic_zone_m``
+    along the track, 15 … 25 for 2000 km) and g a red background
+    :class:`GaussianSphereField` with exponential correlation exp(−c/R_b).
+    The covariance of a is therefore
+
+        C(ψ) = w·(1/n) Σ_ℓ P_ℓ(cos ψ) + (1 − w)·exp(−2R sin(ψ/2)/R_b),
+
+    and R_b is chosen (:func:`background_radius_m`) so that C = e⁻¹ at the
+    correlation radius R_x, physics.md §3.1's definition. Why this form
+    (physics.md §3.2 item 2): the flight record of Meteor-M No.2-2 shows zones
+    of ≈ 2000 km along the track, a hump at k = 15 … 25 that no exponential
+    covariance makes; synoptic systems (fronts, cyclones) are such a band over
+    a red background of larger, climatic anomalies. w = 0 is the exponential
+    weather of the modelling paper (R_b = R_x).
+
+    Defaults: η = 0.15 and R_x = 700 km (physics.md §3.1), w = 0; the presets
+    fly the calibrated values (tools/calibrate_environment.py). τ = 1 day is
+    our assumption: synoptic patterns renew within about a day; over one orbit
+    the pattern a chord sweeps changes mostly because the spacecraft and the
+    Earth move.
 
     Args:
-        relative_variability: η′ = σ_B / B_mean, dimensionless (0 … 1).
-        correlation_radius_m: R_x, m (10 km … 6371 km).
+        relative_variability: η = σ_B / B_mean at a point, dimensionless (0 … 1).
+        correlation_radius_m: R_x, e-folding distance of C, m (10 km … 6371 km).
         time_scale_s: τ, s (≥ 60 s; ``math.inf`` freezes the weather).
-        n_components: cosines in the spectral synthesis (16 … 8192).
+        n_components: cosines of the background field (16 … 8192).
         seed: an int ≥ 0 or a ``numpy.random.SeedSequence``.
-        radiance_floor_ru: lowest radiance the weather can produce, r.u.
-            (0 … 1). Default 0.3 r.u. = B_a, the CO₂-layer radiance
-            (physics.md §3): the lower atmosphere is not modelled darker than
-            the stratosphere above it, which keeps the horizon profile monotone.
-            At η′ = 0.15 the floor is 4.6σ below even the darkest climatology,
-            so it changes nothing in the statistics.
+        synoptic_fraction: w, the share of the variance in the synoptic band (0 … 0.95).
+        synoptic_zone_m: length λ of the synoptic zones along the track, m (500 … 10000 km).
+        synoptic_components: sectoral components of the band field (16 … 8192).
+        min_wavelength_m: shortest wavelength of the background, m (see :class:`GaussianSphereField`).
     """
 
     def __init__(self, relative_variability: float = 0.15, correlation_radius_m: float = 700e3,
                  time_scale_s: float = 86400.0, n_components: int = 256, seed=0,
-                 radiance_floor_ru: float = 0.3) -> None:
+                 synoptic_fraction: float = 0.0, synoptic_zone_m: float = 2000e3,
+                 synoptic_components: int = 128, min_wavelength_m: float = MIN_WAVELENGTH_M) -> None:
         self.relative_variability = check_range("relative variability η′", relative_variability, 0.0, 1.0)
-        self.radiance_floor_ru = check_range("radiance floor", radiance_floor_ru, 0.0, 1.0, " r.u.")
-        self.anomaly_field = GaussianSphereField(correlation_radius_m, time_scale_s, n_components, seed)
+        self.synoptic_fraction = check_range("synoptic fraction", synoptic_fraction, 0.0, 0.95)
+        self.degrees = synoptic_degrees(synoptic_zone_m)
+        check_range("correlation radius", correlation_radius_m / 1e3, 10.0, EARTH_MEAN_RADIUS_M / 1e3, " km")
+        self._correlation_radius_m = float(correlation_radius_m)
+        background_seed, band_seed = _seed_sequence(seed).spawn(2)
+        self.background_radius_m = background_radius_m(correlation_radius_m, self.synoptic_fraction, self.degrees)
+        self.anomaly_field = GaussianSphereField(max(self.background_radius_m, 10e3), time_scale_s, n_components,
+                                                 background_seed, min_wavelength_m)
+        self.band_field = SynopticBandField(*self.degrees, time_scale_s, synoptic_components, band_seed) \
+            if self.synoptic_fraction > 0.0 else None
+        self._weights = (math.sqrt(1.0 - self.synoptic_fraction), math.sqrt(self.synoptic_fraction))
 
     @property
     def correlation_radius_m(self) -> float:
-        """e-folding correlation distance R_x, m."""
-        return self.anomaly_field.correlation_radius_m
+        """e-folding distance R_x of the whole weather correlation, m."""
+        return self._correlation_radius_m
 
     @property
     def time_scale_s(self) -> float:
         """e-folding correlation time τ, s."""
         return self.anomaly_field.time_scale_s
+
+    def correlation(self, angle_rad):
+        """Ensemble correlation C(ψ) of the anomaly at great-circle angle ψ, rad (see the class docstring)."""
+        psi = np.asarray(angle_rad, float)
+        chordal = 2.0 * EARTH_MEAN_RADIUS_M * np.sin(0.5 * psi)
+        out = (1.0 - self.synoptic_fraction) * np.exp(-chordal / self.background_radius_m)
+        if self.band_field is not None:
+            out = out + self.synoptic_fraction * self.band_field.correlation(psi)
+        return out
+
+    def combine(self, background, band):
+        """The anomaly a from the background field's and the band field's values (band may be None)."""
+        a = self._weights[0] * np.asarray(background, float)
+        return a if band is None else a + self._weights[1] * np.asarray(band, float)
 
     def relative_anomaly(self, lat_rad, lon_rad, t_s):
         """Standardised weather anomaly a (zero mean, σ = 1, dimensionless) at points and times.
@@ -408,10 +615,11 @@ class WeatherField:
             lon_rad: longitude, rad (Earth-fixed).
             t_s: simulation time, s.
         """
-        return self.anomaly_field(lat_rad, lon_rad, t_s)
+        band = None if self.band_field is None else self.band_field(lat_rad, lon_rad, t_s)
+        return self.combine(self.anomaly_field(lat_rad, lon_rad, t_s), band)
 
     def radiance_ru(self, mean_radiance_ru, lat_rad, lon_rad, t_s):
-        """Horizon radiance with weather, max(B_mean·(1 + η′·a), floor), r.u.
+        """Horizon radiance with weather, B_mean·(1 + η·a) kept inside 1 … 4 r.u.
 
         Args:
             mean_radiance_ru: the radiance without weather (climatology), r.u.,
@@ -423,9 +631,18 @@ class WeatherField:
         return self.radiance_from_anomaly(mean_radiance_ru, self.relative_anomaly(lat_rad, lon_rad, t_s))
 
     def radiance_from_anomaly(self, mean_radiance_ru, anomaly):
-        """max(B_mean·(1 + η′·a), floor), r.u., from the mean radiance (r.u.) and the anomaly a (σ = 1)."""
-        return np.maximum(np.asarray(mean_radiance_ru, float) * (1.0 + self.relative_variability * anomaly),
-                          self.radiance_floor_ru)
+        """B_mean·(1 + η·a), r.u., clipped to 1 … 4 r.u. (physics.md §3: L_min … L_max).
+
+        The weather cannot make a horizon darker than the winter-Antarctic
+        minimum nor brighter than the dry subtropics (physics.md §3.2 item 2:
+        a dark horizon must not lose its chords to the weather factor). A mean
+        already outside the range (a uniform test radiance) is not moved
+        further out by the weather: the bounds widen to include it.
+        """
+        mean = np.asarray(mean_radiance_ru, float)
+        low = np.minimum(MIN_EARTH_RADIANCE_RU, mean)
+        high = np.maximum(MAX_EARTH_RADIANCE_RU, mean)
+        return np.clip(mean * (1.0 + self.relative_variability * np.asarray(anomaly, float)), low, high)
 
 
 class LayerHeightField:
@@ -433,8 +650,8 @@ class LayerHeightField:
 
     h = mean + half_range·(2Φ(g) − 1), where g is a :class:`GaussianSphereField`
     and Φ the standard normal CDF, so h is uniform on [mean − half_range,
-    mean + half_range] (σ = half_range/√3: 11.5 km for 40 ± 20 km). For the
-    window layer physics.md §3 gives h_w = 40 ± 20 km, close to uniform.
+    mean + half_range] (σ = half_range/√3). For the window layer physics.md §3.2
+    item 4 gives σ_h = 10 km, half-width 17.3 km.
 
     Mapping through Φ changes the correlation: for Gaussian correlation ρ the
     uniform field has correlation (6/π)·asin(ρ/2) (Pearson 1907; Spearman's ρ
@@ -448,14 +665,17 @@ class LayerHeightField:
         time_scale_s: e-folding time, s (``math.inf`` freezes the layer).
         n_components: cosines in the spectral synthesis (16 … 8192).
         seed: an int ≥ 0 or a ``numpy.random.SeedSequence``.
+        min_wavelength_m: shortest wavelength, m (see :class:`GaussianSphereField`).
     """
 
-    def __init__(self, mean_m: float = 40e3, half_range_m: float = 20e3, correlation_radius_m: float = 700e3,
-                 time_scale_s: float = 86400.0, n_components: int = 256, seed=1) -> None:
+    def __init__(self, mean_m: float = 40e3, half_range_m: float = WINDOW_HALF_RANGE_M, correlation_radius_m: float = 700e3,
+                 time_scale_s: float = 86400.0, n_components: int = 256, seed=1,
+                 min_wavelength_m: float = MIN_WAVELENGTH_M) -> None:
         self.mean_m = check_range("layer height", mean_m / 1e3, 5.0, 150.0, " km") * 1e3
         self.half_range_m = check_range("layer height half-range", half_range_m / 1e3, 0.0,
                                         self.mean_m / 1e3, " km") * 1e3
-        self.gaussian_field = GaussianSphereField(correlation_radius_m, time_scale_s, n_components, seed)
+        self.gaussian_field = GaussianSphereField(correlation_radius_m, time_scale_s, n_components, seed,
+                                                  min_wavelength_m)
 
     def height_m(self, lat_rad, lon_rad, t_s):
         """Layer height above the surface at points and times, m.
@@ -498,17 +718,31 @@ class EnvironmentParameters:
         epoch_day_of_year: day of year at simulation time 0, days (0 … 367;
             default 15: the southern summer of the physics.md §3.1 example).
         weather_enabled: add the correlated weather anomaly.
-        relative_variability: η′ (0 … 1; physics.md §3.1: 0.15).
-        correlation_radius_m: R_x, m (10 … 6371 km; 300 km theory, 700 km flight).
+        relative_variability: η, σ_B/B_mean at a point (0 … 1; physics.md §3.1: 0.2 at nadir,
+            η′ = 0.15 after slant viewing and the IFOV at 500 km; §3.2: up to ≈ 0.3).
+        correlation_radius_m: R_x, e-folding distance of the weather correlation, m
+            (10 … 6371 km; 300 km theory, 700 km flight).
+        synoptic_fraction: share w of the weather variance in the synoptic band (0 … 0.95;
+            0 = the exponential weather of the modelling paper), see :class:`WeatherField`.
+        synoptic_zone_m: length of the synoptic zones along the track, m (500 … 10000 km; 2000 km flight).
+        synoptic_components: sectoral components of the band field (16 … 8192).
+        min_wavelength_m: shortest wavelength of the layer-height fields, m (0.1 … 1000 km; default
+            :data:`IFOV_MIN_WAVELENGTH_M`, what the IFOV resolves).
+        weather_min_wavelength_m: shortest wavelength of the weather's background, m (0.1 … 1000 km;
+            default :data:`WEATHER_MIN_WAVELENGTH_M`, what the line-of-sight sampling resolves).
         time_scale_s: e-folding time of weather and layer height, s
             (≥ 60 s, ``math.inf`` = frozen; default one day, an assumption).
         n_components: cosines per random field (16 … 8192).
-        radiance_floor_ru: lower clip of the radiance with weather, r.u. (0 … 1).
         height_variation_enabled: let the window-layer height vary.
         window_height_mean_m: mean window-layer height, m (physics.md §3: 40 km).
-        window_height_half_range_m: half-width of its uniform spread, m (20 km).
-        height_correlation_radius_m: R_x of the height field, m; ``None`` = the
-            weather's.
+        window_height_half_range_m: half-width of its uniform spread, m (√3·10 km = 17.3 km:
+            σ_h = 10 km, physics.md §3.2 item 4 — 40 ± 20 km read as the ±2σ range).
+        height_correlation_radius_m: e-folding radius of the (exponential) height field, m;
+            ``None`` = the weather's. The flight environment uses mesoscale values
+            (a few hundred km or less, physics.md §3.2 item 4); the height field is
+            independent of the weather (our choice: the window-layer height is set by
+            the humidity and temperature structure of the lower troposphere, which the
+            6–20 µm radiance anomaly does not determine).
         co2_height_m: CO₂-layer height, m (20 … 120 km; physics.md §3: ≈ 60 km).
         co2_height_half_range_m: half-width of a uniform spread of the CO₂
             layer, m (0 … 1 km; physics.md §3: spread < 0.5 km; default 0 = fixed).
@@ -524,10 +758,14 @@ class EnvironmentParameters:
     correlation_radius_m: float = 700e3
     time_scale_s: float = SECONDS_PER_DAY
     n_components: int = 256
-    radiance_floor_ru: float = 0.3
+    synoptic_fraction: float = 0.0
+    synoptic_zone_m: float = 2000e3
+    synoptic_components: int = 128
+    min_wavelength_m: float = IFOV_MIN_WAVELENGTH_M
+    weather_min_wavelength_m: float = WEATHER_MIN_WAVELENGTH_M
     height_variation_enabled: bool = True
     window_height_mean_m: float = 40e3
-    window_height_half_range_m: float = 20e3
+    window_height_half_range_m: float = WINDOW_HALF_RANGE_M
     height_correlation_radius_m: float | None = None
     co2_height_m: float = CO2_TOP_HEIGHT_M
     co2_height_half_range_m: float = 0.0
@@ -543,7 +781,14 @@ class EnvironmentParameters:
         check_range("correlation radius", self.correlation_radius_m / 1e3, 10.0, EARTH_MEAN_RADIUS_M / 1e3, " km")
         check_range("time scale", self.time_scale_s, 60.0, math.inf, " s")
         _check_count("number of spectral components", self.n_components, 16, 8192)
-        check_range("radiance floor", self.radiance_floor_ru, 0.0, 1.0, " r.u.")
+        check_range("synoptic fraction", self.synoptic_fraction, 0.0, 0.95)
+        check_range("synoptic zone length", self.synoptic_zone_m / 1e3, 500.0, 10000.0, " km")
+        _check_count("number of synoptic components", self.synoptic_components, 16, 8192)
+        check_range("shortest wavelength", self.min_wavelength_m / 1e3, 0.1, 1000.0, " km")
+        check_range("shortest weather wavelength", self.weather_min_wavelength_m / 1e3, 0.1, 1000.0, " km")
+        if self.weather_enabled:
+            background_radius_m(self.correlation_radius_m, self.synoptic_fraction,
+                                synoptic_degrees(self.synoptic_zone_m))
         check_range("window layer height", self.window_height_mean_m / 1e3, 5.0, 150.0, " km")
         check_range("window layer half-range", self.window_height_half_range_m / 1e3, 0.0,
                     self.window_height_mean_m / 1e3, " km")
@@ -553,7 +798,7 @@ class EnvironmentParameters:
         check_range("CO2 layer height", self.co2_height_m / 1e3, 20.0, 120.0, " km")
         check_range("CO2 layer half-range", self.co2_height_half_range_m / 1e3, 0.0, 1.0, " km")
         # The window layer lies under the CO₂ layer (physics.md §3 profile
-        # order); the defaults let them touch: 40 + 20 km = 60 km.
+        # order).
         top_of_window_km = (self.window_height_mean_m + self.window_height_half_range_m) / 1e3
         bottom_of_co2_km = (self.co2_height_m - self.co2_height_half_range_m) / 1e3
         check_range("top of the window layer", top_of_window_km, 0.0, bottom_of_co2_km, " km")
@@ -582,7 +827,7 @@ class RadianceEnvironment:
 
     Args:
         parameters: an :class:`EnvironmentParameters` (defaults: everything on,
-            η′ = 0.15, R_x = 700 km, τ = 1 day, h_w = 40 ± 20 km, CO₂ at 60 km).
+            η′ = 0.15, R_x = 700 km, τ = 1 day, h_w = 40 km with σ_h = 10 km, CO₂ at 60 km).
     """
 
     def __init__(self, parameters: EnvironmentParameters | None = None) -> None:
@@ -592,13 +837,15 @@ class RadianceEnvironment:
         height_radius_m = p.correlation_radius_m if p.height_correlation_radius_m is None \
             else p.height_correlation_radius_m
         self.weather = WeatherField(p.relative_variability, p.correlation_radius_m, p.time_scale_s,
-                                    p.n_components, weather_seed, p.radiance_floor_ru) \
+                                    p.n_components, weather_seed, p.synoptic_fraction, p.synoptic_zone_m,
+                                    p.synoptic_components, p.weather_min_wavelength_m) \
             if p.weather_enabled else None
         self.window_layer = LayerHeightField(p.window_height_mean_m, p.window_height_half_range_m,
-                                             height_radius_m, p.time_scale_s, p.n_components, window_seed) \
+                                             height_radius_m, p.time_scale_s, p.n_components, window_seed,
+                                             p.min_wavelength_m) \
             if p.height_variation_enabled and p.window_height_half_range_m > 0.0 else None
         self.co2_layer = LayerHeightField(p.co2_height_m, p.co2_height_half_range_m, height_radius_m,
-                                          p.time_scale_s, p.n_components, co2_seed) \
+                                          p.time_scale_s, p.n_components, co2_seed, p.min_wavelength_m) \
             if p.height_variation_enabled and p.co2_height_half_range_m > 0.0 else None
 
         # All random fields in one cosine pass (see sample()).
@@ -645,7 +892,8 @@ class RadianceEnvironment:
         column = iter(range(len(self._fields)))
         mean = self.mean_radiance_ru(lat, t) + 0.0 * lon
         if self.weather is not None:
-            radiance = self.weather.radiance_from_anomaly(mean, values[:, next(column)])
+            band = None if self.weather.band_field is None else self.weather.band_field.evaluate(lat, lon, t)
+            radiance = self.weather.radiance_from_anomaly(mean, self.weather.combine(values[:, next(column)], band))
         else:
             radiance = mean
         heights = []
@@ -659,6 +907,33 @@ class RadianceEnvironment:
                 heights.append(constant_m + 0.0 * (lat + lon + t))
         return HorizonEnvironmentSample(_shaped(radiance, shape), _shaped(heights[0], shape),
                                         _shaped(heights[1], shape), _shaped(mean, shape))
+
+    def weather_parts(self, lat_rad, lon_rad, t_s):
+        """The radiance without weather (r.u.) and the background anomaly g (σ = 1) at points: two flat arrays.
+
+        With :meth:`synoptic_band` and :meth:`radiance_from_parts` this is
+        :meth:`sample`'s radiance in pieces, for callers that evaluate the slow
+        synoptic band on a coarser grid than the rest (pmv_ros.core.sensor).
+        g is zeros without weather.
+        """
+        lat, lon, t, _ = _flat_points(lat_rad, lon_rad, t_s)
+        mean = self.mean_radiance_ru(lat, t) + 0.0 * lon
+        if self.weather is None:
+            return mean, np.zeros(lat.size)
+        return mean, self._weather_bank.evaluate(lat, lon, t)[:, 0]
+
+    def synoptic_band(self, lat_rad, lon_rad, t_s):
+        """The synoptic band field s (σ = 1) at points, flat; None when the weather has no band."""
+        if self.weather is None or self.weather.band_field is None:
+            return None
+        lat, lon, t, _ = _flat_points(lat_rad, lon_rad, t_s)
+        return self.weather.band_field.evaluate(lat, lon, t)
+
+    def radiance_from_parts(self, mean_radiance_ru, background, band):
+        """Horizon radiance, r.u., from :meth:`weather_parts` and :meth:`synoptic_band` (band may be None)."""
+        if self.weather is None:
+            return np.asarray(mean_radiance_ru, float)
+        return self.weather.radiance_from_anomaly(mean_radiance_ru, self.weather.combine(background, band))
 
     def horizon_radiance_ru(self, lat_rad, lon_rad, t_s):
         """Horizon radiance B_m with climatology and weather, r.u.

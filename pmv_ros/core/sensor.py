@@ -27,9 +27,11 @@ sensor would read for the true attitude, ``sensed_*`` what this one reports.
 from __future__ import annotations
 
 import enum
+import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.interpolate import CubicSpline
 
 from . import chain
 from .attitude import true_roll_pitch
@@ -152,6 +154,20 @@ _CHAIN_STATUS[chain.ChordStatus.INVALID_INPUT] = ChordStatus.NO_HORIZON
 _CHAIN_STATUS[chain.ChordStatus.SCAN_STARTED_IN_ATMOSPHERE] = ChordStatus.NO_HORIZON
 
 
+#: Longest spacing of the coarse time grid on which the environment is evaluated along each chord's
+#: track, s (see :class:`RadianceConfig`).
+MAX_FIELD_GRID_S = 30.0
+#: Grid spacing as a fraction of the time a horizon point takes to cross a field's shortest wavelength.
+#: The fields are interpolated in time by cubic splines, which reproduce a wave sampled this densely to
+#: ≈ (2π·fraction)⁴/384 ≈ 1.6 % of its amplitude — for the shortest waves of a field only. (The layer
+#: height's Gaussian field is interpolated and mapped to its uniform law afterwards: the map makes
+#: harmonics shorter than the field's own.)
+FIELD_GRID_FRACTION = {"band": 0.25, "weather": 0.25, "height": 0.25}
+#: Ground speed of a horizon point along its track, m/s (the orbital rate on the Earth's surface,
+#: ≈ 6.6 km/s at 500–835 km, plus up to 0.46 km/s of Earth rotation), rounded up.
+HORIZON_POINT_SPEED_M_S = 7.2e3
+
+
 @dataclass(frozen=True)
 class RadianceConfig:
     """Where the horizon radiance seen by each chord comes from.
@@ -160,23 +176,35 @@ class RadianceConfig:
         source: ``"uniform"`` — the same disc radiance and window height on
             every chord (physics.md §3.1 Model A with B(1) = B(2)); or
             ``"environment"`` — :class:`~pmv_ros.core.environment.RadianceEnvironment`
-            sampled on the rotating Earth at each chord's horizon point (disc
-            radiance, window-layer height) and at a point ``probe_distance_m``
-            further inside, which gives the chord's radiance gradient (Model B
-            and the weather of Model C as they occur in flight).
+            sampled on the rotating Earth along each chord's line of sight: the
+            window-layer height and the radiance at the horizon point, and the
+            radiance where the lines of sight at the inward angles
+            :data:`~pmv_ros.core.chain.DISC_SAMPLE_INWARD_RAD` hit the ground
+            (≈ 440, 830 and 1400 km inside the horizon at 835 km), which the chain
+            interpolates (physics.md §3.2 item 3): climatology, weather and
+            height as they occur in flight.
         disc_radiance_ru: uniform source: B_m, r.u.
         window_height_m: uniform source: h_w, m.
         environment: parameters of the environment source.
-        probe_distance_m: ground distance inside the horizon of the gradient probe, m.
         earth_rotation_at_epoch_rad: Greenwich angle at simulation time 0, rad.
+        field_grid_s: spacing of the coarse time grid on which the environment
+            is evaluated when samples are denser, s (0.1 … 60); None: a fraction
+            (:data:`FIELD_GRID_FRACTION`) of the time a horizon point takes to
+            cross the smallest scale of a field (its correlation radius, or its
+            shortest wavelength: 1600 km for the synoptic band of 2000 km zones,
+            300 km for the weather's background, 100 km for the layer height),
+            at most :data:`MAX_FIELD_GRID_S` — ≈ 30, 10 and 3.5 s. Between grid
+            points the values are interpolated in time by cubic splines: a
+            horizon point moves < 1 km between samples 0.1 s apart, against
+            scales of hundreds of km.
     """
 
     source: str = "uniform"
     disc_radiance_ru: float = 2.4
     window_height_m: float = 40e3
     environment: EnvironmentParameters = EnvironmentParameters()
-    probe_distance_m: float = 300e3
     earth_rotation_at_epoch_rad: float = 0.0
+    field_grid_s: float | None = None
 
     def __post_init__(self) -> None:
         if self.source not in ("uniform", "environment"):
@@ -185,8 +213,25 @@ class RadianceConfig:
             raise ValueError(f"disc_radiance_ru = {self.disc_radiance_ru} is outside the allowed range (0, 10] r.u.")
         if not (0.0 <= self.window_height_m <= 100e3):
             raise ValueError(f"window_height_m = {self.window_height_m} is outside the allowed range 0 … 100000 m")
-        if not (10e3 <= self.probe_distance_m <= 2000e3):
-            raise ValueError(f"probe_distance_m = {self.probe_distance_m} is outside the allowed range 10 … 2000 km")
+        if self.field_grid_s is not None and not (0.1 <= self.field_grid_s <= 60.0):
+            raise ValueError(f"field_grid_s = {self.field_grid_s} is outside the allowed range 0.1 … 60 s")
+
+    def grid_spacing_s(self) -> tuple[float, float, float]:
+        """The coarse grids' spacings, s: (synoptic band, weather background and climatology, window-layer height).
+
+        See ``field_grid_s``; the band's shortest wavelength is its zone length ÷ 1.25 (degree ℓ₀·1.25).
+        """
+        if self.field_grid_s is not None:
+            return (float(self.field_grid_s),) * 3
+        p = self.environment
+        height = p.correlation_radius_m if p.height_correlation_radius_m is None else p.height_correlation_radius_m
+
+        def spacing(scale_m, fraction):
+            return float(min(MAX_FIELD_GRID_S, fraction * scale_m / HORIZON_POINT_SPEED_M_S))
+
+        return (spacing(p.synoptic_zone_m / 1.25, FIELD_GRID_FRACTION["band"]),
+                spacing(min(p.correlation_radius_m, p.weather_min_wavelength_m), FIELD_GRID_FRACTION["weather"]),
+                spacing(max(height, p.min_wavelength_m), FIELD_GRID_FRACTION["height"]))
 
 
 class ChainDetector:
@@ -215,61 +260,129 @@ class ChainDetector:
         self.scan_start_rad = nominal_scan_start_nadir_rad(altitude_m, scan_margin_rad, params)
         self.environment = (RadianceEnvironment(self.radiance.environment)
                             if self.radiance.source == "environment" else None)
+        self.band_grid_s, self.grid_s, self.height_grid_s = self.radiance.grid_spacing_s()
 
     def _chord_radiance(self, t_s, position_m, sensor_axes):
-        """Disc radiance description of each chord, each ``(4, N)``.
+        """Horizon radiance B_m (r.u.), disc samples (r.u.) and h_w (m) of each chord: ``(4, N)``, ``(4, N, 3)``, ``(4, N)``.
 
-        Returns (B_m r.u., gradient r.u./m, jump r.u., h_w m): the radiance at
-        the horizon point; the climatological change inwards, linear over the
-        surface (Model B); the weather difference between the probe point and
-        the horizon point as a jump at the probe distance (Model C: the paper
-        puts the jump ≈ R_x = 300 km inside the horizon). A weather gradient
-        extrapolated linearly across the ≈ 900 km of disc the IFOV covers
-        would instead drive the radiance to nonsense values.
+        Each field is evaluated at grid samples (one per grid spacing of the
+        sample times, and the first and last) and interpolated in time to the
+        other samples by a cubic spline: the synoptic band every
+        ``band_grid_s``, the climatology and the weather's background every
+        ``grid_s``, the window-layer height every ``height_grid_s``. When the
+        samples are sparser than a grid: at every sample. The weather's parts
+        are combined, and the radiance kept inside 1 … 4 r.u., at the samples.
         """
-        shape = (4, np.size(t_s))
+        t = np.atleast_1d(np.asarray(t_s, float))
+        n = t.size
+        shape = (4, n)
         if self.environment is None:
-            return (np.full(shape, self.radiance.disc_radiance_ru), np.zeros(shape), np.zeros(shape),
+            return (np.full(shape, self.radiance.disc_radiance_ru), None,
                     np.full(shape, self.radiance.window_height_m))
+        points = 1 + len(chain.DISC_SAMPLE_INWARD_RAD)
+
+        located = {}  # the ground points of a node set, shared by fields on the same grid (short blocks)
+
+        def along_track(spacing_s, inner, evaluate):
+            nodes = _grid_nodes(t, spacing_s)
+            key = (inner, nodes.tobytes())
+            if key not in located:
+                located[key] = self._ground_points(t[nodes], position_m[:, nodes], sensor_axes[:, :, nodes], inner)
+            values = [v.reshape(points if inner else 1, 4, nodes.size) for v in evaluate(*located[key])]
+            return [_interpolate_in_time(t, nodes, v) for v in values]
+
+        mean, background = along_track(self.grid_s, True, self.environment.weather_parts)
+        band = None
+        if self.environment.weather is not None and self.environment.weather.band_field is not None:
+            band, = along_track(self.band_grid_s, True,
+                                lambda *where: (self.environment.synoptic_band(*where),))
+        radiance = self.environment.radiance_from_parts(mean, background, band)
+        layer = self.environment.window_layer
+        if layer is None:
+            window = np.full(shape, self.environment.parameters.window_height_mean_m)
+        else:  # the smooth Gaussian field is interpolated, then mapped to the uniform law at the samples
+            gaussian, = along_track(self.height_grid_s, False, lambda *where: (layer.gaussian_field(*where),))
+            window = layer.height_from_gaussian(gaussian[0])
+        return radiance[0], radiance[1:].transpose(1, 2, 0), window
+
+    def _ground_points(self, t, position_m, sensor_axes, inner: bool):
+        """Latitude, longitude (rad) and time of each chord's horizon point (and the disc sample points if ``inner``).
+
+        Flat arrays ordered (point, chord, sample): the horizon point first,
+        then the ground hit by the lines of sight at the inward sample angles.
+        """
         radius = np.linalg.norm(position_m, axis=0)
         up = position_m / radius
         # Chord directions ±X, ±Y of the sensor, made horizontal at the sub-satellite point.
         chords = np.stack([sensor_axes[:, 0], sensor_axes[:, 1], -sensor_axes[:, 0], -sensor_axes[:, 1]], axis=1)
         horizontal = chords - np.einsum("ikn,in->kn", chords, up)[None] * up[:, None]
         horizontal /= np.linalg.norm(horizontal, axis=0)
-        # Spherical horizon: central angle acos(R/r) from the sub-satellite point; the probe further in.
-        horizon_angle = np.arccos(EARTH_MEAN_RADIUS_M / radius)
-        probe_angle = horizon_angle - self.radiance.probe_distance_m / EARTH_MEAN_RADIUS_M
-        eci = np.concatenate([np.cos(angle) * up[:, None] + np.sin(angle) * horizontal
-                              for angle in (horizon_angle, probe_angle)], axis=1)  # (3, 8, N)
-        t_points = np.broadcast_to(t_s, eci.shape[1:]).reshape(-1)
+        # Spherical horizon: central angle acos(R/r) from the sub-satellite point; the ground the
+        # lines of sight at the sample angles hit lies further in.
+        angles = np.arccos(EARTH_MEAN_RADIUS_M / radius)[None]
+        if inner:
+            phi0, slope = chain.sphere_chord(radius - EARTH_MEAN_RADIUS_M)
+            inward = np.asarray(chain.DISC_SAMPLE_INWARD_RAD)[:, None]
+            distance = chain.chord_ground_distance(phi0 - inward, phi0, slope)  # (samples, N)
+            angles = np.concatenate([angles, angles - distance / EARTH_MEAN_RADIUS_M])
+        # (3, points, 4 chords, N)
+        eci = np.cos(angles)[None, :, None, :] * up[:, None, None, :] + \
+            np.sin(angles)[None, :, None, :] * horizontal[:, None, :, :]
+        t_points = np.broadcast_to(t, eci.shape[1:]).reshape(-1)
         ecef = eci_to_ecef(eci.reshape(3, -1), t_points, self.radiance.earth_rotation_at_epoch_rad)
         lat, lon = geocentric_latitude_longitude(ecef)
-        # The layer heights matter at the horizon points only: the probe points take the radiance alone.
-        horizon_points = 4 * np.size(t_s)
-        at_horizon = self.environment.sample(lat[:horizon_points], lon[:horizon_points], t_points[:horizon_points])
-        at_probe = self.environment.sample(lat[horizon_points:], lon[horizon_points:], t_points[horizon_points:],
-                                           layers=False)
-        radiance = at_horizon.horizon_radiance_ru.reshape(4, -1)
-        climate = at_horizon.mean_radiance_ru.reshape(4, -1)
-        probe_radiance = at_probe.horizon_radiance_ru.reshape(4, -1)
-        probe_climate = at_probe.mean_radiance_ru.reshape(4, -1)
-        gradient = (probe_climate - climate) / self.radiance.probe_distance_m
-        jump = (probe_radiance - probe_climate) - (radiance - climate)
-        return radiance, gradient, jump, at_horizon.window_height_m.reshape(4, -1)
+        return lat, lon, t_points
 
     def __call__(self, t_s, horizon_nadir_rad, co2_top_nadir_rad, position_m, sensor_axes):
         """Corrected and uncorrected crossing nadir angles and statuses, each ``(4, N)``."""
         shape = horizon_nadir_rad.shape
         slope = chain.tangent_height_rate_from_layer(horizon_nadir_rad, co2_top_nadir_rad, CO2_TOP_HEIGHT_M)
-        disc, gradient, jump, window = self._chord_radiance(t_s, position_m, sensor_axes)
+        disc, samples, window = self._chord_radiance(t_s, position_m, sensor_axes)
         readings = chain.sense_horizon_chords(
             horizon_nadir_rad.ravel(), slope.ravel(), disc.ravel(), scan_start_nadir_rad=self.scan_start_rad,
-            gradient_ru_per_m=gradient.ravel(), jump_ru=jump.ravel(), jump_distance_m=self.radiance.probe_distance_m,
-            window_height_m=window.ravel(), correction=self.correction, params=self.params)
+            window_height_m=window.ravel(), disc_samples_ru=None if samples is None else samples.reshape(-1, len(chain.DISC_SAMPLE_INWARD_RAD)),
+            correction=self.correction, params=self.params)
         return (readings.sensed_horizon_nadir_rad.reshape(shape),
                 readings.sensed_horizon_nadir_uncorrected_rad.reshape(shape),
                 _CHAIN_STATUS[readings.status].reshape(shape))
+
+
+def _interpolate_in_time(t, nodes, values):
+    """Values given at the samples ``nodes`` (last axis), interpolated in time to every sample of ``t``.
+
+    A not-a-knot cubic spline through 4 nodes or more, linear through 2 or 3.
+    """
+    if nodes.size == t.size:
+        return values
+    t_nodes = t[nodes]
+    if nodes.size >= 4 and np.all(np.diff(t_nodes) > 0.0):
+        return CubicSpline(t_nodes, values, axis=-1)(t)
+    j = np.clip(np.searchsorted(t_nodes, t, side="right") - 1, 0, nodes.size - 2)
+    span = t_nodes[j + 1] - t_nodes[j]
+    w = np.where(span > 0.0, (t - t_nodes[j]) / np.where(span > 0.0, span, 1.0), 0.0)
+    return values[..., j] * (1.0 - w) + values[..., j + 1] * w
+
+
+def _grid_nodes(t, spacing_s):
+    """Indices of the samples on which the environment is evaluated: all, or one per ``spacing_s`` (sorted times).
+
+    The spacing is at most 1/8 of the samples' span. With samples sparser than
+    half the spacing, or unsorted, or fewer than 3: every sample. Otherwise the
+    first, the last, and for each multiple of the spacing the first sample at or
+    after it — a grid tied to the clock, so successive long blocks of samples
+    see the same nodes.
+    """
+    n = t.size
+    if n < 3 or not np.all(np.diff(t) >= 0.0):
+        return np.arange(n)
+    # At least 8 intervals over the span, so the spline of a short block is not all end conditions.
+    spacing_s = min(spacing_s, (t[-1] - t[0]) / 8.0)
+    if (t[-1] - t[0]) > 0.5 * spacing_s * (n - 1):
+        return np.arange(n)
+    multiples = np.arange(math.ceil(t[0] / spacing_s), math.floor(t[-1] / spacing_s) + 1) * spacing_s
+    nodes = np.searchsorted(t, multiples, side="left")
+    nodes = np.unique(np.concatenate([[0], nodes, [n - 1]]))
+    return nodes[nodes < n]
 
 
 class SensorModel:

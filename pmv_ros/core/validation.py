@@ -330,9 +330,12 @@ class SourceLock:
       numbers: a message continues the track whose last number is below its
       own by at most ``max_sequence_gap`` (lost best-effort messages leave
       gaps); where several could take it, the smallest step wins (a reliable
-      publisher's next message is exactly one on), then the track whose
-      expected next stamp (last stamp + its stamp interval; before that is
-      known, + the arrival interval) is nearest. A single
+      publisher's next message is exactly one on); where steps tie (a faster
+      publisher's count has caught up with the locked one's), the track the
+      message fits best in time: its numbering rate × the time since it was
+      last heard nearest the step, and the stamp nearest its expected next
+      stamp (last stamp + its stamp interval) measured in that track's own
+      stamp jitter (:meth:`_Track.misfit`). A single
       publisher is therefore always one track, whatever its stamps do (its
       clock jumps are the stamp checks' business). Two publishers numbering
       in lockstep are told apart by their stamps only: where those coincide
@@ -406,9 +409,9 @@ class SourceLock:
             gap = sequence - track.sequence
             if not 0 < gap <= self.max_sequence_gap:
                 continue
-            # The next number first (a reliable publisher never skips one), then the nearest stamp.
-            miss = abs(stamp_s - track.expected_stamp_s(arrival_s))
-            key = (gap, miss if math.isfinite(miss) else 0.0, track is not self._locked)
+            # The next number first (a reliable publisher never skips one); where two sources could
+            # both take it (their counts met), the one this message fits best in time.
+            key = (gap, track.misfit(gap, stamp_s, arrival_s), track is not self._locked)
             if best_key is None or key < best_key:
                 best, best_key = track, key
         return best if best is not None else self._new_track(_Track())
@@ -424,7 +427,10 @@ class SourceLock:
 class _Track:
     """What a :class:`SourceLock` remembers of one source."""
 
-    __slots__ = ("gid", "sequence", "stamp_s", "interval_s", "arrival_s")
+    __slots__ = ("gid", "sequence", "stamp_s", "interval_s", "arrival_s", "sequence_rate_hz", "stamp_jitter_s")
+
+    #: Stamp jitter below which a source's stamps count as exact (a double holds ~1e-7 s at 2e9 s), s.
+    STAMP_JITTER_FLOOR_S = 1e-5
 
     def __init__(self, gid: bytes | None = None) -> None:
         self.gid = gid
@@ -432,6 +438,26 @@ class _Track:
         self.stamp_s = math.nan
         self.interval_s = math.nan
         self.arrival_s = -math.inf
+        self.sequence_rate_hz = math.nan  # numbers per second of arrival time, smoothed
+        self.stamp_jitter_s = math.nan  # how far its stamps fall from one interval on, smoothed
+
+    def misfit(self, gap: int, stamp_s: float, arrival_s: float) -> float:
+        """How badly a message ``gap`` numbers on, stamped ``stamp_s``, fits this source (0: perfectly).
+
+        Two terms, each in units of this source's own regularity: how far ``gap``
+        is from the numbers its rate says it used since it was last heard (1
+        while the rate is unknown), and how far the stamp is from one interval
+        on, in units of its usual stamp jitter. A sensor stamping on a fixed
+        grid has almost no jitter, so a neighbour's stamp that is off its grid
+        by milliseconds misfits it badly, even when the two counts have met.
+        """
+        expected = self.sequence_rate_hz * (arrival_s - self.arrival_s)
+        timing = abs(gap - expected) if math.isfinite(expected) else 1.0
+        miss = abs(stamp_s - self.expected_stamp_s(arrival_s))
+        if not math.isfinite(miss):
+            return timing
+        jitter = self.stamp_jitter_s if math.isfinite(self.stamp_jitter_s) else 0.0
+        return timing + miss / (jitter + self.STAMP_JITTER_FLOOR_S)
 
     def expected_stamp_s(self, arrival_s: float) -> float:
         """The stamp this source's next message should carry: one interval on (or, before the interval is
@@ -441,11 +467,20 @@ class _Track:
 
     def hear(self, sequence, stamp_s: float, arrival_s: float) -> None:
         if math.isfinite(stamp_s) and stamp_s > 0.0:  # a bad stamp says nothing about the cadence
+            miss = abs(stamp_s - self.expected_stamp_s(arrival_s))
+            if math.isfinite(miss) and math.isfinite(self.interval_s):
+                known = math.isfinite(self.stamp_jitter_s)
+                self.stamp_jitter_s = 0.8 * self.stamp_jitter_s + 0.2 * miss if known else miss
             if math.isfinite(self.stamp_s) and stamp_s > self.stamp_s:
                 step = stamp_s - self.stamp_s
                 self.interval_s = step if not math.isfinite(self.interval_s) else 0.8 * self.interval_s + 0.2 * step
             self.stamp_s = stamp_s
         if sequence is not None:
+            elapsed_s = arrival_s - self.arrival_s
+            if self.sequence is not None and sequence > self.sequence and 0.0 < elapsed_s < math.inf:
+                rate = (sequence - self.sequence) / elapsed_s
+                known = math.isfinite(self.sequence_rate_hz)
+                self.sequence_rate_hz = 0.8 * self.sequence_rate_hz + 0.2 * rate if known else rate
             self.sequence = sequence
         self.arrival_s = arrival_s
 
