@@ -9,11 +9,13 @@ and seed. Used by ``pmv campaign``.
 
 What each node does, and what runs it here:
 
-* sensor_node (fast time, stepped): sample k (k = 1 … N) at
-  ``sim.start_time_s + k / sensor.rate_hz``, the attitude from its profile,
-  sensed in the node's blocks (:func:`~pmv_ros.core.sample_stream.fast_time_block`,
-  stepped: the weather and layer-height fields refer their float32 phases to
-  each block's first time, so another grouping would move roll by ≈ 2e-4′).
+* sensor_node (fast time, stepped): samples at the node's own stamps
+  (:func:`~pmv_ros.core.sample_stream.stepped_times`: its clock summed step
+  by step from ``sim.start_time_s``), the attitude from its profile, sensed
+  in the node's blocks (:func:`~pmv_ros.core.sample_stream.fast_time_block`,
+  stepped). The environment's fields are evaluated on time grids of each
+  block's stamps, so other stamps or another grouping would move roll by
+  ≈ 2e-4′.
 * star_tracker_node: per truth sample, its
   :class:`~pmv_ros.core.star_tracker.FrameGrid` (frames on the tracker's grid,
   the truth slerped to them), :meth:`~pmv_ros.core.star_tracker.StarTracker.measure_frames`
@@ -44,7 +46,7 @@ from .constants import EARTH_MEAN_RADIUS_M, GM_EARTH_M3_S2
 from .monitor import BATCH_STATUSES, PENDING_CODE, MonitorSummary
 from .orbit import geocentric_latitude_longitude
 from .parameters import ParameterError, preset_values, unknown_parameter_problem
-from .sample_stream import fast_time_block
+from .sample_stream import fast_time_block, stepped_times
 from .star_tracker import FrameGrid, LatencyQueue, Outcome, inertial_rate_of_nadir_pointing
 
 #: Sample outcome codes in flight tables: the monitor's batch codes (0 is OK), PENDING_CODE still waiting at the end.
@@ -158,6 +160,8 @@ class Flight:
     t_s: np.ndarray  #: (N,) sample stamps
     u_rad: np.ndarray  #: (N,) argument of latitude
     latitude_rad: np.ndarray  #: (N,) geocentric sub-satellite latitude
+    sensed_roll_rad: np.ndarray  #: (N,) what the sensor published on /pmv/attitude
+    sensed_pitch_rad: np.ndarray
     outcome: np.ndarray  #: (N,) int8 index into OUTCOME_CODES, PENDING_CODE for samples still waiting at the end
     roll_rad: np.ndarray  #: (N,) residuals as the statistics take them (offsets, oblateness removed as configured)
     pitch_rad: np.ndarray
@@ -181,15 +185,18 @@ def fly(values: FlightValues, samples: int) -> Flight:
     if samples < 2:
         raise ValueError(f"samples = {samples}: a flight needs at least 2")
     orbit, profile, model = build_models(sensor)
-    t = orbit.epoch_s + np.arange(1, samples + 1) * (1.0 / sensor["sensor.rate_hz"])
-    q = profile.quaternion(t)
-    roll = np.empty(samples)
-    pitch = np.empty(samples)
     block = sense_block(sensor)
-    for lo in range(0, samples, block):
+    # Whole blocks, as the node computes them (the last one too: the environment's time grid spans a block).
+    whole = -(-samples // block) * block
+    t = stepped_times(sensor["sim.start_time_s"], 1.0 / sensor["sensor.rate_hz"], whole, block)
+    q = profile.quaternion(t)
+    roll = np.empty(whole)
+    pitch = np.empty(whole)
+    for lo in range(0, whole, block):
         reading = model.sense(t[lo:lo + block], q[:, lo:lo + block])
         roll[lo:lo + block] = reading.sensed_roll_rad
         pitch[lo:lo + block] = reading.sensed_pitch_rad
+    t, q, roll, pitch = t[:samples], q[:, :samples], roll[:samples], pitch[:samples]
     frames = tracker_frames(t, q, values.star_tracker, start_s=0.0)
     published = np.flatnonzero(frames.released_at >= 0)  # in release order = frame order
     position, velocity = orbit.state_eci(t)  # what /orbit/odometry carries
@@ -203,5 +210,5 @@ def fly(values: FlightValues, samples: int) -> Flight:
                               odometry_max_age_s=monitor_values["odometry_timeout_s"], **model)
     u = orbit.argument_of_latitude(t)
     latitude, _ = geocentric_latitude_longitude(position)
-    return Flight(t, u, latitude, batch.status, batch.roll_rad, batch.pitch_rad, batch.meridional_rad,
+    return Flight(t, u, latitude, roll, pitch, batch.status, batch.roll_rad, batch.pitch_rad, batch.meridional_rad,
                   summary=monitor.summary(), frames=frames, values=values)

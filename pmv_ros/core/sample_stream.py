@@ -38,6 +38,26 @@ def fast_time_block(rate_hz: float, time_scale: float, stepped: bool) -> int:
     return max(16, min(FAST_TIME_BLOCK, int(tick_s / PACED_SAMPLE_COST_S)))
 
 
+def block_times(first_s: float, period_s: float, block: int) -> np.ndarray:
+    """The stamps of a block of own-profile samples computed ahead: ``first_s + period_s·k``, k = 0 … block − 1, s."""
+    return first_s + period_s * np.arange(block)
+
+
+def stepped_times(start_s: float, period_s: float, samples: int, block: int) -> np.ndarray:
+    """The stamps of the first ``samples`` samples of a sensor stepped in fast time, s — exactly as it stamps them.
+
+    The node's clock starts at ``start_s`` and advances by ``period_s`` per
+    step, one float addition at a time (``SensorNode.step``); a block starts
+    at the clock of its first step and runs on :func:`block_times`. The
+    sensor model's fields are evaluated on grids of these very times, so a
+    flight that means to sense what the node senses uses them.
+    """
+    clock = np.add.accumulate(np.r_[float(start_s), np.full(samples, float(period_s))])[1:]  # sequential sums
+    firsts = clock[::block]
+    times = np.concatenate([block_times(first, period_s, block) for first in firsts.tolist()])
+    return times[:samples]
+
+
 class SampleStream:
     """Sample rows of one sensor: its model, orbit and attitude profile.
 
@@ -66,7 +86,7 @@ class SampleStream:
     def next_profile_sample(self, t_s: float, period_s: float, block: int) -> tuple:
         """The own-profile sample at ``t_s``, from the pending block or a new one of ``block`` samples."""
         if not self._pending:
-            times = t_s + period_s * np.arange(block)
+            times = block_times(t_s, period_s, block)
             self._pending = deque(self.rows(times, self.profile.quaternion(times)))
         return self._pending.popleft()
 
