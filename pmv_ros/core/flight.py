@@ -13,9 +13,9 @@ What each node does, and what runs it here:
   (:func:`~pmv_ros.core.sample_stream.stepped_times`: its clock summed step
   by step from ``sim.start_time_s``), the attitude from its profile, sensed
   in the node's blocks (:func:`~pmv_ros.core.sample_stream.fast_time_block`,
-  stepped). The environment's fields are evaluated on time grids of each
-  block's stamps, so other stamps or another grouping would move roll by
-  ≈ 2e-4′.
+  stepped), whole blocks to the last (the node computes a block ahead). The
+  environment's fields are evaluated on time grids spanning each block, so
+  another grouping — even a shorter last block — moves roll by ≈ 2e-4′.
 * star_tracker_node: per truth sample, its
   :class:`~pmv_ros.core.star_tracker.FrameGrid` (frames on the tracker's grid,
   the truth slerped to them), :meth:`~pmv_ros.core.star_tracker.StarTracker.measure_frames`
@@ -26,8 +26,8 @@ What each node does, and what runs it here:
 * error_monitor_node: :meth:`~pmv_ros.core.monitor.ErrorMonitor.add_batch` —
   the monitor's validation, alignment and statistics, the released frames
   arriving just before the sensor sample of their tick, the node clock at
-  each tick the sample's stamp. The oblateness model comes from the orbit
-  itself (what /orbit/odometry carries).
+  each tick the sample's stamp, and the orbit's state at each stamp as the
+  odometry the node validates and takes its oblateness model from.
 
 Message stamps in the pipeline are whole nanoseconds; here they are the
 float times. The difference moves the statistics by ≈ 1e-9 arcmin.
