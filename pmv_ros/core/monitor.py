@@ -53,6 +53,14 @@ Statistics
     whatever the run length: fixed counters, fixed ring, truth buffer and
     pending queue capped.
 
+Batches
+    :meth:`ErrorMonitor.add_batch` takes a whole stretch of sensor, truth and
+    odometry samples in arrival order (``pmv campaign`` flies a task through
+    it): every input passes the same checks one by one, then the alignment
+    and statistics run on arrays; a batch the array form cannot follow
+    exactly (a clock jump, samples already pending, …) is fed sample by
+    sample. Either way the outcome is the per-sample one.
+
 Not thread-safe: call it from one executor thread.
 """
 
