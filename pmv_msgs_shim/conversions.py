@@ -11,8 +11,10 @@ Wire layouts
                             Vector3Stamped: x = roll, y = pitch (rad), z = 0.
     /attitude/truth, /star_tracker/attitude
                             QuaternionStamped: body in header.frame_id (orbital).
-    /orbit/odometry         Odometry: pose.position = r, twist.linear = v, both in
-                            header.frame_id (ECI); orientation identity.
+    /orbit/odometry         Odometry by nav_msgs' rules: pose.position = r and
+                            pose.orientation = the orbital frame, in
+                            header.frame_id (ECI); twist (linear = v, angular =
+                            the frame's rate) in child_frame_id (orbital).
     /pmv/error_statistics   DiagnosticArray: one status per channel, named
                             ``pmv_error_monitor: roll|pitch|meridional``, then
                             ``pmv_error_monitor: samples`` with the counters.

@@ -120,3 +120,12 @@ def test_corrected_horizon_is_the_hard_earth_horizon_under_rig_conditions():
     assert np.max(np.abs(readings.sensed_horizon_nadir_rad - phi0)) / ARCMIN_RAD < 0.2
     # Uncorrected, the same horizon is misplaced by up to ≈ 1° (the methodical error the table removes).
     assert np.max(np.abs(readings.sensed_horizon_nadir_uncorrected_rad - phi0)) / ARCMIN_RAD > 40.0
+
+
+def test_the_no2_2_curve_is_refused_on_another_orbit():
+    """The inferred Meteor-M No.2-2 curve belongs to the 835 km orbit: elsewhere it would be silently wrong."""
+    from pmv_ros.core.correction import load_correction
+
+    assert load_correction("meteor_m2_2", 835e3) is not None
+    with pytest.raises(ValueError, match="835 km"):
+        load_correction("meteor_m2_2", 500e3)

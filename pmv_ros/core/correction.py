@@ -206,8 +206,9 @@ def calibrated_correction_table(altitude_m, params=None) -> CorrectionTable:
 SCALE_PIVOT_RADIANCE_RU = 2.4
 #: Allowed scale of a scaled rig curve (see :func:`scaled_correction_table`).
 SCALE_BOUNDS = (1.0, 2.0)
-#: The stored curve inferred for Meteor-M No.2-2 (tools/calibrate_environment.py writes it).
+#: The stored curve inferred for Meteor-M No.2-2 (tools/calibrate_environment.py writes it), and its orbit.
 METEOR_M2_2_TABLE = "correction_meteor_m2_2_835km.csv"
+METEOR_M2_2_ALTITUDE_KM = 835
 
 
 def scaled_correction_table(table: CorrectionTable, scale: float,
@@ -268,5 +269,8 @@ def load_correction(spec, altitude_m, params=None):
     if word.lower() == "none":
         return None
     if word.lower() == "meteor_m2_2":
+        if abs(float(altitude_m) / 1e3 - METEOR_M2_2_ALTITUDE_KM) > 1e-6:
+            raise ValueError(f"'meteor_m2_2' is the stored curve of the {METEOR_M2_2_ALTITUDE_KM} km orbit; this orbit "
+                             f"is at {float(altitude_m) / 1e3:g} km (use calibrated, none or a table of your own)")
         return meteor_m2_2_table()
     return CorrectionTable.from_csv(word)

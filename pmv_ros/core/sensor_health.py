@@ -42,11 +42,10 @@ def chord_problems(status, blinding, exclusion_deg: float) -> list[str]:
     return problems
 
 
-def truth_source_warnings(other_publishers: int, following: bool) -> tuple:
-    """What to say when /attitude/truth has more sources than it should (``other_publishers``: besides ours)."""
-    if following and other_publishers > 1:
-        return (f"{other_publishers} publishers of /attitude/truth: the sensor follows all of them at once",)
-    if not following and other_publishers > 0:
+def truth_source_warnings(other_publishers: int) -> tuple:
+    """What to say when a sensor flying its own attitude model sees ``other_publishers`` of /attitude/truth
+    besides itself (a following sensor's second source is the source lock's ERROR instead)."""
+    if other_publishers > 0:
         return ("another publisher of /attitude/truth besides this sensor's own attitude model (to follow it, "
                 "give config/follow.yaml after the preset — README \"Follow mode\")",)
     return ()

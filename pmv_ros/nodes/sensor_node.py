@@ -278,7 +278,7 @@ class SensorNode(PmvNode):
         if self._following:
             return ()
         others = self.count_publishers("/attitude/truth") - (self._pub_truth is not None)
-        return truth_source_warnings(others, self._following)
+        return truth_source_warnings(others)
 
 
 def main(args=None) -> int:
