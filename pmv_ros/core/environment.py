@@ -210,6 +210,17 @@ def _exponential_wavenumbers(probabilities):
     return np.tan(0.25 * (low + high))
 
 
+def _reference_phases(phase_rad: np.ndarray, frequency_rad_s: np.ndarray, t: np.ndarray):
+    """A reference time of the batch ``t`` (s: its first finite time) and the components' phases there (float32).
+
+    Phases are formed at the reference in float64 and reduced mod 2π, so float32
+    only ever sees times within the batch.
+    """
+    finite_t = t[np.isfinite(t)]
+    t_ref = float(finite_t[0]) if finite_t.size else 0.0
+    return t_ref, np.mod(phase_rad + frequency_rad_s * t_ref, 2.0 * math.pi).astype(np.float32)
+
+
 class GaussianSphereField:
     """A zero-mean, unit-variance random field on the rotating Earth, evaluated pointwise.
 
@@ -328,11 +339,7 @@ class _SpectralBank:
         out = np.empty((lat.size, self._amplitudes.shape[1]))
         if lat.size == 0:
             return out
-        # Phases are formed relative to a reference time in float64 and
-        # reduced mod 2π, so float32 only ever sees times within the batch.
-        finite_t = t[np.isfinite(t)]
-        t_ref = float(finite_t[0]) if finite_t.size else 0.0
-        phase_ref = np.mod(self._phase_rad + self._frequency_rad_s * t_ref, 2.0 * math.pi).astype(np.float32)
+        t_ref, phase_ref = _reference_phases(self._phase_rad, self._frequency_rad_s, t)
         cos_lat = np.cos(lat)
         design = np.empty((lat.size, 4), dtype=np.float32)
         design[:, 0] = cos_lat * np.cos(lon)
@@ -429,9 +436,7 @@ class SynopticBandField:
         out = np.empty(lat.size)
         if lat.size == 0:
             return out
-        finite_t = t[np.isfinite(t)]
-        t_ref = float(finite_t[0]) if finite_t.size else 0.0
-        phase_ref = np.mod(self._phase_rad + self._frequency_rad_s * t_ref, 2.0 * math.pi).astype(np.float32)
+        t_ref, phase_ref = _reference_phases(self._phase_rad, self._frequency_rad_s, t)
         cos_lat = np.cos(lat)
         unit = np.empty((lat.size, 3), dtype=np.float32)
         unit[:, 0] = cos_lat * np.cos(lon)
