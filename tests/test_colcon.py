@@ -156,15 +156,23 @@ def test_installed_sensor_node_publishes_attitude_to_another_process(colcon_inst
     assert 0.05 < spacing < 0.3, f"median spacing {spacing:.3f} s, expected 0.1 s at 10 Hz: {stamps}"
 
 
-def _listen_for_attitude(child: subprocess.Popen, output: Path, monkeypatch) -> list:
-    """/pmv/attitude messages received in this process on the child's domain (at least MESSAGES_WANTED)."""
-    # conftest.py turned discovery OFF for the in-process tests: join the child's domain on localhost.
+def join_children_domain(monkeypatch) -> rclpy.Context:
+    """An initialised rclpy context of this process on the children's domain, discovery on localhost.
+
+    conftest.py turned discovery OFF for the in-process tests; the caller shuts the context down.
+    """
     for name in DISCOVERY_ENV:
         monkeypatch.delenv(name, raising=False)
     monkeypatch.setenv("ROS_DOMAIN_ID", str(DOMAIN_ID))
     monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     context = rclpy.Context()
     rclpy.init(context=context, domain_id=DOMAIN_ID)
+    return context
+
+
+def _listen_for_attitude(child: subprocess.Popen, output: Path, monkeypatch) -> list:
+    """/pmv/attitude messages received in this process on the child's domain (at least MESSAGES_WANTED)."""
+    context = join_children_domain(monkeypatch)
     received = []
     try:
         listener = rclpy.create_node("colcon_test_listener", context=context)

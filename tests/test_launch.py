@@ -30,7 +30,7 @@ from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
 from rclpy.executors import SingleThreadedExecutor
 from rosgraph_msgs.msg import Clock
 
-from test_colcon import DISCOVERY_ENV, DOMAIN_ID, _install_env
+from test_colcon import DOMAIN_ID, _install_env, join_children_domain
 
 REPO = Path(__file__).resolve().parents[1]
 #: ../shared/vendor beside the repository (as CI lays it out), or where PMV_ROS_VENDOR points.
@@ -106,12 +106,7 @@ class Launched:
 @pytest.fixture
 def graph(monkeypatch):
     """A node of this process on the children's domain (discovery on localhost); yields (node, executor)."""
-    for name in DISCOVERY_ENV:
-        monkeypatch.delenv(name, raising=False)
-    monkeypatch.setenv("ROS_DOMAIN_ID", str(DOMAIN_ID))
-    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    context = rclpy.Context()
-    rclpy.init(context=context, domain_id=DOMAIN_ID)
+    context = join_children_domain(monkeypatch)
     node = rclpy.create_node("launch_test_listener", context=context)
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
