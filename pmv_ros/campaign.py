@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .cli.common import finite_json
 from .core.constants import ARCMIN_RAD
 from .core.flight import OUTCOME_CODES, flight_values, fly
 from .core.monitor import CHANNELS, Status
@@ -226,7 +227,7 @@ def run_task(settings: Settings, task: Task):
                    "rate_hz": values.sensor["sensor.rate_hz"], "samples": int(flight.t_s.size),
                    "outcome_codes": [status.value for status in OUTCOME_CODES],
                    "summary": summary_to_dict(flight.summary)}
-    table = table.replace_schema_metadata({METADATA_KEY: json.dumps(_finite(description)).encode()})
+    table = table.replace_schema_metadata({METADATA_KEY: json.dumps(finite_json(description)).encode()})
     return table, time.perf_counter() - started
 
 
@@ -247,17 +248,6 @@ def summary_to_dict(summary) -> dict:
             "counters": {k: v for k, v in summary.counters.items() if v}}
 
 
-def _finite(value):
-    """``value`` with NaN and ±Inf as None (strict JSON)."""
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_finite(v) for v in value]
-    return value
-
-
 # ------------------------------------------------------------------------ result files
 
 def task_path(out: Path, task: Task) -> Path:
@@ -273,7 +263,7 @@ def prepare_folder(out: Path, settings: Settings) -> None:
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     manifest = out / MANIFEST
-    mine = _finite(settings.manifest())
+    mine = finite_json(settings.manifest())
     if manifest.exists():
         try:
             theirs = json.loads(manifest.read_text())
@@ -472,7 +462,7 @@ def budget(out: Path, tasks: list[Task]) -> dict:
     parts = [name for name in COMPONENTS if name != "total" and name in groups]
     if parts and "total" in groups:
         result["rss"] = _rss(result["components"], parts)
-    return _finite(result)
+    return finite_json(result)
 
 
 def _rss(components: dict, parts: list[str]) -> dict:

@@ -395,3 +395,15 @@ def test_no_statistic_ever_becomes_infinite(samples):
             assert not math.isinf(value)
         if channel.count:
             assert math.isfinite(channel.mean_rad) and math.isfinite(channel.max_abs_rad)
+
+
+def test_a_quaternion_sample_moves_the_timeline_only_when_the_quaternion_is_valid():
+    from pmv_ros.core.validation import StampCheck, check_quaternion_sample
+
+    stamps = StampCheck(1.0, 1.0)
+    bad = check_quaternion_sample(stamps, 10.0, (0.0, 0.0, 0.0, 0.0), None)
+    assert bad.rejection is not None and bad.q_xyzw is None and stamps.latest_s is None
+    good = check_quaternion_sample(stamps, 10.0, (0.0, 0.0, 0.0, 1.001), None)
+    assert good.rejection is None and good.normalised and np.allclose(good.q_xyzw, [0, 0, 0, 1])
+    assert stamps.latest_s == 10.0
+    assert check_quaternion_sample(stamps, 10.0, (0.0, 0.0, 0.0, 1.0), None).rejection is not None  # duplicate

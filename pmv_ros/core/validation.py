@@ -37,6 +37,7 @@ import os
 import stat
 from dataclasses import dataclass
 from enum import Enum
+from typing import NamedTuple
 
 import numpy as np
 
@@ -314,6 +315,31 @@ class StampCheck:
         if jumps.observe(t_s) is Jump.SUSPECTED:
             return Rejection.UNCONFIRMED_JUMP, False
         return None, True
+
+
+class QuaternionSample(NamedTuple):
+    """What :func:`check_quaternion_sample` made of one stamped quaternion."""
+
+    q_xyzw: np.ndarray | None  #: the unit quaternion, None if rejected
+    rejection: Rejection | None
+    jumped: bool  #: a confirmed clock jump: the caller starts a new timeline (once)
+    outliers: int  #: suspected jumps this stamp contradicted (counted ``clock_outliers``)
+    normalised: bool
+
+
+def check_quaternion_sample(stamps: StampCheck, t_s: float, q_xyzw, now_s: float | None) -> QuaternionSample:
+    """One stamped attitude quaternion through every check a truth stream gets: the quaternion, then its stamp.
+
+    The stamp is checked (and ``stamps`` advanced) only for a valid quaternion,
+    so a bad message never moves a stream's timeline.
+    """
+    q, rejection, normalised = check_quaternion(q_xyzw)
+    jumped, outliers = False, 0
+    if rejection is None:
+        before = stamps.outliers
+        rejection, jumped = stamps.check(t_s, now_s)
+        outliers = stamps.outliers - before
+    return QuaternionSample(q if rejection is None else None, rejection, jumped, outliers, normalised)
 
 
 # ------------------------------------------------------------------------------- one source

@@ -46,7 +46,7 @@ from ..core.assembly import SENSOR_PARAMS as PARAMS, build_models, read_correcti
 from ..core.sample_stream import SampleStream, fast_time_block
 from ..core.sensor_health import SensorHealth, truth_source_warnings
 from ..core.truth_buffer import TruthAt, TruthBuffer
-from ..core.validation import Jump, JumpDetector, Rejection, StampCheck, check_quaternion
+from ..core.validation import Jump, JumpDetector, Rejection, StampCheck, check_quaternion_sample
 from .launch import run_node
 from .params import ParameterError, declare, install_validation
 
@@ -157,19 +157,16 @@ class SensorNode(PmvNode):
         except ValueError:  # negative or non-finite stamp
             self._health.count(f"rejected_truth_{Rejection.ZERO_STAMP.value}")
             return
-        q, rejection, _ = check_quaternion(record.q_xyzw)
-        if rejection is None:
-            outliers = self._truth_stamps.outliers
-            rejection, jumped = self._truth_stamps.check(record.stamp_s, self._now_s())
-            if self._truth_stamps.outliers > outliers:
-                self._health.count("clock_outliers")
-            if jumped:
-                self._health.count("clock_jumps")
-                self._truth.clear()
-        if rejection is not None:
-            self._health.count(f"rejected_truth_{rejection.value}")
+        sample = check_quaternion_sample(self._truth_stamps, record.stamp_s, record.q_xyzw, self._now_s())
+        if sample.outliers:
+            self._health.count("clock_outliers")
+        if sample.jumped:
+            self._health.count("clock_jumps")
+            self._truth.clear()
+        if sample.rejection is not None:
+            self._health.count(f"rejected_truth_{sample.rejection.value}")
             return
-        self._truth.add(record.stamp_s, q)
+        self._truth.add(record.stamp_s, sample.q_xyzw)
 
     # -- ticks ----------------------------------------------------------------------------------
 

@@ -45,7 +45,7 @@ from .base import PmvNode
 from ..core.assembly import STAR_TRACKER_PARAMS as PARAMS, build_tracker
 from ..core.constants import GM_EARTH_M3_S2, EARTH_MEAN_RADIUS_M
 from ..core.star_tracker import FrameGrid, LatencyQueue, Outcome, inertial_rate_of_nadir_pointing
-from ..core.validation import STAMP_REJECTIONS, Rejection, StampCheck, check_quaternion
+from ..core.validation import STAMP_REJECTIONS, Rejection, StampCheck, check_quaternion_sample
 from .launch import run_node
 from .params import ParameterError, declare, install_validation
 
@@ -120,18 +120,15 @@ class StarTrackerNode(PmvNode):
             self._counters[f"rejected_truth_{Rejection.ZERO_STAMP.value}"] += 1
             return
         now_s = self._last_arrival_s = self._now_s()
-        q, rejection, normalised = check_quaternion(q_xyzw)
-        if rejection is None:
-            outliers = self._stamps.outliers
-            rejection, jumped = self._stamps.check(t_s, now_s)
-            self._counters["clock_outliers"] += self._stamps.outliers - outliers
-            if jumped:
-                self._new_timeline()
-        if rejection is not None:
-            self._counters[f"rejected_truth_{rejection.value}"] += 1
+        sample = check_quaternion_sample(self._stamps, t_s, q_xyzw, now_s)
+        self._counters["clock_outliers"] += sample.outliers
+        if sample.jumped:
+            self._new_timeline()
+        if sample.rejection is not None:
+            self._counters[f"rejected_truth_{sample.rejection.value}"] += 1
             return
-        self._counters["truth_quaternions_normalised"] += normalised
-        frames, attitudes, turn_rate = self._grid.add(t_s, q)
+        self._counters["truth_quaternions_normalised"] += sample.normalised
+        frames, attitudes, turn_rate = self._grid.add(t_s, sample.q_xyzw)
         if frames:
             rate = inertial_rate_of_nadir_pointing(self._mean_motion(), turn_rate)
             for frame_s, (measured, outcome) in zip(frames, self._tracker.measure_frames(frames, attitudes, rate)):
