@@ -6,8 +6,8 @@ at the same sensor rate (10 Hz):
 * pipeline — the three nodes in one process in fast time
   (:class:`pmv_ros.nodes.pipeline.Pipeline`, what ``pmv simulate`` runs):
   simulated sensor samples per wall second;
-* 1 worker — ``pmv campaign``'s own path (:func:`pmv_ros.campaign.run_campaign`:
-  submit, fly through :mod:`pmv_ros.core.flight`, gather, write Parquet) on an
+* 1 worker — ``pmv campaign``'s own path (:func:`pmv_ros.apps.campaign.run_campaign`:
+  submit, fly through :mod:`pmv_ros.runtime.flight`, gather, write Parquet) on an
   embedded LocalCluster of one worker process: samples per wall second;
 * 2 workers — the same tasks on a LocalCluster of two worker processes.
 
@@ -39,7 +39,7 @@ import logging  # noqa: E402
 
 import yaml  # noqa: E402
 
-from pmv_ros import campaign  # noqa: E402
+from pmv_ros.apps import campaign  # noqa: E402
 
 REPO = Path(__file__).resolve().parents[1]
 PRESET = REPO / "config" / "meteor_m2.yaml"

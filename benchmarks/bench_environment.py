@@ -20,7 +20,7 @@ import time
 
 import numpy as np
 
-from pmv_ros.core.environment import EnvironmentParameters, RadianceEnvironment
+from pmv_ros.physics.environment import EnvironmentParameters, RadianceEnvironment
 
 CHAIN_CHORDS_PER_S = 20000.0
 POINTS_PER_CHORD = 8

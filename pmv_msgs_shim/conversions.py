@@ -65,7 +65,7 @@ from .records import (
     check_stamp,
 )
 
-#: One arc minute in radians (the same value as pmv_ros.core.constants.ARCMIN_RAD).
+#: One arc minute in radians (the same value as pmv_ros.physics.constants.ARCMIN_RAD).
 ARCMIN_RAD = math.pi / (180.0 * 60.0)
 
 #: Name prefix of the /pmv/error_statistics statuses.

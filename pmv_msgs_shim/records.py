@@ -106,7 +106,7 @@ class HorizonCrossings:
 class AttitudeAngles:
     """Roll and pitch of the sensor axis from the local vertical, rad (/pmv/attitude, /pmv/residual).
 
-    Signs: :mod:`pmv_ros.core.attitude`. For /pmv/residual the angles are sensor minus star tracker.
+    Signs: :mod:`pmv_ros.physics.attitude`. For /pmv/residual the angles are sensor minus star tracker.
     """
 
     stamp_s: float
@@ -172,8 +172,8 @@ class Level(IntEnum):
 class ChannelStatistics:
     """Live error statistics of one channel (roll, pitch or meridional), rad; ground error in m.
 
-    Field names match :class:`pmv_ros.core.statistics.ChannelStatistics` (and the monitor's
-    :class:`pmv_ros.core.monitor.ChannelSummary`); the wire record adds level and message.
+    Field names match :class:`pmv_ros.analysis.statistics.ChannelStatistics` (and the monitor's
+    :class:`pmv_ros.runtime.monitor.ChannelSummary`); the wire record adds level and message.
     ``harmonics_rad`` maps k (multiple of the orbital frequency) to the
     amplitude over the last full orbit (NaN until there is one).
     ``ground_*`` is the residual as the ground error of a nadir imager
@@ -247,7 +247,7 @@ class ErrorStatistics:
 
     @classmethod
     def from_summary(cls, summary, stamp_s: float, hardware_id: str = "pmv") -> "ErrorStatistics":
-        """Build from a monitor summary (:class:`pmv_ros.core.monitor.MonitorSummary`), read by field name.
+        """Build from a monitor summary (:class:`pmv_ros.runtime.monitor.MonitorSummary`), read by field name.
 
         Duck-typed so that this package does not import the physics core.
         """

@@ -1,8 +1,17 @@
 """pmv_ros: emulator of the PMV scanning infrared Earth horizon sensor.
 
-The physics lives in :mod:`pmv_ros.core` (numpy/scipy only, no ROS imports);
-the ROS 2 nodes in :mod:`pmv_ros.nodes` are a thin skin over it, and the
-``pmv`` command line in :mod:`pmv_ros.cli` uses the same core.
+One folder per layer; every import points down the list:
+
+* :mod:`pmv_ros.cli` — the ``pmv`` command line: argparse and printing only;
+* :mod:`pmv_ros.apps` — the campaign on Dask, the telemetry analysis, the report;
+* :mod:`pmv_ros.nodes` — the ROS 2 nodes: parameters in, runtime, shim, publish;
+* :mod:`pmv_ros.runtime` — what the nodes do, without ROS (the campaign drives it too);
+* :mod:`pmv_ros.analysis` — error statistics and the flight-test procedure;
+* :mod:`pmv_ros.physics` — the instrument and the Earth (numpy/scipy only);
+* :mod:`pmv_ros.storage` — bounded file reading, strict JSON, rosbag2 recordings.
 """
 
 __version__ = "0.1.0"
+
+#: The layer folders, bottom to top: a module imports its own layer and those before it.
+LAYERS = ("storage", "physics", "analysis", "runtime", "nodes", "apps", "cli")

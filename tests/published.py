@@ -2,7 +2,7 @@
 
 #: physics.md §2.1 — oblateness error, Kondor (sensor 8201-V4), H = 500 km, i = 74.5°, a quarter orbit;
 #: rows (u_deg, meridional′, pitch′, roll′), signs as published (the paper convention: compare with the
-#: REP-103 core through pmv_ros.core.conventions.convert).
+#: REP-103 core through pmv_ros.physics.conventions.convert).
 KONDOR_OBLATENESS_TABLE = [
     (0, 0.0, 0.0, 0.0),
     (15, 4.7, 4.6, -1.3),

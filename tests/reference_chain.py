@@ -5,7 +5,7 @@ text, not to be fast: the horizon profile of §3 evaluated point by point
 from the exact chord geometry, the IFOV energy of each step as a numerical
 integral over the field, the Duhamel sum of §4 step 3 *as written*
 (O(steps²)), the comparators with linear interpolation, Gam/Del, the table
-look-up. It shares no code with the fast chain (pmv_ros.core.chain) beyond
+look-up. It shares no code with the fast chain (pmv_ros.physics.chain) beyond
 the parameter record, so agreement between the two is evidence.
 
 Two liberties, neither of which changes a result:
@@ -118,7 +118,7 @@ def reference_chord(horizon_nadir_rad, tangent_height_rate_m, disc_radiance_ru, 
                     co2_radiance_ru=None, co2_top_height_m=None, earth_radius_m=6371000.0, table=None):
     """One chord through the published program; returns a dict of Gam, Del, POP, Gam′ (rad) and t(1), t(2) (s).
 
-    Arguments as :func:`pmv_ros.core.chain.sense_horizon_chords`, scalars
+    Arguments as :func:`pmv_ros.physics.chain.sense_horizon_chords`, scalars
     only; ``table`` is None or a pair (del_rad list, pop_rad list).
     """
     chord = {

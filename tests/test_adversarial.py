@@ -45,8 +45,8 @@ from rclpy.qos import QoSProfile
 from rosgraph_msgs.msg import Clock
 
 import pmv_msgs_shim as shim
-from pmv_ros.core.attitude import quaternion_from_roll_pitch_yaw
-from pmv_ros.core.constants import ARCMIN_RAD
+from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
+from pmv_ros.physics.constants import ARCMIN_RAD
 
 pytestmark = pytest.mark.adversarial
 

@@ -14,12 +14,12 @@ from pathlib import Path
 import pytest
 import yaml
 
-from pmv_ros import campaign
+from pmv_ros.apps import campaign
 from pmv_ros.cli import main
-from pmv_ros.core.assembly import build_models, build_monitor
-from pmv_ros.core.constants import ARCMIN_RAD
-from pmv_ros.core.flight import OUTCOME_CODES, PENDING_CODE, flight_values, fly, sense_block
-from pmv_ros.core.star_tracker import Outcome
+from pmv_ros.runtime.assembly import build_models, build_monitor
+from pmv_ros.physics.constants import ARCMIN_RAD
+from pmv_ros.runtime.flight import OUTCOME_CODES, PENDING_CODE, flight_values, fly, sense_block
+from pmv_ros.physics.star_tracker import Outcome
 
 REPO = Path(__file__).resolve().parents[1]
 METEOR = REPO / "config" / "meteor_m2.yaml"

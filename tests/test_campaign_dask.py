@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pmv_ros import campaign
+from pmv_ros.apps import campaign
 
 REPO = Path(__file__).resolve().parents[1]
 METEOR = REPO / "config" / "meteor_m2.yaml"

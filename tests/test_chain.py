@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from pmv_ros.core import chain
-from pmv_ros.core.chain import (
+from pmv_ros.physics import chain
+from pmv_ros.physics.chain import (
     DEFAULT_CHAIN_PARAMETERS as P,
     ChordStatus,
     comparator_times,
@@ -27,9 +27,9 @@ from pmv_ros.core.chain import (
     sense_sampled_chords,
     sphere_chord,
 )
-from pmv_ros.core.constants import ARCMIN_RAD, EARTH_MEAN_RADIUS_M
-from pmv_ros.core.geometry import sphere_tangent_height
-from pmv_ros.core.radiance import atmosphere_radiance, disc_radiance
+from pmv_ros.physics.constants import ARCMIN_RAD, EARTH_MEAN_RADIUS_M
+from pmv_ros.physics.geometry import sphere_tangent_height
+from pmv_ros.physics.radiance import atmosphere_radiance, disc_radiance
 from reference_chain import reference_chord
 
 GAMMA = P.ifov_half_angle_rad
@@ -99,7 +99,7 @@ def test_tangent_height_rate_from_two_grazing_angles_is_exact_on_a_sphere():
 def test_tangent_height_rate_on_the_ellipsoid_places_the_layers():
     # GRS80, 500 km over 45° latitude, chord along the meridian: the equivalent sphere built from the
     # grazing angles of 0 and 60 km places the 20 and 40 km layers where the ray geometry does (to 10 m).
-    from pmv_ros.core.geometry import tangent_nadir_angles
+    from pmv_ros.physics.geometry import tangent_nadir_angles
 
     lat = math.radians(45.0)
     position = (EARTH_MEAN_RADIUS_M + 500e3) * np.array([math.cos(lat), 0.0, math.sin(lat)])

@@ -25,6 +25,8 @@ import time
 from pathlib import Path
 
 import pytest
+
+from pmv_ros import LAYERS
 import rclpy
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.executors import SingleThreadedExecutor
@@ -90,7 +92,7 @@ def test_colcon_install_layout(colcon_install):
         # The venv's python: its bootstrapper sets up the ROS libraries, its site-packages has rclpy.
         assert interpreter.parent.samefile(VENV_BIN), f"{name} runs {interpreter}, not the python of {VENV_BIN}"
     site = prefix / PYTHON_LIB
-    for package in ("pmv_ros", "pmv_ros/core", "pmv_ros/nodes", "pmv_ros/cli", "pmv_msgs_shim"):
+    for package in ("pmv_ros", *(f"pmv_ros/{layer}" for layer in LAYERS), "pmv_msgs_shim"):
         assert (site / package / "__init__.py").is_file(), f"{package} not installed in {site}"
     data_files = [path for path in (REPO / "pmv_ros/data").glob("*") if path.is_file()]
     for data in data_files:

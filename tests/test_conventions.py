@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from pmv_ros.core.conventions import convert
+from pmv_ros.physics.conventions import convert
 
 
 def test_paper_is_ros_with_both_signs_reversed():

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from pmv_ros.core.constants import EARTH_MEAN_RADIUS_M
-from pmv_ros.core.environment import (
+from pmv_ros.physics.constants import EARTH_MEAN_RADIUS_M
+from pmv_ros.physics.environment import (
     EnvironmentParameters,
     GaussianSphereField,
     LayerHeightField,

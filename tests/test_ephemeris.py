@@ -1,4 +1,4 @@
-"""Sun/Moon ephemeris, run epoch and the bright-body-in-a-chord check (pmv_ros.core.ephemeris).
+"""Sun/Moon ephemeris, run epoch and the bright-body-in-a-chord check (pmv_ros.physics.ephemeris).
 
 Reference values and where they come from:
 
@@ -23,9 +23,9 @@ import math
 import numpy as np
 import pytest
 
-from pmv_ros.core.attitude import body_axes_in_orbital, quaternion_from_roll_pitch_yaw
-from pmv_ros.core.constants import EARTH_MEAN_RADIUS_M, EARTH_ROTATION_RATE_RAD_S, SPHERE
-from pmv_ros.core.ephemeris import (
+from pmv_ros.physics.attitude import body_axes_in_orbital, quaternion_from_roll_pitch_yaw
+from pmv_ros.physics.constants import EARTH_MEAN_RADIUS_M, EARTH_ROTATION_RATE_RAD_S, SPHERE
+from pmv_ros.physics.ephemeris import (
     ASTRONOMICAL_UNIT_M,
     TT_MINUS_UTC_S,
     Epoch,
@@ -43,14 +43,14 @@ from pmv_ros.core.ephemeris import (
     sun_direction_from,
     sun_position_eci_m,
 )
-from pmv_ros.core.geometry import (
+from pmv_ros.physics.geometry import (
     CHORD_AZIMUTHS_RAD,
     chord_line_of_sight,
     sphere_nadir_angle_of_height,
     tangent_nadir_angles,
 )
-from pmv_ros.core.oblateness import sensor_axes_eci
-from pmv_ros.core.orbit import CircularOrbit
+from pmv_ros.physics.oblateness import sensor_axes_eci
+from pmv_ros.physics.orbit import CircularOrbit
 
 DEG = math.pi / 180.0
 IFOV_HALF_ANGLE_RAD = 1.1 * DEG  # physics.md §1: 2γ = 2.2°

@@ -27,10 +27,10 @@ from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
 import pmv_msgs_shim as shim
-from pmv_ros.core.attitude import quaternion_from_roll_pitch_yaw
-from pmv_ros.core.constants import ARCMIN_RAD, EARTH_MEAN_RADIUS_M
-from pmv_ros.core.ephemeris import Epoch, moon_direction_eci, sun_direction_from
-from pmv_ros.core.sensor import BRIGHT_BODIES, ChordStatus
+from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
+from pmv_ros.physics.constants import ARCMIN_RAD, EARTH_MEAN_RADIUS_M
+from pmv_ros.physics.ephemeris import Epoch, moon_direction_eci, sun_direction_from
+from pmv_ros.physics.sensor import BRIGHT_BODIES, ChordStatus
 from pmv_ros.nodes.error_monitor_node import ErrorMonitorNode
 from pmv_ros.nodes.pipeline import Pipeline
 from pmv_ros.nodes.sensor_node import PARAMS as SENSOR_PARAMS

@@ -16,11 +16,11 @@ import numpy as np
 import pytest
 import yaml
 
-from pmv_ros.core.constants import ARCMIN_RAD
-from pmv_ros.core.oblateness import closed_form_oblateness
-from pmv_ros.core import parameters
-from pmv_ros.core.assembly import SENSOR_PARAMS, build_models
-from pmv_ros.report import harmonic_spectrum
+from pmv_ros.physics.constants import ARCMIN_RAD
+from pmv_ros.physics.oblateness import closed_form_oblateness
+from pmv_ros.runtime import parameters
+from pmv_ros.runtime.assembly import SENSOR_PARAMS, build_models
+from pmv_ros.apps.report import harmonic_spectrum
 
 REPO = Path(__file__).resolve().parents[1]
 

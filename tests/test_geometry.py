@@ -11,9 +11,9 @@ import math
 import numpy as np
 import pytest
 
-from pmv_ros.core.attitude import quaternion_from_roll_pitch_yaw
-from pmv_ros.core.constants import ARCMIN_RAD, EARTH_MEAN_RADIUS_M, GRS80, SPHERE
-from pmv_ros.core.geometry import (
+from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
+from pmv_ros.physics.constants import ARCMIN_RAD, EARTH_MEAN_RADIUS_M, GRS80, SPHERE
+from pmv_ros.physics.geometry import (
     chord_line_of_sight,
     ellipsoid_line_of_sight,
     sphere_nadir_angle_of_height,
@@ -21,9 +21,9 @@ from pmv_ros.core.geometry import (
     vertical_from_horizon_angles,
     CHORD_AZIMUTHS_RAD,
 )
-from pmv_ros.core.conventions import convert
-from pmv_ros.core.oblateness import closed_form_oblateness, oblateness_error, sensed_roll_pitch, sensor_axes_eci
-from pmv_ros.core.orbit import CircularOrbit
+from pmv_ros.physics.conventions import convert
+from pmv_ros.physics.oblateness import closed_form_oblateness, oblateness_error, sensed_roll_pitch, sensor_axes_eci
+from pmv_ros.physics.orbit import CircularOrbit
 from published import KONDOR_OBLATENESS_TABLE
 
 KONDOR_TABLE = KONDOR_OBLATENESS_TABLE  # physics.md §2.1, Kondor, a quarter orbit

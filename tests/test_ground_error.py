@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from pmv_ros.core.constants import ARCMIN_RAD, EARTH_MEAN_RADIUS_M
-from pmv_ros.core.ground_error import GroundError, combine_in_quadrature, ground_error, nadir_ground_error
+from pmv_ros.physics.constants import ARCMIN_RAD, EARTH_MEAN_RADIUS_M
+from pmv_ros.physics.ground_error import GroundError, combine_in_quadrature, ground_error, nadir_ground_error
 
 R = EARTH_MEAN_RADIUS_M
 

@@ -14,12 +14,12 @@ import math
 import numpy as np
 import pytest
 
-from pmv_ros.core import chain
-from pmv_ros.core.constants import ARCMIN_RAD
-from pmv_ros.core.correction import calibrated_correction_table
-from pmv_ros.core.environment import EnvironmentParameters
-from pmv_ros.core.orbit import CircularOrbit
-from pmv_ros.core.sensor import ChainDetector, RadianceConfig, SensorConfig, SensorModel
+from pmv_ros.physics import chain
+from pmv_ros.physics.constants import ARCMIN_RAD
+from pmv_ros.physics.correction import calibrated_correction_table
+from pmv_ros.physics.environment import EnvironmentParameters
+from pmv_ros.physics.orbit import CircularOrbit
+from pmv_ros.physics.sensor import ChainDetector, RadianceConfig, SensorConfig, SensorModel
 
 ALTITUDE_M = 835e3
 PHI0, SLOPE = chain.sphere_chord(ALTITUDE_M)
@@ -144,7 +144,7 @@ def test_three_samples_against_the_dense_line_of_sight(wavelength_km, tolerance_
     sampling resolves the synoptic scales and the red background down to ≈ 1000 km; finer radial
     structure is what it does not resolve (README, "The flight environment").
     """
-    from pmv_ros.core.radiance import atmosphere_radiance
+    from pmv_ros.physics.radiance import atmosphere_radiance
 
     phases = np.linspace(0.0, 2.0 * math.pi, 8, endpoint=False)
     k = 2.0 * math.pi / (wavelength_km * 1e3)

@@ -7,17 +7,17 @@ import math
 import numpy as np
 import pytest
 
-from pmv_ros.core.attitude import quaternion_from_roll_pitch_yaw
-from pmv_ros.core.constants import ARCMIN_RAD
-from pmv_ros.core.monitor import (
+from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
+from pmv_ros.physics.constants import ARCMIN_RAD
+from pmv_ros.runtime.monitor import (
     COUNTER_NAMES,
     ErrorMonitor,
     MonitorConfig,
     Status,
     orbit_angles_from_state,
 )
-from pmv_ros.core.orbit import CircularOrbit
-from pmv_ros.core.validation import Rejection
+from pmv_ros.physics.orbit import CircularOrbit
+from pmv_ros.runtime.validation import Rejection
 
 KONDOR_ALTITUDE_M, KONDOR_INCLINATION = 500e3, math.radians(74.5)
 
@@ -207,7 +207,7 @@ def test_oblateness_removal_and_harmonics_over_a_kondor_orbit():
     config = MonitorConfig.for_orbit(KONDOR_ALTITUDE_M, KONDOR_INCLINATION)
     monitor = ErrorMonitor(config)
     orbit = CircularOrbit(KONDOR_ALTITUDE_M, KONDOR_INCLINATION)
-    from pmv_ros.core.oblateness import closed_form_oblateness
+    from pmv_ros.physics.oblateness import closed_form_oblateness
 
     ripple = 0.5 * ARCMIN_RAD
     for t in np.arange(4.0, 1.05 * orbit.period_s, 4.0):           # §5.1 sampling: every 4 s
@@ -344,7 +344,7 @@ def test_batch_equals_the_per_sample_monitor_with_bad_input(jump, monkeypatch):
     Without a clock jump the array form runs (the per-sample fallback is made to fail); with one, the batch is
     fed sample by sample. 1e-9 arcmin: the same residuals summed in another order.
     """
-    from pmv_ros.core.monitor import BATCH_STATUSES, PENDING_CODE
+    from pmv_ros.runtime.monitor import BATCH_STATUSES, PENDING_CODE
 
     t, roll, pitch, frames, q, arrival, now, (position, velocity) = _hostile_batch(jump)
     config = small_config(min_interval_s=0.002)

@@ -20,8 +20,8 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 import pmv_msgs_shim as shim
-from pmv_ros.core.attitude import quaternion_from_roll_pitch_yaw, roll_pitch_yaw_from_quaternion
-from pmv_ros.core.constants import ARCMIN_RAD, ARCSEC_RAD, EARTH_MEAN_RADIUS_M
+from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw, roll_pitch_yaw_from_quaternion
+from pmv_ros.physics.constants import ARCMIN_RAD, ARCSEC_RAD, EARTH_MEAN_RADIUS_M
 from pmv_ros.nodes.error_monitor_node import ErrorMonitorNode
 from pmv_ros.nodes.pipeline import Pipeline
 from pmv_ros.nodes.sensor_node import SensorNode
@@ -142,7 +142,7 @@ def test_star_tracker_node_alone(harness):
 def test_star_tracker_frames_between_sparse_truth_take_the_draws_of_one_call(harness):
     # Truth at 1 Hz, frames at 2 Hz: two or three frames fall due per truth sample. They are
     # measured in one call, so the seeded noise and failures are those of the model's array path.
-    from pmv_ros.core.star_tracker import StarTracker, StarTrackerParameters
+    from pmv_ros.physics.star_tracker import StarTracker, StarTrackerParameters
 
     options = {"rate_hz": 2.0, "latency_s": 0.0, "random_failure_probability": 0.2, "seed": 7}
     h = harness(StarTrackerNode, options)

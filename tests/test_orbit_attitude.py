@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from pmv_ros.core.attitude import (
+from pmv_ros.physics.attitude import (
     body_axes_in_orbital,
     nadir_in_body,
     quaternion_conjugate,
@@ -20,7 +20,7 @@ from pmv_ros.core.attitude import (
     rotation_vector_from_quaternion,
     true_roll_pitch,
 )
-from pmv_ros.core.orbit import CircularOrbit, eci_to_ecef, geocentric_latitude_longitude
+from pmv_ros.physics.orbit import CircularOrbit, eci_to_ecef, geocentric_latitude_longitude
 
 
 def test_period_matches_the_reference_orbits():

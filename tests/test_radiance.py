@@ -1,4 +1,4 @@
-"""The horizon radiance profile of physics.md §3 (pmv_ros.core.radiance)."""
+"""The horizon radiance profile of physics.md §3 (pmv_ros.physics.radiance)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from pmv_ros.core.radiance import (
+from pmv_ros.physics.radiance import (
     CO2_RADIANCE_RU,
     LINEAR_RAMP,
     RampShape,

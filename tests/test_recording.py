@@ -23,8 +23,8 @@ import pytest
 
 import pmv_msgs_shim as shim
 from pmv_ros.cli import main
-from pmv_ros.core.orbit import CircularOrbit
-from pmv_ros.recording import McapRecording
+from pmv_ros.physics.orbit import CircularOrbit
+from pmv_ros.storage.recording import McapRecording
 
 REPO = Path(__file__).resolve().parents[1]
 PMV = Path(sys.executable).parent / "pmv"
@@ -147,7 +147,7 @@ def test_the_mcap_opens_with_the_other_library(round_trip):
 
 
 def test_the_epoch_and_elements_are_on_the_sensors_diagnostics(round_trip):
-    from pmv_ros.recording import read_recording
+    from pmv_ros.storage.recording import read_recording
 
     path, _ = round_trip
     topics = read_recording(path, {"/diagnostics": ("diagnostic_msgs/msg/DiagnosticArray",),
@@ -163,7 +163,7 @@ def test_the_epoch_and_elements_are_on_the_sensors_diagnostics(round_trip):
     assert elements.roll_pitch_convention == shim.WIRE_CONVENTION
     # Anyone can put the spacecraft where the odometry says it was from the elements and a stamp:
     # u of the odometry's position against u from the elements, to 1e-9 rad.
-    from pmv_ros.core.monitor import orbit_angles_from_state
+    from pmv_ros.runtime.monitor import orbit_angles_from_state
 
     for recorded in topics["/orbit/odometry"][::500]:
         stamp_s, position, velocity = shim.read_orbit_state(recorded.message)
@@ -176,7 +176,7 @@ def test_the_epoch_and_elements_are_on_the_sensors_diagnostics(round_trip):
 def wall_clock_run(tmp_path_factory):
     """One Kondor orbit whose clock starts at a wall-clock time, recorded; (path, live statistics, start)."""
     from pmv_ros.nodes.pipeline import Pipeline
-    from pmv_ros.report import statistics_to_dict
+    from pmv_ros.apps.report import statistics_to_dict
 
     # What a real-time node does: its orbit starts at u0 when the node starts, at whatever Unix time
     # that is (2026-12-01 plus an odd fraction of an orbit), so the stamps say nothing of the phase.
@@ -206,7 +206,7 @@ def test_a_wall_clock_recording_is_analysed_at_the_right_phase(wall_clock_run, c
     # What taking the Unix stamps as the orbital time does (the issue's mistake): the same residuals,
     # the phase from u = 2π t / T with t the stamp.
     rows = ["t_s,roll_rad,pitch_rad,truth_roll_rad,truth_pitch_rad"]
-    from pmv_ros.recording import read_recording
+    from pmv_ros.storage.recording import read_recording
 
     topics = read_recording(path, {"/pmv/residual": ("geometry_msgs/msg/Vector3Stamped",)})
     for recorded in topics["/pmv/residual"]:

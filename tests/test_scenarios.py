@@ -6,8 +6,8 @@ import math
 
 import pytest
 
-from pmv_ros.core.constants import ARCMIN_RAD
-from pmv_ros.core.scenarios import model_a, model_b, model_c, model_d, run_pair, scenario
+from pmv_ros.physics.constants import ARCMIN_RAD
+from pmv_ros.physics.scenarios import model_a, model_b, model_c, model_d, run_pair, scenario
 from published import MODEL_A_TABLE
 
 

@@ -56,10 +56,10 @@ def test_frame_ids_are_the_documented_names():
 
 
 def test_importing_the_shim_and_the_core_does_not_import_rclpy():
-    code = ("import sys, pmv_msgs_shim, pmv_ros.core.monitor, pmv_ros.core.statistics, pmv_ros.core.ground_error;"
+    code = ("import sys, pmv_msgs_shim, pmv_ros.runtime.monitor, pmv_ros.analysis.statistics, pmv_ros.physics.ground_error;"
             "sys.exit(1 if 'rclpy' in sys.modules else 0)")
     assert subprocess.run([sys.executable, "-c", code]).returncode == 0
-    code = ("import sys, pmv_ros.core.monitor, pmv_ros.core.statistics, pmv_ros.core.ground_error;"
+    code = ("import sys, pmv_ros.runtime.monitor, pmv_ros.analysis.statistics, pmv_ros.physics.ground_error;"
             "sys.exit(1 if any(m.endswith('_msgs') or m == 'rclpy' for m in sys.modules) else 0)")
     assert subprocess.run([sys.executable, "-c", code]).returncode == 0
 
@@ -291,7 +291,7 @@ def test_error_statistics_round_trip():
 
 
 def test_error_statistics_from_a_monitor_summary():
-    from pmv_ros.core.monitor import ErrorMonitor, MonitorConfig
+    from pmv_ros.runtime.monitor import ErrorMonitor, MonitorConfig
 
     monitor = ErrorMonitor(MonitorConfig(orbital_period_s=600.0, remove_oblateness=False))
     monitor.add_truth(1.0, 0.0, 0.0)

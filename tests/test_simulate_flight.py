@@ -15,8 +15,8 @@ sys.path.insert(0, str(REPO / "tests"))
 
 from test_flight_environment import fly_one_orbit, preset_values  # noqa: E402
 
-from pmv_ros.core.constants import ARCMIN_RAD  # noqa: E402
-from pmv_ros.report import flight_record, harmonic_spectrum  # noqa: E402
+from pmv_ros.physics.constants import ARCMIN_RAD  # noqa: E402
+from pmv_ros.apps.report import flight_record, harmonic_spectrum  # noqa: E402
 
 
 def simulate(*arguments, timeout=300):

@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from pmv_ros.core.attitude import quaternion_from_roll_pitch_yaw
-from pmv_ros.core.constants import ARCSEC_RAD
-from pmv_ros.core.star_tracker import Outcome, StarTracker, StarTrackerParameters, inertial_rate_of_nadir_pointing
+from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
+from pmv_ros.physics.constants import ARCSEC_RAD
+from pmv_ros.physics.star_tracker import Outcome, StarTracker, StarTrackerParameters, inertial_rate_of_nadir_pointing
 
 
 def _pair(seed: int, **options):

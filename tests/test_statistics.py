@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from pmv_ros.core.statistics import (
+from pmv_ros.analysis.statistics import (
     ORBIT_HARMONICS,
     OrbitRing,
     RunningStatistics,

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation, Slerp
 
-from pmv_ros.core.star_tracker import FrameGrid
-from pmv_ros.core.truth_buffer import TruthAt, TruthBuffer
+from pmv_ros.physics.star_tracker import FrameGrid
+from pmv_ros.runtime.truth_buffer import TruthAt, TruthBuffer
 
 RATE_RAD_S = np.array([2e-3, -1e-3, 5e-4])  # a constant body rate, orbital components
 

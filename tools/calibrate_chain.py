@@ -42,11 +42,11 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import minimize, minimize_scalar
 
-from pmv_ros.core.chain import DEFAULT_CHAIN_PARAMETERS, ChainParameters
-from pmv_ros.core.constants import ARCMIN_RAD
-from pmv_ros.core.correction import STORED_TABLE_ALTITUDES_KM, rig_correction_table, stored_table_name
-from pmv_ros.core.radiance import RampShape
-from pmv_ros.core.scenarios import model_a, run_pair
+from pmv_ros.physics.chain import DEFAULT_CHAIN_PARAMETERS, ChainParameters
+from pmv_ros.physics.constants import ARCMIN_RAD
+from pmv_ros.physics.correction import STORED_TABLE_ALTITUDES_KM, rig_correction_table, stored_table_name
+from pmv_ros.physics.radiance import RampShape
+from pmv_ros.physics.scenarios import model_a, run_pair
 
 DATA_DIR = Path(__file__).resolve().parents[1] / "pmv_ros" / "data"
 
@@ -92,7 +92,7 @@ def fit_time_constant(exponent: float) -> tuple[float, float]:
 
 def _matches_shipped(record: dict, tables: dict) -> bool:
     """The shipped files agree with a fresh fit (to round-off: 1 ns in T_p, 1e-3′ in β, 1e-5′ in the tables)."""
-    from pmv_ros.core.correction import CorrectionTable
+    from pmv_ros.physics.correction import CorrectionTable
 
     try:
         shipped = json.loads((DATA_DIR / "chain_calibration.json").read_text(encoding="utf-8"))
@@ -191,7 +191,7 @@ def main(argv=None) -> int:
                       and DEFAULT_CHAIN_PARAMETERS.ramp == adopted.ramp)
     if not defaults_match:
         print(f"NOTE: ChainParameters defaults (T_p = {DEFAULT_CHAIN_PARAMETERS.detector_time_constant_s}) differ "
-              f"from the fit (T_p = {tau}); update pmv_ros/core/chain.py.")
+              f"from the fit (T_p = {tau}); update pmv_ros/physics/chain.py.")
     if args.check:
         same = _matches_shipped(record, tables)
         print("shipped files are up to date" if same else "shipped files differ from a fresh fit")

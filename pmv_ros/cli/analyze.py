@@ -21,7 +21,7 @@ telemetry are in the paper convention (the default for CSV), recordings in
 the convention their sensor states on ``/diagnostics``, else REP-103 (ros).
 Every signed angle of the report is in the input's convention; the
 oblateness model is removed in the paper convention it is published in,
-through :func:`pmv_ros.core.conventions.convert`.
+through :func:`pmv_ros.physics.conventions.convert`.
 
 Extra columns are ignored; blank lines and lines starting with ``#`` are
 skipped; a row with a NaN/Inf cell (a telemetry drop-out) is skipped and
@@ -38,11 +38,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.constants import ARCMIN_RAD
-from ..core.conventions import CONVENTIONS, convert
-from ..core.ground_error import ground_error
-from ..core.orbit import MAX_ALTITUDE_M, MIN_ALTITUDE_M, CircularOrbit
-from ..core.statistics import ORBIT_HARMONICS, correct_reference_drift, flight_test_statistics
+from ..physics.constants import ARCMIN_RAD
+from ..physics.conventions import CONVENTIONS, convert
+from ..physics.ground_error import ground_error
+from ..physics.orbit import MAX_ALTITUDE_M, MIN_ALTITUDE_M, CircularOrbit
+from ..analysis.statistics import ORBIT_HARMONICS, correct_reference_drift, flight_test_statistics
 from .common import add_json_flag, format_table, print_json, ranged_float
 
 ORBIT_LAYOUT = ("orbit", "u_deg", "roll_arcmin", "pitch_arcmin")
@@ -323,7 +323,7 @@ def phase_from_odometry(messages, timeout_s: float):
     the odometry flies, and how many messages were unreadable.
     """
     import pmv_msgs_shim as shim
-    from ..core.monitor import orbit_angles_from_state
+    from ..runtime.monitor import orbit_angles_from_state
 
     rows, unreadable = [], 0
     for recorded in messages:
@@ -395,7 +395,7 @@ def analyze_recording(path: str, altitude_m: float, inclination_rad: float, *, c
 
     The messages go, in the order they were logged, through the same
     alignment and per-sample statistics as ``error_monitor_node``
-    (:func:`pmv_ros.core.assembly.build_monitor` with its default settings):
+    (:func:`pmv_ros.runtime.assembly.build_monitor` with its default settings):
     truth interpolated at each sensor stamp, never across a truth gap; the
     oblateness model at the orbital angle of the sample. ``per_sample`` in
     the report is what ``/pmv/error_statistics`` says at the end of a live
@@ -405,9 +405,9 @@ def analyze_recording(path: str, altitude_m: float, inclination_rad: float, *, c
     messages. Raises ValueError (RecordingError) naming what is missing or wrong.
     """
     import pmv_msgs_shim as shim
-    from ..core.assembly import MONITOR_PARAMS, build_monitor
-    from ..core.parameters import preset_values
-    from ..recording import RecordingError, iter_recording, recorded_topics
+    from ..runtime.assembly import MONITOR_PARAMS, build_monitor
+    from ..runtime.parameters import preset_values
+    from ..storage.recording import RecordingError, iter_recording, recorded_topics
 
     truth_topics = (truth_topic,) if truth_topic else TRUTH_TOPICS
     wanted = {SENSOR_TOPIC: VECTOR3_STAMPED, ODOMETRY_TOPIC: ODOMETRY, DIAGNOSTICS_TOPIC: DIAGNOSTIC_ARRAY}

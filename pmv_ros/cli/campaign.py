@@ -46,7 +46,7 @@ def _positive_int(low: int, high: int):
 
 def add_parser(subparsers) -> None:
     """Register ``pmv campaign``."""
-    from ..campaign import MAX_ORBITS_PER_TASK, MAX_SEEDS
+    from ..apps.campaign import MAX_ORBITS_PER_TASK, MAX_SEEDS
 
     parser = subparsers.add_parser(
         "campaign", help="Monte-Carlo error budget over days of the year and seeds, on Dask",
@@ -95,9 +95,9 @@ def run(args) -> int:
     """Plan the tasks, run those not done on Dask, aggregate and report."""
     import yaml
 
-    from .. import campaign
-    from ..core.assembly import SENSOR_PARAMS, parse_epoch
-    from ..core.parameters import ParameterError, preset_values
+    from ..apps import campaign
+    from ..runtime.assembly import SENSOR_PARAMS, parse_epoch
+    from ..runtime.parameters import ParameterError, preset_values
 
     path = Path(args.config)
     if not path.is_file():

@@ -7,6 +7,8 @@ import json
 import math
 import sys
 
+from ..storage.json_output import finite_json
+
 
 class OneLineParser(argparse.ArgumentParser):
     """An ArgumentParser whose usage errors are one line on stderr and exit status 2."""
@@ -41,17 +43,6 @@ def add_json_flag(parser: argparse.ArgumentParser) -> None:
 def print_json(payload: dict) -> None:
     """Print ``payload`` as one JSON object (NaN becomes null)."""
     print(json.dumps(finite_json(payload), indent=None, separators=(",", ":"), allow_nan=False))
-
-
-def finite_json(value):
-    """``value`` with every non-finite float (NaN, ±Inf) replaced by None, for strict JSON."""
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, dict):
-        return {k: finite_json(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [finite_json(v) for v in value]
-    return value
 
 
 def format_table(rows: list[dict], columns: list[tuple[str, str, str]]) -> str:

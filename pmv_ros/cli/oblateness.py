@@ -2,7 +2,7 @@
 
 It prints the published table (physics.md §2.1), so the paper's sign
 convention is the default; ``--convention ros`` gives REP-103, the signs of
-``/pmv/attitude``. The conversion is :func:`pmv_ros.core.conventions.convert`.
+``/pmv/attitude``. The conversion is :func:`pmv_ros.physics.conventions.convert`.
 """
 
 from __future__ import annotations
@@ -11,10 +11,10 @@ import math
 
 import numpy as np
 
-from ..core.constants import ARCMIN_RAD, GRS80
-from ..core.conventions import CONVENTIONS, convert
-from ..core.oblateness import closed_form_oblateness, oblateness_error
-from ..core.orbit import MAX_ALTITUDE_M, MIN_ALTITUDE_M, CircularOrbit
+from ..physics.constants import ARCMIN_RAD, GRS80
+from ..physics.conventions import CONVENTIONS, convert
+from ..physics.oblateness import closed_form_oblateness, oblateness_error
+from ..physics.orbit import MAX_ALTITUDE_M, MIN_ALTITUDE_M, CircularOrbit
 from .common import add_json_flag, format_table, print_json, ranged_float
 
 COLUMNS = [

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import math
 
-from ..core.chain import ChordStatus
-from ..core.constants import ARCMIN_RAD
-from ..core.correction import load_correction
-from ..core.orbit import MAX_ALTITUDE_M, MIN_ALTITUDE_M
-from ..core.radiance import MAX_LAYER_HEIGHT_M, MEAN_EARTH_RADIANCE_RU, WINDOW_HEIGHT_M, WINDOW_HEIGHT_SIGMA_M
-from ..core.scenarios import (
+from ..physics.chain import ChordStatus
+from ..physics.constants import ARCMIN_RAD
+from ..physics.correction import load_correction
+from ..physics.orbit import MAX_ALTITUDE_M, MIN_ALTITUDE_M
+from ..physics.radiance import MAX_LAYER_HEIGHT_M, MEAN_EARTH_RADIANCE_RU, WINDOW_HEIGHT_M, WINDOW_HEIGHT_SIGMA_M
+from ..physics.scenarios import (
     MAX_JUMP_DISTANCE_M,
     MAX_SCENARIO_RADIANCE_RU,
     MODEL_B_RADIANCES_RU,

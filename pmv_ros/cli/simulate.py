@@ -7,7 +7,7 @@ import sys
 import time
 from pathlib import Path
 
-from ..core.constants import ARCMIN_RAD
+from ..physics.constants import ARCMIN_RAD
 from .common import add_json_flag, format_table, print_json, ranged_float
 
 COLUMNS = [
@@ -81,9 +81,9 @@ def run(args) -> int:
 
     from ..nodes.params import ParameterError
     from ..nodes.pipeline import Pipeline
-    from ..report import flight_record, statistics_to_dict, write_report
+    from ..apps.report import flight_record, statistics_to_dict, write_report
 
-    from ..core.assembly import parse_epoch
+    from ..runtime.assembly import parse_epoch
 
     overrides = {} if args.rate_hz is None else {"sensor.rate_hz": args.rate_hz}
     if args.seed is not None:

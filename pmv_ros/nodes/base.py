@@ -10,7 +10,7 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from threadpoolctl import ThreadpoolController
 
-from ..core.validation import JumpDetector, SourceLock
+from ..runtime.validation import JumpDetector, SourceLock
 from .params import coerce_parameters
 
 #: How often (wall clock, s) the graph is asked how many publishers an input has.
@@ -176,7 +176,7 @@ class PmvNode(Node):
 
         Best effort unless the node takes its inputs reliably (see ``__init__``).
         The message info's publisher GID, or on Jazzy its publication
-        sequence number, goes to a :class:`pmv_ros.core.validation.SourceLock`
+        sequence number, goes to a :class:`pmv_ros.runtime.validation.SourceLock`
         (the rule is there): the first publisher heard is kept, a second one's
         messages are dropped and counted, never interleaved;
         :meth:`input_source_problems` says so for ``/diagnostics``. Silence

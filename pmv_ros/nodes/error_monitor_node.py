@@ -5,7 +5,7 @@ and ``/orbit/odometry`` (where the spacecraft is, for the oblateness model);
 publishes ``/pmv/residual`` (sensed − true, REP-103) for every aligned sample,
 ``/pmv/error_statistics`` every ``1/statistics_rate_hz`` seconds of sample
 time, and ``/diagnostics``. The alignment and statistics are
-:class:`pmv_ros.core.monitor.ErrorMonitor`; this node only converts and wires.
+:class:`pmv_ros.runtime.monitor.ErrorMonitor`; this node only converts and wires.
 
 Statistics are driven by the sample stamps, so the node behaves the same on
 the wall clock and on a fast-time ``/clock``; a 1 Hz node-clock timer times
@@ -14,7 +14,7 @@ out samples waiting for truth when nothing arrives at all and publishes
 memory is bounded by the monitor's caps.
 
 Bad input is dropped before it touches any state and counted per reason
-(``rejected_<stream>_<reason>``: the checks of :mod:`pmv_ros.core.validation`,
+(``rejected_<stream>_<reason>``: the checks of :mod:`pmv_ros.runtime.validation`,
 with the ``input.*`` plausibility bounds), messages the shim cannot read as
 ``rejected_<stream>_unreadable``; only accepted sensor samples drive the
 statistics schedule. Only the first publisher heard on each input is used; a
@@ -36,8 +36,8 @@ from nav_msgs.msg import Odometry
 
 import pmv_msgs_shim as shim
 from .base import PmvNode
-from ..core.assembly import MONITOR_PARAMS as PARAMS, build_monitor
-from ..core.monitor import SENSOR_REJECTIONS, ErrorMonitor, Status
+from ..runtime.assembly import MONITOR_PARAMS as PARAMS, build_monitor
+from ..runtime.monitor import SENSOR_REJECTIONS, ErrorMonitor, Status
 from .launch import run_node
 from .params import ParameterError, declare, install_validation
 

@@ -23,7 +23,7 @@ from rclpy.time_source import TimeSource
 from rosgraph_msgs.msg import Clock as ClockMsg
 
 import pmv_msgs_shim as shim
-from ..core.assembly import NODE_PARAMS
+from ..runtime.assembly import NODE_PARAMS
 from .base import PmvNode, hold_single_threaded_blas, release_single_threaded_blas
 from .error_monitor_node import ErrorMonitorNode
 from .params import check_params_files
@@ -160,7 +160,7 @@ class Pipeline:
 
     def _start_recorder(self, path) -> None:
         """Record every topic the graph has now (all nodes are up) into ``path``, logged at simulation time."""
-        from ..recording import McapRecording
+        from ..storage.recording import McapRecording
         from .recorder import TopicRecorder
 
         self.recording = McapRecording(path)

@@ -1,4 +1,4 @@
-"""A recorder node: every topic of the graph as received, into a rosbag2 MCAP file (:mod:`pmv_ros.recording`).
+"""A recorder node: every topic of the graph as received, into a rosbag2 MCAP file (:mod:`pmv_ros.storage.recording`).
 
 What ``ros2 bag record -a -s mcap --use-sim-time`` does, for ``pmv simulate
 --record``: one raw subscription per topic (the CDR bytes the publisher sent,
@@ -23,7 +23,7 @@ class TopicRecorder(PmvNode):
     """Records the topics it is given (or every topic the graph has) into ``recording``.
 
     Args:
-        recording: an open :class:`pmv_ros.recording.McapRecording`.
+        recording: an open :class:`pmv_ros.storage.recording.McapRecording`.
         topics: ``{topic: pkg/msg/Type}``; None for every topic the graph lists now.
     """
 

@@ -6,7 +6,7 @@ profile (published on ``/attitude/truth``) or follows the user's
 ``/attitude/truth``, runs the four chords through the instrument model and
 publishes crossings, roll/pitch (REP-103, corrected and uncorrected),
 odometry and health. Physics in :mod:`pmv_ros.core`, message layout in
-:mod:`pmv_msgs_shim`, health in :mod:`pmv_ros.core.sensor_health`.
+:mod:`pmv_msgs_shim`, health in :mod:`pmv_ros.runtime.sensor_health`.
 
 A chord without a horizon, without a crossing, or with the Sun or the Moon
 near its arc is invalid: its point is NaN and so is its pair's angle (roll
@@ -14,17 +14,17 @@ for ±Y, pitch for ±X); ``/diagnostics`` names the chord and the cause.
 
 Follow mode (``attitude.source: follow``; README "Follow mode") never
 publishes ``/attitude/truth``. It measures with the attitude at its own
-sample time (:class:`pmv_ros.core.truth_buffer.TruthBuffer`: slerp between
+sample time (:class:`pmv_ros.runtime.truth_buffer.TruthBuffer`: slerp between
 truth samples, the last body rate for at most
 ``attitude.extrapolation_periods`` truth periods past the newest), stamps
 the output with that time, and publishes nothing from stale truth: the stale
 state is an ERROR on ``/diagnostics`` at once and logged once. Bad truth
 (non-finite, far-from-unit, zero, future, duplicate, backward, too-fast
-stamps: :mod:`pmv_ros.core.validation`) is dropped and counted; a truth clock
+stamps: :mod:`pmv_ros.runtime.validation`) is dropped and counted; a truth clock
 that jumps back by more than ``attitude.follow_timeout_s`` starts a new
 timeline once the next stamp confirms it. Only the first publisher of
 ``/attitude/truth`` heard is followed; a second one is an ERROR on
-``/diagnostics`` (:class:`pmv_ros.core.validation.SourceLock`).
+``/diagnostics`` (:class:`pmv_ros.runtime.validation.SourceLock`).
 
 ``sensor.correction`` is read once, at start-up, and is read-only: no
 parameter change, and nothing from the network, makes the node read a file.
@@ -42,11 +42,11 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 
 import pmv_msgs_shim as shim
 from .base import PmvNode
-from ..core.assembly import SENSOR_PARAMS as PARAMS, build_models, read_correction
-from ..core.sample_stream import SampleStream, fast_time_block
-from ..core.sensor_health import SensorHealth, truth_source_warnings
-from ..core.truth_buffer import TruthAt, TruthBuffer
-from ..core.validation import Jump, JumpDetector, Rejection, StampCheck, check_quaternion_sample
+from ..runtime.assembly import SENSOR_PARAMS as PARAMS, build_models, read_correction
+from ..runtime.sample_stream import SampleStream, fast_time_block
+from ..runtime.sensor_health import SensorHealth, truth_source_warnings
+from ..runtime.truth_buffer import TruthAt, TruthBuffer
+from ..runtime.validation import Jump, JumpDetector, Rejection, StampCheck, check_quaternion_sample
 from .launch import run_node
 from .params import ParameterError, declare, install_validation
 
@@ -177,7 +177,7 @@ class SensorNode(PmvNode):
 
     @property
     def orbit(self):
-        """The orbit the sensor flies (:class:`pmv_ros.core.orbit.CircularOrbit`)."""
+        """The orbit the sensor flies (:class:`pmv_ros.physics.orbit.CircularOrbit`)."""
         return self._stream.orbit
 
     @property
@@ -202,7 +202,7 @@ class SensorNode(PmvNode):
 
     @property
     def fast_time_block(self) -> int:
-        """Samples computed per call in fast time (:func:`pmv_ros.core.sample_stream.fast_time_block`)."""
+        """Samples computed per call in fast time (:func:`pmv_ros.runtime.sample_stream.fast_time_block`)."""
         v = self._values
         return fast_time_block(v["sensor.rate_hz"], v["sim.time_scale"], self._external_drive)
 

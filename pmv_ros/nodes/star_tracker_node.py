@@ -2,7 +2,7 @@
 
 Subscribes to ``/attitude/truth`` and publishes ``/star_tracker/attitude``:
 frames on a regular grid of its own rate (the true attitude slerped to each
-frame time), measured by :class:`pmv_ros.core.star_tracker.StarTracker`
+frame time), measured by :class:`pmv_ros.physics.star_tracker.StarTracker`
 (noise, 300″/s rate limit, outage windows, random failures), stamped with
 the frame time and released ``latency_s`` later. Nothing is published for a
 frame without attitude; ``/diagnostics`` says why.
@@ -11,7 +11,7 @@ Frames are driven by the truth stream, so the node runs the same on the wall
 clock and on a fast-time ``/clock``. QoS: reliable, keep-last 100; the
 release queue holds at most ``latency_s × rate_hz`` frames.
 
-Bad input (issues 6, 15; the checks are :mod:`pmv_ros.core.validation`): a
+Bad input (issues 6, 15; the checks are :mod:`pmv_ros.runtime.validation`): a
 truth message with a non-finite or far-from-unit quaternion, a zero, future
 (beyond ``future_tolerance_s`` of the node clock), duplicate, backward or
 too-fast (``input.max_rate_hz``) stamp is dropped and counted per reason on
@@ -42,10 +42,10 @@ from geometry_msgs.msg import QuaternionStamped
 
 import pmv_msgs_shim as shim
 from .base import PmvNode
-from ..core.assembly import STAR_TRACKER_PARAMS as PARAMS, build_tracker
-from ..core.constants import GM_EARTH_M3_S2, EARTH_MEAN_RADIUS_M
-from ..core.star_tracker import FrameGrid, LatencyQueue, Outcome, inertial_rate_of_nadir_pointing
-from ..core.validation import STAMP_REJECTIONS, Rejection, StampCheck, check_quaternion_sample
+from ..runtime.assembly import STAR_TRACKER_PARAMS as PARAMS, build_tracker
+from ..physics.constants import GM_EARTH_M3_S2, EARTH_MEAN_RADIUS_M
+from ..physics.star_tracker import FrameGrid, LatencyQueue, Outcome, inertial_rate_of_nadir_pointing
+from ..runtime.validation import STAMP_REJECTIONS, Rejection, StampCheck, check_quaternion_sample
 from .launch import run_node
 from .params import ParameterError, declare, install_validation
 

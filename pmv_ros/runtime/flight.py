@@ -2,7 +2,7 @@
 
 orbit → attitude profile → sensor model → star-tracker model → the monitor's
 statistics, for one preset and one set of overrides — the models the nodes
-build (:mod:`pmv_ros.core.assembly`), run by the same core pieces the nodes
+build (:mod:`pmv_ros.runtime.assembly`), run by the same core pieces the nodes
 run, fed the way the in-process pipeline (``pmv simulate``) feeds them, so a
 flight gives the statistics the pipeline gives for the same preset, epoch
 and seed. Used by ``pmv campaign``.
@@ -10,20 +10,20 @@ and seed. Used by ``pmv campaign``.
 What each node does, and what runs it here:
 
 * sensor_node (fast time, stepped): samples at the node's own stamps
-  (:func:`~pmv_ros.core.sample_stream.stepped_times`: its clock summed step
+  (:func:`~pmv_ros.runtime.sample_stream.stepped_times`: its clock summed step
   by step from ``sim.start_time_s``), the attitude from its profile, sensed
-  in the node's blocks (:func:`~pmv_ros.core.sample_stream.fast_time_block`,
+  in the node's blocks (:func:`~pmv_ros.runtime.sample_stream.fast_time_block`,
   stepped), whole blocks to the last (the node computes a block ahead). The
   environment's fields are evaluated on time grids spanning each block, so
   another grouping — even a shorter last block — moves roll by ≈ 2e-4′.
 * star_tracker_node: per truth sample, its
-  :class:`~pmv_ros.core.star_tracker.FrameGrid` (frames on the tracker's grid,
-  the truth slerped to them), :meth:`~pmv_ros.core.star_tracker.StarTracker.measure_frames`
+  :class:`~pmv_ros.physics.star_tracker.FrameGrid` (frames on the tracker's grid,
+  the truth slerped to them), :meth:`~pmv_ros.physics.star_tracker.StarTracker.measure_frames`
   (the same draws in the same order) and its
-  :class:`~pmv_ros.core.star_tracker.LatencyQueue` (released ``latency_s``
+  :class:`~pmv_ros.physics.star_tracker.LatencyQueue` (released ``latency_s``
   after the frame, at a truth stamp): :func:`tracker_frames`. Frames not
   released when the flight ends are never seen by the monitor.
-* error_monitor_node: :meth:`~pmv_ros.core.monitor.ErrorMonitor.add_batch` —
+* error_monitor_node: :meth:`~pmv_ros.runtime.monitor.ErrorMonitor.add_batch` —
   the monitor's validation, alignment and statistics, the released frames
   arriving just before the sensor sample of their tick, the node clock at
   each tick the sample's stamp, and the orbit's state at each stamp as the
@@ -42,12 +42,12 @@ import numpy as np
 
 from .assembly import MONITOR_PARAMS, NODE_PARAMS, SENSOR_PARAMS, STAR_TRACKER_PARAMS, build_models, build_monitor, \
     build_tracker
-from .constants import EARTH_MEAN_RADIUS_M, GM_EARTH_M3_S2
+from ..physics.constants import EARTH_MEAN_RADIUS_M, GM_EARTH_M3_S2
 from .monitor import BATCH_STATUSES, PENDING_CODE, MonitorSummary
-from .orbit import geocentric_latitude_longitude
+from ..physics.orbit import geocentric_latitude_longitude
 from .parameters import ParameterError, preset_values, unknown_parameter_problem
 from .sample_stream import fast_time_block, stepped_times
-from .star_tracker import FrameGrid, LatencyQueue, Outcome, inertial_rate_of_nadir_pointing
+from ..physics.star_tracker import FrameGrid, LatencyQueue, Outcome, inertial_rate_of_nadir_pointing
 
 #: Sample outcome codes in flight tables: the monitor's batch codes (0 is OK), PENDING_CODE still waiting at the end.
 OUTCOME_CODES = BATCH_STATUSES
@@ -72,7 +72,7 @@ def flight_values(document: dict, overrides: dict | None = None) -> FlightValues
     sensor, each override given to the nodes that declare it (winning over
     the preset's sections); an override no node declares, or a key of the
     preset no node has, is refused. Raises
-    :class:`~pmv_ros.core.parameters.ParameterError` (a ValueError) naming a
+    :class:`~pmv_ros.runtime.parameters.ParameterError` (a ValueError) naming a
     bad value or key.
     """
     settings = {"sim.fast_time": True, **(overrides or {})}
@@ -103,7 +103,7 @@ class TrackerFrames:
     """Star-tracker frames of a flight, as star_tracker_node makes them.
 
     ``frame_s`` (M,) stamps, ``q_measured`` (4, M) (NaN without output),
-    ``outcome`` (M,) :class:`~pmv_ros.core.star_tracker.Outcome` codes, and
+    ``outcome`` (M,) :class:`~pmv_ros.physics.star_tracker.Outcome` codes, and
     ``released_at`` (M,) the index of the truth sample at which each frame
     is published (-1: not published by the end, or no output).
     """

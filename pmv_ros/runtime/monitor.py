@@ -18,7 +18,7 @@ Alignment (physics.md §6: truth has noise, latency and gaps)
     is given up as ``stale_truth`` — that is what a star-tracker outage
     produces, and alignment resumes by itself when truth returns.
 
-Validation (issues 6 and 15; the checks are :mod:`pmv_ros.core.validation`)
+Validation (issues 6 and 15; the checks are :mod:`pmv_ros.runtime.validation`)
     Every incoming sample is checked before it touches any state: non-finite
     values, a zero (unset) or negative stamp, a stamp in the future of
     ``now_s``, a duplicate or backwards stamp, one stamped faster than the
@@ -28,7 +28,7 @@ Validation (issues 6 and 15; the checks are :mod:`pmv_ros.core.validation`)
     statistic can become non-finite: every value that reaches one is finite
     and bounded.
 
-Clock jumps (the rule of :class:`~pmv_ros.core.validation.JumpDetector`)
+Clock jumps (the rule of :class:`~pmv_ros.runtime.validation.JumpDetector`)
     A stamp that goes back by more than ``clock_jump_s`` — or a ``now_s``
     that does, or leaps ahead by more than ``max_truth_wait_s`` — is a *suspected* jump; the next
     observation decides. If it continues the new timeline the jump is real
@@ -45,9 +45,9 @@ Statistics
     Per channel roll, pitch, meridional, both with the oblateness model
     removed and kept (``remove_oblateness`` picks the one reported by
     default): running count, mean, σ (N − 1), 3σ, max |e|
-    (:class:`~pmv_ros.core.statistics.RunningStatistics`); harmonic
+    (:class:`~pmv_ros.analysis.statistics.RunningStatistics`); harmonic
     amplitudes over the last full orbit from a fixed-size ring
-    (:class:`~pmv_ros.core.statistics.OrbitRing`); and the residual as the
+    (:class:`~pmv_ros.analysis.statistics.OrbitRing`); and the residual as the
     ground error of a nadir imager (physics.md §7): cross-track for roll,
     along-track for pitch, circular for meridional. Memory is bounded
     whatever the run length: fixed counters, fixed ring, truth buffer and
@@ -75,11 +75,11 @@ from enum import Enum
 
 import numpy as np
 
-from .attitude import true_roll_pitch
-from .constants import EARTH_MEAN_RADIUS_M
-from .ground_error import nadir_ground_error
-from .oblateness import closed_form_oblateness
-from .orbit import CircularOrbit
+from ..physics.attitude import true_roll_pitch
+from ..physics.constants import EARTH_MEAN_RADIUS_M
+from ..physics.ground_error import nadir_ground_error
+from ..physics.oblateness import closed_form_oblateness
+from ..physics.orbit import CircularOrbit
 from .validation import (
     STAMP_REJECTIONS,
     InputBounds,
@@ -91,7 +91,7 @@ from .validation import (
     check_orbit_state,
     check_quaternion,
 )
-from .statistics import (
+from ..analysis.statistics import (
     ChannelStatistics,
     DEFAULT_MAX_CONDITION,
     DEFAULT_MAX_GAP_FRACTION,
@@ -107,7 +107,7 @@ CHANNELS = ("roll", "pitch", "meridional")
 class Status(str, Enum):
     """What became of a valid sensor sample: ``ok`` or why it could not be aligned (the value is the counter name).
 
-    A sample rejected by validation has a :class:`~pmv_ros.core.validation.Rejection` instead.
+    A sample rejected by validation has a :class:`~pmv_ros.runtime.validation.Rejection` instead.
     """
 
     OK = "ok"
@@ -237,7 +237,7 @@ class Outcome:
     """What became of one sensor sample: its residuals (rad) and ground error (m), or why it was skipped.
 
     ``status`` is :attr:`Status.OK`, a :class:`Status` skip reason, or the
-    :class:`~pmv_ros.core.validation.Rejection` of an invalid sample.
+    :class:`~pmv_ros.runtime.validation.Rejection` of an invalid sample.
     ``residual_*`` is sensor − truth, as published on /pmv/residual.
     ``roll_rad``/``pitch_rad``/``meridional_rad`` are the residuals that went
     into the reported statistics (offsets removed, oblateness model removed
@@ -621,7 +621,7 @@ class ErrorMonitor:
         """Add a star-tracker quaternion (x, y, z, w), body in the orbital frame; validated, then as roll/pitch.
 
         The quaternion becomes the roll and pitch an ideal horizon sensor would
-        read (:func:`pmv_ros.core.attitude.true_roll_pitch`), so yaw cannot
+        read (:func:`pmv_ros.physics.attitude.true_roll_pitch`), so yaw cannot
         leak into the comparison.
         """
         q, rejection, normalised = check_quaternion(q_orbital_to_body)
@@ -843,7 +843,7 @@ class ErrorMonitor:
         """Many samples at once: what :meth:`add_truth_quaternion`, :meth:`add_odometry` and :meth:`add_sensor`,
         called in arrival order, would do — the same validation, alignment and statistics.
 
-        Each input goes through the same checks (:mod:`pmv_ros.core.validation`) one by one, in
+        Each input goes through the same checks (:mod:`pmv_ros.runtime.validation`) one by one, in
         arrival order; the alignment and the statistics then run on arrays. A batch the array form
         cannot follow exactly — a clock jump or outlier, samples already pending, truth that the
         history or the capacity would prune before use, a pending queue that would overflow — is fed

@@ -5,16 +5,16 @@ its physics reads):
 
 1. geometry — per chord, the nadir angles where the line of sight grazes the
    hard Earth and the top of the CO₂ layer on the GRS80 ellipsoid
-   (:mod:`pmv_ros.core.geometry`);
+   (:mod:`pmv_ros.physics.geometry`);
 2. detection — the horizon crossing each chord reports: the signal chain of
    physics.md §4 under the radiance environment, or an ideal detector that
    reports the geometric horizon of the emitting layer (``detector=None``);
 3. validity — a chord whose half-plane has no horizon, whose scan found no
    crossing, or whose swept arc has the Sun or the Moon within the exclusion
-   angle (:func:`pmv_ros.core.ephemeris.bright_body_in_chords`) reports no
+   angle (:func:`pmv_ros.physics.ephemeris.bright_body_in_chords`) reports no
    crossing (NaN) and says why (:class:`ChordStatus`);
 4. pair angles — roll from the ±Y pair, pitch from the ±X pair
-   (:func:`pmv_ros.core.geometry.roll_pitch_from_horizon_angles`): a lost
+   (:func:`pmv_ros.physics.geometry.roll_pitch_from_horizon_angles`): a lost
    chord takes its own pair's angle with it (NaN), never the other one, and
    nothing is fabricated from three chords;
 5. optional on-board oblateness compensation with the closed-form model
@@ -175,11 +175,11 @@ class RadianceConfig:
     Args:
         source: ``"uniform"`` — the same disc radiance and window height on
             every chord (physics.md §3.1 Model A with B(1) = B(2)); or
-            ``"environment"`` — :class:`~pmv_ros.core.environment.RadianceEnvironment`
+            ``"environment"`` — :class:`~pmv_ros.physics.environment.RadianceEnvironment`
             sampled on the rotating Earth along each chord's line of sight: the
             window-layer height and the radiance at the horizon point, and the
             radiance where the lines of sight at the inward angles
-            :data:`~pmv_ros.core.chain.DISC_SAMPLE_INWARD_RAD` hit the ground
+            :data:`~pmv_ros.physics.chain.DISC_SAMPLE_INWARD_RAD` hit the ground
             (≈ 440, 830 and 1400 km inside the horizon at 835 km), which the chain
             interpolates (physics.md §3.2 item 3): climatology, weather and
             height as they occur in flight.
@@ -235,7 +235,7 @@ class RadianceConfig:
 
 
 class ChainDetector:
-    """Detection by the signal chain of physics.md §4 (:func:`pmv_ros.core.chain.sense_horizon_chords`).
+    """Detection by the signal chain of physics.md §4 (:func:`pmv_ros.physics.chain.sense_horizon_chords`).
 
     Per chord, the ellipsoid geometry gives the hard-Earth horizon φ₀ and the
     grazing angle of the CO₂ top, hence dh/dφ; the radiance comes from

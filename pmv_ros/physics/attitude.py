@@ -3,7 +3,7 @@
 This is the one module that says what roll, pitch and yaw mean. The geometry,
 the signal chain, the nodes, the monitor and the campaign all go through it;
 the published tables' (paper) convention exists only at the edge, through
-:func:`pmv_ros.core.conventions.convert`.
+:func:`pmv_ros.physics.conventions.convert`.
 
 Frames
     Orbital frame O: Z along the geocentric radius away from the Earth, X in

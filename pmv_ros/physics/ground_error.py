@@ -2,7 +2,7 @@
 
 The chain of the geolocation paper: the line of sight of a pixel, given in
 the body frame, is turned into the orbital frame by the attitude
-(R = R_z(ψ)·R_y(θ)·R_x(φ), REP-103, the convention of :mod:`pmv_ros.core.attitude`),
+(R = R_z(ψ)·R_y(θ)·R_x(φ), REP-103, the convention of :mod:`pmv_ros.physics.attitude`),
 intersected with the sphere R + h₁ (the root on the visible side), and the
 ground point with and without the attitude error compared along and across
 the track: P_X = ρ·[asin(X′/ρ) − asin(X/ρ)], likewise P_Y, and the circular
@@ -83,7 +83,7 @@ def ground_error(roll_rad, pitch_rad, altitude_m, yaw_rad=0.0, *, look_along_rad
 
     Args:
         roll_rad, pitch_rad, yaw_rad: attitude error, rad (convention of
-            :mod:`pmv_ros.core.attitude`).
+            :mod:`pmv_ros.physics.attitude`).
         altitude_m: spacecraft altitude H above the 6371 km mean radius, m.
         look_along_rad, look_across_rad: pixel direction from the boresight, rad.
         target_height_m: height h₁ of the imaged surface above the mean radius, m.
@@ -119,7 +119,7 @@ def nadir_ground_error(roll_rad, pitch_rad, altitude_m, target_height_m=0.0) -> 
 
     At zero look angle and zero yaw the boresight −Z_B in the orbital frame is
     R·(0, 0, −1) = (−cos φ sin θ, sin φ, −cos φ cos θ) (REP-103,
-    :mod:`pmv_ros.core.attitude`; a yaw would only turn this tilt about the
+    :mod:`pmv_ros.physics.attitude`; a yaw would only turn this tilt about the
     vertical — the residuals the monitor passes have none); the rest is the
     same sphere intersection and P_X, P_Y of physics.md §7. Scalars give floats.
 

@@ -2,23 +2,23 @@
 
 The nodes declare these specs and call these builders; the CLI, the campaign
 and the tests call them without rclpy (``preset_values`` in
-:mod:`pmv_ros.core.parameters` reads a params file the way rclpy merges it).
+:mod:`pmv_ros.runtime.parameters` reads a params file the way rclpy merges it).
 """
 
 from __future__ import annotations
 
 import math
 
-from .attitude_profile import AttitudeProfile
-from .constants import ARCMIN_RAD, ARCSEC_RAD, EARTH_ROTATION_RATE_RAD_S, GRS80, SPHERE
-from .correction import load_correction
-from .environment import YEAR_DAYS, EnvironmentParameters
-from .ephemeris import SECONDS_PER_DAY, Epoch
+from ..physics.attitude_profile import AttitudeProfile
+from ..physics.constants import ARCMIN_RAD, ARCSEC_RAD, EARTH_ROTATION_RATE_RAD_S, GRS80, SPHERE
+from ..physics.correction import load_correction
+from ..physics.environment import YEAR_DAYS, EnvironmentParameters
+from ..physics.ephemeris import SECONDS_PER_DAY, Epoch
 from .monitor import ErrorMonitor, MonitorConfig
-from .orbit import CircularOrbit
+from ..physics.orbit import CircularOrbit
 from .parameters import ParamSpec
-from .sensor import ChainDetector, RadianceConfig, SensorConfig, SensorModel, nominal_scan_start_nadir_rad
-from .star_tracker import StarTracker, StarTrackerParameters
+from ..physics.sensor import ChainDetector, RadianceConfig, SensorConfig, SensorModel, nominal_scan_start_nadir_rad
+from ..physics.star_tracker import StarTracker, StarTrackerParameters
 from .validation import InputBounds
 
 

@@ -11,7 +11,7 @@ physics.md §4, as named, ordered, pure stages (each usable and testable alone):
    linearly interpolated between steps;
 5. :func:`gam_del` — Gam = t(1)·W, Del = (t(2) − t(1))·W;
 6. :func:`brightness_correction` — POP = F(Del), Gam′ = Gam − POP (the table
-   F itself lives in :mod:`pmv_ros.core.correction`);
+   F itself lives in :mod:`pmv_ros.physics.correction`);
 7. :func:`pair_angles` — β = ½(Gam(1) − Gam(2)) for a pair of opposite chords.
 
 :func:`sense_sampled_chords` runs stages 1–6 on any radiance profile given as a
@@ -283,7 +283,7 @@ def tangent_height_rate_from_layer(horizon_nadir_rad, layer_nadir_rad, layer_hei
     Solves h = s·sin δ − R·(1 − cos δ), δ = φ_layer − φ₀ (the equivalent
     sphere): exact on a sphere, and on the ellipsoid it makes the chord's
     equivalent sphere pass exactly through both grazing angles — e.g. φ₀ and
-    φ(60 km) from :func:`pmv_ros.core.geometry.tangent_nadir_angles` with
+    φ(60 km) from :func:`pmv_ros.physics.geometry.tangent_nadir_angles` with
     ``height_m`` = 0 and 60 km. (A plain secant h/δ would be ≈ 3 % low at 60 km.)
 
     Args:
@@ -495,7 +495,7 @@ def brightness_correction(del_rad, correction=None):
     Args:
         del_rad: Del, rad.
         correction: a callable F mapping Del (rad) to POP (rad), e.g. a
-            :class:`pmv_ros.core.correction.CorrectionTable`; None for no table.
+            :class:`pmv_ros.physics.correction.CorrectionTable`; None for no table.
     """
     d = np.asarray(del_rad, float)
     if correction is None:
@@ -732,7 +732,7 @@ def sense_horizon_chords(horizon_nadir_rad, tangent_height_rate_m, disc_radiance
 
     Args:
         horizon_nadir_rad: φ₀, the chord's hard-Earth horizon nadir angle, rad
-            (e.g. from :func:`pmv_ros.core.geometry.tangent_nadir_angles`), in (0, π/2].
+            (e.g. from :func:`pmv_ros.physics.geometry.tangent_nadir_angles`), in (0, π/2].
         tangent_height_rate_m: s = dh/dφ near the horizon, m/rad, > 0
             ((R + H)·cos φ₀ on a sphere, ≈ the slant range; on the ellipsoid
             use :func:`tangent_height_rate_from_layer` with the grazing angles

@@ -1,7 +1,7 @@
 """The infrared horizon as the sensor sees it: radiance of a line of sight (physics.md §3).
 
 Radiance is in r.u. throughout the physics (1 r.u. = J = L_min =
-2.5 mW/(cm²·sr), :data:`~pmv_ros.core.constants.RADIANCE_UNIT_MW_CM2_SR`);
+2.5 mW/(cm²·sr), :data:`~pmv_ros.physics.constants.RADIANCE_UNIT_MW_CM2_SR`);
 mW/(cm²·sr) appears only through :func:`ru_from_mw_cm2_sr` and
 :func:`mw_cm2_sr_from_ru` at the edges.
 

@@ -2,7 +2,7 @@
 
 A campaign is a set of tasks (day of year, seed[, environment component]);
 each flies K orbits from 00:00 of the preset's time of day on that day
-through the core (:func:`pmv_ros.core.flight.fly`: the nodes' models and the
+through the core (:func:`pmv_ros.runtime.flight.fly`: the nodes' models and the
 monitor's statistics, no ROS) on a Dask worker. Every finished task becomes
 one Parquet file in the output folder, written by the client under a
 temporary name and renamed into place, so a file is either whole or absent:
@@ -30,12 +30,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .cli.common import finite_json
-from .core.constants import ARCMIN_RAD
-from .core.flight import OUTCOME_CODES, flight_values, fly
-from .core.monitor import CHANNELS, Status
-from .core.orbit import CircularOrbit
-from .core.statistics import RunningStatistics
+from ..storage.json_output import finite_json
+from ..physics.constants import ARCMIN_RAD
+from ..runtime.flight import OUTCOME_CODES, flight_values, fly
+from ..runtime.monitor import CHANNELS, Status
+from ..physics.orbit import CircularOrbit
+from ..analysis.statistics import RunningStatistics
 
 #: Environment components a campaign can fly alone (``--components``), with the overrides that isolate each.
 #: "total" is the preset as it is. The oblateness component keeps the GRS80 Earth under a uniform
@@ -232,7 +232,7 @@ def run_task(settings: Settings, task: Task):
 
 
 def summary_to_dict(summary) -> dict:
-    """A :class:`~pmv_ros.core.monitor.MonitorSummary` as JSON-ready data, arcmin and m for people."""
+    """A :class:`~pmv_ros.runtime.monitor.MonitorSummary` as JSON-ready data, arcmin and m for people."""
     channels = {}
     for channel in summary.channels:
         channels[channel.channel] = {

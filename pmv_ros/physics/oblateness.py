@@ -6,9 +6,9 @@ opposite chords — which on an ellipsoid differs from the geocentric vertical
 the ellipsoid for any orbit position and attitude; :func:`oblateness_error`
 is that reading at zero attitude. :func:`closed_form_oblateness` is the
 published approximation, used for on-board compensation and as a cross-check.
-Signs follow :mod:`pmv_ros.core.attitude` (REP-103); the published table's
+Signs follow :mod:`pmv_ros.physics.attitude` (REP-103); the published table's
 (paper) signs are the opposite for roll and pitch — convert with
-:func:`pmv_ros.core.conventions.convert` where the table is read or printed.
+:func:`pmv_ros.physics.conventions.convert` where the table is read or printed.
 """
 
 from __future__ import annotations

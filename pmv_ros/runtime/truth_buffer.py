@@ -5,7 +5,7 @@ publishes truth at its own. :class:`TruthBuffer` keeps the last samples of
 truth and answers "what was the attitude at t?":
 
 * between two samples: the constant-rate turn between them (slerp,
-  :func:`pmv_ros.core.attitude.slerp`), unless they are further apart than
+  :func:`pmv_ros.physics.attitude.slerp`), unless they are further apart than
   ``max_gap_s`` — nothing is interpolated across a gap;
 * beyond the newest: the last body rate carried on for at most
   ``extrapolation_periods`` truth periods (the interval of the last two
@@ -24,7 +24,7 @@ import bisect
 import enum
 from collections import deque
 
-from .attitude import slerp
+from ..physics.attitude import slerp
 
 
 class TruthAt(str, enum.Enum):

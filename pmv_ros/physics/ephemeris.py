@@ -17,7 +17,7 @@ part of that check:
 Frame: "ECI" here is the mean equator and mean equinox of date (precession
 applied, nutation ≤ 0.005° left out, as the low-precision series are).
 Vectors are ``(3,)`` or ``(3, N)``; per-chord arrays ``(4, ...)`` in the
-order +X, +Y, −X, −Y of :mod:`pmv_ros.core.geometry`.
+order +X, +Y, −X, −Y of :mod:`pmv_ros.physics.geometry`.
 
 Time scales: the ephemerides take a Julian date in TT; a UTC date is within
 70 s of it, which moves the Moon by < 0.01°, below the series' accuracy, so
@@ -171,7 +171,7 @@ class Epoch:
     def day_of_year(self, t_s):
         """Fractional day of the UTC calendar year at ``t_s`` (s): 1.0 = 1 January 00:00.
 
-        The convention of :func:`pmv_ros.core.environment.horizon_radiance_climatology`;
+        The convention of :func:`pmv_ros.physics.environment.horizon_radiance_climatology`;
         restarts at 1.0 on each 1 January.
         """
         unix_days = self.julian_date(t_s) - JD_UNIX_EPOCH
@@ -187,7 +187,7 @@ class Epoch:
         which is referred to the mean equinox of date — the x axis of this
         module's ECI frame (the IAU 2000 Earth Rotation Angle is referred to
         the CIO instead and differs by the accumulated precession in right
-        ascension, ≈ 0.3° in 2024). For :func:`pmv_ros.core.orbit.eci_to_ecef`
+        ascension, ≈ 0.3° in 2024). For :func:`pmv_ros.physics.orbit.eci_to_ecef`
         pass ``angle_at_epoch_rad=epoch.earth_rotation_angle(0.0)``: its rate
         differs from GMST's by 1e-11 rad/s (< 1e-4° a year).
         """
@@ -405,7 +405,7 @@ def angular_distance_to_scan_arc(direction_sensor, crossing_nadir_rad, scan_star
     """Angle from a direction to each chord's swept arc of lines of sight, rad, ``(4, ...)``.
 
     Chord k sweeps the great-circle arc of lines of sight at azimuth α_k
-    (:data:`pmv_ros.core.geometry.CHORD_AZIMUTHS_RAD`) with nadir angles
+    (:data:`pmv_ros.physics.geometry.CHORD_AZIMUTHS_RAD`) with nadir angles
     between the scan start θ₀ and the crossing angle. In coordinates along
     the boresight b, the chord direction c_k and the chord-plane normal n_k,
     the direction is p = (z, x, y) = (p·b, p·c_k, p·n_k); its projection on
@@ -546,7 +546,7 @@ def bright_body_in_chords(orbit: CircularOrbit, t_s, q_orbital_to_body, epoch: E
     """Which chords see the Sun or the Moon in their field, for an orbit, times and attitudes.
 
     The body directions come from the spacecraft (Moon parallax included),
-    go into the sensor frame through :func:`pmv_ros.core.oblateness.sensor_axes_eci`,
+    go into the sensor frame through :func:`pmv_ros.physics.oblateness.sensor_axes_eci`,
     and are tested against each chord's swept arc
     (:func:`angular_distance_to_scan_arc`); a body behind the Earth's disc
     (:func:`occulted_by_earth`) cannot blind a chord.

@@ -44,7 +44,7 @@ import numpy as np
 from .chain import DEFAULT_CHAIN_PARAMETERS, scan_start_nadir_angle, sense_horizon_chords, sphere_chord
 from .constants import ARCMIN_RAD, EARTH_MEAN_RADIUS_M
 from .radiance import MAX_EARTH_RADIANCE_RU, MIN_EARTH_RADIANCE_RU
-from .validation import read_text_file
+from ..storage.files import read_text_file
 
 #: Rig radiances, r.u.: 1 … 4 in steps of 0.025 (121 points).
 RIG_RADIANCES_RU = tuple(np.round(np.linspace(MIN_EARTH_RADIANCE_RU, MAX_EARTH_RADIANCE_RU, 121), 6))
@@ -104,7 +104,7 @@ class CorrectionTable:
         """Load a ``del_arcmin,pop_arcmin`` CSV file; ValueError naming the file and line if it is malformed.
 
         Only a regular text file of bounded size is read, without blocking
-        (:func:`pmv_ros.core.validation.read_text_file`); no reason quotes the file.
+        (:func:`pmv_ros.storage.files.read_text_file`); no reason quotes the file.
         """
         return cls.from_csv_text(read_text_file(path, "correction table"), source=str(path))
 

@@ -139,7 +139,7 @@ def roll_pitch_from_horizon_angles(horizon_nadir_rad):
     """Roll and pitch, rad, read from the four horizon nadir angles, each pair on its own.
 
     Equivalent to :func:`vertical_from_horizon_angles` followed by
-    :func:`pmv_ros.core.attitude.roll_pitch_from_nadir`, written so that roll
+    :func:`pmv_ros.physics.attitude.roll_pitch_from_nadir`, written so that roll
     depends on the ±Y pair only and pitch on the ±X pair only: a lost chord
     makes its own angle NaN and leaves the other one standing (the ±Y tilt
     enters pitch at second order; it is taken as zero when that pair is lost).
@@ -154,7 +154,7 @@ def roll_pitch_from_horizon_angles(horizon_nadir_rad):
     tilt_x = 0.5 * (phi[0] - phi[2])
     tilt_y = 0.5 * (phi[1] - phi[3])
     # With n ∝ (tan δx, tan δy, −1): roll = atan2(−n_y, −n_z) = −δy and
-    # pitch = atan2(n_x, |(n_y, n_z)|) = atan(tan δx · cos δy) (REP-103, pmv_ros.core.attitude).
+    # pitch = atan2(n_x, |(n_y, n_z)|) = atan(tan δx · cos δy) (REP-103, pmv_ros.physics.attitude).
     roll = -tilt_y
     pitch = np.arctan(np.tan(tilt_x) * np.cos(np.where(np.isfinite(tilt_y), tilt_y, 0.0)))
     return roll, pitch

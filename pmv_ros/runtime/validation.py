@@ -24,8 +24,9 @@ monitor core only call these checks, count the reasons and say so on
 * **One source per stream** — :class:`SourceLock` (the rule is in its
   docstring): the first publisher heard is kept; messages of any other are
   dropped, never interleaved.
-* **Files** — :func:`read_text_file`: a regular text file of bounded size,
-  opened without blocking; errors never echo the file's contents.
+* **Files** — :func:`pmv_ros.storage.files.read_text_file`: a regular text
+  file of bounded size, opened without blocking; errors never echo the file's
+  contents.
 
 Times are seconds (float), angles radians, lengths metres.
 """
@@ -33,15 +34,13 @@ Times are seconds (float), angles radians, lengths metres.
 from __future__ import annotations
 
 import math
-import os
-import stat
 from dataclasses import dataclass
 from enum import Enum
 from typing import NamedTuple
 
 import numpy as np
 
-from .constants import EARTH_MEAN_RADIUS_M, GM_EARTH_M3_S2
+from ..physics.constants import EARTH_MEAN_RADIUS_M, GM_EARTH_M3_S2
 
 #: | |q| − 1 | up to which a quaternion is normalised (and counted); beyond it, rejected.
 #: Rounding in a float32 stack or a serialiser leaves ~1e-7; 1e-2 admits a stack that
@@ -509,70 +508,3 @@ class _Track:
                 self.sequence_rate_hz = 0.8 * self.sequence_rate_hz + 0.2 * rate if known else rate
             self.sequence = sequence
         self.arrival_s = arrival_s
-
-
-# ------------------------------------------------------------------------------------- files
-
-#: Largest file a file-valued parameter may name, bytes (a correction table of 121 rows is ≈ 3 kB).
-MAX_PARAMETER_FILE_BYTES = 1 << 20
-
-
-def read_text_file(path, what: str, max_bytes: int = MAX_PARAMETER_FILE_BYTES) -> str:
-    """The text of a regular UTF-8 file of at most ``max_bytes`` bytes; ValueError with a one-line reason.
-
-    Never blocks and never reads more than ``max_bytes + 1`` bytes: the path
-    is stat'ed first and must be a regular file (a FIFO, a device, a directory
-    or a socket is refused before it is opened), then opened with
-    ``O_NONBLOCK`` and checked again on the open descriptor (the name may have
-    been swapped in between). A file with a NUL byte or that is not UTF-8 is
-    refused as binary. The reason names the file and what is wrong with it —
-    never its contents.
-
-    Args:
-        path: file name.
-        what: what the file is, for the reason ("correction table").
-    """
-    name = os.fsdecode(path) if isinstance(path, (bytes, os.PathLike)) else str(path)
-    try:
-        info = os.stat(name)
-    except OSError as error:
-        raise ValueError(f"cannot read {what} {name}: {error.strerror or error}") from None
-    _check_regular(info, name, what, max_bytes)
-    flags = os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_NOCTTY", 0) | getattr(os, "O_CLOEXEC", 0)
-    try:
-        descriptor = os.open(name, flags)
-    except OSError as error:
-        raise ValueError(f"cannot read {what} {name}: {error.strerror or error}") from None
-    try:
-        _check_regular(os.fstat(descriptor), name, what, max_bytes)
-        chunks, size = [], 0
-        while size <= max_bytes:
-            chunk = os.read(descriptor, max_bytes + 1 - size)
-            if not chunk:
-                break
-            chunks.append(chunk)
-            size += len(chunk)
-    except OSError as error:
-        raise ValueError(f"cannot read {what} {name}: {error.strerror or error}") from None
-    finally:
-        os.close(descriptor)
-    data = b"".join(chunks)
-    if len(data) > max_bytes:
-        raise ValueError(f"{what} {name} is larger than the {max_bytes} bytes allowed")
-    if b"\0" in data:
-        raise ValueError(f"{what} {name} is a binary file, not text")
-    try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError:
-        raise ValueError(f"{what} {name} is not UTF-8 text") from None
-
-
-def _check_regular(info: os.stat_result, name: str, what: str, max_bytes: int) -> None:
-    mode = info.st_mode
-    if not stat.S_ISREG(mode):
-        kind = ("a directory" if stat.S_ISDIR(mode) else "a FIFO" if stat.S_ISFIFO(mode)
-                else "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
-                else "a socket" if stat.S_ISSOCK(mode) else "not a regular file")
-        raise ValueError(f"{what} {name} is {kind}, not a regular file")
-    if info.st_size > max_bytes:
-        raise ValueError(f"{what} {name} is {info.st_size} bytes, more than the {max_bytes} allowed")

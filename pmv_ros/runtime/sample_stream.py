@@ -1,6 +1,6 @@
 """The sensor's output sample by sample, as plain values a node publishes — computed in blocks when it can.
 
-:class:`SampleStream` runs :class:`pmv_ros.core.sensor.SensorModel` and the
+:class:`SampleStream` runs :class:`pmv_ros.physics.sensor.SensorModel` and the
 orbit for the sensor node: with the node's own attitude profile it computes
 a block of future samples in one call (numpy overhead amortised; the output
 is identical sample for sample), with a given attitude (follow mode, the
@@ -14,7 +14,7 @@ from collections import deque
 
 import numpy as np
 
-from .sensor import ChordStatus
+from ..physics.sensor import ChordStatus
 
 #: What a sample row holds, in order.
 ROW_FIELDS = ("t_s", "q_xyzw", "line_of_sight", "roll_rad", "pitch_rad", "roll_uncorrected_rad",
@@ -62,7 +62,7 @@ class SampleStream:
     """Sample rows of one sensor: its model, orbit and attitude profile.
 
     Args:
-        model: the instrument (:class:`pmv_ros.core.sensor.SensorModel`).
+        model: the instrument (:class:`pmv_ros.physics.sensor.SensorModel`).
         orbit: the orbit it flies (for position and velocity).
         profile: the own attitude model (``quaternion(t_s)``), used by :meth:`next_profile_sample`.
         check_lines_of_sight: called with the ``(N, 4, 3)`` lines of sight and the ``(N, 4)``

@@ -12,8 +12,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from .geometry import CHORD_NAMES
-from .sensor import BRIGHT_BODIES, ChordStatus
+from ..physics.geometry import CHORD_NAMES
+from ..physics.sensor import BRIGHT_BODIES, ChordStatus
 from .truth_buffer import TruthAt
 
 OK, WARN, ERROR = 0, 1, 2

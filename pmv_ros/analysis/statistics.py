@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .oblateness import closed_form_oblateness
+from ..physics.oblateness import closed_form_oblateness
 
 #: Harmonics of the orbital frequency reported by default (physics.md §5.1):
 #: k = 1 (roll oblateness), k = 2 (pitch oblateness), 15…25 (radiance zones).
@@ -445,7 +445,7 @@ def average_over_orbits(u_rad, values, bin_rad: float | None = None):
 @dataclass(frozen=True)
 class ChannelStatistics:
     """The statistics of one channel (roll, pitch or meridional), rad: the record the live monitor
-    (:class:`pmv_ros.core.monitor.ChannelSummary`) and the flight-test analysis
+    (:class:`pmv_ros.runtime.monitor.ChannelSummary`) and the flight-test analysis
     (:class:`ChannelResult`) share; the shim's ``ChannelStatistics`` has the same field names.
 
     ``harmonics_rad`` maps k (multiple of the orbital frequency) to an amplitude, rad.
@@ -550,9 +550,9 @@ def flight_test_statistics(u_rad, roll_rad, pitch_rad, altitude_m: float, inclin
        Δβ = β − offset;
     4. δβ_k = Δβ_k − (Δβ)_roll(u), δβ_t = Δβ_t − (Δβ)_pitch(u), the published
        closed-form oblateness model (physics.md §2.1;
-       :func:`pmv_ros.core.oblateness.closed_form_oblateness`) in REP-103 like
+       :func:`pmv_ros.physics.oblateness.closed_form_oblateness`) in REP-103 like
        the roll and pitch given here (published telemetry is converted first,
-       :func:`pmv_ros.core.conventions.convert`), averaged over
+       :func:`pmv_ros.physics.conventions.convert`), averaged over
        the same samples as the data. Skipped when ``remove_oblateness`` is False;
     5. δβ_m = √(δβ_k² + δβ_t²); MO = its mean; σ_m with N − 1; limit MO ± 3σ_m.
 

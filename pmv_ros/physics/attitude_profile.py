@@ -1,6 +1,6 @@
 """The sensor node's own attitude model: constant offsets, slow oscillations and drift.
 
-Angles follow the convention of :mod:`pmv_ros.core.attitude`; rad and s.
+Angles follow the convention of :mod:`pmv_ros.physics.attitude`; rad and s.
 """
 
 from __future__ import annotations

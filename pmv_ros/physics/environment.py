@@ -177,10 +177,10 @@ MIN_WAVELENGTH_M = 1000.0
 #: its chord, ≈ 100 km of limb at the slant range of 500 km (≈ 130 km at 835 km), so structure finer than
 #: this reaches the comparators averaged out. Components drawn beyond it are clipped to it (the variance,
 #: e.g. σ_h = 10 km, is kept); it also bounds how fast a field can change along a chord's track, which lets
-#: the sensor evaluate it on a coarse grid (pmv_ros/core/sensor.py).
+#: the sensor evaluate it on a coarse grid (pmv_ros/physics/sensor.py).
 IFOV_MIN_WAVELENGTH_M = 100e3
 #: Shortest wavelength of the flight weather, m: a chord samples the weather at points ≈ 400 … 600 km apart
-#: along its line of sight (pmv_ros.core.chain.DISC_SAMPLE_INWARD_RAD), so finer weather would only alias.
+#: along its line of sight (pmv_ros.physics.chain.DISC_SAMPLE_INWARD_RAD), so finer weather would only alias.
 #: The synoptic band (zones ≥ 1600 km) is far above it; ≈ 10 % of the red background's variance is moved
 #: up to it at R_b ≈ 1000 km.
 WEATHER_MIN_WAVELENGTH_M = 300e3
@@ -918,7 +918,7 @@ class RadianceEnvironment:
 
         With :meth:`synoptic_band` and :meth:`radiance_from_parts` this is
         :meth:`sample`'s radiance in pieces, for callers that evaluate the slow
-        synoptic band on a coarser grid than the rest (pmv_ros.core.sensor).
+        synoptic band on a coarser grid than the rest (pmv_ros.physics.sensor).
         g is zeros without weather.
         """
         lat, lon, t, _ = _flat_points(lat_rad, lon_rad, t_s)
