@@ -1,4 +1,14 @@
-"""Test configuration: ROS isolation, the --run-long switch, shared fixtures."""
+"""Test configuration: ROS isolation, the --run-long switch, shared fixtures.
+
+The tests mirror the package's layers: ``physics/``, ``analysis/``,
+``runtime/``, ``nodes/``, ``apps/`` (CLI and applications, in-process through
+``main(argv)``) and ``system/`` (child processes, colcon, launch, soak, the
+golden outputs, the layering). Support modules beside this file, imported by
+the tests (never a test module by another): ``children`` (the environment of
+child processes and their ROS domain), ``cli_runner`` (``pmv`` in-process),
+``flights`` (a preset flown without ROS), ``node_harness``, ``published``
+(the published tables), ``reference_chain``.
+"""
 
 from __future__ import annotations
 

@@ -1,0 +1,379 @@
+"""Issue 15 in-process: one source per input, no file read from the network, bounded and known parameters.
+
+The multi-process attacks (a second process on the DDS domain) are in
+tests/test_adversarial.py; these tests drive one node in its own context.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import rclpy
+from children import child_env, domain_id
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
+from nav_msgs.msg import Odometry
+from rclpy.parameter import Parameter
+
+import pmv_msgs_shim as shim
+from pmv_ros.nodes.error_monitor_node import ErrorMonitorNode
+from pmv_ros.nodes.params import ParameterError
+from pmv_ros.nodes.sensor_node import SensorNode
+from pmv_ros.nodes.star_tracker_node import StarTrackerNode
+from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
+from pmv_ros.physics.constants import ARCMIN_RAD
+from pmv_ros.physics.correction import CorrectionTable
+from pmv_ros.runtime.assembly import MAX_OUTAGES
+
+VENV_BIN = Path(sys.executable).parent
+
+
+def now_s(harness) -> float:
+    return harness.node.get_clock().now().nanoseconds * 1e-9
+
+
+def quaternion_msg(t_s, q):
+    return shim.attitude_quaternion_to_msg(shim.AttitudeQuaternion(t_s, shim.ORBITAL_FRAME, q))
+
+
+def angles_msg(t_s, roll_rad, pitch_rad):
+    return shim.attitude_angles_to_msg(shim.AttitudeAngles(t_s, shim.SENSOR_FRAME, roll_rad, pitch_rad))
+
+
+def statuses(messages, prefix):
+    return [s for m in messages for s in shim.health_from_msg(m).statuses if s.name.startswith(prefix)]
+
+
+# ------------------------------------------------------------------------------ one source per input
+
+def test_a_second_sensor_on_the_domain_is_an_error_and_never_interleaved(harness):
+    # Two publishers of /pmv/attitude 37 ms apart at 10 Hz: the first reads 1′ more than the truth,
+    # the second, which appears half a second later, 20′ more. Interleaved, the residuals would mix
+    # 1′ and 20′. (Two publishers that start together and stamp alike cannot be told apart on Jazzy,
+    # which gives no publisher GID: see SourceLock.)
+    h = harness(ErrorMonitorNode, {"remove_oblateness": False})
+    residuals = h.record(Vector3Stamped, "/pmv/residual")
+    diagnostics = h.record(DiagnosticArray, "/diagnostics")
+    first = h.publisher(Vector3Stamped, "/pmv/attitude")
+    second = h.publisher(Vector3Stamped, "/pmv/attitude")
+    truth = h.publisher(QuaternionStamped, "/star_tracker/attitude")
+    h.drain()
+    start = now_s(h) - 3.0
+    q = quaternion_from_roll_pitch_yaw(5 * ARCMIN_RAD, 0.0)
+    for k in range(30):
+        t = start + 0.1 * k
+        truth.publish(quaternion_msg(t, q))
+        first.publish(angles_msg(t, 6 * ARCMIN_RAD, 0.0))
+        if k >= 5:
+            second.publish(angles_msg(t + 0.037, 25 * ARCMIN_RAD, 0.0))
+        h.drain()
+    deadline = time.monotonic() + 3.0
+    while time.monotonic() < deadline and not statuses(diagnostics, "pmv_ros/error_monitor_node"):
+        h.drain()
+        time.sleep(0.05)
+    values = np.array([m.vector.x for m in residuals]) / ARCMIN_RAD
+    assert len(values) >= 25
+    np.testing.assert_allclose(values, 1.0, atol=1e-6)
+    [status, *_] = statuses(diagnostics, "pmv_ros/error_monitor_node")
+    assert status.level == shim.Level.ERROR and "2 publishers of /pmv/attitude" in status.message
+    assert int(dict(status.values)["other_source_pmv_attitude"]) >= 20
+
+
+@pytest.mark.parametrize("node_class, overrides, prefix", [
+    (StarTrackerNode, {}, "pmv_ros/star_tracker_node"),
+    (SensorNode, {"attitude.source": "follow"}, "pmv_ros/sensor_node: horizon"),
+])
+def test_a_second_truth_publisher_is_an_error_for_the_tracker_and_the_following_sensor(harness, node_class,
+                                                                                        overrides, prefix):
+    h = harness(node_class, overrides)
+    diagnostics = h.record(DiagnosticArray, "/diagnostics")
+    first = h.publisher(QuaternionStamped, "/attitude/truth")
+    second = h.publisher(QuaternionStamped, "/attitude/truth")
+    h.drain()
+    deadline = time.monotonic() + 2.5
+    while time.monotonic() < deadline:
+        t = now_s(h)
+        first.publish(quaternion_msg(t, quaternion_from_roll_pitch_yaw(0.0, 0.0)))
+        second.publish(quaternion_msg(t + 0.01, quaternion_from_roll_pitch_yaw(0.3, 0.0)))
+        h.drain()
+        time.sleep(0.05)
+    lock = h.node.source_locks["/attitude/truth"]
+    assert lock.other_source_messages > 10 and lock.lock_changes == 0
+    errors = [s for s in statuses(diagnostics, prefix) if s.level == shim.Level.ERROR]
+    assert errors and "2 publishers of /attitude/truth" in errors[-1].message
+
+
+def test_a_flood_of_truth_cannot_push_the_real_tracker_out(harness):
+    # The real tracker: 2 Hz frames, released 0.25 s late. A second publisher floods /star_tracker/attitude
+    # with valid quaternions stamped "now", hundreds of times faster. No real sample may be refused as
+    # backwards, and every residual is the real one.
+    h = harness(ErrorMonitorNode, {"remove_oblateness": False})
+    residuals = h.record(Vector3Stamped, "/pmv/residual")
+    sensor = h.publisher(Vector3Stamped, "/pmv/attitude")
+    real = h.publisher(QuaternionStamped, "/star_tracker/attitude")
+    flood = h.publisher(QuaternionStamped, "/star_tracker/attitude")
+    h.drain()
+    start = now_s(h) - 10.0
+    good, bad = quaternion_from_roll_pitch_yaw(5 * ARCMIN_RAD, 0.0), quaternion_from_roll_pitch_yaw(0.2, 0.1)
+    real.publish(quaternion_msg(start, good))
+    h.drain()
+    for k in range(1, 16):
+        t = start + 0.5 * k
+        for j in range(40):  # the flood goes first each round: it must not become the truth
+            flood.publish(quaternion_msg(now_s(h) + 1e-4 * j, bad))
+        real.publish(quaternion_msg(t, good))
+        sensor.publish(angles_msg(t - 0.25, 6 * ARCMIN_RAD, 0.0))
+        h.drain()
+    counters = h.node.monitor.counters
+    values = np.array([m.vector.x for m in residuals]) / ARCMIN_RAD
+    assert len(values) >= 14
+    np.testing.assert_allclose(values, 1.0, atol=1e-6)
+    assert counters["rejected_truth_backwards"] == 0
+    assert h.node.source_locks["/star_tracker/attitude"].other_source_messages >= 500
+
+
+# ------------------------------------------------------------------------ no file read from the network
+
+def table_file(path: Path) -> Path:
+    path.write_text("del_arcmin,pop_arcmin\n-60,-1\n60,1\n")
+    return path
+
+
+def test_the_correction_file_is_read_once_at_start_up_and_never_again(harness, tmp_path):
+    table = table_file(tmp_path / "table.csv")
+    h = harness(SensorNode, {"sensor.correction": str(table), "sim.fast_time": True, "sensor.rate_hz": 2.0},
+                external_drive=True)
+    table.write_text("root:x:0:0:root:/root:/bin/bash\n")  # what a later read would find
+    # Another parameter change rebuilds the models: it must not read the file again (it would fail now).
+    assert h.node.set_parameters([Parameter("sensor.rate_hz", value=4.0)])[0].successful
+    # Pointing the parameter at another file is refused without reading it, whatever the file is.
+    os.mkfifo(tmp_path / "fifo")
+    for path in ("/etc/passwd", str(tmp_path / "fifo"), "/dev/zero", str(tmp_path)):
+        started = time.monotonic()
+        result = h.node.set_parameters([Parameter("sensor.correction", value=path)])[0]
+        assert time.monotonic() - started < 1.0
+        assert not result.successful and "read-only" in result.reason and "root:" not in result.reason
+    h.node.step()
+    assert h.node.samples_published == 1
+
+
+@pytest.mark.parametrize("make, words", [
+    (lambda d: (os.mkfifo(d / "fifo"), d / "fifo")[1], "a FIFO"),
+    (lambda d: Path("/dev/zero"), "a device"),
+    (lambda d: d, "a directory"),
+    (lambda d: (open(d / "huge.csv", "wb").truncate(1 << 30), d / "huge.csv")[1], "more than the"),
+    (lambda d: ((d / "bin.csv").write_bytes(b"del_arcmin,pop_arcmin\n\x00\x00"), d / "bin.csv")[1], "binary"),
+    (lambda d: ((d / "passwd").write_text("root:x:0:0:root:/root:/bin/bash\n"), d / "passwd")[1], "header"),
+])
+def test_a_bad_correction_file_stops_the_start_with_one_line_and_no_echo(tmp_path, make, words):
+    path = make(tmp_path)
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    try:
+        started = time.monotonic()
+        with pytest.raises(ParameterError) as error:
+            SensorNode(context=context, parameter_overrides=[Parameter("sensor.correction", value=str(path))])
+        assert time.monotonic() - started < 5.0
+        message = str(error.value)
+        assert words in message and "sensor.correction" in message and "\n" not in message
+        assert "root" not in message.replace(str(tmp_path), "")
+    finally:
+        rclpy.shutdown(context=context)
+
+
+def test_a_good_table_file_flies(tmp_path):
+    table = CorrectionTable.from_csv(table_file(tmp_path / "t.csv"))
+    assert table(0.0) == pytest.approx(0.0) and table(60 * ARCMIN_RAD) == pytest.approx(ARCMIN_RAD)
+
+
+# ------------------------------------------------------------------------------ parameters: size, names
+
+def test_outage_lists_are_bounded_at_run_time_and_at_start_up(harness):
+    h = harness(StarTrackerNode, {})
+    at_most = [100.0] * MAX_OUTAGES
+    assert h.node.set_parameters_atomically([Parameter("outage_start_s", value=at_most),
+                                             Parameter("outage_duration_s", value=[1.0] * MAX_OUTAGES)]).successful
+    for name in ("outage_start_s", "outage_duration_s"):
+        result = h.node.set_parameters([Parameter(name, value=[1.0] * 200_000)])[0]
+        assert not result.successful and f"more than the {MAX_OUTAGES} allowed" in result.reason, result.reason
+    assert len(h.node.get_parameter("outage_start_s").value) == MAX_OUTAGES
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    try:
+        with pytest.raises(ParameterError, match=f"more than the {MAX_OUTAGES} allowed"):
+            StarTrackerNode(context=context, parameter_overrides=[Parameter("outage_start_s", value=[1.0] * 65)])
+    finally:
+        rclpy.shutdown(context=context)
+
+
+def test_an_unknown_override_is_refused_naming_the_nearest_parameter():
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    try:
+        with pytest.raises(ParameterError, match=r"'rate_hz_typo' is not a parameter of star_tracker_node "
+                                                 r"\(did you mean 'rate_hz'\?\)"):
+            StarTrackerNode(context=context, parameter_overrides=[Parameter("rate_hz_typo", value=3.0)])
+    finally:
+        rclpy.shutdown(context=context)
+
+
+def _child_env(log_dir: Path) -> dict:
+    return child_env(log_dir, domain_id(0), discovery="OFF")
+
+
+@pytest.mark.parametrize("section, key, nearest", [
+    ("star_tracker_node", "rate_hz_typo", "rate_hz"),
+    ("star_tracker_node", "orbit.inclination_deg", None),  # the monitor's, not the tracker's
+    ("/**", "sensor.rate_hzz", "sensor.rate_hz"),
+])
+def test_an_unknown_key_in_a_params_file_stops_the_node_with_one_line(tmp_path, section, key, nearest):
+    params = tmp_path / "typo.yaml"
+    params.write_text(f"{section}:\n  ros__parameters:\n    {key}: 3.0\n")
+    result = subprocess.run([str(VENV_BIN / "star_tracker_node"), "--ros-args", "--params-file", str(params)],
+                            env=_child_env(tmp_path / "log"), cwd=tmp_path, stdin=subprocess.DEVNULL,
+                            capture_output=True, text=True, timeout=60)
+    assert result.returncode == 1, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in result.stderr, result.stderr
+    assert f"'{key}' is not a parameter of star_tracker_node" in lines[0], lines[0]
+    assert (f"did you mean '{nearest}'" in lines[0]) if nearest else "did you mean" not in lines[0], lines[0]
+
+
+def test_the_shipped_presets_have_no_unknown_keys():
+    from pmv_ros.nodes.params import check_params_files
+
+    for preset in sorted(Path("config").glob("*.yaml")):
+        for node_name in ("sensor_node", "star_tracker_node", "error_monitor_node"):
+            check_params_files(["x", "--ros-args", "--params-file", str(preset)], node_name)
+
+
+# ------------------------------------------------------------------------------- plausibility, in the node
+
+def _run_monitor_stream(harness, hostile: bool):
+    """A 10 Hz sensor, 2 Hz truth and odometry on a 500 km orbit through one monitor node, from one publisher
+    each; ``hostile`` adds 1 % of 1e308 angles and absurd odometry on the same publishers. Its statistics."""
+    from pmv_ros.physics.orbit import CircularOrbit
+
+    h = harness(ErrorMonitorNode, {"max_truth_wait_s": 3600.0})  # a recorded stream, 40 s behind the clock
+    sensor = h.publisher(Vector3Stamped, "/pmv/attitude")
+    truth = h.publisher(QuaternionStamped, "/star_tracker/attitude")
+    odometry = h.publisher(Odometry, "/orbit/odometry")
+    h.drain()
+    orbit = CircularOrbit(500e3, math.radians(74.5))
+    rng, attack = np.random.default_rng(2), np.random.default_rng(9)
+    start = now_s(h) - 40.0
+    q = quaternion_from_roll_pitch_yaw(2 * ARCMIN_RAD, -1 * ARCMIN_RAD)
+    for k in range(1, 301):
+        t = start + 0.1 * k
+        r, v = orbit.state_eci(t - start)
+        odometry.publish(shim.write_orbit_state(Odometry(), t, shim.ECI_FRAME, shim.ORBITAL_FRAME, r, v))
+        if hostile and attack.random() < 0.05:
+            odometry.publish(shim.write_orbit_state(Odometry(), t + 0.02, shim.ECI_FRAME, shim.ORBITAL_FRAME,
+                                                    (1e3, 0.0, 0.0), (0.0, 7.6e3, 0.0)))
+        if k % 5 == 0:
+            truth.publish(quaternion_msg(t, q))
+        sensor.publish(angles_msg(t, (2 + 0.3 * rng.standard_normal()) * ARCMIN_RAD,
+                                  (-1 + 0.3 * rng.standard_normal()) * ARCMIN_RAD))
+        if hostile and attack.random() < 0.01:
+            sensor.publish(angles_msg(t + 0.05, 1e308, 1e308))
+        h.drain()
+    statistics = h.node.publish_statistics(start + 31.0)
+    return statistics, h.node.monitor.counters
+
+
+def test_a_stream_with_1e308_angles_and_absurd_odometry_gives_the_clean_statistics(harness):
+    clean, _ = _run_monitor_stream(harness, hostile=False)
+    attacked, counters = _run_monitor_stream(harness, hostile=True)
+    assert counters["rejected_sensor_implausible_angle"] >= 1 and counters["rejected_odometry_implausible_orbit"] >= 5
+    for a, b in zip(clean.channels, attacked.channels):
+        assert (a.count, a.mean_rad, a.sigma_rad, a.max_abs_rad) == (b.count, b.mean_rad, b.sigma_rad, b.max_abs_rad)
+        assert a.count > 250 and math.isfinite(b.sigma_rad)
+
+
+# -------------------------------------------------------------------------- a single forged stamp or clock
+
+def test_a_single_forged_truth_stamp_or_clock_leaves_the_tracker_output_of_the_clean_stream(harness):
+    from rosgraph_msgs.msg import Clock
+
+    outputs = []
+    for forged in (False, True):
+        h = harness(StarTrackerNode, {"rate_hz": 2.0, "latency_s": 0.25, "use_sim_time": True,
+                                      "random_failure_probability": 0.0})
+        measured = h.record(QuaternionStamped, "/star_tracker/attitude")
+        truth, clock = h.publisher(QuaternionStamped, "/attitude/truth"), h.publisher(Clock, "/clock")
+        q = quaternion_from_roll_pitch_yaw(1e-3, -2e-3)
+        for k in range(1, 301):
+            t = 100.0 + 0.1 * k
+            clock.publish(shim.clock_to_msg(3700.0 if forged and k == 100 else t))
+            h.drain()
+            truth.publish(quaternion_msg(t, q))
+            if forged and k == 200:
+                truth.publish(quaternion_msg(t - 90.0, q))  # one stamp 90 s back, then the stream goes on
+            h.drain()
+        outputs.append(np.array([[shim.time_from_msg(m.header.stamp), m.quaternion.x, m.quaternion.y,
+                                  m.quaternion.z, m.quaternion.w] for m in measured]))
+        counters = h.node.counters
+    clean, attacked = outputs
+    assert clean.shape[0] > 50
+    np.testing.assert_array_equal(attacked, clean)  # not one frame lost, moved or redrawn
+    assert counters["clock_jumps"] == 0 and counters["clock_outliers"] == 1
+    assert counters["rejected_truth_unconfirmed_jump"] == 1
+
+
+def test_a_real_restart_of_the_truth_clock_is_one_new_timeline(harness):
+    h = harness(StarTrackerNode, {"rate_hz": 2.0, "latency_s": 0.0, "random_failure_probability": 0.0})
+    truth = h.publisher(QuaternionStamped, "/attitude/truth")
+    measured = h.record(QuaternionStamped, "/star_tracker/attitude")
+    q = quaternion_from_roll_pitch_yaw(1e-3, -2e-3)
+    base = now_s(h)
+    for first in (base - 60.0, base - 90.0):  # the source restarts 30 s back on its clock
+        for k in range(1, 101):
+            truth.publish(quaternion_msg(first + 0.1 * k, q))
+            h.drain()
+    assert h.node.counters["clock_jumps"] == 1 and h.node.counters["rejected_truth_unconfirmed_jump"] == 1
+    stamps = np.array([shim.time_from_msg(m.header.stamp) for m in measured])
+    assert np.sum(np.diff(stamps) < 0) == 1 and len(stamps) > 35
+
+
+def test_a_following_sensor_skips_the_tick_of_a_single_forged_clock(harness):
+    # Real time on someone else's /clock (the sensor's 1 Hz timer runs on it): one forged /clock an
+    # hour ahead must not be measured at (nor raise a "stale truth" ERROR), and changes nothing after.
+    from rosgraph_msgs.msg import Clock
+
+    h = harness(SensorNode, {"attitude.source": "follow", "sim.fast_time": False, "sensor.rate_hz": 1.0,
+                             "sensor.detector": "ideal", "use_sim_time": True, "diagnostics_period_s": 0.1})
+    attitude = h.record(Vector3Stamped, "/pmv/attitude")
+    diagnostics = h.record(DiagnosticArray, "/diagnostics")
+    clock, truth = h.publisher(Clock, "/clock"), h.publisher(QuaternionStamped, "/attitude/truth")
+    q = quaternion_from_roll_pitch_yaw(10 * ARCMIN_RAD, -4 * ARCMIN_RAD, 0.0)
+    for k in range(1, 41):
+        t = 100.0 + 0.25 * k
+        truth.publish(quaternion_msg(t, q))
+        h.drain()
+        clock.publish(shim.clock_to_msg(t + 3600.0 if k == 20 else t))
+        h.drain()
+    stamps = [shim.time_from_msg(m.header.stamp) for m in attitude]
+    assert stamps and max(stamps) < 111.0  # nothing at the forged hour
+    assert len(stamps) >= 8
+    values = dict(statuses(diagnostics, "pmv_ros/sensor_node: horizon")[-1].values)
+    # The forged tick was skipped as an unconfirmed jump — not measured at, nor called stale truth.
+    assert int(values["skipped_unconfirmed_clock_jump"]) == 1 and "skipped_stale" not in values, values
+    assert int(values["clock_outliers"]) == 1, values
+
+
+def test_pmv_simulate_refuses_an_unknown_key_in_its_config_with_one_line(tmp_path):
+    config = tmp_path / "typo.yaml"
+    config.write_text("error_monitor_node:\n  ros__parameters:\n    statistics_rate_hzz: 2.0\n")
+    result = subprocess.run([str(VENV_BIN / "pmv"), "simulate", "--config", str(config), "--orbits", "0.01"],
+                            env=_child_env(tmp_path / "log"), cwd=tmp_path, stdin=subprocess.DEVNULL,
+                            capture_output=True, text=True, timeout=120)
+    assert result.returncode == 2, result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1 and "Traceback" not in result.stderr
+    assert "'statistics_rate_hzz'" in result.stderr and "did you mean 'statistics_rate_hz'" in result.stderr

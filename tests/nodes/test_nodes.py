@@ -1,0 +1,325 @@
+"""In-process node tests: each node in an executor, fed by test publishers, outputs checked (issue 4).
+
+No rosbag, no sleeps: publishers and subscribers share one executor, which is
+drained after each publication (pmv_ros.nodes.pipeline explains the drain).
+Every test has its own rclpy context and discovery is off (conftest.py), so
+tests cannot hear each other.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PolygonStamped, QuaternionStamped, Vector3Stamped
+from nav_msgs.msg import Odometry
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rosgraph_msgs.msg import Clock
+
+import pmv_msgs_shim as shim
+from pmv_ros.nodes.error_monitor_node import ErrorMonitorNode
+from pmv_ros.nodes.pipeline import Pipeline
+from pmv_ros.nodes.sensor_node import SensorNode
+from pmv_ros.nodes.star_tracker_node import StarTrackerNode
+from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw, roll_pitch_yaw_from_quaternion
+from pmv_ros.physics.constants import ARCMIN_RAD, ARCSEC_RAD, EARTH_MEAN_RADIUS_M
+
+#: A star tracker that tells the exact truth: no noise, no random failures.
+PERFECT_TRACKER = {"noise_cross_arcsec": 0.0, "noise_boresight_arcsec": 0.0, "random_failure_probability": 0.0}
+#: Spherical Earth, uniform horizon: no methodical error at all.
+IDEAL_EARTH = {"sensor.earth_model": "sphere", "remove_oblateness": False}
+
+
+def test_sensor_reads_a_constant_body_roll_of_30_arcmin():
+    # Issue 4: with a constant body roll of 30′ the sensor reports 30′ ± 0.5′
+    # (here on the GRS80 Earth, so the ≈ 5′ oblateness error is compensated on
+    # board with the closed-form model, which matches the rays to ≈ 0.06′).
+    overrides = {"attitude.roll_offset_arcmin": 30.0, "sensor.oblateness_compensation": True, "sensor.rate_hz": 2.0}
+    with Pipeline(None, overrides, collect=False) as pipeline:
+        got = []
+        pipeline.collector = None
+        probe = Node("probe", context=pipeline.context)
+        probe.create_subscription(Vector3Stamped, "/pmv/attitude", got.append, 100)
+        pipeline.executor.add_node(probe)
+        pipeline.nodes.append(probe)
+        pipeline.step(600)  # five minutes, a twentieth of an orbit
+        statistics = pipeline.monitor.monitor.summary()
+    # The monitor knows the model was removed on board and does not subtract it again:
+    # doing so would leave ≈ −2.5′ of pitch over u = 0…19° (the model rises to ≈ 5′ there).
+    assert statistics.channel("pitch").count > 550
+    assert abs(statistics.channel("pitch").mean_rad) / ARCMIN_RAD < 0.3
+    assert abs(statistics.channel("roll").mean_rad) / ARCMIN_RAD < 0.3
+    roll = np.array([m.vector.x for m in got]) / ARCMIN_RAD
+    pitch = np.array([m.vector.y for m in got]) / ARCMIN_RAD
+    assert len(got) == 600
+    assert got[0].header.frame_id == shim.SENSOR_FRAME
+    assert np.all(np.abs(roll - 30.0) < 0.5)
+    assert np.all(np.abs(pitch) < 0.5)
+    assert all(m.vector.z == 0.0 for m in got)
+
+
+def test_perfect_tracker_sphere_uniform_horizon_gives_zero_mean_residual():
+    # Issue 4: noise-free truth, spherical Earth, uniform radiance → residual mean within 0.1′ of zero.
+    overrides = {**PERFECT_TRACKER, **IDEAL_EARTH, "attitude.roll_offset_arcmin": 12.0,
+                 "attitude.pitch_amplitude_arcmin": 20.0, "attitude.oscillation_period_s": 300.0}
+    with Pipeline(None, overrides) as pipeline:
+        pipeline.step(3000)
+        statistics = pipeline.monitor.publish_statistics(pipeline.sensor.sim_time_s)
+        pipeline.drain()
+        residuals = pipeline.collector.residual_array()
+    assert statistics.channel("roll").count > 2900
+    for name in ("roll", "pitch"):
+        assert abs(statistics.channel(name).mean_rad) / ARCMIN_RAD < 0.1
+    assert np.max(np.abs(residuals[1:])) / ARCMIN_RAD < 0.1
+    # the statistics message carried the same numbers to the collector
+    assert pipeline.collector.statistics.channel("pitch").count == statistics.channel("pitch").count
+
+
+def test_sensor_topics_types_frames_and_units():
+    with Pipeline("config/kondor.yaml", {"sensor.rate_hz": 5.0}, collect=False) as pipeline:
+        got = {topic: [] for topic in ("/pmv/horizon_crossings", "/orbit/odometry", "/attitude/truth",
+                                       "/pmv/attitude_uncorrected", "/diagnostics")}
+        probe = Node("probe", context=pipeline.context)
+        for topic, kind in (("/pmv/horizon_crossings", PolygonStamped), ("/orbit/odometry", Odometry),
+                            ("/attitude/truth", QuaternionStamped), ("/pmv/attitude_uncorrected", Vector3Stamped),
+                            ("/diagnostics", DiagnosticArray)):
+            probe.create_subscription(kind, topic, got[topic].append, 100)
+        pipeline.executor.add_node(probe)
+        pipeline.nodes.append(probe)
+        pipeline.step(50)
+    crossings = [shim.horizon_crossings_from_msg(m) for m in got["/pmv/horizon_crossings"]]
+    assert len(crossings) == 50 and all(c.frame_id == shim.SENSOR_FRAME for c in crossings)
+    for c in crossings:
+        assert np.all(c.valid)
+        np.testing.assert_allclose(np.linalg.norm(c.line_of_sight, axis=1), 1.0, atol=1e-6)
+        # chords +X, +Y, −X, −Y see the horizon ≈ 68° from the −Z boresight at 500 km
+        nadir = np.degrees(np.arccos(-c.line_of_sight[:, 2]))
+        assert np.all((nadir > 66.0) & (nadir < 70.0))
+        assert c.line_of_sight[0, 0] > 0.9 and c.line_of_sight[1, 1] > 0.9 and c.line_of_sight[2, 0] < -0.9
+    odometry = [shim.orbit_state_from_msg(m) for m in got["/orbit/odometry"]]
+    assert odometry[0].frame_id == shim.ECI_FRAME
+    radius = np.linalg.norm(odometry[0].position_m)
+    assert radius == pytest.approx(EARTH_MEAN_RADIUS_M + 500e3, rel=1e-9)
+    assert np.linalg.norm(odometry[0].velocity_m_s) == pytest.approx(7613.0, rel=1e-3)
+    stamps = [shim.time_from_msg(m.header.stamp) for m in got["/attitude/truth"]]
+    np.testing.assert_allclose(np.diff(stamps), 0.2, atol=1e-9)
+    assert got["/attitude/truth"][0].header.frame_id == shim.ORBITAL_FRAME
+    assert len(got["/pmv/attitude_uncorrected"]) == 50
+    names = {status.name for m in got["/diagnostics"] for status in m.status}
+    assert "pmv_ros/sensor_node: horizon" in names
+
+
+def test_star_tracker_node_alone(harness):
+    h = harness(StarTrackerNode, {"rate_hz": 2.0, "latency_s": 0.3, "noise_cross_arcsec": 3.0,
+                                    "noise_boresight_arcsec": 20.0, "random_failure_probability": 0.0})
+    h.record(QuaternionStamped, "/star_tracker/attitude")
+    truth = h.publisher(QuaternionStamped, "/attitude/truth")
+    roll, pitch = 10 * ARCMIN_RAD, -4 * ARCMIN_RAD
+    q = quaternion_from_roll_pitch_yaw(roll, pitch, 0.0)
+    releases = {}
+    for k in range(1, 2001):  # 200 s of truth at 10 Hz
+        t = 0.1 * k
+        truth.publish(shim.attitude_quaternion_to_msg(shim.AttitudeQuaternion(t, shim.ORBITAL_FRAME, q)))
+        h.drain()
+        for message in h.received["/star_tracker/attitude"][len(releases):]:
+            releases[shim.time_from_msg(message.header.stamp)] = t
+    measured = [shim.attitude_quaternion_from_msg(m) for m in h.received["/star_tracker/attitude"]]
+    stamps = np.array([m.stamp_s for m in measured])
+    # frames on the 2 Hz grid, released no earlier than stamp + latency
+    np.testing.assert_allclose(np.diff(stamps), 0.5, atol=1e-9)
+    assert all(release >= stamp + 0.3 - 1e-9 for stamp, release in releases.items())
+    angles = np.array([roll_pitch_yaw_from_quaternion(m.q_xyzw) for m in measured])
+    # 3″ across the boresight (+Z body: roll and pitch), 20″ about it (yaw): 400 frames
+    # estimate σ to ±7 %; the bounds allow ±30 %.
+    assert 2.1 < np.std(angles[:, 0] - roll) / ARCSEC_RAD < 3.9
+    assert 2.1 < np.std(angles[:, 1] - pitch) / ARCSEC_RAD < 3.9
+    assert 14.0 < np.std(angles[:, 2]) / ARCSEC_RAD < 26.0
+
+
+def test_star_tracker_frames_between_sparse_truth_take_the_draws_of_one_call(harness):
+    # Truth at 1 Hz, frames at 2 Hz: two or three frames fall due per truth sample. They are
+    # measured in one call, so the seeded noise and failures are those of the model's array path.
+    from pmv_ros.physics.star_tracker import StarTracker, StarTrackerParameters
+
+    options = {"rate_hz": 2.0, "latency_s": 0.0, "random_failure_probability": 0.2, "seed": 7}
+    h = harness(StarTrackerNode, options)
+    h.record(QuaternionStamped, "/star_tracker/attitude")
+    truth = h.publisher(QuaternionStamped, "/attitude/truth")
+    q = quaternion_from_roll_pitch_yaw(10 * ARCMIN_RAD, -4 * ARCMIN_RAD, 0.0)
+    for k in range(1, 21):
+        truth.publish(shim.attitude_quaternion_to_msg(shim.AttitudeQuaternion(float(k), shim.ORBITAL_FRAME, q)))
+        h.drain()
+    model = StarTracker(StarTrackerParameters(random_failure_probability=0.2), seed=7)
+    expected = []
+    for frames in [np.array([1.0, 1.5, 2.0])] + [np.array([k - 0.5, k]) for k in range(3, 21)]:
+        measured, outcomes = model.measure(frames, np.tile(q[:, None], frames.size), np.full(frames.size, 1e-3))
+        expected += [(t, measured[:, i]) for i, t in enumerate(frames) if outcomes[i] == 0]
+    got = [shim.attitude_quaternion_from_msg(m) for m in h.received["/star_tracker/attitude"]]
+    assert 20 < len(got) == len(expected) < 39  # some frames failed, and the same ones
+    for record, (stamp, quaternion) in zip(got, expected):
+        assert record.stamp_s == stamp
+        np.testing.assert_allclose(record.q_xyzw, quaternion, atol=1e-14)
+
+
+def test_star_tracker_gives_nothing_above_its_rate_limit(harness):
+    h = harness(StarTrackerNode, {"rate_hz": 2.0, "latency_s": 0.0, "random_failure_probability": 0.0})
+    h.record(QuaternionStamped, "/star_tracker/attitude")
+    h.record(DiagnosticArray, "/diagnostics")
+    truth = h.publisher(QuaternionStamped, "/attitude/truth")
+    # a 0.5°/s roll (1800″/s) is far above the 300″/s limit
+    for k in range(1, 101):
+        q = quaternion_from_roll_pitch_yaw(math.radians(0.05 * k), 0.0, 0.0)
+        truth.publish(shim.attitude_quaternion_to_msg(shim.AttitudeQuaternion(0.1 * k, shim.ORBITAL_FRAME, q)))
+        h.drain()
+    assert h.received["/star_tracker/attitude"] == []
+    report = shim.health_from_msg(h.received["/diagnostics"][-1])
+    assert "rate too high" in report.statuses[0].message
+
+
+def test_error_monitor_node_alone(harness):
+    # On simulation time, as in a fast-time run: the node's clock is the test's /clock.
+    h = harness(ErrorMonitorNode, {"remove_oblateness": False, "statistics_rate_hz": 1.0, "use_sim_time": True})
+    h.record(Vector3Stamped, "/pmv/residual")
+    h.record(DiagnosticArray, "/pmv/error_statistics")
+    sensor = h.publisher(Vector3Stamped, "/pmv/attitude")
+    truth = h.publisher(QuaternionStamped, "/star_tracker/attitude")
+    clock = h.publisher(Clock, "/clock")
+    for k in range(1, 301):
+        t = 0.1 * k
+        clock.publish(shim.clock_to_msg(t))
+        if k % 5 == 0:  # truth at 2 Hz: roll 5′, pitch −2′
+            q = quaternion_from_roll_pitch_yaw(5 * ARCMIN_RAD, -2 * ARCMIN_RAD, 0.0)
+            truth.publish(shim.attitude_quaternion_to_msg(shim.AttitudeQuaternion(t, shim.ORBITAL_FRAME, q)))
+        # the sensor reads 1.5′ more roll and 0.5′ less pitch than the truth
+        sensor.publish(shim.attitude_angles_to_msg(shim.AttitudeAngles(t, shim.SENSOR_FRAME, 6.5 * ARCMIN_RAD,
+                                                                       -2.5 * ARCMIN_RAD)))
+        h.drain()
+    residuals = [shim.attitude_angles_from_msg(m) for m in h.received["/pmv/residual"]]
+    assert len(residuals) >= 290
+    np.testing.assert_allclose([r.roll_rad / ARCMIN_RAD for r in residuals], 1.5, atol=1e-6)
+    np.testing.assert_allclose([r.pitch_rad / ARCMIN_RAD for r in residuals], -0.5, atol=1e-6)
+    statistics = shim.error_statistics_from_msg(h.received["/pmv/error_statistics"][-1])
+    assert statistics.channel("roll").mean_rad / ARCMIN_RAD == pytest.approx(1.5, abs=1e-6)
+    assert statistics.channel("pitch").mean_rad / ARCMIN_RAD == pytest.approx(-0.5, abs=1e-6)
+    assert statistics.channel("roll").sigma_rad < 1e-9
+
+
+def test_monitor_warns_when_odometry_flies_another_orbit_than_its_parameters(harness):
+    # The harmonic ring's period comes from orbit.altitude_km; odometry from an 835 km orbit
+    # (period ≈ 6,080 s) against the default 500 km (≈ 5,677 s) must not pass silently.
+    h = harness(ErrorMonitorNode, {"use_sim_time": True})
+    h.record(DiagnosticArray, "/diagnostics")
+    odometry, clock = h.publisher(Odometry, "/orbit/odometry"), h.publisher(Clock, "/clock")
+    messages = []
+    for altitude_m in (500e3, 835e3):
+        radius = EARTH_MEAN_RADIUS_M + altitude_m
+        speed = math.sqrt(3.986004418e14 / radius)
+        for k in range(1, 31):
+            t = 10.0 * k + (0.0 if altitude_m == 500e3 else 400.0)
+            clock.publish(shim.clock_to_msg(t))
+            odometry.publish(shim.orbit_state_to_msg(shim.OrbitState(t, "eci", "orbital", [radius, 0.0, 0.0],
+                                                                     [0.0, speed, 0.0])))
+            h.drain()
+        messages.append([status.message for m in h.received["/diagnostics"] for status in m.status])
+        h.received["/diagnostics"].clear()
+    assert messages[0] and not any("orbital period" in m for m in messages[0])
+    assert messages[1] and all("orbital period of 60" in m and "orbit.altitude_km" in m for m in messages[1])
+
+
+def test_star_tracker_outage_does_not_stop_the_monitor():
+    # Issue 4: truth is gone for 60 s; the monitor counts the samples it skipped and resumes.
+    overrides = {"outage_start_s": [60.0], "outage_duration_s": [60.0], "random_failure_probability": 0.0,
+                 "sensor.rate_hz": 2.0}
+    with Pipeline("config/kondor.yaml", overrides) as pipeline:
+        pipeline.step(360)  # 180 s
+        statistics = pipeline.monitor.publish_statistics(pipeline.sensor.sim_time_s)
+        pipeline.drain()
+        stamps = pipeline.collector.residual_array()[0]
+    counters = statistics.counters
+    skipped = sum(v for k, v in counters.items() if k.startswith("skipped_"))
+    # 60 s at 2 Hz = 120 samples without truth (± the edges of the window)
+    assert 110 <= skipped <= 130
+    assert counters["used"] + skipped + counters["used_without_oblateness_model"] >= 355
+    assert stamps.min() < 60.0 and stamps.max() > 170.0  # before and after the outage
+    assert not np.any((stamps > 61.0) & (stamps < 119.0))  # never invented across the gap
+    # the published statistics carry the skip counts for people and scripts
+    published = pipeline.collector.statistics.counters
+    assert sum(v for k, v in published.items() if k.startswith("skipped_")) == skipped
+
+
+def test_bad_parameter_update_is_rejected_and_the_node_keeps_publishing():
+    with Pipeline("config/kondor.yaml", {"sensor.rate_hz": 5.0}) as pipeline:
+        pipeline.step(10)
+        sensor = pipeline.sensor
+        results = sensor.set_parameters([Parameter("sensor.rate_hz", value=1000.0)])
+        assert not results[0].successful and "sensor.rate_hz" in results[0].reason and "100" in results[0].reason
+        results = sensor.set_parameters([Parameter("attitude.source", value="bogus")])
+        assert not results[0].successful and "profile" in results[0].reason
+        results = sensor.set_parameters([Parameter("orbit.inclination_deg", value="high")])
+        assert not results[0].successful
+        assert sensor.get_parameter("sensor.rate_hz").value == 5.0
+        before = pipeline.collector.residual_count
+        pipeline.step(10)
+        assert pipeline.collector.residual_count > before
+        # a good update is taken
+        assert sensor.set_parameters([Parameter("attitude.roll_offset_arcmin", value=7.0)])[0].successful
+
+
+def test_pipeline_runs_blas_on_one_thread_and_restores_it():
+    # On two cores, OpenBLAS threads contend with the executor and the DDS threads and slow a
+    # block of sensor samples several-fold (nodes/base.py); the pipeline limits BLAS while it lives.
+    from threadpoolctl import threadpool_info
+
+    def blas_threads():
+        return [pool["num_threads"] for pool in threadpool_info() if pool["user_api"] == "blas"]
+
+    before = blas_threads()
+    first = Pipeline(None, {"sensor.rate_hz": 10.0})
+    try:
+        assert blas_threads() and all(n == 1 for n in blas_threads())
+        with Pipeline(None, {"sensor.rate_hz": 10.0}):
+            pass
+        assert all(n == 1 for n in blas_threads())  # the first pipeline still holds the limit
+    finally:
+        first.close()
+    assert blas_threads() == before
+
+
+def test_pipeline_nodes_follow_the_sensor_time_without_taking_clock():
+    # In one process the tracker and the monitor follow the sensor's simulation time through the
+    # pipeline's time source; /clock is still published for anything outside, but no pipeline node takes it.
+    with Pipeline(None, {"sensor.rate_hz": 10.0, "sim.start_time_s": 1000.0}) as pipeline:
+        followers = (pipeline.star_tracker, pipeline.monitor)
+        pipeline.step(25)
+        for node in followers:
+            assert node.get_parameter("use_sim_time").value is True
+            assert node.get_clock().now().nanoseconds == round(pipeline.sensor.sim_time_s * 1e9)
+            assert all(sub.topic_name != "/clock" for sub in node.subscriptions)
+        assert pipeline.sensor.count_subscribers("/clock") == 0
+        # A restarted node starts on the simulation time, not the wall clock; the stopped one is let go.
+        stopped_clock, stopped_at = pipeline.monitor.get_clock(), pipeline.sensor.sim_time_s
+        pipeline.stop_node("monitor")
+        monitor = pipeline.start_node("monitor")
+        assert monitor.get_clock().now().nanoseconds == round(pipeline.sensor.sim_time_s * 1e9)
+        pipeline.step(30)
+        assert monitor.get_clock().now().nanoseconds == round(pipeline.sensor.sim_time_s * 1e9)
+        assert stopped_clock.now().nanoseconds == round(stopped_at * 1e9)
+        assert monitor.monitor.counters["used"] > 0
+
+
+@pytest.mark.parametrize("rate_hz, time_scale, block", [(10.0, 0.0, 512), (10.0, 1.0, 512), (10.0, 20.0, 50),
+                                                        (10.0, 1000.0, 16)])
+def test_paced_fast_time_computes_blocks_no_longer_than_a_tick(harness, rate_hz, time_scale, block):
+    # As fast as possible: blocks of 512 (cheapest per sample). Paced by the node's own timer: a
+    # block must fit in one tick, or /clock would stop for the tens of ms a block of 512 takes.
+    # 10 Hz × 20 = a 5 ms tick: 50 samples at the sizing cost of 100 µs each.
+    h = harness(SensorNode, {"sensor.rate_hz": rate_hz, "sim.fast_time": True, "sim.time_scale": time_scale})
+    assert h.node.fast_time_block == block
+    h.node.step()
+    assert h.node.samples_computed_ahead == block - 1
+    # Stepped by the in-process pipeline nothing is paced: always the big block.
+    with Pipeline(None, {"sensor.rate_hz": rate_hz, "sim.time_scale": time_scale}) as pipeline:
+        assert pipeline.sensor.fast_time_block == 512

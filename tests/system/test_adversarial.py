@@ -1,0 +1,240 @@
+"""A hostile neighbour on the DDS domain (issue 15): the attacks, from a second process, against the three nodes.
+
+The three nodes run as their console scripts, each its own process, in fast
+time at real speed (the sensor publishes /clock, the others follow it), on a
+ROS domain of their own, discovery on this host only. This test process is
+the neighbour: it publishes on every input topic (1e308 angles, a plausible
+second sensor reading 20′ off, absurd odometry, a flood of quaternions far
+from the truth), forges one /clock a hour ahead, and asks the parameter
+services for a file read (/etc/passwd, a FIFO, /dev/zero) and a 200,000-
+element outage list. Then it checks what the nodes did:
+
+* the monitor's residuals stay those of the real sensor against the real
+  tracker (|residual| < 1′; any hostile sample accepted would be ≥ 20′);
+  every statistic on /pmv/error_statistics is finite;
+* /diagnostics of the monitor is an ERROR naming the publishers' count of
+  each attacked input; no clock jump or alignment reset, one clock outlier;
+  no real truth refused as backwards;
+* every parameter request is refused at once with a reason that quotes no
+  file; the star tracker's memory does not grow;
+* all three processes are still running.
+
+About 25 s (marked ``adversarial``; ``-m "not adversarial"`` leaves it out).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+import rclpy
+from children import child_env, domain_id
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
+from nav_msgs.msg import Odometry
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.parameter_client import AsyncParameterClient
+from rclpy.qos import QoSProfile
+from rosgraph_msgs.msg import Clock
+
+import pmv_msgs_shim as shim
+from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
+from pmv_ros.physics.constants import ARCMIN_RAD
+
+pytestmark = pytest.mark.adversarial
+
+VENV_BIN = Path(sys.executable).parent
+#: A domain of our own, apart from the other multi-process tests.
+DOMAIN_ID = domain_id(1)
+PARAMS = """\
+/**:
+  ros__parameters:
+    orbit.altitude_km: 500.0
+error_monitor_node:
+  ros__parameters:
+    use_sim_time: true
+    remove_oblateness: false
+star_tracker_node:
+  ros__parameters:
+    use_sim_time: true
+sensor_node:
+  ros__parameters:
+    sim.fast_time: true
+    sim.time_scale: 1.0
+    sim.start_time_s: 100.0
+    sensor.rate_hz: 10.0
+    sensor.detector: ideal
+    sensor.earth_model: sphere
+"""
+
+
+def rss_mb(pid: int) -> float:
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) / 1024.0
+    raise RuntimeError("no VmRSS")
+
+
+class Neighbour:
+    """The attacker: a node on the stack's domain in this process, with an executor to spin it."""
+
+    def __init__(self):
+        self.context = rclpy.Context()
+        # This process's other tests keep discovery off; the neighbour must see the stack.
+        saved = os.environ.get("ROS_AUTOMATIC_DISCOVERY_RANGE")
+        os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+        try:
+            rclpy.init(context=self.context, domain_id=DOMAIN_ID)
+        finally:
+            if saved is None:
+                os.environ.pop("ROS_AUTOMATIC_DISCOVERY_RANGE")
+            else:
+                os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = saved
+        self.node = Node("neighbour", context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self.got = {"residual": [], "diagnostics": [], "statistics": []}
+        self.sim_now_s = None
+        qos = QoSProfile(depth=100)
+        self.node.create_subscription(Vector3Stamped, "/pmv/residual", self.got["residual"].append, qos)
+        self.node.create_subscription(DiagnosticArray, "/diagnostics", self.got["diagnostics"].append, qos)
+        self.node.create_subscription(DiagnosticArray, "/pmv/error_statistics", self.got["statistics"].append, qos)
+        self.node.create_subscription(Clock, "/clock", self._on_clock, qos)
+        self.pub = {name: self.node.create_publisher(kind, topic, qos) for name, kind, topic in (
+            ("attitude", Vector3Stamped, "/pmv/attitude"), ("odometry", Odometry, "/orbit/odometry"),
+            ("tracker", QuaternionStamped, "/star_tracker/attitude"), ("clock", Clock, "/clock"))}
+
+    def _on_clock(self, message) -> None:
+        self.sim_now_s = shim.clock_from_msg(message)
+
+    def spin(self, seconds: float) -> None:
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            self.executor.spin_once(timeout_sec=0.01)
+
+    def wait_for(self, condition, seconds: float) -> bool:
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            if condition():
+                return True
+            self.executor.spin_once(timeout_sec=0.05)
+        return False
+
+    def set_parameter(self, node_name: str, name: str, value):
+        client = AsyncParameterClient(self.node, node_name)
+        assert client.wait_for_services(timeout_sec=10.0), node_name
+        started = time.monotonic()
+        future = client.set_parameters([Parameter(name, value=value)])
+        self.executor.spin_until_future_complete(future, timeout_sec=10.0)
+        return future.result().results[0], time.monotonic() - started
+
+    def close(self) -> None:
+        self.executor.shutdown()
+        self.node.destroy_node()
+        rclpy.shutdown(context=self.context)
+
+
+@pytest.fixture
+def stack(tmp_path):
+    params = tmp_path / "stack.yaml"
+    params.write_text(PARAMS)
+    processes = {}
+    for name in ("error_monitor_node", "star_tracker_node", "sensor_node"):
+        processes[name] = subprocess.Popen(
+            [str(VENV_BIN / name), "--ros-args", "--params-file", str(params)], env=child_env(tmp_path / "log", DOMAIN_ID),
+            cwd=tmp_path, stdin=subprocess.DEVNULL, stdout=open(tmp_path / f"{name}.out", "w"),
+            stderr=subprocess.STDOUT)
+    yield processes
+    for process in processes.values():
+        if process.poll() is None:
+            process.send_signal(signal.SIGINT)
+    for process in processes.values():
+        try:
+            process.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+
+
+def monitor_status(messages):
+    statuses = [s for m in messages for s in shim.health_from_msg(m).statuses if s.name == "pmv_ros/error_monitor_node"]
+    return statuses[-1] if statuses else None
+
+
+def test_a_hostile_neighbour_changes_nothing_it_should_not(stack, tmp_path):
+    neighbour = Neighbour()
+    try:
+        assert neighbour.wait_for(lambda: len(neighbour.got["residual"]) > 20, 60.0), "the stack did not start"
+        before = len(neighbour.got["residual"])
+        tracker_rss = rss_mb(stack["star_tracker_node"].pid)
+
+        # 1. Hostile inputs on every input of the monitor for 3 s (20 Hz each, the truth flooded).
+        far = quaternion_from_roll_pitch_yaw(0.3, -0.2)
+        flood_sent = 0
+        end = time.monotonic() + 3.0
+        while time.monotonic() < end:
+            t = neighbour.sim_now_s
+            neighbour.pub["attitude"].publish(shim.attitude_angles_to_msg(
+                shim.AttitudeAngles(t, shim.SENSOR_FRAME, 1e308, 1e308)))
+            neighbour.pub["attitude"].publish(shim.attitude_angles_to_msg(
+                shim.AttitudeAngles(t + 0.01, shim.SENSOR_FRAME, 20 * ARCMIN_RAD, 20 * ARCMIN_RAD)))
+            neighbour.pub["odometry"].publish(shim.write_orbit_state(Odometry(), t, shim.ECI_FRAME,
+                                                                      shim.ORBITAL_FRAME, (1e3, 0.0, 0.0),
+                                                                      (0.0, 7.6e3, 0.0)))
+            for k in range(50):
+                neighbour.pub["tracker"].publish(shim.attitude_quaternion_to_msg(
+                    shim.AttitudeQuaternion(t + 1e-4 * k, shim.ORBITAL_FRAME, far)))
+            flood_sent += 50
+            neighbour.spin(0.05)
+
+        # 2. One forged /clock an hour ahead.
+        neighbour.pub["clock"].publish(shim.clock_to_msg(neighbour.sim_now_s + 3600.0))
+        neighbour.spin(0.5)
+
+        # 3. Parameter requests that would read a file, or fill memory.
+        fifo = tmp_path / "fifo"
+        os.mkfifo(fifo)
+        for path in ("/etc/passwd", str(fifo), "/dev/zero"):
+            result, took_s = neighbour.set_parameter("sensor_node", "sensor.correction", path)
+            assert not result.successful and "read-only" in result.reason and "root:" not in result.reason
+            assert took_s < 5.0
+        result, _ = neighbour.set_parameter("star_tracker_node", "outage_start_s", [1.0] * 200_000)
+        assert not result.successful and "more than the" in result.reason, result.reason
+
+        neighbour.spin(2.5)  # the monitor's /diagnostics at 1 Hz
+
+        # What the nodes did.
+        for name, process in stack.items():
+            assert process.poll() is None, f"{name} died: {(tmp_path / (name + '.out')).read_text()[-2000:]}"
+        residuals = neighbour.got["residual"]
+        assert len(residuals) > before + 40  # the real pair kept being aligned through the attack
+        worst = max(max(abs(m.vector.x), abs(m.vector.y)) for m in residuals) / ARCMIN_RAD
+        assert worst < 1.0, f"a hostile sample was used: residual {worst:.1f}′"
+        statistics = shim.error_statistics_from_msg(neighbour.got["statistics"][-1])
+        for channel in statistics.channels:
+            for value in (channel.mean_rad, channel.sigma_rad, channel.max_abs_rad):
+                assert math.isfinite(value), channel
+        status = monitor_status(neighbour.got["diagnostics"])
+        values = dict(status.values)
+        assert status.level == shim.Level.ERROR, status.message
+        for topic in ("/pmv/attitude", "/star_tracker/attitude", "/orbit/odometry"):
+            assert f"2 publishers of {topic}" in status.message, status.message
+        assert int(values["other_source_star_tracker_attitude"]) > 0.5 * flood_sent
+        assert "rejected_truth_backwards" not in values
+        assert "clock_jumps" not in values and "alignment_resets" not in values
+        assert int(values.get("clock_outliers", 0)) >= 1
+        growth_mb = rss_mb(stack["star_tracker_node"].pid) - tracker_rss
+        print(f"adversarial: {flood_sent} flood messages, {values['other_source_star_tracker_attitude']} dropped as "
+              f"another source; worst residual {worst:.3f}′; {len(residuals) - before} residuals during the attack; "
+              f"tracker RSS {growth_mb:+.1f} MB after a 200,000-element list")
+        assert growth_mb < 20.0
+    finally:
+        neighbour.close()

@@ -1,0 +1,224 @@
+"""``ros2 launch pmv_ros pmv.launch.py`` with the real launch tools (issue 13, points 1–2).
+
+ros2cli, launch and launch_ros are not on the package registries; snapshots of
+their Jazzy branches are in ``../shared/vendor`` with a recipe that installs
+them into a copy of the venv (its README). This module builds the package
+with colcon (the fixture of ``test_colcon.py``), installs the tools into a
+copy of the venv, and runs ``ros2 launch`` as a user would after
+``source install/setup.bash``: the three nodes start on the Kondor preset,
+``/pmv/error_statistics`` arrives in this process on a ROS domain of the
+test's own, and one SIGINT to the launch process (not its group: launch
+forwards it) stops everything cleanly. With ``follow:=true`` nothing of the
+package publishes ``/attitude/truth``; the sensor follows the truth this
+test publishes. Without ``../shared/vendor`` (or ``PMV_ROS_VENDOR``) the module is skipped.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+import rclpy
+from children import domain_id, install_env, join_domain
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
+from rclpy.executors import SingleThreadedExecutor
+from rosgraph_msgs.msg import Clock
+
+#: The colcon test's domain (the same block): the two never run children at once.
+DOMAIN_ID = domain_id(0)
+
+REPO = Path(__file__).resolve().parents[2]
+#: ../shared/vendor beside the repository (as CI lays it out), or where PMV_ROS_VENDOR points.
+VENDOR = Path(os.environ.get("PMV_ROS_VENDOR") or REPO.parent / "shared" / "vendor")
+INSTALLER = VENDOR / "install-ros-tools.sh"
+
+pytestmark = [
+    pytest.mark.launch,
+    pytest.mark.skipif(not INSTALLER.is_file(), reason=f"no {VENDOR} (vendored ros2 launch snapshots): not tested"),
+]
+
+#: First messages after a cold start of four Python processes on a busy 2-core machine.
+FIRST_MESSAGE_TIMEOUT_S = 60.0
+SHUTDOWN_TIMEOUT_S = 20.0
+
+
+@pytest.fixture(scope="module")
+def ros_tools(tmp_path_factory) -> Path:
+    """The venv copy with ros2cli, launch and launch_ros (../shared/vendor/install-ros-tools.sh)."""
+    work = tmp_path_factory.mktemp("ros_tools")
+    base = Path(sys.executable).parent.parent
+    result = subprocess.run(["bash", str(INSTALLER), str(base), str(work)], capture_output=True, text=True,
+                            timeout=600)
+    assert result.returncode == 0, f"install-ros-tools failed:\n{result.stdout}\n{result.stderr}"
+    assert (work / "venv/bin/ros2").is_file()
+    return work / "venv"
+
+
+def _launch_env(install: Path, tools: Path, log_dir: Path) -> dict:
+    """What `source env.sh; source install/setup.bash; source env.sh` gives: the workspace, then the tools."""
+    env = install_env(install, log_dir, DOMAIN_ID)
+    env["VIRTUAL_ENV"] = str(tools)
+    env["PATH"] = os.pathsep.join([str(tools / "bin"), env.get("PATH", "")])
+    env["AMENT_PREFIX_PATH"] = os.pathsep.join([env["AMENT_PREFIX_PATH"], str(tools)])
+    env["PYTHONUNBUFFERED"] = "1"
+    return env
+
+
+class Launched:
+    """``ros2 launch pmv_ros pmv.launch.py ARGS`` as a child process, its output in a file."""
+
+    def __init__(self, install: Path, tools: Path, tmp_path: Path, *arguments: str):
+        self.output = tmp_path / "launch.log"
+        with open(self.output, "wb") as sink:
+            self.process = subprocess.Popen(
+                [str(tools / "bin/ros2"), "launch", "pmv_ros", "pmv.launch.py", *arguments],
+                env=_launch_env(install, tools, tmp_path / "ros_log"), cwd=tmp_path, stdin=subprocess.DEVNULL,
+                stdout=sink, stderr=subprocess.STDOUT, start_new_session=True)
+
+    def log(self) -> str:
+        return self.output.read_text(errors="replace")
+
+    def check_running(self) -> None:
+        if self.process.poll() is not None:
+            pytest.fail(f"ros2 launch exited with {self.process.returncode}:\n{self.log()}")
+
+    def interrupt(self) -> float:
+        """One SIGINT to the launch process; returns how long the shutdown took, s."""
+        started = time.monotonic()
+        self.process.send_signal(signal.SIGINT)
+        try:
+            self.process.wait(timeout=SHUTDOWN_TIMEOUT_S)
+        except subprocess.TimeoutExpired:
+            pytest.fail(f"ros2 launch ignored SIGINT for {SHUTDOWN_TIMEOUT_S:g} s:\n{self.log()}")
+        return time.monotonic() - started
+
+    def kill(self) -> None:
+        if self.process.poll() is None:
+            os.killpg(self.process.pid, signal.SIGKILL)
+            self.process.wait()
+
+
+@pytest.fixture
+def graph(monkeypatch):
+    """A node of this process on the children's domain (discovery on localhost); yields (node, executor)."""
+    context = join_domain(monkeypatch, DOMAIN_ID)
+    node = rclpy.create_node("launch_test_listener", context=context)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    try:
+        yield node, executor
+    finally:
+        executor.shutdown()
+        node.destroy_node()
+        rclpy.shutdown(context=context)
+
+
+def _spin_until(executor, launched: Launched, done, timeout_s: float, what: str) -> None:
+    deadline = time.monotonic() + timeout_s
+    while not done():
+        launched.check_running()
+        if time.monotonic() > deadline:
+            pytest.fail(f"{what} within {timeout_s:g} s on domain {DOMAIN_ID}; ros2 launch said:\n{launched.log()}")
+        executor.spin_once(timeout_sec=0.1)
+
+
+def _assert_clean_exit(launched: Launched) -> None:
+    log = launched.log()
+    assert launched.process.returncode == 0, f"ros2 launch exited with {launched.process.returncode}:\n{log}"
+    assert "Traceback" not in log, log
+    for name in ("sensor_node", "star_tracker_node", "error_monitor_node"):
+        finished = [line for line in log.splitlines() if f"[{name}-" in line and "process has finished cleanly" in line]
+        assert len(finished) == 1, f"{name} did not finish cleanly:\n{log}"
+    assert "process has died" not in log, log
+
+
+def test_launch_kondor_publishes_statistics_and_stops_on_sigint(colcon_install, ros_tools, graph, tmp_path):
+    node, executor = graph
+    assert (colcon_install / "pmv_ros/share/pmv_ros/launch/pmv.launch.py").is_file()
+    statistics = []
+    node.create_subscription(DiagnosticArray, "/pmv/error_statistics", statistics.append, 10)
+    started = time.monotonic()
+    launched = Launched(colcon_install, ros_tools, tmp_path)
+    try:
+        _spin_until(executor, launched, lambda: len(statistics) >= 2, FIRST_MESSAGE_TIMEOUT_S,
+                    "no /pmv/error_statistics")
+        first_s = time.monotonic() - started
+        shutdown_s = launched.interrupt()
+    finally:
+        launched.kill()
+    _assert_clean_exit(launched)
+    log = launched.log()
+    assert "500 km" in log and "attitude from profile" in log and "real time" in log, log
+    names = {status.name for status in statistics[-1].status}
+    assert {"pmv_error_monitor: roll", "pmv_error_monitor: pitch", "pmv_error_monitor: meridional"} <= names
+    print(f"ros2 launch: first /pmv/error_statistics after {first_s:.1f} s, SIGINT to exit {shutdown_s:.1f} s")
+
+
+def test_launch_follow_starts_no_attitude_source(colcon_install, ros_tools, graph, tmp_path):
+    node, executor = graph
+    attitude = []
+    node.create_subscription(Vector3Stamped, "/pmv/attitude", attitude.append, 10)
+    launched = Launched(colcon_install, ros_tools, tmp_path, "preset:=meteor_m2", "follow:=true")
+    try:
+        # The sensor and the star tracker subscribe to /attitude/truth; nobody of the package publishes it.
+        _spin_until(executor, launched, lambda: len(node.get_subscriptions_info_by_topic("/attitude/truth")) >= 2
+                    and node.get_publishers_info_by_topic("/pmv/attitude"), FIRST_MESSAGE_TIMEOUT_S,
+                    "the sensor and the star tracker did not subscribe to /attitude/truth")
+        for _ in range(20):  # a few more spins: a publisher would have been discovered with its node
+            executor.spin_once(timeout_sec=0.05)
+        assert node.get_publishers_info_by_topic("/attitude/truth") == [], launched.log()
+        assert not attitude  # nothing to follow yet: no sample
+        # This process is the user's attitude stack: the sensor follows it.
+        truth = node.create_publisher(QuaternionStamped, "/attitude/truth", 10)
+        message = QuaternionStamped()
+        message.header.frame_id = "orbital"
+        message.quaternion.x, message.quaternion.w = math.sin(0.5 * math.radians(0.1)), math.cos(0.5 * math.radians(0.1))
+
+        def publish():
+            message.header.stamp = node.get_clock().now().to_msg()
+            truth.publish(message)
+
+        timer = node.create_timer(0.1, publish)
+        _spin_until(executor, launched, lambda: len(attitude) >= 5, FIRST_MESSAGE_TIMEOUT_S,
+                    "no /pmv/attitude while following the published truth")
+        node.destroy_timer(timer)
+        publishers = node.get_publishers_info_by_topic("/attitude/truth")
+        assert [info.node_name for info in publishers] == ["launch_test_listener"]
+        launched.interrupt()
+    finally:
+        launched.kill()
+    _assert_clean_exit(launched)
+    log = launched.log()
+    assert "835 km" in log and "attitude from follow" in log, log
+    # A body rolled by 0.1° about the orbital +X: the sensor reads it (± the methodical error, a few ′).
+    roll = [abs(m.vector.x) for m in attitude if math.isfinite(m.vector.x)]
+    assert roll and all(abs(r - math.radians(0.1)) < math.radians(0.25) for r in roll), roll
+
+
+def test_launch_namespace_fast_time_keeps_the_preset_sections(colcon_install, ros_tools, graph, tmp_path):
+    """namespace:=sat1: the preset's and follow.yaml's node sections still reach the renamed nodes; fast time runs."""
+    node, executor = graph
+    launched = Launched(colcon_install, ros_tools, tmp_path, "namespace:=sat1", "follow:=true", "fast_time:=true",
+                        "time_scale:=2")
+    try:
+        clock = []
+        node.create_subscription(Clock, "/clock", clock.append, 10)
+        # The nodes are on the graph before they have finished starting: wait for the sensor's start line too.
+        _spin_until(executor, launched, lambda: {("sensor_node", "/sat1"), ("error_monitor_node", "/sat1")}
+                    <= set(node.get_node_names_and_namespaces()) and len(clock) >= 5
+                    and "sensor_node: H =" in launched.log(), FIRST_MESSAGE_TIMEOUT_S,
+                    "no /sat1 nodes, no /clock or no start line of the sensor")
+        assert node.get_publishers_info_by_topic("/attitude/truth") == []
+        launched.interrupt()
+    finally:
+        launched.kill()
+    _assert_clean_exit(launched)
+    # follow.yaml's sensor_node section and kondor.yaml's reached /sat1/sensor_node; the sensor runs the clock.
+    assert "attitude from follow" in launched.log() and "fast time" in launched.log(), launched.log()
