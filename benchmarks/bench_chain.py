@@ -33,7 +33,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 from pmv_ros.physics.chain import (  # noqa: E402
     DEFAULT_CHAIN_PARAMETERS,
-    ChordStatus,
+    DetectionStatus,
     response_tables,
     scan_start_nadir_angle,
     sense_horizon_chords,
@@ -154,7 +154,7 @@ def main(argv=None) -> int:
     fast_s, status = time_fast(batch, table, args.repeats)
     # Chords the chain senses: a chord that never crosses J(2) would keep the O(steps²) reference busy for
     # all 2000 steps (seconds), which would flatter the ratio.
-    sensed = np.flatnonzero(status == ChordStatus.OK)[:args.reference_chords]
+    sensed = np.flatnonzero(status == DetectionStatus.OK)[:args.reference_chords]
     reference_s = time_reference(batch, table, sensed, repeats=3)
     fast_rate = args.chords / fast_s
     reference_rate = sensed.size / reference_s
@@ -167,7 +167,7 @@ def main(argv=None) -> int:
         "reference_chords": int(sensed.size),
         "reference_s": reference_s,
         "table_setup_s": setup_s,
-        "chords_ok_percent": 100.0 * float(np.mean(status == ChordStatus.OK)),
+        "chords_ok_percent": 100.0 * float(np.mean(status == DetectionStatus.OK)),
         "targets": {"fast_chords_per_s": 20000, "ratio": 1000},
     }
     # The environment's cost: the same instrument with uniform radiance and with the flight environment.

@@ -6,7 +6,6 @@ without ``rclpy.init()``.
 """
 
 from .conversions import (
-    ARCMIN_RAD,
     SAMPLES_STATUS_NAME,
     STATISTICS_STATUS_PREFIX,
     attitude_angles_from_msg,
@@ -23,7 +22,6 @@ from .conversions import (
     horizon_crossings_to_msg,
     orbit_state_from_msg,
     orbit_state_to_msg,
-    orbital_frame,
     read_attitude_angles,
     read_attitude_quaternion,
     read_orbit_state,
@@ -49,14 +47,11 @@ from .orbit_elements import (
 )
 from .records import (
     BODY_FRAME,
-    CHANNELS,
-    CHORDS,
     ECI_FRAME,
     ORBITAL_FRAME,
     SENSOR_FRAME,
     AttitudeAngles,
     AttitudeQuaternion,
-    ChannelStatistics,
     ErrorStatistics,
     HealthReport,
     HealthStatus,
@@ -68,14 +63,14 @@ from .records import (
 )
 
 __all__ = [
-    "ARCMIN_RAD", "SAMPLES_STATUS_NAME", "STATISTICS_STATUS_PREFIX",
-    "BODY_FRAME", "CHANNELS", "CHORDS", "ECI_FRAME", "ORBITAL_FRAME", "SENSOR_FRAME",
-    "AttitudeAngles", "AttitudeQuaternion", "ChannelStatistics", "ErrorStatistics", "HealthReport",
+    "SAMPLES_STATUS_NAME", "STATISTICS_STATUS_PREFIX",
+    "BODY_FRAME", "ECI_FRAME", "ORBITAL_FRAME", "SENSOR_FRAME",
+    "AttitudeAngles", "AttitudeQuaternion", "ErrorStatistics", "HealthReport",
     "HealthStatus", "HorizonCrossings", "Level", "OrbitState",
     "attitude_angles_from_msg", "attitude_angles_to_msg", "attitude_quaternion_from_msg",
     "attitude_quaternion_to_msg", "clock_from_msg", "clock_to_msg", "error_statistics_from_msg",
     "error_statistics_to_msg", "health_from_msg", "health_to_msg", "horizon_crossings_from_msg",
-    "horizon_crossings_to_msg", "orbit_state_from_msg", "orbit_state_to_msg", "orbital_frame", "time_from_msg", "time_to_msg", "to_msg",
+    "horizon_crossings_to_msg", "orbit_state_from_msg", "orbit_state_to_msg", "time_from_msg", "time_to_msg", "to_msg",
     "check_stamp", "checked_lines_of_sight", "read_attitude_angles", "read_attitude_quaternion", "read_orbit_state",
     "write_attitude_angles", "write_attitude_quaternion", "write_clock", "write_error_statistics", "write_health",
     "write_horizon_crossings",

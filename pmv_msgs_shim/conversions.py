@@ -51,11 +51,13 @@ from geometry_msgs.msg import Point32, PolygonStamped, QuaternionStamped, Vector
 from nav_msgs.msg import Odometry
 from rosgraph_msgs.msg import Clock
 
+from pmv_ros.analysis.statistics import CHANNELS, ChannelStatistics
+from pmv_ros.physics.constants import ARCMIN_RAD
+from pmv_ros.physics.orbit import orbital_frame_from_state
+
 from .records import (
-    CHANNELS,
     AttitudeAngles,
     AttitudeQuaternion,
-    ChannelStatistics,
     ErrorStatistics,
     HealthReport,
     HealthStatus,
@@ -65,8 +67,6 @@ from .records import (
     check_stamp,
 )
 
-#: One arc minute in radians (the same value as pmv_ros.physics.constants.ARCMIN_RAD).
-ARCMIN_RAD = math.pi / (180.0 * 60.0)
 
 #: Name prefix of the /pmv/error_statistics statuses.
 STATISTICS_STATUS_PREFIX = "pmv_error_monitor: "
@@ -221,26 +221,6 @@ def read_attitude_quaternion(msg: QuaternionStamped) -> tuple[float, tuple]:
 
 # -------------------------------------------------------------------------- orbit
 
-def orbital_frame(position_m, velocity_m_s) -> tuple[tuple, tuple, tuple]:
-    """Orbital-frame axes X, Y, Z in the frame of ``position_m``/``velocity_m_s``: three unit 3-tuples.
-
-    Z along the radius away from the Earth, Y = r × v (the orbit normal),
-    X = Y × Z (in the orbit plane, towards the velocity) — interfaces.md.
-    Plain floats: the sensor writes one per sample.
-    """
-    rx, ry, rz = (float(c) for c in position_m)
-    vx, vy, vz = (float(c) for c in velocity_m_s)
-    r = math.sqrt(rx * rx + ry * ry + rz * rz)
-    hx, hy, hz = ry * vz - rz * vy, rz * vx - rx * vz, rx * vy - ry * vx
-    h = math.sqrt(hx * hx + hy * hy + hz * hz)
-    if not (r > 0.0 and h > 0.0 and math.isfinite(r + h)):
-        raise ValueError(f"position {position_m} and velocity {velocity_m_s} define no orbital frame")
-    z = (rx / r, ry / r, rz / r)
-    y = (hx / h, hy / h, hz / h)
-    x = (y[1] * z[2] - y[2] * z[1], y[2] * z[0] - y[0] * z[2], y[0] * z[1] - y[1] * z[0])
-    return x, y, z
-
-
 def _quaternion_of_axes(x, y, z) -> tuple[float, float, float, float]:
     """(x, y, z, w) of the rotation whose matrix has columns x, y, z (orthonormal, right-handed)."""
     m00, m11, m22 = x[0], y[1], z[2]
@@ -286,7 +266,7 @@ def write_orbit_state(msg: Odometry, stamp_s: float, frame_id: str, child_frame_
     own axes, (0, |r × v|/|r|², 0). ECI velocity = R(orientation)·twist.linear.
     Covariances are left as they are (zero in a message made by ``Odometry()``).
     """
-    x, y, z = orbital_frame(position_m, velocity_m_s)
+    x, y, z = orbital_frame_from_state(position_m, velocity_m_s)
     q = _quaternion_of_axes(x, y, z)
     vx, vy, vz = (float(c) for c in velocity_m_s)
     rx, ry, rz = (float(c) for c in position_m)
@@ -365,6 +345,11 @@ def _write_statuses(msg: DiagnosticArray, stamp_s: float, statuses) -> Diagnosti
     return msg
 
 
+def _channel_level(channel: ChannelStatistics) -> tuple[Level, str]:
+    """A channel's status: WARN with a reason until it has aligned samples."""
+    return (Level.OK, "") if channel.count > 0 else (Level.WARN, "no aligned samples yet")
+
+
 def _channel_values(channel: ChannelStatistics, oblateness_removed: bool) -> list[tuple[str, str]]:
     values = [
         ("count", str(channel.count)),
@@ -392,7 +377,7 @@ def error_statistics_to_msg(record: ErrorStatistics) -> DiagnosticArray:
 
 def write_error_statistics(msg: DiagnosticArray, record: ErrorStatistics) -> DiagnosticArray:
     """Fill a DiagnosticArray in place for /pmv/error_statistics (see "Writers" above); returns it."""
-    statuses = [(STATISTICS_STATUS_PREFIX + c.channel, c.level, c.message, record.hardware_id,
+    statuses = [(STATISTICS_STATUS_PREFIX + c.channel, *_channel_level(c), record.hardware_id,
                  _channel_values(c, record.oblateness_removed)) for c in record.channels]
     counters = record.counters
     used = counters.get("used", 0)
@@ -406,7 +391,8 @@ def write_error_statistics(msg: DiagnosticArray, record: ErrorStatistics) -> Dia
 
 
 def error_statistics_from_msg(msg: DiagnosticArray) -> ErrorStatistics:
-    """ErrorStatistics from a /pmv/error_statistics DiagnosticArray (derived keys such as limits are ignored)."""
+    """ErrorStatistics from a /pmv/error_statistics DiagnosticArray (derived keys — 3σ, the limits — and the
+    channel levels, which follow from the counts, are not read)."""
     channels, counters, removed, hardware_id = [], {}, True, "pmv"
     for status in msg.status:
         if not status.name.startswith(STATISTICS_STATUS_PREFIX):
@@ -428,12 +414,10 @@ def error_statistics_from_msg(msg: DiagnosticArray) -> ErrorStatistics:
                      for k, v in values.items() if (m := _HARMONIC_KEY.match(k))}
         channels.append(ChannelStatistics(
             channel=channel, count=int(values.get("count", "0")), mean_rad=angle("mean_arcmin"),
-            sigma_rad=angle("sigma_arcmin"), three_sigma_rad=angle("three_sigma_arcmin"),
-            max_abs_rad=angle("max_abs_arcmin"), harmonics_rad=harmonics,
+            sigma_rad=angle("sigma_arcmin"), max_abs_rad=angle("max_abs_arcmin"), harmonics_rad=harmonics,
             ground_mean_m=float(values.get("ground_mean_m", "nan")),
             ground_sigma_m=float(values.get("ground_sigma_m", "nan")),
-            ground_max_abs_m=float(values.get("ground_max_abs_m", "nan")),
-            level=_level_from_msg(status.level), message=status.message))
+            ground_max_abs_m=float(values.get("ground_max_abs_m", "nan"))))
     return ErrorStatistics(time_from_msg(msg.header.stamp), tuple(channels), counters, removed, hardware_id)
 
 

@@ -10,10 +10,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from enum import IntEnum
 from typing import Mapping
 
 import numpy as np
+
+from pmv_ros.analysis.statistics import ChannelStatistics
+from pmv_ros.runtime.records import Level
 
 #: Frame of the sensor (= body) axes: boresight −Z, chords along ±X, ±Y.
 SENSOR_FRAME = "pmv_sensor"
@@ -24,11 +26,6 @@ ECI_FRAME = "eci"
 #: Spacecraft body frame.
 BODY_FRAME = "body"
 
-#: Chord order of /pmv/horizon_crossings.
-CHORDS = ("+X", "+Y", "-X", "-Y")
-
-#: Channels of /pmv/error_statistics, in the order of the statuses.
-CHANNELS = ("roll", "pitch", "meridional")
 
 #: Tolerance on |line of sight| − 1 for a valid chord (float32 on the wire gives ~1e-7).
 UNIT_VECTOR_TOLERANCE = 1e-4
@@ -159,64 +156,10 @@ class OrbitState:
         object.__setattr__(self, "velocity_m_s", _frozen_array(self.velocity_m_s, (3,), "velocity_m_s"))
 
 
-class Level(IntEnum):
-    """Level of a diagnostic status (the values of diagnostic_msgs/DiagnosticStatus)."""
-
-    OK = 0
-    WARN = 1
-    ERROR = 2
-    STALE = 3
-
-
-@dataclass(frozen=True)
-class ChannelStatistics:
-    """Live error statistics of one channel (roll, pitch or meridional), rad; ground error in m.
-
-    Field names match :class:`pmv_ros.analysis.statistics.ChannelStatistics` (and the monitor's
-    :class:`pmv_ros.runtime.monitor.ChannelSummary`); the wire record adds level and message.
-    ``harmonics_rad`` maps k (multiple of the orbital frequency) to the
-    amplitude over the last full orbit (NaN until there is one).
-    ``ground_*`` is the residual as the ground error of a nadir imager
-    (physics.md §7): cross-track for roll, along-track for pitch, circular
-    for meridional.
-    """
-
-    channel: str
-    count: int = 0
-    mean_rad: float = math.nan
-    sigma_rad: float = math.nan
-    three_sigma_rad: float = math.nan
-    max_abs_rad: float = math.nan
-    harmonics_rad: Mapping[int, float] = field(default_factory=dict)
-    ground_mean_m: float = math.nan
-    ground_sigma_m: float = math.nan
-    ground_max_abs_m: float = math.nan
-    level: Level = Level.OK
-    message: str = ""
-
-    def __post_init__(self) -> None:
-        if self.channel not in CHANNELS:
-            raise ValueError(f"channel = {self.channel!r} must be one of {CHANNELS}")
-        if int(self.count) != self.count or self.count < 0:
-            raise ValueError(f"count = {self.count} must be a non-negative integer")
-        object.__setattr__(self, "count", int(self.count))
-        object.__setattr__(self, "harmonics_rad", {int(k): float(v) for k, v in dict(self.harmonics_rad).items()})
-        object.__setattr__(self, "level", Level(self.level))
-
-    @property
-    def limit_low_rad(self) -> float:
-        """mean − 3σ."""
-        return self.mean_rad - self.three_sigma_rad
-
-    @property
-    def limit_high_rad(self) -> float:
-        """mean + 3σ."""
-        return self.mean_rad + self.three_sigma_rad
-
-
 @dataclass(frozen=True)
 class ErrorStatistics:
-    """The content of /pmv/error_statistics: one :class:`ChannelStatistics` per channel plus sample counters.
+    """The content of /pmv/error_statistics: one channel record
+    (:class:`pmv_ros.analysis.statistics.ChannelStatistics`) per channel plus sample counters.
 
     ``counters`` are the monitor's counts by name (samples used, skipped per
     reason, rejected per stream and reason, ...).
@@ -247,19 +190,8 @@ class ErrorStatistics:
 
     @classmethod
     def from_summary(cls, summary, stamp_s: float, hardware_id: str = "pmv") -> "ErrorStatistics":
-        """Build from a monitor summary (:class:`pmv_ros.runtime.monitor.MonitorSummary`), read by field name.
-
-        Duck-typed so that this package does not import the physics core.
-        """
-        channels = tuple(
-            ChannelStatistics(channel=c.channel, count=c.count, mean_rad=c.mean_rad, sigma_rad=c.sigma_rad,
-                              three_sigma_rad=c.three_sigma_rad, max_abs_rad=c.max_abs_rad,
-                              harmonics_rad=c.harmonics_rad, ground_mean_m=c.ground_mean_m,
-                              ground_sigma_m=c.ground_sigma_m, ground_max_abs_m=c.ground_max_abs_m,
-                              level=Level.OK if c.count > 0 else Level.WARN,
-                              message="" if c.count > 0 else "no aligned samples yet")
-            for c in summary.channels)
-        return cls(stamp_s, channels, summary.counters, summary.oblateness_removed, hardware_id)
+        """Build from a monitor summary (:class:`pmv_ros.runtime.monitor.MonitorSummary`)."""
+        return cls(stamp_s, summary.channels, summary.counters, summary.oblateness_removed, hardware_id)
 
 
 @dataclass(frozen=True)

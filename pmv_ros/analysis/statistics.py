@@ -442,13 +442,19 @@ def average_over_orbits(u_rad, values, bin_rad: float | None = None):
     return group_u[order], (means[:, 0] if single else means), counts[order]
 
 
+#: The statistics channels, in the order of every table and of /pmv/error_statistics.
+CHANNELS = ("roll", "pitch", "meridional")
+
+
 @dataclass(frozen=True)
 class ChannelStatistics:
-    """The statistics of one channel (roll, pitch or meridional), rad: the record the live monitor
-    (:class:`pmv_ros.runtime.monitor.ChannelSummary`) and the flight-test analysis
-    (:class:`ChannelResult`) share; the shim's ``ChannelStatistics`` has the same field names.
+    """The statistics of one channel (roll, pitch or meridional), rad: the one record of the live monitor,
+    of /pmv/error_statistics (the shim lays it out) and of the flight-test analysis (:class:`ChannelResult`).
 
-    ``harmonics_rad`` maps k (multiple of the orbital frequency) to an amplitude, rad.
+    ``harmonics_rad`` maps k (multiple of the orbital frequency) to an amplitude, rad
+    (NaN until there is a whole orbit). ``ground_*`` is the residual as the ground
+    error of a nadir imager, m (physics.md §7): cross-track for roll, along-track
+    for pitch, circular for meridional; NaN where it is not computed.
     """
 
     channel: str
@@ -457,6 +463,17 @@ class ChannelStatistics:
     sigma_rad: float = math.nan
     max_abs_rad: float = math.nan
     harmonics_rad: dict = field(default_factory=dict)
+    ground_mean_m: float = math.nan
+    ground_sigma_m: float = math.nan
+    ground_max_abs_m: float = math.nan
+
+    def __post_init__(self) -> None:
+        if self.channel not in CHANNELS:
+            raise ValueError(f"channel = {self.channel!r} must be one of {CHANNELS}")
+        if int(self.count) != self.count or self.count < 0:
+            raise ValueError(f"count = {self.count} must be a non-negative integer")
+        object.__setattr__(self, "count", int(self.count))
+        object.__setattr__(self, "harmonics_rad", {int(k): float(v) for k, v in dict(self.harmonics_rad).items()})
 
     @property
     def three_sigma_rad(self) -> float:

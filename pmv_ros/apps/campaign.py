@@ -33,7 +33,9 @@ import numpy as np
 from ..storage.json_output import finite_json
 from ..physics.constants import ARCMIN_RAD
 from ..runtime.flight import OUTCOME_CODES, flight_values, fly
-from ..runtime.monitor import CHANNELS, Status
+from ..analysis.statistics import CHANNELS
+from ..runtime.monitor import Status
+from .report import channel_to_dict
 from ..physics.orbit import CircularOrbit
 from ..analysis.statistics import RunningStatistics
 
@@ -232,19 +234,10 @@ def run_task(settings: Settings, task: Task):
 
 
 def summary_to_dict(summary) -> dict:
-    """A :class:`~pmv_ros.runtime.monitor.MonitorSummary` as JSON-ready data, arcmin and m for people."""
-    channels = {}
-    for channel in summary.channels:
-        channels[channel.channel] = {
-            "count": channel.count, "mean_arcmin": channel.mean_rad / ARCMIN_RAD,
-            "sigma_arcmin": channel.sigma_rad / ARCMIN_RAD,
-            "limit_low_arcmin": channel.limit_low_rad / ARCMIN_RAD,
-            "limit_high_arcmin": channel.limit_high_rad / ARCMIN_RAD,
-            "max_abs_arcmin": channel.max_abs_rad / ARCMIN_RAD,
-            "harmonics_arcmin": {str(k): v / ARCMIN_RAD for k, v in sorted(channel.harmonics_rad.items())},
-            "ground_sigma_m": channel.ground_sigma_m,
-        }
-    return {"oblateness_removed": summary.oblateness_removed, "channels": channels,
+    """A :class:`~pmv_ros.runtime.monitor.MonitorSummary` as JSON-ready data (the report's layout), the
+    counters that are not zero."""
+    return {"oblateness_removed": summary.oblateness_removed,
+            "channels": {channel.channel: channel_to_dict(channel) for channel in summary.channels},
             "counters": {k: v for k, v in summary.counters.items() if v}}
 
 

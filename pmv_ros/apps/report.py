@@ -58,23 +58,27 @@ def flight_record(name: str) -> dict | None:
     return records["records"][name]
 
 
+def channel_to_dict(channel) -> dict:
+    """One channel's statistics (:class:`~pmv_ros.analysis.statistics.ChannelStatistics`) as JSON-ready data,
+    arcmin and m for people: the one layout of every report and budget."""
+    return {
+        "count": channel.count,
+        "mean_arcmin": channel.mean_rad / ARCMIN_RAD,
+        "sigma_arcmin": channel.sigma_rad / ARCMIN_RAD,
+        "three_sigma_arcmin": channel.three_sigma_rad / ARCMIN_RAD,
+        "limit_low_arcmin": channel.limit_low_rad / ARCMIN_RAD,
+        "limit_high_arcmin": channel.limit_high_rad / ARCMIN_RAD,
+        "max_abs_arcmin": channel.max_abs_rad / ARCMIN_RAD,
+        "harmonics_arcmin": {str(k): v / ARCMIN_RAD for k, v in sorted(channel.harmonics_rad.items())},
+        "ground_sigma_m": channel.ground_sigma_m,
+        "ground_max_abs_m": channel.ground_max_abs_m,
+    }
+
+
 def statistics_to_dict(statistics) -> dict:
-    """Final statistics (a shim ErrorStatistics) as plain JSON-ready data, arcmin for people."""
-    channels = {}
-    for channel in statistics.channels:
-        channels[channel.channel] = {
-            "count": channel.count,
-            "mean_arcmin": channel.mean_rad / ARCMIN_RAD,
-            "sigma_arcmin": channel.sigma_rad / ARCMIN_RAD,
-            "three_sigma_arcmin": channel.three_sigma_rad / ARCMIN_RAD,
-            "limit_low_arcmin": channel.limit_low_rad / ARCMIN_RAD,
-            "limit_high_arcmin": channel.limit_high_rad / ARCMIN_RAD,
-            "max_abs_arcmin": channel.max_abs_rad / ARCMIN_RAD,
-            "harmonics_arcmin": {str(k): v / ARCMIN_RAD for k, v in sorted(channel.harmonics_rad.items())},
-            "ground_sigma_m": channel.ground_sigma_m,
-            "ground_max_abs_m": channel.ground_max_abs_m,
-        }
-    return {"oblateness_removed": statistics.oblateness_removed, "channels": channels,
+    """Final statistics (a shim ErrorStatistics or a monitor summary) as plain JSON-ready data."""
+    return {"oblateness_removed": statistics.oblateness_removed,
+            "channels": {channel.channel: channel_to_dict(channel) for channel in statistics.channels},
             "counters": dict(statistics.counters)}
 
 

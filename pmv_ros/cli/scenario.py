@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from ..physics.chain import ChordStatus
+from ..physics.chain import DetectionStatus
 from ..physics.constants import ARCMIN_RAD
 from ..physics.correction import load_correction
 from ..physics.orbit import MAX_ALTITUDE_M, MIN_ALTITUDE_M
@@ -112,10 +112,10 @@ def run(args) -> int:
             "window_height_km": pair.window_height_m[k] / 1e3,
             "gam_arcmin": _arcmin(r.gam_rad[k]), "del_arcmin": _arcmin(r.del_rad[k]),
             "pop_arcmin": _arcmin(r.pop_rad[k]), "gam_corrected_arcmin": _arcmin(r.gam_corrected_rad[k]),
-            "status": ChordStatus(int(r.status[k])).name,
+            "status": DetectionStatus(int(r.status[k])).name,
         })
     correction_name = "none" if correction is None else correction.source
-    failed = [c for c in chords if c["status"] != ChordStatus.OK.name]
+    failed = [c for c in chords if c["status"] != DetectionStatus.OK.name]
     if args.json:
         print_json({
             "model": pair.model, "description": pair.description, "altitude_km": args.altitude_km,
@@ -140,8 +140,8 @@ def run(args) -> int:
 
 def _chord_failure(chord: int, status: str) -> int:
     reasons = {
-        ChordStatus.FIRST_THRESHOLD_NOT_REACHED.name: "never crossed the first threshold (0.33 J): horizon too dark",
-        ChordStatus.SECOND_THRESHOLD_NOT_REACHED.name: "never crossed the second threshold (0.67 J): horizon too dark",
+        DetectionStatus.FIRST_THRESHOLD_NOT_REACHED.name: "never crossed the first threshold (0.33 J): horizon too dark",
+        DetectionStatus.SECOND_THRESHOLD_NOT_REACHED.name: "never crossed the second threshold (0.67 J): horizon too dark",
     }
     fail("pmv scenario", f"chord {chord}: {reasons.get(status, status)}")
     return 1

@@ -43,7 +43,7 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 import pmv_msgs_shim as shim
 from .base import PmvNode
 from ..runtime.assembly import SENSOR_PARAMS as PARAMS, build_models, read_correction
-from ..runtime.sample_stream import SampleStream, fast_time_block
+from ..runtime.sample_stream import SampleStream, SensorSample, fast_time_block
 from ..runtime.sensor_health import SensorHealth, truth_source_warnings
 from ..runtime.truth_buffer import TruthAt, TruthBuffer
 from ..runtime.validation import Jump, JumpDetector, Rejection, StampCheck, check_quaternion_sample
@@ -198,7 +198,7 @@ class SensorNode(PmvNode):
         if self._following:
             self._sense_following(self._sim_time_s)
             return
-        self._publish_sample(*self._stream.next_profile_sample(self._sim_time_s, period, self.fast_time_block))
+        self._publish_sample(self._stream.next_profile_sample(self._sim_time_s, period, self.fast_time_block))
 
     @property
     def fast_time_block(self) -> int:
@@ -217,7 +217,7 @@ class SensorNode(PmvNode):
         if self._following:
             self._sense_following(now_s)
         else:
-            self._publish_sample(*self._stream.profile_sample(now_s))
+            self._publish_sample(self._stream.profile_sample(now_s))
 
     def _sense_following(self, t_s: float) -> None:
         """Measure with the attitude at ``t_s`` from the truth buffer; nothing when there is none."""
@@ -232,22 +232,24 @@ class SensorNode(PmvNode):
             self._health.count(f"skipped_{source.value}")
             self._publish_health(t_s)
             return
-        self._publish_sample(*self._stream.sample(t_s, q))
+        self._publish_sample(self._stream.sample(t_s, q))
 
-    def _publish_sample(self, t_s, q, line_of_sight, roll, pitch, roll_raw, pitch_raw, status, blinding,
-                        position, velocity) -> None:
-        out = self._out
+    def _publish_sample(self, sample: SensorSample) -> None:
+        out, t_s = self._out, sample.t_s
         if self._pub_truth is not None:
-            self._pub_truth.publish(shim.write_attitude_quaternion(out["truth"], t_s, shim.ORBITAL_FRAME, q))
+            self._pub_truth.publish(shim.write_attitude_quaternion(out["truth"], t_s, shim.ORBITAL_FRAME,
+                                                                   sample.q_xyzw))
         self._pub_odometry.publish(shim.write_orbit_state(out["odometry"], t_s, shim.ECI_FRAME, shim.ORBITAL_FRAME,
-                                                          position, velocity))
+                                                          sample.position_eci_m, sample.velocity_eci_m_s))
         self._pub_crossings.publish(shim.write_horizon_crossings(out["crossings"], t_s, shim.SENSOR_FRAME,
-                                                                 line_of_sight))
-        self._pub_attitude.publish(shim.write_attitude_angles(out["attitude"], t_s, shim.SENSOR_FRAME, roll, pitch))
+                                                                 sample.line_of_sight))
+        self._pub_attitude.publish(shim.write_attitude_angles(out["attitude"], t_s, shim.SENSOR_FRAME,
+                                                              sample.roll_rad, sample.pitch_rad))
         self._pub_attitude_raw.publish(shim.write_attitude_angles(out["attitude_raw"], t_s, shim.SENSOR_FRAME,
-                                                                  roll_raw, pitch_raw))
-        self._health.record_sample(status)
-        self._publish_health(t_s, status, blinding)
+                                                                  sample.roll_uncorrected_rad,
+                                                                  sample.pitch_uncorrected_rad))
+        self._health.record_sample(sample.chord_status)
+        self._publish_health(t_s, sample.chord_status, sample.blinding_body)
 
     def _publish_health(self, t_s: float, status=None, blinding=None) -> None:
         """Publish /diagnostics when due (every diagnostics_period_s, and at once on a change)."""

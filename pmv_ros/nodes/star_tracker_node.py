@@ -42,15 +42,13 @@ from geometry_msgs.msg import QuaternionStamped
 
 import pmv_msgs_shim as shim
 from .base import PmvNode
-from ..runtime.assembly import STAR_TRACKER_PARAMS as PARAMS, build_tracker
-from ..physics.constants import GM_EARTH_M3_S2, EARTH_MEAN_RADIUS_M
-from ..physics.star_tracker import FrameGrid, LatencyQueue, Outcome, inertial_rate_of_nadir_pointing
-from ..runtime.validation import STAMP_REJECTIONS, Rejection, StampCheck, check_quaternion_sample
+from ..physics.star_tracker import Outcome
+from ..runtime.assembly import STAR_TRACKER_PARAMS as PARAMS
+from ..runtime.tracker import TrackerRuntime
+from ..runtime.validation import TRUTH_REJECTIONS, Rejection, StampCheck, check_quaternion_sample
 from .launch import run_node
 from .params import ParameterError, declare, install_validation
 
-#: Reasons a truth message is dropped (the /diagnostics keys are rejected_truth_<reason>).
-TRUTH_REJECTIONS = STAMP_REJECTIONS + (Rejection.BAD_QUATERNION,)
 
 
 class StarTrackerNode(PmvNode):
@@ -61,7 +59,7 @@ class StarTrackerNode(PmvNode):
         self._values = declare(self, PARAMS)
         self._start_s = self.get_clock().now().nanoseconds * 1e-9
         try:
-            self._tracker = build_tracker(self._values, self._start_s)
+            self._runtime = TrackerRuntime(self._values, self._start_s)
             self._stamps = StampCheck(1.0, 1.0).reconfigured(self._values["clock_jump_s"],
                                                              self._values["future_tolerance_s"],
                                                              1.0 / self._values["input.max_rate_hz"])
@@ -72,16 +70,12 @@ class StarTrackerNode(PmvNode):
         self._diagnostics = self.publisher(DiagnosticArray, "/diagnostics")
         self.input_subscription(QuaternionStamped, "/attitude/truth", self._on_truth,
                                 self._values["input.source_timeout_s"])
-        self._grid = FrameGrid(1.0 / self._values["rate_hz"], self._values["max_truth_gap_s"])
-        self._queue = LatencyQueue(self._values["latency_s"])  # bounded by latency × rate
         # Filled in place for every publication (rclpy serialises at publish).
         self._out, self._out_diagnostics = QuaternionStamped(), DiagnosticArray()
-        self._outcomes = {outcome: 0 for outcome in Outcome}
         self._counters = {f"rejected_truth_{reason.value}": 0 for reason in TRUTH_REJECTIONS}
         self._counters.update(truth_quaternions_normalised=0, clock_jumps=0, clock_outliers=0,
                               frames_dropped_at_clock_jump=0)
         self._rejected_reported = 0
-        self._last_outcome = Outcome.OK
         self._last_diagnostics_s = -math.inf
         # Stale input: no truth for a while is reported even though no truth callback runs.
         # Measured by arrival on the node clock, so a source whose stamps are on another clock is not "stale".
@@ -91,16 +85,11 @@ class StarTrackerNode(PmvNode):
                                f"latency {self._values['latency_s']:g} s")
 
     def _rebuild(self, values: dict) -> None:
-        self._tracker = build_tracker(values, self._start_s)
+        self._runtime.reconfigure(values)
         self._stamps = self._stamps.reconfigured(values["clock_jump_s"], values["future_tolerance_s"],
                                                  1.0 / values["input.max_rate_hz"])
         for lock in self.source_locks.values():
             lock.timeout_s = values["input.source_timeout_s"]
-        self._grid.period_s, self._grid.max_gap_s = 1.0 / values["rate_hz"], values["max_truth_gap_s"]
-        self._queue.latency_s = values["latency_s"]
-
-    def _mean_motion(self) -> float:
-        return math.sqrt(GM_EARTH_M3_S2 / (EARTH_MEAN_RADIUS_M + self._values["orbit.altitude_km"] * 1e3) ** 3)
 
     def _now_s(self) -> float | None:
         now = self.get_clock().now().nanoseconds * 1e-9
@@ -109,8 +98,7 @@ class StarTrackerNode(PmvNode):
     def _new_timeline(self) -> None:
         """The truth clock went back: forget the old timeline (frames not yet released are dropped)."""
         self._counters["clock_jumps"] += 1
-        self._counters["frames_dropped_at_clock_jump"] += self._queue.clear()
-        self._grid.restart()
+        self._counters["frames_dropped_at_clock_jump"] += self._runtime.new_timeline()
         self._last_diagnostics_s = -math.inf
 
     def _on_truth(self, message: QuaternionStamped) -> None:
@@ -128,15 +116,8 @@ class StarTrackerNode(PmvNode):
             self._counters[f"rejected_truth_{sample.rejection.value}"] += 1
             return
         self._counters["truth_quaternions_normalised"] += sample.normalised
-        frames, attitudes, turn_rate = self._grid.add(t_s, sample.q_xyzw)
-        if frames:
-            rate = inertial_rate_of_nadir_pointing(self._mean_motion(), turn_rate)
-            for frame_s, (measured, outcome) in zip(frames, self._tracker.measure_frames(frames, attitudes, rate)):
-                self._outcomes[outcome] += 1
-                self._last_outcome = outcome
-                if outcome == Outcome.OK:
-                    self._queue.push(frame_s, measured.tolist())
-        for frame_s, q_measured in self._queue.release(t_s):
+        self._runtime.add_truth(t_s, sample.q_xyzw)
+        for frame_s, q_measured in self._runtime.release(t_s):
             self._publisher.publish(shim.write_attitude_quaternion(self._out, frame_s, shim.ORBITAL_FRAME, q_measured))
         self._maybe_publish_diagnostics(t_s)
 
@@ -145,8 +126,9 @@ class StarTrackerNode(PmvNode):
             return
         self._last_diagnostics_s = t_s
         problems = []
-        if self._last_outcome != Outcome.OK:
-            problems.append(f"star-tracker outage: {self._last_outcome.name.lower().replace('_', ' ')}")
+        last = self._runtime.last_outcome
+        if last != Outcome.OK:
+            problems.append(f"star-tracker outage: {last.name.lower().replace('_', ' ')}")
         self._publish_diagnostics(t_s, problems)
 
     def _on_timer(self) -> None:
@@ -160,10 +142,10 @@ class StarTrackerNode(PmvNode):
             self._publish_diagnostics(now, [f"no /attitude/truth {what} (stale input)"])
 
     def _publish_diagnostics(self, t_s: float, problems: list) -> None:
-        values = {f"frames_{o.name.lower()}": n for o, n in self._outcomes.items()}
+        values = {f"frames_{o.name.lower()}": n for o, n in self._runtime.outcomes.items()}
         values.update(self._counters)
         values.update(self.input_source_counters())
-        values["release_queue"] = len(self._queue)
+        values["release_queue"] = len(self._runtime.queue)
         rejected = sum(self._counters[f"rejected_truth_{reason.value}"] for reason in TRUTH_REJECTIONS)
         if rejected > self._rejected_reported:
             problems = problems + ["rejected /attitude/truth messages"]
@@ -179,7 +161,7 @@ class StarTrackerNode(PmvNode):
     @property
     def counters(self) -> dict:
         """Frame outcomes and input counters (a copy), as on /diagnostics."""
-        values = {f"frames_{o.name.lower()}": n for o, n in self._outcomes.items()}
+        values = {f"frames_{o.name.lower()}": n for o, n in self._runtime.outcomes.items()}
         values.update(self._counters)
         return values
 

@@ -80,7 +80,7 @@ The fast chain: superposition of precomputed responses
     Agreement with the literal loop program (tests/reference_chain.py):
     within 0.05′ in Gam and Del (tests/test_chain.py).
 
-Reason codes (:class:`ChordStatus`, like python-sgp4's error table): a chord
+Reason codes (:class:`DetectionStatus`, like python-sgp4's error table): a chord
 that cannot be sensed gives NaN and a non-zero code; array code never raises
 for bad samples.
 """
@@ -107,7 +107,7 @@ from .radiance import (
 )
 
 
-class ChordStatus(enum.IntEnum):
+class DetectionStatus(enum.IntEnum):
     """Reason code of one chord's reading (0 = good; otherwise the outputs are NaN)."""
 
     #: Both comparators fired; all outputs valid.
@@ -467,14 +467,14 @@ def comparator_times(output_ru, params: ChainParameters = DEFAULT_CHAIN_PARAMETE
         output_ru: ``(..., steps)`` detector output, r.u.
 
     Returns:
-        (t1_s, t2_s, status): NaN times and a :class:`ChordStatus` code where a
+        (t1_s, t2_s, status): NaN times and a :class:`DetectionStatus` code where a
         threshold is never exceeded.
     """
     y = np.asarray(output_ru, float)
     t1 = _interpolated_crossing(y, params.threshold_1_ru) * params.time_step_s
     t2 = _interpolated_crossing(y, params.threshold_2_ru) * params.time_step_s
-    status = np.where(np.isnan(t1), ChordStatus.FIRST_THRESHOLD_NOT_REACHED,
-                      np.where(np.isnan(t2), ChordStatus.SECOND_THRESHOLD_NOT_REACHED, ChordStatus.OK))
+    status = np.where(np.isnan(t1), DetectionStatus.FIRST_THRESHOLD_NOT_REACHED,
+                      np.where(np.isnan(t2), DetectionStatus.SECOND_THRESHOLD_NOT_REACHED, DetectionStatus.OK))
     t2 = np.where(np.isnan(t1), np.nan, t2)
     return t1, t2, status.astype(np.int8)
 
@@ -518,7 +518,7 @@ class ChordReadings:
     ``sensed_horizon_nadir_rad`` = θ₀ − Gam′ (brightness-corrected) and
     ``sensed_horizon_nadir_uncorrected_rad`` = θ₀ − Gam are the nadir angles
     at which the sensor places the horizon; compare with the true hard-Earth
-    horizon φ₀. NaN wherever ``status`` is not :attr:`ChordStatus.OK`.
+    horizon φ₀. NaN wherever ``status`` is not :attr:`DetectionStatus.OK`.
     """
 
     gam_rad: np.ndarray
@@ -532,7 +532,7 @@ class ChordReadings:
 
 def _readings(scan_start, t1, t2, status, correction, params) -> ChordReadings:
     gam, dele = gam_del(t1, t2, params)
-    bad = status != ChordStatus.OK
+    bad = status != DetectionStatus.OK
     gam = np.where(bad, np.nan, gam)
     dele = np.where(bad, np.nan, dele)
     pop = brightness_correction(dele, correction)
@@ -727,7 +727,7 @@ def sense_horizon_chords(horizon_nadir_rad, tangent_height_rate_m, disc_radiance
     """Gam, Del, Gam′ and the sensed horizon of N chords at once: the fast signal chain.
 
     Every argument is a scalar or an ``(N,)`` array (broadcast together).
-    Bad values of a chord give NaN and :attr:`ChordStatus.INVALID_INPUT` for
+    Bad values of a chord give NaN and :attr:`DetectionStatus.INVALID_INPUT` for
     that chord; nothing raises for bad samples.
 
     Args:
@@ -813,19 +813,19 @@ def sense_horizon_chords(horizon_nadir_rad, tangent_height_rate_m, disc_radiance
         theta0 = _as_chords(scan_start_nadir_rad, n, "scan_start_nadir_rad")
         valid &= np.isfinite(theta0)
         theta0[~valid] = phi_top[~valid] + params.ifov_half_angle_rad
-    status = np.where(valid, ChordStatus.OK, ChordStatus.INVALID_INPUT).astype(np.int8)
+    status = np.where(valid, DetectionStatus.OK, DetectionStatus.INVALID_INPUT).astype(np.int8)
     started_inside = valid & (phi_top > theta0 - params.ifov_half_angle_rad + 1e-12)
-    status[started_inside] = ChordStatus.SCAN_STARTED_IN_ATMOSPHERE
+    status[started_inside] = DetectionStatus.SCAN_STARTED_IN_ATMOSPHERE
 
     origins, coefficients, shapes = _profile_terms(phi0, slope, radius, b_m, gradient, jump, jump_d, h_w, b_a,
                                                    phi_top, params, disc_c)
     tables = response_tables(params)
     # Geometry with no real solution (e.g. a layer above the orbit of the equivalent sphere) is bad input.
     finite = np.all(np.isfinite(origins) & np.isfinite(coefficients), axis=1)
-    status[(status == ChordStatus.OK) & ~finite] = ChordStatus.INVALID_INPUT
+    status[(status == DetectionStatus.OK) & ~finite] = DetectionStatus.INVALID_INPUT
     coefficients[~finite] = 0.0
     origins[~finite] = 0.0
-    active = status == ChordStatus.OK
+    active = status == DetectionStatus.OK
     t1 = np.full(n, np.nan)
     t2 = np.full(n, np.nan)
     if active.any():
@@ -836,8 +836,8 @@ def sense_horizon_chords(horizon_nadir_rad, tangent_height_rate_m, disc_radiance
         idx = np.flatnonzero(active)
         t1[idx], t2[idx] = _search_crossings(tables, origins[idx] - theta0[idx, None], coefficients[idx], shapes,
                                              first_step[idx], params)
-    status[active & np.isnan(t1)] = ChordStatus.FIRST_THRESHOLD_NOT_REACHED
-    status[active & ~np.isnan(t1) & np.isnan(t2)] = ChordStatus.SECOND_THRESHOLD_NOT_REACHED
+    status[active & np.isnan(t1)] = DetectionStatus.FIRST_THRESHOLD_NOT_REACHED
+    status[active & ~np.isnan(t1) & np.isnan(t2)] = DetectionStatus.SECOND_THRESHOLD_NOT_REACHED
     return _readings(theta0, t1, t2, status, correction, params)
 
 

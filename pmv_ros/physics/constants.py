@@ -55,3 +55,6 @@ ARCSEC_RAD = ARCMIN_RAD / 60.0
 
 #: Radiance unit of the papers: 1 r.u. = J = L_min = 2.5 mW/(cm^2 sr) (physics.md §3).
 RADIANCE_UNIT_MW_CM2_SR = 2.5
+
+#: One day of 86 400 SI seconds (UTC days without leap seconds; the ephemeris' and the fields' day).
+SECONDS_PER_DAY = 86400.0

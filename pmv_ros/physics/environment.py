@@ -43,7 +43,7 @@ import numpy as np
 from numpy.polynomial import legendre
 from scipy.special import eval_legendre, gammaln, ndtr, ndtri
 
-from .constants import EARTH_MEAN_RADIUS_M
+from .constants import EARTH_MEAN_RADIUS_M, SECONDS_PER_DAY
 from .orbit import check_range
 from .radiance import CO2_TOP_HEIGHT_M, MAX_EARTH_RADIANCE_RU, MIN_EARTH_RADIANCE_RU
 
@@ -700,9 +700,6 @@ class LayerHeightField:
 # --------------------------------------------------------------------------
 # 3. The assembled environment
 # --------------------------------------------------------------------------
-
-#: Seconds per day, for the day of year on the simulation clock.
-SECONDS_PER_DAY = 86400.0
 
 
 @dataclass(frozen=True)

@@ -42,7 +42,7 @@ from datetime import datetime, timezone
 
 import numpy as np
 
-from .constants import EARTH_MEAN_RADIUS_M
+from .constants import EARTH_MEAN_RADIUS_M, SECONDS_PER_DAY
 from .geometry import CHORD_AZIMUTHS_RAD
 from .oblateness import sensor_axes_eci
 from .orbit import CircularOrbit, check_range
@@ -55,8 +55,6 @@ from .orbit import CircularOrbit, check_range
 #: Astronomical unit, m (IAU 2012 Resolution B2, exact).
 ASTRONOMICAL_UNIT_M = 149_597_870_700.0
 
-#: Seconds in a day.
-SECONDS_PER_DAY = 86400.0
 
 #: Julian date of the epoch J2000.0 (2000 January 1, 12h), days.
 JD_J2000 = 2451545.0

@@ -76,7 +76,7 @@ class CircularOrbit:
     @property
     def mean_motion_rad_s(self) -> float:
         """Keplerian mean motion n = sqrt(GM / r^3), rad/s (plus the J2 term on u when enabled)."""
-        n = math.sqrt(GM_EARTH_M3_S2 / self.radius_m**3)
+        n = circular_mean_motion_rad_s(self.altitude_m)
         if self.j2_node_drift:
             # First-order secular J2 rates for e = 0: du/dt = dω/dt + dM/dt
             # = n [1 + 3/4 J2 (R/r)^2 ((4 - 5 sin^2 i) + (2 - 3 sin^2 i))].
@@ -95,7 +95,7 @@ class CircularOrbit:
         """Secular node drift dΩ/dt = −3/2 n J2 (a/r)^2 cos i, rad/s (0 without J2)."""
         if not self.j2_node_drift:
             return 0.0
-        n = math.sqrt(GM_EARTH_M3_S2 / self.radius_m**3)
+        n = circular_mean_motion_rad_s(self.altitude_m)
         return -1.5 * n * J2_EARTH * (GRS80.a_m / self.radius_m) ** 2 * math.cos(self.inclination_rad)
 
     def argument_of_latitude(self, t_s):
@@ -121,6 +121,11 @@ class CircularOrbit:
         return self.radius_m * frame[:, 2], speed * frame[:, 0]
 
 
+def circular_mean_motion_rad_s(altitude_m: float) -> float:
+    """Keplerian mean motion sqrt(GM / r^3) of a circular orbit ``altitude_m`` above the mean radius, rad/s."""
+    return math.sqrt(GM_EARTH_M3_S2 / (EARTH_MEAN_RADIUS_M + altitude_m) ** 3)
+
+
 def orbital_frame_from_angles(u_rad, inclination_rad, raan_rad):
     """Orbital-frame axes (columns X, Y, Z) in ECI from u, i and Ω, rad; ``(3, 3[, N])``."""
     u = np.asarray(u_rad, float)
@@ -136,6 +141,27 @@ def orbital_frame_from_angles(u_rad, inclination_rad, raan_rad):
     x_axis = np.broadcast_to(x_axis, (3,) + shape)
     y_axis = np.cross(z_axis, x_axis, axis=0)
     return np.stack([x_axis, y_axis, z_axis], axis=1)
+
+
+def orbital_frame_from_state(position_m, velocity_m_s) -> tuple[tuple, tuple, tuple]:
+    """Orbital-frame axes X, Y, Z in the frame of ``position_m``/``velocity_m_s``: three unit 3-tuples.
+
+    Z along the radius away from the Earth, Y = r × v (the orbit normal),
+    X = Y × Z (in the orbit plane, towards the velocity) — interfaces.md;
+    for a circular orbit the axes of :func:`orbital_frame_from_angles`.
+    Plain floats: the sensor's odometry writes one per sample.
+    """
+    rx, ry, rz = (float(c) for c in position_m)
+    vx, vy, vz = (float(c) for c in velocity_m_s)
+    r = math.sqrt(rx * rx + ry * ry + rz * rz)
+    hx, hy, hz = ry * vz - rz * vy, rz * vx - rx * vz, rx * vy - ry * vx
+    h = math.sqrt(hx * hx + hy * hy + hz * hz)
+    if not (r > 0.0 and h > 0.0 and math.isfinite(r + h)):
+        raise ValueError(f"position {position_m} and velocity {velocity_m_s} define no orbital frame")
+    z = (rx / r, ry / r, rz / r)
+    y = (hx / h, hy / h, hz / h)
+    x = (y[1] * z[2] - y[2] * z[1], y[2] * z[0] - y[0] * z[2], y[0] * z[1] - y[1] * z[0])
+    return x, y, z
 
 
 def earth_rotation_angle(t_s, angle_at_epoch_rad: float = 0.0, epoch_s: float = 0.0):

@@ -37,14 +37,12 @@ from . import chain
 from .attitude import true_roll_pitch
 from .constants import EARTH_MEAN_RADIUS_M, GRS80, Ellipsoid
 from .environment import EnvironmentParameters, RadianceEnvironment
-from .ephemeris import Epoch, bright_body_in_chords
+from .ephemeris import BODY_NAMES, Epoch, bright_body_in_chords
 from .geometry import CHORD_AZIMUTHS_RAD, chord_line_of_sight, roll_pitch_from_horizon_angles, tangent_nadir_angles
 from .oblateness import closed_form_oblateness, sensor_axes_eci
 from .orbit import CircularOrbit, eci_to_ecef, geocentric_latitude_longitude
 from .radiance import CO2_TOP_HEIGHT_M
 
-#: Bodies that blind a chord, in the order of :attr:`SensorReading.blinding_body`.
-BRIGHT_BODIES = ("sun", "moon")
 
 #: Default exclusion angle of the Sun or the Moon from a chord's swept arc, rad:
 #: the IFOV half-width γ = 1.1° (physics.md §4) + the body's radius ≈ 0.27°
@@ -148,10 +146,10 @@ def nominal_scan_start_nadir_rad(altitude_m: float, scan_margin_rad: float = DEF
 
 
 #: How the chain's per-chord codes map onto the sensor's chord status.
-_CHAIN_STATUS = np.full(max(chain.ChordStatus) + 1, ChordStatus.NOT_DETECTED, np.int8)
-_CHAIN_STATUS[chain.ChordStatus.OK] = ChordStatus.VALID
-_CHAIN_STATUS[chain.ChordStatus.INVALID_INPUT] = ChordStatus.NO_HORIZON
-_CHAIN_STATUS[chain.ChordStatus.SCAN_STARTED_IN_ATMOSPHERE] = ChordStatus.NO_HORIZON
+_CHAIN_STATUS = np.full(max(chain.DetectionStatus) + 1, ChordStatus.NOT_DETECTED, np.int8)
+_CHAIN_STATUS[chain.DetectionStatus.OK] = ChordStatus.VALID
+_CHAIN_STATUS[chain.DetectionStatus.INVALID_INPUT] = ChordStatus.NO_HORIZON
+_CHAIN_STATUS[chain.DetectionStatus.SCAN_STARTED_IN_ATMOSPHERE] = ChordStatus.NO_HORIZON
 
 
 #: Longest spacing of the coarse time grid on which the environment is evaluated along each chord's
@@ -473,7 +471,7 @@ class SensorModel:
         """
         check = bright_body_in_chords(self.orbit, t, q, self.config.epoch, horizon_nadir_rad,
                                       np.full_like(horizon_nadir_rad, self.scan_start_rad),
-                                      self.config.bright_body_exclusion_rad, bodies=BRIGHT_BODIES)
+                                      self.config.bright_body_exclusion_rad, bodies=BODY_NAMES)
         blinded = check.blinded & (status != ChordStatus.NO_HORIZON)
         return (np.where(blinded, ChordStatus.SUN_OR_MOON, status).astype(np.int8),
                 np.where(blinded, check.blinding_body, -1).astype(np.int8))

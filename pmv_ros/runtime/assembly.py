@@ -8,12 +8,13 @@ and the tests call them without rclpy (``preset_values`` in
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 from ..physics.attitude_profile import AttitudeProfile
-from ..physics.constants import ARCMIN_RAD, ARCSEC_RAD, EARTH_ROTATION_RATE_RAD_S, GRS80, SPHERE
+from ..physics.constants import ARCMIN_RAD, ARCSEC_RAD, EARTH_ROTATION_RATE_RAD_S, GRS80, SECONDS_PER_DAY, SPHERE
 from ..physics.correction import load_correction
 from ..physics.environment import YEAR_DAYS, EnvironmentParameters
-from ..physics.ephemeris import SECONDS_PER_DAY, Epoch
+from ..physics.ephemeris import Epoch
 from .monitor import ErrorMonitor, MonitorConfig
 from ..physics.orbit import CircularOrbit
 from .parameters import ParamSpec
@@ -46,11 +47,16 @@ MONITOR_INPUT_PARAMS = (
 )
 
 
+#: The orbit's altitude and inclination: one range and default; each node says what it takes them for.
+ORBIT_ALTITUDE = ParamSpec("orbit.altitude_km", 500.0, "circular orbit altitude above the 6371 km mean radius",
+                           150.0, 40000.0, unit="km", read_only=True)
+ORBIT_INCLINATION = ParamSpec("orbit.inclination_deg", 74.5, "orbit inclination", 0.0, 180.0, unit="deg",
+                              read_only=True)
+
 #: Parameters of sensor_node (units in the names; YAML speaks km, deg, arcmin).
 SENSOR_PARAMS = INPUT_PARAMS + (
-    ParamSpec("orbit.altitude_km", 500.0, "circular orbit altitude above the 6371 km mean radius", 150.0, 40000.0,
-              unit="km", read_only=True),
-    ParamSpec("orbit.inclination_deg", 74.5, "orbit inclination", 0.0, 180.0, unit="deg", read_only=True),
+    ORBIT_ALTITUDE,
+    ORBIT_INCLINATION,
     ParamSpec("orbit.raan_deg", 0.0, "right ascension of the ascending node at epoch", -360.0, 360.0, unit="deg",
               read_only=True),
     ParamSpec("orbit.u0_deg", 0.0, "argument of latitude at the start of the run", -360.0, 360.0, unit="deg",
@@ -134,8 +140,7 @@ MAX_OUTAGES = 64
 
 #: Parameters of star_tracker_node.
 STAR_TRACKER_PARAMS = INPUT_PARAMS + (
-    ParamSpec("orbit.altitude_km", 500.0, "orbit altitude (gives the orbital rate for the rate limit)",
-              150.0, 40000.0, unit="km", read_only=True),
+    replace(ORBIT_ALTITUDE, description="orbit altitude (gives the orbital rate for the rate limit)"),
     ParamSpec("rate_hz", 2.0, "frame rate of the star tracker", 0.01, 50.0, unit="Hz"),
     ParamSpec("latency_s", 0.25, "delay from frame time to publication", 0.0, 60.0, unit="s"),
     ParamSpec("noise_cross_arcsec", 3.0, "1-sigma noise across the boresight", 0.0, 3600.0, unit="arcsec"),
@@ -173,10 +178,8 @@ def build_tracker(values: dict, start_s: float) -> StarTracker:
 
 #: Parameters of error_monitor_node.
 MONITOR_PARAMS = INPUT_PARAMS + MONITOR_INPUT_PARAMS + (
-    ParamSpec("orbit.altitude_km", 500.0, "nominal orbit altitude (until /orbit/odometry arrives)", 150.0, 40000.0,
-              unit="km", read_only=True),
-    ParamSpec("orbit.inclination_deg", 74.5, "nominal inclination (until /orbit/odometry arrives)", 0.0, 180.0,
-              unit="deg", read_only=True),
+    replace(ORBIT_ALTITUDE, description="nominal orbit altitude (until /orbit/odometry arrives)"),
+    replace(ORBIT_INCLINATION, description="nominal inclination (until /orbit/odometry arrives)"),
     ParamSpec("remove_oblateness", True, "report statistics with the closed-form oblateness model removed"),
     ParamSpec("sensor.oblateness_compensation", False, "the sensor already subtracts the oblateness model on "
               "board, so the monitor must not subtract it again (share it with the sensor in the /** section)"),

@@ -16,13 +16,10 @@ What each node does, and what runs it here:
   stepped), whole blocks to the last (the node computes a block ahead). The
   environment's fields are evaluated on time grids spanning each block, so
   another grouping — even a shorter last block — moves roll by ≈ 2e-4′.
-* star_tracker_node: per truth sample, its
-  :class:`~pmv_ros.physics.star_tracker.FrameGrid` (frames on the tracker's grid,
-  the truth slerped to them), :meth:`~pmv_ros.physics.star_tracker.StarTracker.measure_frames`
-  (the same draws in the same order) and its
-  :class:`~pmv_ros.physics.star_tracker.LatencyQueue` (released ``latency_s``
-  after the frame, at a truth stamp): :func:`tracker_frames`. Frames not
-  released when the flight ends are never seen by the monitor.
+* star_tracker_node: the node's own runtime,
+  :class:`~pmv_ros.runtime.tracker.TrackerRuntime`, fed truth sample by truth
+  sample (:func:`tracker_frames`): the same frames, draws and releases.
+  Frames not released when the flight ends are never seen by the monitor.
 * error_monitor_node: :meth:`~pmv_ros.runtime.monitor.ErrorMonitor.add_batch` —
   the monitor's validation, alignment and statistics, the released frames
   arriving just before the sensor sample of their tick, the node clock at
@@ -35,19 +32,16 @@ float times. The difference moves the statistics by ≈ 1e-9 arcmin.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from .assembly import MONITOR_PARAMS, NODE_PARAMS, SENSOR_PARAMS, STAR_TRACKER_PARAMS, build_models, build_monitor, \
-    build_tracker
-from ..physics.constants import EARTH_MEAN_RADIUS_M, GM_EARTH_M3_S2
-from .monitor import BATCH_STATUSES, PENDING_CODE, MonitorSummary
 from ..physics.orbit import geocentric_latitude_longitude
+from .assembly import MONITOR_PARAMS, NODE_PARAMS, SENSOR_PARAMS, STAR_TRACKER_PARAMS, build_models, build_monitor
+from .monitor import BATCH_STATUSES, PENDING_CODE, MonitorSummary
 from .parameters import ParameterError, preset_values, unknown_parameter_problem
 from .sample_stream import fast_time_block, stepped_times
-from ..physics.star_tracker import FrameGrid, LatencyQueue, Outcome, inertial_rate_of_nadir_pointing
+from .tracker import TrackerFrames, TrackerRuntime, track_stream
 
 #: Sample outcome codes in flight tables: the monitor's batch codes (0 is OK), PENDING_CODE still waiting at the end.
 OUTCOME_CODES = BATCH_STATUSES
@@ -98,24 +92,8 @@ def sense_block(sensor_values: dict) -> int:
     return fast_time_block(sensor_values["sensor.rate_hz"], sensor_values["sim.time_scale"], stepped=True)
 
 
-@dataclass(frozen=True)
-class TrackerFrames:
-    """Star-tracker frames of a flight, as star_tracker_node makes them.
-
-    ``frame_s`` (M,) stamps, ``q_measured`` (4, M) (NaN without output),
-    ``outcome`` (M,) :class:`~pmv_ros.physics.star_tracker.Outcome` codes, and
-    ``released_at`` (M,) the index of the truth sample at which each frame
-    is published (-1: not published by the end, or no output).
-    """
-
-    frame_s: np.ndarray
-    q_measured: np.ndarray
-    outcome: np.ndarray
-    released_at: np.ndarray
-
-
 def tracker_frames(truth_s: np.ndarray, q_truth: np.ndarray, values: dict, start_s: float = 0.0) -> TrackerFrames:
-    """What star_tracker_node makes of a clean truth stream: its frame grid, its draws, its latency queue.
+    """What star_tracker_node makes of a clean truth stream: its runtime fed sample by sample.
 
     Args:
         truth_s: ``(N,)`` increasing truth stamps, s, no gap longer than ``max_truth_gap_s``.
@@ -129,28 +107,7 @@ def tracker_frames(truth_s: np.ndarray, q_truth: np.ndarray, values: dict, start
         raise ValueError(f"truth samples {steps.max():g} s apart: the star tracker restarts its frames after "
                          f"max_truth_gap_s = {values['max_truth_gap_s']:g} s and would measure none "
                          "(a sensor rate of at least 1/max_truth_gap_s is needed)")
-    tracker = build_tracker(values, start_s)
-    grid = FrameGrid(1.0 / values["rate_hz"], values["max_truth_gap_s"])
-    queue = LatencyQueue(values["latency_s"])
-    mean_motion = math.sqrt(GM_EARTH_M3_S2 / (EARTH_MEAN_RADIUS_M + values["orbit.altitude_km"] * 1e3) ** 3)
-    frame_s, measured, outcome, released_at = [], [], [], []
-    index_of_frame = {}
-    for k, (t_s, q) in enumerate(zip(truth_s.tolist(), np.asarray(q_truth, float).T.tolist())):
-        frames, attitudes, turn_rate = grid.add(t_s, q)
-        if frames:
-            rate = inertial_rate_of_nadir_pointing(mean_motion, turn_rate)
-            for frame, (q_measured, code) in zip(frames, tracker.measure_frames(frames, attitudes, rate)):
-                index_of_frame[frame] = len(frame_s)
-                frame_s.append(frame)
-                measured.append(q_measured)
-                outcome.append(int(code))
-                released_at.append(-1)
-                if code == Outcome.OK:
-                    queue.push(frame, None)
-        for frame, _ in queue.release(t_s):
-            released_at[index_of_frame.pop(frame)] = k
-    return TrackerFrames(np.array(frame_s, float), np.array(measured, float).reshape(-1, 4).T,
-                         np.array(outcome, np.int8), np.array(released_at, np.int64))
+    return track_stream(TrackerRuntime(values, start_s), truth_s, q_truth)
 
 
 @dataclass

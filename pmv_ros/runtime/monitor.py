@@ -76,12 +76,15 @@ from enum import Enum
 import numpy as np
 
 from ..physics.attitude import true_roll_pitch
-from ..physics.constants import EARTH_MEAN_RADIUS_M
+from ..physics.constants import EARTH_MEAN_RADIUS_M, GM_EARTH_M3_S2
 from ..physics.ground_error import nadir_ground_error
 from ..physics.oblateness import closed_form_oblateness
 from ..physics.orbit import CircularOrbit
 from .validation import (
+    QUATERNION_NORM_TOLERANCE,
     STAMP_REJECTIONS,
+    TRUTH_REJECTIONS,
+    UNIT_ROUNDING,
     InputBounds,
     Jump,
     JumpDetector,
@@ -92,6 +95,7 @@ from .validation import (
     check_quaternion,
 )
 from ..analysis.statistics import (
+    CHANNELS,
     ChannelStatistics,
     DEFAULT_MAX_CONDITION,
     DEFAULT_MAX_GAP_FRACTION,
@@ -101,7 +105,6 @@ from ..analysis.statistics import (
 )
 
 #: The statistics channels, in the order they are reported.
-CHANNELS = ("roll", "pitch", "meridional")
 
 
 class Status(str, Enum):
@@ -127,7 +130,6 @@ SKIP_REASONS = (Status.NO_VALID_ANGLE, Status.NO_TRUTH, Status.TOO_OLD, Status.T
 
 #: Reasons an incoming sample is rejected, per stream.
 SENSOR_REJECTIONS = STAMP_REJECTIONS + (Rejection.IMPLAUSIBLE_ANGLE,)
-TRUTH_REJECTIONS = STAMP_REJECTIONS + (Rejection.BAD_QUATERNION,)
 ODOMETRY_REJECTIONS = STAMP_REJECTIONS + (Rejection.IMPLAUSIBLE_ORBIT,)
 
 
@@ -262,15 +264,6 @@ class Outcome:
 
 
 @dataclass(frozen=True)
-class ChannelSummary(ChannelStatistics):
-    """Live statistics of one channel, rad, and the residual as a ground error, m (physics.md §7)."""
-
-    ground_mean_m: float = math.nan
-    ground_sigma_m: float = math.nan
-    ground_max_abs_m: float = math.nan
-
-
-@dataclass(frozen=True)
 class MonitorSummary:
     """A snapshot of the monitor: channels roll, pitch, meridional and the sample counters."""
 
@@ -279,7 +272,7 @@ class MonitorSummary:
     counters: dict
     harmonics_full_orbit: bool
 
-    def channel(self, name: str) -> ChannelSummary:
+    def channel(self, name: str) -> ChannelStatistics:
         """The statistics of channel ``name``."""
         for summary in self.channels:
             if summary.channel == name:
@@ -534,11 +527,6 @@ class ErrorMonitor:
     def latest_truth_stamp_s(self) -> float | None:
         """Stamp of the latest accepted truth sample since the last alignment reset, s (None: none yet)."""
         return self._stamps["truth"].latest_s
-
-    @property
-    def latest_sensor_stamp_s(self) -> float | None:
-        """Stamp of the latest accepted sensor sample since the last alignment reset, s (None: none yet)."""
-        return self._stamps["sensor"].latest_s
 
     @property
     def pending_count(self) -> int:
@@ -889,7 +877,11 @@ class ErrorMonitor:
                       odometry=odometry, max_age=float(odometry_max_age_s), u=u_rad, altitude=altitude_m,
                       inclination=inclination_rad,
                       model=(oblateness_roll_rad, oblateness_pitch_rad) if given_model else None)
-        scan = None if (self._pending or n == 0) else self._scan_batch(inputs)
+        scan = None
+        if not self._pending and n:
+            scan = self._scan_clean_batch(inputs)
+            if scan is None:
+                scan = self._scan_batch(inputs)
         plan = None if scan is None else self._plan_batch(inputs, scan)
         if plan is not None:
             return self._apply_batch(t, scan, plan)
@@ -930,6 +922,126 @@ class ErrorMonitor:
                 index_of_stamp[float(t[i])] = i
             result.take(outcomes, index_of_stamp)
         return result
+
+    def _scan_clean_batch(self, inputs):
+        """:meth:`_scan_batch` on arrays for a clean batch — every stamp on its stream's timeline, increasing
+        at no more than the rate limit and not in the future, the node clock steady — else None.
+
+        What a campaign's flight always is. Its verdicts are those of the sample-by-sample scan: the
+        checks that can reject a clean stamp (angles, quaternions, orbit states) run on every sample; a
+        batch in which any stamp or clock reading would need the jump rule goes the scalar way.
+        """
+        t, truth_t, arrival, now = inputs["t"], inputs["truth_t"], inputs["arrival"], inputs["now"]
+        n, m = t.size, truth_t.size
+        bounds = self.config.bounds
+        clock, stamps = self._clock, self._stamps
+        if clock.suspect_s is not None or any(check.jumps.suspect_s is not None for check in stamps.values()):
+            return None
+        counters = dict.fromkeys(COUNTER_NAMES, 0)
+        # The node clock: every reading on the timeline (never back, never a forward jump), so each is "now".
+        if now is not None:
+            now = np.asarray(now, float)
+            if not np.all(np.isfinite(now)) or np.any(np.diff(now) < 0.0):
+                return None
+            first = clock.latest_s
+            if first is not None and not (first - clock.threshold_s <= now[0] <= first + clock.forward_threshold_s):
+                return None
+            if np.any(np.diff(now) > clock.forward_threshold_s):
+                return None
+            clock_now = now if first is None else np.maximum(now, first)
+        truth_now = None if now is None else now[np.minimum(arrival, n - 1)]
+
+        def stamps_clean(check, stamp, clock_at):
+            """Whether ``check`` accepts every one of the increasing ``stamp`` as it stands, with no jump."""
+            if stamp.size == 0:
+                return True
+            if not np.all(np.isfinite(stamp)) or np.any(stamp <= 0.0):
+                return False
+            if clock_at is not None and np.any(stamp > clock_at + check.future_tolerance_s):
+                return False
+            steps = np.diff(stamp)
+            if np.any(steps <= 0.0) or np.any(steps < check.min_interval_s):
+                return False
+            latest = check.jumps.latest_s
+            return latest is None or (stamp[0] > latest and stamp[0] - latest >= check.min_interval_s)
+
+        # Truth: the quaternion check on each (exactly as check_quaternion), then the stamps of the good ones.
+        q = inputs["q"]
+        q_finite = np.all(np.isfinite(q), axis=0)
+        norms = np.array([math.hypot(*c) if ok else math.nan for c, ok in zip(q.T.tolist(), q_finite.tolist())])
+        truth_ok = q_finite & (np.abs(norms - 1.0) <= QUATERNION_NORM_TOLERANCE)
+        counters["truth_received"] = m
+        counters[f"rejected_truth_{Rejection.NON_FINITE.value}"] = int(m - np.count_nonzero(q_finite))
+        counters[f"rejected_truth_{Rejection.BAD_QUATERNION.value}"] = int(np.count_nonzero(q_finite & ~truth_ok))
+        counters["truth_quaternions_normalised"] = int(np.count_nonzero(
+            truth_ok & (np.abs(norms - 1.0) > UNIT_ROUNDING)))
+        if not stamps_clean(stamps["truth"], truth_t[truth_ok], None if now is None else truth_now[truth_ok]):
+            return None
+        q_ok = np.full((4, m), math.nan)
+        q_ok[:, truth_ok] = q[:, truth_ok] / norms[truth_ok]
+        # Odometry at each sensor stamp: plausible states (with a margin on every bound; a state near one
+        # goes the scalar way), then the stamps.
+        odometry = inputs["odometry"]
+        odometry_ok = np.zeros(n, bool)
+        if odometry is not None:
+            position, velocity = odometry
+            if not (np.all(np.isfinite(position)) and np.all(np.isfinite(velocity))):
+                return None
+            radius = np.sqrt(np.sum(position * position, axis=0))
+            speed = np.sqrt(np.sum(velocity * velocity, axis=0))
+            margin = 1.0 + 1e-9
+            plausible = ((bounds.min_orbit_radius_m * margin < radius) & (radius * margin < bounds.max_orbit_radius_m)
+                         & (bounds.min_orbit_speed_m_s * margin < speed) & (speed * margin < bounds.max_orbit_speed_m_s)
+                         & (0.5 * speed * speed * margin < GM_EARTH_M3_S2 / radius))
+            if not np.all(plausible) or not stamps_clean(stamps["odometry"], t, now):
+                return None
+            counters["odometry_received"] = n
+            odometry_ok[:] = True
+        # Sensor: the angle check (NaN passes: a lost pair), then the stamps of the good ones.
+        roll, pitch = inputs["roll"], inputs["pitch"]
+        limit = bounds.max_abs_angle_rad  # check_angles looks at roll first, then pitch
+        roll_infinite, roll_large = np.isinf(roll), ~np.isinf(roll) & (np.abs(roll) > limit)
+        pitch_infinite, pitch_large = np.isinf(pitch), ~np.isinf(pitch) & (np.abs(pitch) > limit)
+        roll_fine = ~roll_infinite & ~roll_large
+        infinite = roll_infinite | (roll_fine & pitch_infinite)
+        too_large = roll_large | (roll_fine & pitch_large)
+        sensor_ok = ~infinite & ~too_large
+        if not stamps_clean(stamps["sensor"], t[sensor_ok], None if now is None else now[sensor_ok]):
+            return None
+        sensor_code = np.full(n, PENDING_CODE, np.int8)
+        sensor_code[infinite] = BATCH_STATUSES.index(Rejection.NON_FINITE)
+        sensor_code[too_large] = BATCH_STATUSES.index(Rejection.IMPLAUSIBLE_ANGLE)
+        counters["sensor_received"] = n
+        counters[f"rejected_sensor_{Rejection.NON_FINITE.value}"] = int(np.count_nonzero(infinite))
+        counters[f"rejected_sensor_{Rejection.IMPLAUSIBLE_ANGLE.value}"] = int(np.count_nonzero(too_large))
+        # Events in arrival order: before sensor sample i, the truth samples arriving at i.
+        sensor_event = np.arange(n) + np.searchsorted(arrival, np.arange(n), side="right")
+        truth_event = np.arange(m) + arrival
+        # What _expire compares with after each event: the newest accepted sensor stamp or the clock.
+        newest = stamps["sensor"].latest_s
+        accepted = np.where(sensor_ok, t, -math.inf)
+        newest_after = np.maximum.accumulate(accepted) if n else accepted
+        if newest is not None:
+            newest_after = np.maximum(newest_after, newest)
+        before = np.concatenate([[-math.inf if newest is None else newest], newest_after])  # before sample i
+        expiry_clock = np.empty(n + m)
+        expiry_clock[sensor_event] = newest_after
+        expiry_clock[truth_event] = before[arrival]
+        if now is not None:
+            expiry_clock[sensor_event] = np.maximum(expiry_clock[sensor_event], clock_now)
+            expiry_clock[truth_event] = np.maximum(expiry_clock[truth_event], clock_now[np.minimum(arrival, n - 1)])
+        # The state after the batch, on copies, as the scalar scan leaves it.
+        stamps = {stream: copy.deepcopy(check) for stream, check in stamps.items()}
+        for stream, good in (("truth", truth_t[truth_ok]), ("sensor", t[sensor_ok]),
+                             ("odometry", t if odometry is not None else t[:0])):
+            if good.size:
+                stamps[stream].jumps.latest_s = float(good[-1])
+        clock = copy.deepcopy(clock)
+        if now is not None and n:
+            clock.latest_s = float(clock_now[-1])
+        return dict(stamps=stamps, clock=clock, counters=counters, sensor_code=sensor_code,
+                    sensor_event=sensor_event, truth_event=truth_event[truth_ok], truth_t=truth_t[truth_ok],
+                    q_truth=q_ok[:, truth_ok], expiry_clock=expiry_clock, odometry_ok=odometry_ok)
 
     def _scan_batch(self, inputs):
         """Validate a batch in arrival order on copies of the stamp and clock state; None if the array form
@@ -1210,6 +1322,6 @@ class ErrorMonitor:
             angle = self._sets[removed].angles[index]
             ground = self._sets[removed].ground[index]
             harmonics = {int(k): float(a) for k, a in zip(self.config.harmonics, amplitudes[:, first_column + index])}
-            channels.append(ChannelSummary(name, angle.count, angle.mean, angle.sigma, angle.max_abs, harmonics,
-                                           ground.mean, ground.sigma, ground.max_abs))
+            channels.append(ChannelStatistics(name, angle.count, angle.mean, angle.sigma, angle.max_abs, harmonics,
+                                               ground.mean, ground.sigma, ground.max_abs))
         return MonitorSummary(removed, tuple(channels), self.counters, self._ring.full_orbit)

@@ -4,21 +4,34 @@
 orbit for the sensor node: with the node's own attitude profile it computes
 a block of future samples in one call (numpy overhead amortised; the output
 is identical sample for sample), with a given attitude (follow mode, the
-real-time tick) one sample. Each sample is a tuple of Python floats and
-tuples (:data:`ROW_FIELDS`), so publishing does no numpy indexing.
+real-time tick) one sample. Each sample is a :class:`SensorSample` of Python
+floats and tuples, so publishing does no numpy indexing.
 """
 
 from __future__ import annotations
 
 from collections import deque
+from typing import NamedTuple
 
 import numpy as np
 
 from ..physics.sensor import ChordStatus
 
-#: What a sample row holds, in order.
-ROW_FIELDS = ("t_s", "q_xyzw", "line_of_sight", "roll_rad", "pitch_rad", "roll_uncorrected_rad",
-              "pitch_uncorrected_rad", "chord_status", "blinding_body", "position_m", "velocity_m_s")
+
+class SensorSample(NamedTuple):
+    """One sample of the sensor as its node publishes it: Python floats and tuples, SI units and radians."""
+
+    t_s: float  #: the sample's stamp
+    q_xyzw: tuple  #: attitude of the body in the orbital frame (x, y, z, w)
+    line_of_sight: tuple  #: 4 × (x, y, z) unit lines of sight to the crossings in the sensor frame (NaN: lost)
+    roll_rad: float  #: sensed roll (REP-103), brightness-corrected; NaN when a chord pair is lost
+    pitch_rad: float  #: sensed pitch
+    roll_uncorrected_rad: float  #: sensed roll before the brightness correction
+    pitch_uncorrected_rad: float
+    chord_status: tuple  #: 4 :class:`~pmv_ros.physics.sensor.ChordStatus` codes
+    blinding_body: tuple  #: 4 indices into :data:`~pmv_ros.physics.ephemeris.BODY_NAMES` (−1: none)
+    position_eci_m: tuple  #: spacecraft position in ECI
+    velocity_eci_m_s: tuple  #: spacecraft velocity in ECI
 
 #: Samples computed per call in fast time with the own attitude profile: 512 cost
 #: ≈ 35 µs each against ≈ 70 µs in blocks of 64. A parameter change discards the block.
@@ -83,24 +96,24 @@ class SampleStream:
         """Drop the precomputed samples (the models changed)."""
         self._pending.clear()
 
-    def next_profile_sample(self, t_s: float, period_s: float, block: int) -> tuple:
+    def next_profile_sample(self, t_s: float, period_s: float, block: int) -> SensorSample:
         """The own-profile sample at ``t_s``, from the pending block or a new one of ``block`` samples."""
         if not self._pending:
             times = block_times(t_s, period_s, block)
             self._pending = deque(self.rows(times, self.profile.quaternion(times)))
         return self._pending.popleft()
 
-    def profile_sample(self, t_s: float) -> tuple:
+    def profile_sample(self, t_s: float) -> SensorSample:
         """One own-profile sample at ``t_s`` (real time)."""
         times = np.array([t_s])
         return self.rows(times, self.profile.quaternion(times))[0]
 
-    def sample(self, t_s: float, q_xyzw) -> tuple:
+    def sample(self, t_s: float, q_xyzw) -> SensorSample:
         """One sample at ``t_s`` with the given attitude (x, y, z, w)."""
         return self.rows(np.array([t_s]), np.asarray(q_xyzw, float)[:, None])[0]
 
-    def rows(self, times: np.ndarray, q: np.ndarray) -> list:
-        """Run the instrument for ``(N,)`` times and ``(4, N)`` attitudes: N rows (:data:`ROW_FIELDS`)."""
+    def rows(self, times: np.ndarray, q: np.ndarray) -> list[SensorSample]:
+        """Run the instrument for ``(N,)`` times and ``(4, N)`` attitudes: N samples."""
         reading = self.model.sense(times, q)
         position, velocity = self.orbit.state_eci(times)
         status, blinding = reading.chord_status, reading.blinding_body
@@ -110,4 +123,4 @@ class SampleStream:
         columns = (times, q.T, line_of_sight, reading.sensed_roll_rad, reading.sensed_pitch_rad,
                    reading.sensed_roll_uncorrected_rad, reading.sensed_pitch_uncorrected_rad, status.T,
                    (np.full_like(status, -1) if blinding is None else blinding).T, position.T, velocity.T)
-        return list(zip(*(np.asarray(column).tolist() for column in columns)))
+        return list(map(SensorSample._make, zip(*(np.asarray(column).tolist() for column in columns))))

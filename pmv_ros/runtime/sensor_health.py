@@ -3,8 +3,7 @@
 sensor_node publishes :meth:`SensorHealth.report` on ``/diagnostics``
 whenever it is due: every ``period_s`` of sample time, and at once when the
 condition changes (a chord lost or regained, truth going stale). Levels are
-the ``diagnostic_msgs`` ones as integers (OK 0, WARN 1, ERROR 2), so this
-module stays free of ROS.
+:class:`pmv_ros.runtime.records.Level` (the ``diagnostic_msgs`` values).
 """
 
 from __future__ import annotations
@@ -12,18 +11,17 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from ..physics.ephemeris import BODY_NAMES
 from ..physics.geometry import CHORD_NAMES
-from ..physics.sensor import BRIGHT_BODIES, ChordStatus
+from ..physics.sensor import ChordStatus
+from .records import Level
 from .truth_buffer import TruthAt
-
-OK, WARN, ERROR = 0, 1, 2
-
 
 @dataclass(frozen=True)
 class HealthSummary:
-    """One /diagnostics status of the sensor: level (0 OK, 1 WARN, 2 ERROR), message, key/values."""
+    """One /diagnostics status of the sensor: level, message, key/values."""
 
-    level: int
+    level: Level
     message: str
     values: dict
 
@@ -33,7 +31,7 @@ def chord_problems(status, blinding, exclusion_deg: float) -> list[str]:
     problems = []
     for chord, code, body in zip(CHORD_NAMES, status, blinding):
         if code == ChordStatus.SUN_OR_MOON:
-            problems.append(f"chord {chord}: {BRIGHT_BODIES[body]} in the field of view (within "
+            problems.append(f"chord {chord}: {BODY_NAMES[body]} in the field of view (within "
                             f"{exclusion_deg:g} deg)")
         elif code == ChordStatus.NO_HORIZON:
             problems.append(f"chord {chord}: no horizon in the scan")
@@ -114,17 +112,17 @@ class SensorHealth:
                 values["truth_age_s"] = f"{truth_age_s:.3f}"
         rejected = sum(n for reason, n in self._counters.items() if reason.startswith("rejected_"))
         fresh_rejections, self._rejected_reported = rejected > self._rejected_reported, rejected
-        level = OK
+        level = Level.OK
         if stale:
             problems.append(f"stale /attitude/truth: the newest is {truth_age_s:.3f} s old, beyond the "
                             "extrapolation horizon; no angles are published")
-            level = ERROR
+            level = Level.ERROR
         elif status is None:
             problems.append("no sample: no /attitude/truth at the sample time"
                             + ("" if truth is None else f" ({truth.value.replace('_', ' ')})"))
         if fresh_rejections:
             problems.append("rejected /attitude/truth messages")
         problems.extend(warnings)
-        if problems and level == OK:
-            level = WARN
+        if problems and level == Level.OK:
+            level = Level.WARN
         return HealthSummary(level, "; ".join(problems) if problems else "all chords valid", values)

@@ -48,7 +48,7 @@ from ..physics.constants import EARTH_MEAN_RADIUS_M, GM_EARTH_M3_S2
 QUATERNION_NORM_TOLERANCE = 0.01
 
 #: |q| − 1 below which a quaternion is taken as unit already (rounding of a float64 normalisation).
-_UNIT_ROUNDING = 1e-9
+UNIT_ROUNDING = 1e-9
 
 
 class Rejection(str, Enum):
@@ -70,6 +70,8 @@ class Rejection(str, Enum):
 #: The stamp reasons, in the order :class:`StampCheck` tries them.
 STAMP_REJECTIONS = (Rejection.NON_FINITE, Rejection.ZERO_STAMP, Rejection.FUTURE_STAMP, Rejection.DUPLICATE,
                     Rejection.BACKWARDS, Rejection.UNCONFIRMED_JUMP, Rejection.TOO_FAST)
+#: Reasons a truth message is dropped (the /diagnostics keys are rejected_truth_<reason>).
+TRUTH_REJECTIONS = STAMP_REJECTIONS + (Rejection.BAD_QUATERNION,)
 
 
 # ----------------------------------------------------------------------------------- values
@@ -125,7 +127,7 @@ def check_quaternion(q_xyzw, tolerance: float = QUATERNION_NORM_TOLERANCE):
     norm = math.hypot(*components)
     if not abs(norm - 1.0) <= tolerance:
         return None, Rejection.BAD_QUATERNION, False
-    return np.array(components) / norm, None, abs(norm - 1.0) > _UNIT_ROUNDING
+    return np.array(components) / norm, None, abs(norm - 1.0) > UNIT_ROUNDING
 
 
 def check_angles(roll_rad: float, pitch_rad: float, max_abs_rad: float, *, allow_nan: bool) -> Rejection | None:

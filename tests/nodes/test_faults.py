@@ -35,7 +35,8 @@ from pmv_ros.nodes.star_tracker_node import StarTrackerNode
 from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
 from pmv_ros.physics.constants import ARCMIN_RAD, EARTH_MEAN_RADIUS_M
 from pmv_ros.physics.ephemeris import Epoch, moon_direction_eci, sun_direction_from
-from pmv_ros.physics.sensor import BRIGHT_BODIES, ChordStatus
+from pmv_ros.physics.ephemeris import BODY_NAMES
+from pmv_ros.physics.sensor import ChordStatus
 
 #: A star tracker that tells the exact truth.
 PERFECT_TRACKER = {"noise_cross_arcsec": 0.0, "noise_boresight_arcsec": 0.0, "random_failure_probability": 0.0}
@@ -139,7 +140,7 @@ def test_sun_window_is_orbital_sunrise_and_the_exclusion_angle_sets_it():
     t = np.arange(0.0, 320.0, 0.5)
     reading = model.sense(t, profile.quaternion(t))
     blinded = reading.chord_status[0] == ChordStatus.SUN_OR_MOON
-    assert np.all(reading.blinding_body[0][blinded] == BRIGHT_BODIES.index("sun"))
+    assert np.all(reading.blinding_body[0][blinded] == BODY_NAMES.index("sun"))
     assert not np.any(reading.chord_status[1:] == ChordStatus.SUN_OR_MOON)
 
     position, _ = orbit.state_eci(t)
@@ -171,7 +172,7 @@ def test_moon_in_a_chord_is_named_as_the_moon():
     orbit, profile, model = build_models(values)
     t = np.arange(0.0, orbit.period_s, 2.0)
     reading = model.sense(t, profile.quaternion(t))
-    by_moon = reading.blinding_body == BRIGHT_BODIES.index("moon")
+    by_moon = reading.blinding_body == BODY_NAMES.index("moon")
     assert by_moon[0].sum() > 10 and by_moon[2].sum() > 10  # rise ahead (+X) and set behind (−X)
     assert not np.any(by_moon[[1, 3]])
     assert np.all(reading.chord_status[by_moon] == ChordStatus.SUN_OR_MOON)

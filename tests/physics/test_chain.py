@@ -17,7 +17,7 @@ from pmv_ros.physics.chain import (
     DEFAULT_CHAIN_PARAMETERS as P,
 )
 from pmv_ros.physics.chain import (
-    ChordStatus,
+    DetectionStatus,
     comparator_times,
     detector_lag,
     gam_del,
@@ -195,13 +195,13 @@ def test_comparators_interpolate_linearly_between_steps():
     # 0.33 J between steps 2 (0.3) and 3 (0.5): 2.15 steps; 0.67 J between 4 (0.6) and 5 (0.9): 4.2333 steps.
     assert t1 == pytest.approx(2.15 * P.time_step_s)
     assert t2 == pytest.approx((4 + 0.07 / 0.3) * P.time_step_s)
-    assert status == ChordStatus.OK
+    assert status == DetectionStatus.OK
 
 
 def test_comparators_report_a_threshold_never_reached():
     t1, t2, status = comparator_times(np.array([[0.0, 0.2, 0.3, 0.31], [0.0, 0.2, 0.5, 0.6]]))
-    assert np.isnan(t1[0]) and np.isnan(t2[0]) and status[0] == ChordStatus.FIRST_THRESHOLD_NOT_REACHED
-    assert not np.isnan(t1[1]) and np.isnan(t2[1]) and status[1] == ChordStatus.SECOND_THRESHOLD_NOT_REACHED
+    assert np.isnan(t1[0]) and np.isnan(t2[0]) and status[0] == DetectionStatus.FIRST_THRESHOLD_NOT_REACHED
+    assert not np.isnan(t1[1]) and np.isnan(t2[1]) and status[1] == DetectionStatus.SECOND_THRESHOLD_NOT_REACHED
 
 
 def test_gam_del_and_pair_angle():
@@ -226,7 +226,7 @@ def test_fast_chain_agrees_with_the_reference_transcription_over_the_grid():
         cases = [(hw, b) for h, hw, b in REFERENCE_GRID if h == altitude]
         fast = sense_horizon_chords(phi0, slope, np.array([b for _, b in cases]),
                                     window_height_m=np.array([hw for hw, _ in cases]))
-        assert np.all(fast.status == ChordStatus.OK)
+        assert np.all(fast.status == DetectionStatus.OK)
         for k, (hw, b) in enumerate(cases):
             ref = reference_chord(phi0, slope, b, P, window_height_m=hw)
             worst_gam = max(worst_gam, abs(fast.gam_rad[k] - ref["gam_rad"]) / ARCMIN_RAD)
@@ -254,7 +254,7 @@ def test_fast_chain_agrees_with_the_reference_on_gradients_jumps_and_tilts(case)
                   co2_top_height_m=top, earth_radius_m=EARTH_MEAN_RADIUS_M * radius_factor)
     ref = reference_chord(phi0 + shift, slope * slope_factor, b_m, P, **kwargs)
     fast = sense_horizon_chords(phi0 + shift, slope * slope_factor, b_m, **kwargs)
-    assert fast.status[0] == ChordStatus.OK
+    assert fast.status[0] == DetectionStatus.OK
     # Same bound as the grid; the gradient's power-series fit adds < 0.005′.
     assert fast.gam_rad[0] == pytest.approx(ref["gam_rad"], abs=0.05 * ARCMIN_RAD)
     assert fast.del_rad[0] == pytest.approx(ref["del_rad"], abs=0.05 * ARCMIN_RAD)
@@ -326,9 +326,9 @@ def test_bad_chords_give_nan_and_a_reason_code_without_raising():
         co2_radiance_ru=np.array([0.3, 0.3, 0.3, 0.3, 0.4, 0.3, 0.3, 0.3]),
         scan_start_nadir_rad=np.array([start] * 7 + [start - math.radians(0.5)]))
     assert readings.status.tolist() == [
-        ChordStatus.OK, ChordStatus.INVALID_INPUT, ChordStatus.INVALID_INPUT, ChordStatus.INVALID_INPUT,
-        ChordStatus.INVALID_INPUT, ChordStatus.FIRST_THRESHOLD_NOT_REACHED, ChordStatus.SECOND_THRESHOLD_NOT_REACHED,
-        ChordStatus.SCAN_STARTED_IN_ATMOSPHERE]
+        DetectionStatus.OK, DetectionStatus.INVALID_INPUT, DetectionStatus.INVALID_INPUT, DetectionStatus.INVALID_INPUT,
+        DetectionStatus.INVALID_INPUT, DetectionStatus.FIRST_THRESHOLD_NOT_REACHED, DetectionStatus.SECOND_THRESHOLD_NOT_REACHED,
+        DetectionStatus.SCAN_STARTED_IN_ATMOSPHERE]
     for name in ("gam_rad", "del_rad", "gam_corrected_rad", "sensed_horizon_nadir_rad"):
         values = getattr(readings, name)
         assert np.isfinite(values[0])
@@ -339,7 +339,7 @@ def test_horizon_beyond_the_end_of_the_scan_is_not_reached():
     short = dataclasses.replace(P, max_steps=50)
     phi0, slope = sphere_chord(500e3)
     readings = sense_horizon_chords(phi0, slope, 2.0, params=short)
-    assert readings.status[0] == ChordStatus.FIRST_THRESHOLD_NOT_REACHED
+    assert readings.status[0] == DetectionStatus.FIRST_THRESHOLD_NOT_REACHED
 
 
 def test_empty_batch():

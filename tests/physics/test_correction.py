@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from pmv_ros.physics.chain import ChordStatus, scan_start_nadir_angle, sense_horizon_chords, sphere_chord
+from pmv_ros.physics.chain import DetectionStatus, scan_start_nadir_angle, sense_horizon_chords, sphere_chord
 from pmv_ros.physics.constants import ARCMIN_RAD
 from pmv_ros.physics.correction import (
     RIG_RADIANCES_RU,
@@ -116,7 +116,7 @@ def test_corrected_horizon_is_the_hard_earth_horizon_under_rig_conditions():
     radiances = np.array([1.01, 1.13, 1.7, 2.44, 3.06, 3.51, 3.99])
     readings = sense_horizon_chords(phi0, slope, radiances, scan_start_nadir_rad=start,
                                     correction=calibrated_correction_table(500e3))
-    assert np.all(readings.status == ChordStatus.OK)
+    assert np.all(readings.status == DetectionStatus.OK)
     assert np.max(np.abs(readings.sensed_horizon_nadir_rad - phi0)) / ARCMIN_RAD < 0.2
     # Uncorrected, the same horizon is misplaced by up to ≈ 1° (the methodical error the table removes).
     assert np.max(np.abs(readings.sensed_horizon_nadir_uncorrected_rad - phi0)) / ARCMIN_RAD > 40.0

@@ -388,3 +388,50 @@ def test_batch_equals_the_per_sample_monitor_with_bad_input(jump, monkeypatch):
             assert getattr(y, name) == pytest.approx(getattr(x, name), abs=1e-9 * ARCMIN_RAD, rel=1e-9), name
         for k in x.harmonics_rad:
             assert y.harmonics_rad[k] == pytest.approx(x.harmonics_rad[k], abs=1e-9 * ARCMIN_RAD, nan_ok=True)
+
+
+def _scan_inputs(t, roll, pitch, frames, q, arrival, now, odometry):
+    return dict(t=t, roll=roll, pitch=pitch, truth_t=frames, q=q, arrival=arrival, now=now, odometry=odometry)
+
+
+def test_the_array_scan_of_a_clean_batch_is_the_scalar_scan():
+    """ErrorMonitor._scan_clean_batch (the campaign's path) against _scan_batch, sample by sample, exactly.
+
+    A clean stream but for the input the clean path checks itself (angles of 1e3 rad, ±Inf, lost pairs;
+    far-from-unit, NaN and near-unit quaternions); a batch with a duplicate, a backward, a zero or a NaN
+    stamp, or a clock jump is left to the scalar scan (the clean path says None).
+    """
+    t, roll, pitch, frames, q, arrival, now, odometry = _hostile_batch(jump=False)
+    clean_t = now.copy()  # stamps on the clock, every one on the timeline
+    q_clean = q.copy()
+    frames_clean = frames.copy()  # frames as in the hostile batch, but no duplicate stamp
+    frames_clean[20] = 0.5 * (frames_clean[19] + frames_clean[21])
+    position, velocity = odometry
+    position = position.copy()
+    position[:, 30] = position[:, 29]  # a plausible state
+    config = small_config(min_interval_s=0.002)
+    for monitor in (ErrorMonitor(config), _monitor_with_history(config)):
+        inputs = _scan_inputs(clean_t, roll, pitch, frames_clean, q_clean, arrival, now, (position, velocity))
+        fast, slow = monitor._scan_clean_batch(inputs), monitor._scan_batch(inputs)
+        assert fast is not None and slow is not None
+        assert fast["counters"] == slow["counters"]
+        assert fast["counters"]["rejected_sensor_implausible_angle"] and fast["counters"]["rejected_truth_non_finite"]
+        assert fast["counters"]["rejected_truth_bad_quaternion"] and fast["counters"]["truth_quaternions_normalised"]
+        for key in ("sensor_code", "sensor_event", "truth_event", "truth_t", "q_truth", "expiry_clock",
+                    "odometry_ok"):
+            assert np.array_equal(fast[key], slow[key], equal_nan=True), key
+        assert fast["clock"].latest_s == slow["clock"].latest_s
+        for stream in ("sensor", "truth", "odometry"):
+            assert fast["stamps"][stream].latest_s == slow["stamps"][stream].latest_s, stream
+    hostile = _scan_inputs(t, roll, pitch, frames, q, arrival, now, odometry)
+    assert ErrorMonitor(config)._scan_clean_batch(hostile) is None
+    jumped = _hostile_batch(jump=True)
+    assert ErrorMonitor(config)._scan_clean_batch(_scan_inputs(jumped[6], *jumped[1:])) is None
+
+
+def _monitor_with_history(config):
+    """A monitor that has seen a little input already (its timelines start before the batch)."""
+    monitor = ErrorMonitor(config)
+    monitor.add_truth_quaternion(99.0, [0.0, 0.0, 0.0, 1.0], now_s=99.0)
+    monitor.add_sensor(99.5, 0.0, 0.0, now_s=99.5, u_rad=0.0, altitude_m=5e5, inclination_rad=1.3)
+    return monitor

@@ -1,0 +1,20 @@
+"""Records the runtime hands to the nodes and the shim lays out: the one home of the diagnostic level.
+
+The channel names and the channel-statistics record are the analysis layer's
+(:data:`pmv_ros.analysis.statistics.CHANNELS`,
+:class:`pmv_ros.analysis.statistics.ChannelStatistics`); the chord names the
+physics' (:data:`pmv_ros.physics.geometry.CHORD_NAMES`).
+"""
+
+from __future__ import annotations
+
+from enum import IntEnum
+
+
+class Level(IntEnum):
+    """Level of a diagnostic status (the values of diagnostic_msgs/DiagnosticStatus)."""
+
+    OK = 0
+    WARN = 1
+    ERROR = 2
+    STALE = 3
