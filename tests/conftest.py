@@ -6,8 +6,8 @@ The tests mirror the package's layers: ``physics/``, ``analysis/``,
 golden outputs, the layering). Support modules beside this file, imported by
 the tests (never a test module by another): ``children`` (the environment of
 child processes and their ROS domain), ``cli_runner`` (``pmv`` in-process),
-``flights`` (a preset flown without ROS), ``node_harness``, ``published``
-(the published tables), ``reference_chain``.
+``flights`` (a preset flown without ROS), ``node_harness``, ``reference_chain``.
+The published tables are :mod:`pmv_ros.physics.published`.
 """
 
 from __future__ import annotations

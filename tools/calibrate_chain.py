@@ -24,7 +24,7 @@ Method
     is therefore the simplest one, the linear ramp (p = 1), and T_p is the
     best fit for it, rounded to 0.1 µs. ChainParameters' defaults must hold
     these values; the script says so if they do not, and
-    tests/test_chain.py checks it.
+    tests/physics/test_chain.py checks it.
 
 Usage:  python tools/calibrate_chain.py [--check]
     --check  fit and compare with the shipped files (to round-off), write nothing; exit 1 if they differ.
@@ -46,13 +46,12 @@ from pmv_ros.physics.chain import DEFAULT_CHAIN_PARAMETERS, ChainParameters
 from pmv_ros.physics.constants import ARCMIN_RAD
 from pmv_ros.physics.correction import STORED_TABLE_ALTITUDES_KM, rig_correction_table, stored_table_name
 from pmv_ros.physics.radiance import RampShape
+from pmv_ros.physics.published import MODEL_A_TABLE as PUBLISHED_MODEL_A
 from pmv_ros.physics.scenarios import model_a, run_pair
 
 DATA_DIR = Path(__file__).resolve().parents[1] / "pmv_ros" / "data"
 
-#: physics.md §4 table, Model A at 500 km: (B(1), B(2), β, β′) in r.u. and arcmin.
-PUBLISHED_MODEL_A = ((1.0, 2.0, 22.7, 0.1), (1.0, 3.0, 32.0, 0.14), (1.0, 4.0, 37.4, 0.8), (2.0, 4.0, 14.7, 0.66))
-ALTITUDE_M = 500e3
+ALTITUDE_M = 500e3  # Model A's altitude (physics.md §4)
 EXPONENT_GRID = (0.25, 0.5, 1.0, 2.0, 4.0)
 ADOPTED_EXPONENT = 1.0
 TIME_CONSTANT_BOUNDS_S = (2e-4, 2e-2)

@@ -65,9 +65,9 @@ class SensorNode(PmvNode):
         super().__init__("sensor_node", **kwargs)
         self._values = declare(self, PARAMS)
         self._external_drive = external_drive
-        self._values["_epoch_s"] = self.get_clock().now().nanoseconds * 1e-9
+        self._clock_epoch_s = self.get_clock().now().nanoseconds * 1e-9
         try:
-            self._values["_correction"] = read_correction(self._values)  # the one file read: here, at start-up
+            self._correction = read_correction(self._values)  # the one file read: here, at start-up
             self._rebuild(self._values)
         except ValueError as error:  # a combination, a date or a file the ranges cannot check
             raise ParameterError(str(error)) from None
@@ -110,7 +110,7 @@ class SensorNode(PmvNode):
     # -- parameters ---------------------------------------------------------------------------
 
     def _rebuild(self, values: dict) -> None:
-        orbit, profile, model = build_models(values)
+        orbit, profile, model = build_models(values, clock_epoch_s=self._clock_epoch_s, correction=self._correction)
         self._stream = SampleStream(model, orbit, profile, shim.checked_lines_of_sight)
         timeout = values["attitude.follow_timeout_s"]
         # Older by more than the timeout: the source restarted on a new clock (once the next stamp confirms it).

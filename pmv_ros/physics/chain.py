@@ -78,7 +78,7 @@ The fast chain: superposition of precomputed responses
     batch the chords of many time samples into one call.
 
     Agreement with the literal loop program (tests/reference_chain.py):
-    within 0.05′ in Gam and Del (tests/test_chain.py).
+    within 0.05′ in Gam and Del (tests/physics/test_chain.py).
 
 Reason codes (:class:`DetectionStatus`, like python-sgp4's error table): a chord
 that cannot be sensed gives NaN and a non-zero code; array code never raises

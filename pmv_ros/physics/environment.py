@@ -112,7 +112,7 @@ def _fit_climatology():
     A series in sin(latitude) is a smooth function on the sphere (it depends on
     the polar coordinate z only, so it has no cusp at the poles). The fit
     smooths the table; it meets the anchors within 0.01 r.u. and stays within
-    0.98 … 4.0 r.u. for every latitude and day (tests/test_environment.py).
+    0.98 … 4.0 r.u. for every latitude and day (tests/physics/test_environment.py).
     """
     x = np.sin(np.radians(CLIMATOLOGY_TABLE[:, 0]))
     january, july = CLIMATOLOGY_TABLE[:, 1], CLIMATOLOGY_TABLE[:, 2]
@@ -371,7 +371,7 @@ class SynopticBandField:
     and stops above it: an isotropic degree-ℓ field sampled along a great
     circle has its power at orders m ≤ ℓ with density ≈ 1/√(ℓ² − m²), largest
     just below m = ℓ (for degrees 15 … 25, ≈ 1.6× more power per order at
-    m = 15 … 25 than at m = 1 … 9; tests/test_environment.py). A
+    m = 15 … 25 than at m = 1 … 9; tests/physics/test_environment.py). A
     zone of length λ along a track is degree ℓ ≈ 2πR/λ (2000 km → ℓ ≈ 20).
     An isotropic covariance in 3-D (like :class:`GaussianSphereField`'s)
     cannot do this: its spectrum along a line is flat or falling up to any

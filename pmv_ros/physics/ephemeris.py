@@ -320,7 +320,7 @@ def moon_position_eci_m(jd_tt):
     ELP-2000/82 as tabulated by Meeus (*Astronomical Algorithms*, ch. 47)
     down to ≈ 0.01°. Against ERFA's moon98 (the full ch. 47 series) over
     1950–2050 the direction is within 0.041° (rms 0.011°) and the distance
-    within 81 km (tests/test_ephemeris.py states how this was measured).
+    within 81 km (tests/physics/test_ephemeris.py states how this was measured).
 
     Args:
         jd_tt: Julian date (TT), days, scalar or ``(N,)``.

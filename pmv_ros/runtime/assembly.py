@@ -229,14 +229,22 @@ def parse_epoch(iso_string: str) -> Epoch:
         raise ValueError(f"sim.epoch_utc: {error}") from None
 
 
-def build_models(values: dict):
-    """Orbit, attitude profile and instrument model from parameter values; ValueError if inconsistent."""
+def build_models(values: dict, *, clock_epoch_s: float = 0.0, correction=None):
+    """Orbit, attitude profile and instrument model from parameter values; ValueError if inconsistent.
+
+    Args:
+        values: sensor_node parameter values.
+        clock_epoch_s: the node clock at the start of a real-time run, s (the orbit's epoch there;
+            fast time starts at ``sim.start_time_s``).
+        correction: the brightness-correction table already read (:func:`read_correction`), or None
+            to read the file ``sensor.correction`` names now.
+    """
     orbit = CircularOrbit(
         altitude_m=values["orbit.altitude_km"] * 1e3,
         inclination_rad=math.radians(values["orbit.inclination_deg"]),
         raan_rad=math.radians(values["orbit.raan_deg"]),
         arg_latitude_at_epoch_rad=math.radians(values["orbit.u0_deg"]),
-        epoch_s=values["sim.start_time_s"] if values["sim.fast_time"] else values.get("_epoch_s", 0.0),
+        epoch_s=values["sim.start_time_s"] if values["sim.fast_time"] else clock_epoch_s,
         j2_node_drift=values["orbit.j2_node_drift"],
     )
     per_hour = ARCMIN_RAD / 3600.0
@@ -253,7 +261,7 @@ def build_models(values: dict):
     epoch = parse_epoch(values["sim.epoch_utc"])  # parsed whatever the detector: a bad date is refused now
     # The clock's zero: simulation time 0 in fast time, the node start in real time.
     clock_epoch = Epoch(epoch.julian_date_utc - orbit.epoch_s / SECONDS_PER_DAY)
-    detector = build_detector(values, orbit)
+    detector = build_detector(values, orbit, epoch, correction)
     config = SensorConfig(
         ellipsoid=GRS80 if values["sensor.earth_model"] == "GRS80" else SPHERE,
         ideal_layer_height_m=values["sensor.layer_height_km"] * 1e3,
@@ -266,11 +274,13 @@ def build_models(values: dict):
     return orbit, profile, SensorModel(orbit, config, detector)
 
 
-def build_detector(values: dict, orbit: CircularOrbit):
-    """The horizon detector the parameters ask for (None for the ideal one); ValueError if inconsistent."""
+def build_detector(values: dict, orbit: CircularOrbit, epoch: Epoch, correction=None):
+    """The horizon detector the parameters ask for (None for the ideal one); ValueError if inconsistent.
+
+    ``epoch``: the run epoch (:func:`parse_epoch`); ``correction``: as for :func:`build_models`.
+    """
     if values["sensor.detector"] == "ideal":
         return None
-    epoch = parse_epoch(values["sim.epoch_utc"])
     # The clock reads orbit.epoch_s at the start of the run (0 in fast time, the node start
     # in real time); anchor season and Earth rotation there exactly. (Stepping the epoch back
     # by a real-time clock of ≈ 1.8e9 s would let the GRS80 and GMST rates drift apart by ≈ 0.9°.)
@@ -297,15 +307,15 @@ def build_detector(values: dict, orbit: CircularOrbit):
         environment=environment,
         earth_rotation_at_epoch_rad=rotation_at_clock_zero % (2.0 * math.pi),
     )
-    correction = values["_correction"] if "_correction" in values else read_correction(values)
+    correction = read_correction(values) if correction is None else correction
     return ChainDetector(orbit.altitude_m, radiance, correction, scan_margin_rad=math.radians(values["sensor.scan_margin_deg"]))
 
 
 def read_correction(values: dict):
     """The brightness-correction table ``sensor.correction`` names (a file is read here); ValueError naming it.
 
-    A node calls this once, at start-up, and keeps the table as
-    ``values["_correction"]`` (``sensor.correction`` and the orbit are
+    A node calls this once, at start-up, and keeps the table for every
+    later :func:`build_models` (``sensor.correction`` and the orbit are
     read-only): no later parameter change, and so nothing a peer on the
     network sends, makes the node read a file.
     """

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from published import KONDOR_ALTITUDE_KM, KONDOR_INCLINATION_DEG, KONDOR_OBLATENESS_TABLE
+from pmv_ros.physics.published import KONDOR_ALTITUDE_KM, KONDOR_INCLINATION_DEG, KONDOR_OBLATENESS_TABLE
 
 from pmv_ros.cli import main
 from pmv_ros.physics.conventions import convert

@@ -1,7 +1,7 @@
 """``pmv campaign``: the core flight equals the pipeline, the batch monitor equals the live one, the CLI's edges.
 
 The Dask runs (embedded against an external scheduler, a worker killed
-mid-campaign) are in ``tests/test_campaign_dask.py``.
+mid-campaign) are in ``tests/system/test_campaign_dask.py``.
 """
 
 from __future__ import annotations

@@ -11,7 +11,7 @@
   clock jumping back and forward, a sensor and a star tracker restarted in a
   running graph.
 
-In-process, as tests/test_nodes.py: nodes and test publishers share one
+In-process, as tests/nodes/test_nodes.py: nodes and test publishers share one
 executor, drained after every publication; each test has its own context.
 """
 

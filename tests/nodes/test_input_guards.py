@@ -1,7 +1,7 @@
 """Issue 15 in-process: one source per input, no file read from the network, bounded and known parameters.
 
 The multi-process attacks (a second process on the DDS domain) are in
-tests/test_adversarial.py; these tests drive one node in its own context.
+tests/system/test_adversarial.py; these tests drive one node in its own context.
 """
 
 from __future__ import annotations

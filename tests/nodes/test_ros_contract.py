@@ -7,7 +7,7 @@ issue's "methodical error" bound for this case. Timing errors are measured again
 instrument model (pmv_ros.runtime.assembly.build_models) run at the stamp with the true attitude:
 what is left is the timing alone.
 
-In-process like tests/test_nodes.py: each test has its own context and executor.
+In-process like tests/nodes/test_nodes.py: each test has its own context and executor.
 """
 
 from __future__ import annotations

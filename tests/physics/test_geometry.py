@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 import pytest
-from published import KONDOR_OBLATENESS_TABLE
+from pmv_ros.physics.published import KONDOR_OBLATENESS_TABLE
 
 from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
 from pmv_ros.physics.constants import ARCMIN_RAD, EARTH_MEAN_RADIUS_M, GRS80, SPHERE

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 
 import pytest
-from published import MODEL_A_TABLE
+from pmv_ros.physics.published import MODEL_A_TABLE
 
 from pmv_ros.physics.constants import ARCMIN_RAD
 from pmv_ros.physics.scenarios import model_a, model_b, model_c, model_d, run_pair, scenario

@@ -18,7 +18,7 @@ By default a short version runs (2.1 simulated hours, ≈ 25 s); the full day
 (86 400 ticks, a few minutes) runs with::
 
     make test-long                      # every test marked long, full length
-    .venv/bin/python -m pytest -q -s tests/test_soak.py --run-long
+    .venv/bin/python -m pytest -q -s tests/system/test_soak.py --run-long
 
 and prints the figures.
 """

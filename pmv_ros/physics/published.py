@@ -1,4 +1,5 @@
-"""Published reference numbers the tests reproduce, transcribed once (physics.md)."""
+"""Published reference numbers, transcribed once (physics.md): the targets of the calibration tools and
+what the tests reproduce."""
 
 #: physics.md §2.1 — oblateness error, Kondor (sensor 8201-V4), H = 500 km, i = 74.5°, a quarter orbit;
 #: rows (u_deg, meridional′, pitch′, roll′), signs as published (the paper convention: compare with the
