@@ -97,6 +97,12 @@ class PmvNode(Node):
     :func:`pmv_ros.nodes.params.install_validation`.
     """
 
+    def clock_name(self) -> str:
+        """The clock this node runs on, for its start-up line: simulation time from /clock or the wall clock."""
+        if self.get_parameter("use_sim_time").value:
+            return "on simulation time from /clock"
+        return "on the wall clock"
+
     def __init__(self, name: str, *, lean: bool = False, time_source=None, reliable_inputs: bool | None = None,
                  **kwargs):
         if lean:

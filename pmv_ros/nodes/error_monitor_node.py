@@ -70,7 +70,8 @@ class ErrorMonitorNode(PmvNode):
         self._last_statistics = None
         self._rejected_reported = 0
         self.create_timer(1.0, self._on_timer)
-        self.get_logger().info(f"error_monitor_node: ready, statistics at {self._values['statistics_rate_hz']:g} Hz")
+        self.get_logger().info(f"error_monitor_node: ready, statistics at {self._values['statistics_rate_hz']:g} Hz, "
+                               f"{self.clock_name()}")
 
     def _rebuild(self, values: dict) -> None:
         # A new configuration starts new statistics: mixing two configurations would mean nothing.

@@ -105,7 +105,7 @@ class SensorNode(PmvNode):
         self.get_logger().info(
             f"sensor_node: H = {v['orbit.altitude_km']:g} km, i = {v['orbit.inclination_deg']:g}°, "
             f"{v['sensor.rate_hz']:g} Hz, attitude from {v['attitude.source']}, "
-            f"{'fast time' if v['sim.fast_time'] else 'real time'}")
+            f"{'fast time, publishing its own /clock' if v['sim.fast_time'] else 'paced by its clock, ' + self.clock_name()}")
 
     # -- parameters ---------------------------------------------------------------------------
 

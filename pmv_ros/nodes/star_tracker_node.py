@@ -82,7 +82,7 @@ class StarTrackerNode(PmvNode):
         self._last_arrival_s = None
         self.create_timer(1.0, self._on_timer)
         self.get_logger().info(f"star_tracker_node: ready, {self._values['rate_hz']:g} Hz frames, "
-                               f"latency {self._values['latency_s']:g} s")
+                               f"latency {self._values['latency_s']:g} s, {self.clock_name()}")
 
     def _rebuild(self, values: dict) -> None:
         self._runtime.reconfigure(values)
