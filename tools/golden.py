@@ -3,7 +3,8 @@
 A code move must not change a figure. This tool runs a fixed set of ``pmv``
 commands (``simulate`` for the three presets at a fixed seed, one of them
 recorded and then analysed, ``campaign`` on a few tasks, ``scenario`` A–D and
-``oblateness``), each as its own process, and keeps their ``--json`` output.
+``oblateness``), each through the console script's ``main(argv)`` in this
+process, and keeps their ``--json`` output.
 
     python tools/golden.py capture            # writes tests/data/golden.json
     python tools/golden.py compare            # exit 1 and one line per difference
@@ -17,10 +18,11 @@ the machine (wall time, rates) or name a temporary folder are left out.
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
 import json
 import math
 import os
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -63,17 +65,24 @@ def commands(workdir: Path) -> dict[str, list[str]]:
 
 
 def run_all(workdir: Path) -> dict[str, object]:
-    """Every command's JSON output with the volatile keys removed."""
-    env = dict(os.environ)
-    env.setdefault("ROS_LOG_DIR", str(workdir / "ros_log"))
-    env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "OFF"
+    """Every command's JSON output with the volatile keys removed, each run in this process (``main(argv)``)."""
+    os.environ.setdefault("ROS_LOG_DIR", str(workdir / "ros_log"))
+    os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "OFF")
+    from pmv_ros.cli import main as pmv
+
     outputs: dict[str, object] = {}
-    for name, argv in commands(workdir).items():
-        done = subprocess.run([sys.executable, "-m", "pmv_ros.cli", *argv], cwd=ROOT, env=env,
-                              capture_output=True, text=True, timeout=600)
-        if done.returncode != 0:
-            raise RuntimeError(f"pmv {' '.join(argv)} exited {done.returncode}: {done.stderr.strip()[-400:]}")
-        outputs[name] = _strip(json.loads(done.stdout))
+    here = os.getcwd()
+    os.chdir(ROOT)  # the presets are named relative to the repository
+    try:
+        for name, argv in commands(workdir).items():
+            out, err = io.StringIO(), io.StringIO()
+            with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+                status = pmv(argv)
+            if status != 0:
+                raise RuntimeError(f"pmv {' '.join(argv)} exited {status}: {err.getvalue().strip()[-400:]}")
+            outputs[name] = _strip(json.loads(out.getvalue()))
+    finally:
+        os.chdir(here)
     return outputs
 
 
