@@ -24,7 +24,9 @@ rate is the best of its rounds — a busy neighbour slows whichever
 measurement it overlaps — with the per-round figures and the load average
 printed beside them. Targets: 1 worker ≥ 25× the pipeline; 2 workers ≥ 1.7× 1;
 1 worker ≥ 0.6 of the instrument; a year of one spacecraft at 1 Hz on this
-machine's cores (projected from the 2-worker rate) ≤ 10 min.
+machine's cores ≤ 10 min, projected from a campaign of the same tasks at 1 Hz
+on the 2-worker cluster (at 1 Hz the star tracker's 2 Hz frames weigh more per
+sample than at 10 Hz).
 
     .venv/bin/python benchmarks/bench_campaign.py [--rounds R] [--tasks N] [--orbits K] [--ticks T] [--json]
 """
@@ -116,6 +118,7 @@ def main(argv=None) -> int:
     logging.getLogger("distributed").setLevel(logging.ERROR)  # the clusters' start and close notices
 
     settings = campaign.Settings(yaml.safe_load(PRESET.read_text()), "2024-01-15T00:00:00Z", RATE_HZ, args.orbits)
+    settings_1_hz = campaign.Settings(yaml.safe_load(PRESET.read_text()), "2024-01-15T00:00:00Z", 1.0, args.orbits)
     tasks = [campaign.Task(day=1 + 30 * (k % 12), seed=k // 12) for k in range(args.tasks)]
     scratch = Path(tempfile.mkdtemp(prefix="pmv_bench_campaign_"))
     clients = {}
@@ -129,6 +132,7 @@ def main(argv=None) -> int:
             measured = {"pipeline": pipeline_rate(args.ticks), "instrument": instrument_rate(args.instrument_samples)}
             for workers in (1, 2):
                 measured[f"workers_{workers}"], _ = campaign_rate(clients[workers][0], settings, tasks, scratch)
+            measured["workers_2_at_1_hz"], _ = campaign_rate(clients[2][0], settings_1_hz, tasks, scratch)
             measured["load"] = load_average()
             rounds.append(measured)
             loads.append(measured["load"])
@@ -138,9 +142,10 @@ def main(argv=None) -> int:
             cluster.close()
         shutil.rmtree(scratch, ignore_errors=True)
 
-    best = {key: max(r[key] for r in rounds) for key in ("pipeline", "workers_1", "workers_2", "instrument")}
+    best = {key: max(r[key] for r in rounds)
+            for key in ("pipeline", "workers_1", "workers_2", "instrument", "workers_2_at_1_hz")}
     year_samples = 365.25 * 86400.0  # one spacecraft at 1 Hz
-    year_min = year_samples / best["workers_2"] / 60.0
+    year_min = year_samples / best["workers_2_at_1_hz"] / 60.0
     result = {
         "preset": PRESET.name, "rate_hz": RATE_HZ, "rounds": rounds, "best_samples_per_s": best,
         "core_1_worker_over_pipeline": best["workers_1"] / best["pipeline"],
@@ -163,7 +168,8 @@ def main(argv=None) -> int:
         print(f"  round {index}: pipeline {r['pipeline']:8.0f}  1 worker {r['workers_1']:8.0f}  "
               f"2 workers {r['workers_2']:8.0f} samples/s   core/pipeline {r['workers_1'] / r['pipeline']:5.1f}×  "
               f"2/1 {r['workers_2'] / r['workers_1']:4.2f}×  instrument {r['instrument']:8.0f}  "
-              f"worker/instrument {r['workers_1'] / r['instrument']:4.2f}")
+              f"worker/instrument {r['workers_1'] / r['instrument']:4.2f}  "
+              f"2 workers at 1 Hz {r['workers_2_at_1_hz']:8.0f}")
     print(f"best: pipeline {best['pipeline']:.0f}, 1 worker {best['workers_1']:.0f}, 2 workers {best['workers_2']:.0f} "
           "samples/s")
     print(f"core on 1 worker / pipeline: {result['core_1_worker_over_pipeline']:.1f}× (target ≥ 25×)")

@@ -5,7 +5,7 @@ fast-time mode, publishing ``/clock``), takes the body attitude from its own
 profile (published on ``/attitude/truth``) or follows the user's
 ``/attitude/truth``, runs the four chords through the instrument model and
 publishes crossings, roll/pitch (REP-103, corrected and uncorrected),
-odometry and health. Physics in :mod:`pmv_ros.core`, message layout in
+odometry and health. The work in :mod:`pmv_ros.runtime` and :mod:`pmv_ros.physics`, message layout in
 :mod:`pmv_msgs_shim`, health in :mod:`pmv_ros.runtime.sensor_health`.
 
 A chord without a horizon, without a crossing, or with the Sun or the Moon

@@ -85,9 +85,11 @@ class StarTrackerNode(PmvNode):
                                f"latency {self._values['latency_s']:g} s, {self.clock_name()}")
 
     def _rebuild(self, values: dict) -> None:
+        # The stamp check first: it refuses a combination the ranges cannot (ValueError), and then nothing changed.
+        stamps = self._stamps.reconfigured(values["clock_jump_s"], values["future_tolerance_s"],
+                                           1.0 / values["input.max_rate_hz"])
         self._runtime.reconfigure(values)
-        self._stamps = self._stamps.reconfigured(values["clock_jump_s"], values["future_tolerance_s"],
-                                                 1.0 / values["input.max_rate_hz"])
+        self._stamps = stamps
         for lock in self.source_locks.values():
             lock.timeout_s = values["input.source_timeout_s"]
 
@@ -157,6 +159,11 @@ class StarTrackerNode(PmvNode):
             name="pmv_ros/star_tracker_node", level=level, message="; ".join(problems) or "attitude available",
             hardware_id="star_tracker", values=values),))
         self._diagnostics.publish(shim.write_health(self._out_diagnostics, report))
+
+    @property
+    def release_queue_length(self) -> int:
+        """Measured frames waiting for their release (at most latency × rate)."""
+        return len(self._runtime.queue)
 
     @property
     def counters(self) -> dict:

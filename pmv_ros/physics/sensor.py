@@ -121,7 +121,7 @@ class SensorReading:
     sensed_pitch_uncorrected_rad: np.ndarray  #: (N,)
     true_roll_rad: np.ndarray  #: (N,) what an ideal sensor reads for the true attitude
     true_pitch_rad: np.ndarray  #: (N,)
-    #: (4, N) index into :data:`BRIGHT_BODIES` of the body that blinds the chord, −1 for none
+    #: (4, N) index into :data:`~pmv_ros.physics.ephemeris.BODY_NAMES` of the body that blinds the chord, −1 for none
     blinding_body: np.ndarray | None = None
 
     @property

@@ -23,7 +23,7 @@ from ..physics.star_tracker import StarTracker, StarTrackerParameters
 from .validation import InputBounds
 
 
-#: Input guards every node has (issue 15; the checks are core/validation.py). Read-only while the node runs:
+#: Input guards every node has (issue 15; the checks are runtime/validation.py). Read-only while the node runs:
 #: anyone on the DDS domain can set parameters, and a guard a neighbour could loosen guards nothing.
 INPUT_PARAMS = (
     ParamSpec("input.max_rate_hz", 500.0, "an input stream stamped faster than this is thinned to it and the rest "
@@ -229,15 +229,19 @@ def parse_epoch(iso_string: str) -> Epoch:
         raise ValueError(f"sim.epoch_utc: {error}") from None
 
 
-def build_models(values: dict, *, clock_epoch_s: float = 0.0, correction=None):
+#: ``correction`` of :func:`build_models` when the table is still to be read from ``sensor.correction``.
+READ_CORRECTION = object()
+
+
+def build_models(values: dict, *, clock_epoch_s: float = 0.0, correction=READ_CORRECTION):
     """Orbit, attitude profile and instrument model from parameter values; ValueError if inconsistent.
 
     Args:
         values: sensor_node parameter values.
         clock_epoch_s: the node clock at the start of a real-time run, s (the orbit's epoch there;
             fast time starts at ``sim.start_time_s``).
-        correction: the brightness-correction table already read (:func:`read_correction`), or None
-            to read the file ``sensor.correction`` names now.
+        correction: the brightness-correction table already read (:func:`read_correction`; None: no
+            correction), or :data:`READ_CORRECTION` to read what ``sensor.correction`` names now.
     """
     orbit = CircularOrbit(
         altitude_m=values["orbit.altitude_km"] * 1e3,
@@ -274,7 +278,7 @@ def build_models(values: dict, *, clock_epoch_s: float = 0.0, correction=None):
     return orbit, profile, SensorModel(orbit, config, detector)
 
 
-def build_detector(values: dict, orbit: CircularOrbit, epoch: Epoch, correction=None):
+def build_detector(values: dict, orbit: CircularOrbit, epoch: Epoch, correction=READ_CORRECTION):
     """The horizon detector the parameters ask for (None for the ideal one); ValueError if inconsistent.
 
     ``epoch``: the run epoch (:func:`parse_epoch`); ``correction``: as for :func:`build_models`.
@@ -307,7 +311,7 @@ def build_detector(values: dict, orbit: CircularOrbit, epoch: Epoch, correction=
         environment=environment,
         earth_rotation_at_epoch_rad=rotation_at_clock_zero % (2.0 * math.pi),
     )
-    correction = read_correction(values) if correction is None else correction
+    correction = read_correction(values) if correction is READ_CORRECTION else correction
     return ChainDetector(orbit.altitude_m, radiance, correction, scan_margin_rad=math.radians(values["sensor.scan_margin_deg"]))
 
 

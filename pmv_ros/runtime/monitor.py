@@ -104,8 +104,6 @@ from ..analysis.statistics import (
     RunningStatistics,
 )
 
-#: The statistics channels, in the order they are reported.
-
 
 class Status(str, Enum):
     """What became of a valid sensor sample: ``ok`` or why it could not be aligned (the value is the counter name).

@@ -94,7 +94,7 @@ def _per_sample_monitor(values, flight):
      "outage_duration_s": [15.0], "sensor.bright_body_exclusion_deg": 30.0},
 ], ids=["clean", "gaps-and-outage"])
 def test_batch_monitor_equals_the_live_monitor_sample_by_sample(overrides):
-    """core/flight's array alignment and statistics against ErrorMonitor fed per sample (its regression guard).
+    """runtime/flight's array alignment and statistics against ErrorMonitor fed per sample (its regression guard).
 
     1e-9 arcmin: the two sum the same residuals in another order (Welford per
     sample against a batch merge).

@@ -426,7 +426,7 @@ def test_the_pipeline_is_lossless_with_reliable_inputs():
 
 
 def test_every_read_only_parameter_of_every_node_is_refused_and_keeps_its_value():
-    # core/assembly.py marks the world-defining parameters read_only; each node refuses a valid new
+    # runtime/assembly.py marks the world-defining parameters read_only; each node refuses a valid new
     # value for each of them with the reason, in-process as through the service (above).
     from pmv_ros.runtime.assembly import NODE_PARAMS
 

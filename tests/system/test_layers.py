@@ -12,6 +12,7 @@ from pathlib import Path
 from pmv_ros import LAYERS
 
 PACKAGE = Path(__file__).resolve().parents[2] / "pmv_ros"
+SHIM = PACKAGE.parent / "pmv_msgs_shim"
 
 #: The message shim sits between the runtime (whose records it lays out) and the nodes.
 SHIM_RANK = LAYERS.index("runtime") + 0.5
@@ -26,8 +27,13 @@ def _rank(module: str) -> float | None:
     return LAYERS.index(parts[1])
 
 
+def _module(path: Path) -> str:
+    root = SHIM if path.is_relative_to(SHIM) else PACKAGE
+    return ".".join([root.name, *path.relative_to(root).with_suffix("").parts])
+
+
 def _imports(path: Path) -> list[str]:
-    module_parts = ["pmv_ros", *path.relative_to(PACKAGE).with_suffix("").parts]
+    module_parts = _module(path).split(".")
     if module_parts[-1] == "__init__":
         module_parts.pop()
     package = module_parts if path.name == "__init__.py" else module_parts[:-1]
@@ -56,14 +62,14 @@ def test_every_module_lives_in_a_layer():
 
 def test_imports_point_down():
     upward = []
-    for path in sorted(PACKAGE.rglob("*.py")):
-        own = _rank("pmv_ros." + ".".join(path.relative_to(PACKAGE).with_suffix("").parts))
+    for path in sorted([*PACKAGE.rglob("*.py"), *SHIM.rglob("*.py")]):
+        own = _rank(_module(path))
         if own is None:
             continue
         for target in _imports(path):
             rank = _rank(target)
             if rank is not None and rank > own:
-                upward.append(f"{path.relative_to(PACKAGE)} → {target}")
+                upward.append(f"{_module(path)} → {target}")
     assert not upward, "imports pointing up:\n" + "\n".join(upward)
 
 
@@ -71,3 +77,4 @@ def test_the_check_sees_an_upward_import(tmp_path):
     assert _rank("pmv_ros.cli.common") > _rank("pmv_ros.apps.campaign") > _rank("pmv_ros.runtime.monitor")
     assert _rank("pmv_ros.physics.sensor") < SHIM_RANK < _rank("pmv_ros.nodes.base")
     assert _rank("numpy") is None
+    assert _rank(_module(SHIM / "records.py")) == SHIM_RANK

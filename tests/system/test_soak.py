@@ -88,7 +88,7 @@ def test_soak_memory_and_callback_time_stay_flat(run_long, capsys):
                 durations.append(time.perf_counter() - t0)
                 bounds["pending"] = max(bounds["pending"], monitor.pending_count)
                 bounds["truth_buffer"] = max(bounds["truth_buffer"], monitor.truth_buffer_length)
-                bounds["release_queue"] = max(bounds["release_queue"], len(tracker._queue))
+                bounds["release_queue"] = max(bounds["release_queue"], tracker.release_queue_length)
                 bounds["sensor_block"] = max(bounds["sensor_block"], sensor.samples_computed_ahead)
             durations.sort()
             block_medians.append(statistics.median(durations) * 1e3)
