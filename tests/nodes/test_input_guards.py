@@ -377,3 +377,18 @@ def test_pmv_simulate_refuses_an_unknown_key_in_its_config_with_one_line(tmp_pat
     assert result.returncode == 2, result.stderr
     assert len(result.stderr.strip().splitlines()) == 1 and "Traceback" not in result.stderr
     assert "'statistics_rate_hzz'" in result.stderr and "did you mean 'statistics_rate_hz'" in result.stderr
+
+
+def test_a_refused_star_tracker_update_changes_nothing(harness):
+    """A combination only the stamp check refuses (a clock jump shorter than the rate limit's interval) leaves the
+    frame grid, the latency and the tracker as they were (found by review: the runtime was reconfigured first)."""
+    h = harness(StarTrackerNode, {"rate_hz": 2.0, "latency_s": 0.25})
+    runtime = h.node._runtime
+    tracker = runtime.tracker
+    result = h.node.set_parameters_atomically([Parameter("rate_hz", value=5.0), Parameter("latency_s", value=3.0),
+                                               Parameter("clock_jump_s", value=0.001)])
+    assert not result.successful, "a clock jump below 1/input.max_rate_hz must be refused"
+    assert runtime.grid.period_s == 0.5 and runtime.queue.latency_s == 0.25 and runtime.tracker is tracker
+    assert h.node.get_parameter("rate_hz").value == 2.0
+    assert h.node.set_parameters([Parameter("latency_s", value=3.0)])[0].successful
+    assert runtime.queue.latency_s == 3.0 and runtime.tracker is not tracker  # an accepted one is applied
