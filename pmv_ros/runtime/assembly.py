@@ -17,6 +17,7 @@ from ..physics.ephemeris import SECONDS_PER_DAY, Epoch
 from .monitor import ErrorMonitor, MonitorConfig
 from ..physics.orbit import CircularOrbit
 from .parameters import ParamSpec
+from ..physics.tle_orbit import TleOrbit, element_set_altitude_m
 from ..physics.sensor import ChainDetector, RadianceConfig, SensorConfig, SensorModel, nominal_scan_start_nadir_rad
 from ..physics.star_tracker import StarTracker, StarTrackerParameters
 from .validation import InputBounds
@@ -46,6 +47,10 @@ MONITOR_INPUT_PARAMS = (
 )
 
 
+#: Where the sensor's orbit comes from (interfaces.md "Orbit sources"); follow is not built yet.
+ORBIT_SOURCES = ("circular", "tle", "follow")
+
+
 #: Parameters of sensor_node (units in the names; YAML speaks km, deg, arcmin).
 SENSOR_PARAMS = INPUT_PARAMS + (
     ParamSpec("orbit.altitude_km", 500.0, "circular orbit altitude above the 6371 km mean radius", 150.0, 40000.0,
@@ -56,6 +61,13 @@ SENSOR_PARAMS = INPUT_PARAMS + (
     ParamSpec("orbit.u0_deg", 0.0, "argument of latitude at the start of the run", -360.0, 360.0, unit="deg",
               read_only=True),
     ParamSpec("orbit.j2_node_drift", False, "apply the secular J2 drift of the node", read_only=True),
+    ParamSpec("orbit.source", "circular", "circular: the circular orbit of orbit.altitude_km … u0_deg; tle: SGP4 "
+              "from orbit.tle_line1/2 (sim.epoch_utc is the run's start; the circular elements are not used); "
+              "follow: the state from /orbit/odometry (not available yet)", choices=ORBIT_SOURCES, read_only=True),
+    ParamSpec("orbit.tle_line1", "", "orbit.source tle: line 1 of the two-line element set (69 columns)",
+              constraints="line 1 of a two-line element set, 69 columns with its checksum", read_only=True),
+    ParamSpec("orbit.tle_line2", "", "orbit.source tle: line 2 of the two-line element set (69 columns)",
+              constraints="line 2 of a two-line element set, 69 columns with its checksum", read_only=True),
     ParamSpec("attitude.source", "profile", "profile: own attitude model published on /attitude/truth; "
               "follow: take the attitude from /attitude/truth", choices=("profile", "follow"), read_only=True),
     ParamSpec("attitude.roll_offset_arcmin", 0.0, "constant roll of the body", -2700.0, 2700.0, unit="arcmin"),
@@ -236,6 +248,8 @@ def build_models(values: dict):
         epoch_s=values["sim.start_time_s"] if values["sim.fast_time"] else values.get("_epoch_s", 0.0),
         j2_node_drift=values["orbit.j2_node_drift"],
     )
+    if values["orbit.source"] != "circular":
+        orbit = build_source_orbit(values, orbit.epoch_s)
     per_hour = ARCMIN_RAD / 3600.0
     profile = AttitudeProfile(
         roll_offset_rad=values["attitude.roll_offset_arcmin"] * ARCMIN_RAD,
@@ -261,6 +275,31 @@ def build_models(values: dict):
             orbit.altitude_m, math.radians(values["sensor.scan_margin_deg"])),
     )
     return orbit, profile, SensorModel(orbit, config, detector)
+
+
+#: How far ahead of the run's start an element set's orbit is checked at start-up, s (SGP4 error codes).
+ORBIT_CHECK_S = SECONDS_PER_DAY
+
+
+def build_source_orbit(values: dict, epoch_s: float):
+    """The orbit of ``orbit.source`` other than circular (a :class:`TleOrbit`); ValueError in one line if not.
+
+    ``values["_orbit_check_s"]``, if set, is the span checked for SGP4 error
+    codes from the start (default :data:`ORBIT_CHECK_S`).
+    """
+    source = values["orbit.source"]
+    if source == "follow":
+        raise ValueError("orbit.source = follow is not available yet (the sensor cannot take its orbit from "
+                         "/orbit/odometry in this version): use circular or tle")
+    return TleOrbit(values["orbit.tle_line1"], values["orbit.tle_line2"], parse_epoch(values["sim.epoch_utc"]),
+                    epoch_s, check_span_s=values.get("_orbit_check_s", ORBIT_CHECK_S))
+
+
+def nominal_altitude_m(values: dict) -> float:
+    """The orbit's nominal altitude, m: ``orbit.altitude_km``, or an element set's mean one (orbit.source tle)."""
+    if values.get("orbit.source", "circular") == "tle":
+        return element_set_altitude_m(values["orbit.tle_line1"], values["orbit.tle_line2"])
+    return values["orbit.altitude_km"] * 1e3
 
 
 def build_detector(values: dict, orbit: CircularOrbit):
@@ -306,8 +345,9 @@ def read_correction(values: dict):
     read-only): no later parameter change, and so nothing a peer on the
     network sends, makes the node read a file.
     """
+    altitude_m = nominal_altitude_m(values)
     try:
-        return load_correction(values["sensor.correction"], values["orbit.altitude_km"] * 1e3)
+        return load_correction(values["sensor.correction"], altitude_m)
     except ValueError as error:
         raise ValueError(f"sensor.correction: {error}") from None
 
