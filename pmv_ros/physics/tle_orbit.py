@@ -176,6 +176,32 @@ def parse_element_set(line1, line2) -> ElementSet:
                       mean_motion, bstar)
 
 
+def make_element_set(epoch_utc: datetime, inclination_deg: float, raan_deg: float, eccentricity: float,
+                     arg_perigee_deg: float, mean_anomaly_deg: float, mean_motion_rev_per_day: float,
+                     catalog_number: int = 99999, bstar_per_earth_radius: float = 0.0) -> tuple[str, str]:
+    """Two element-set lines from SGP4 mean elements (``sgp4init`` and python-sgp4's ``export_tle``).
+
+    The lines are checked by :func:`parse_element_set` before they are
+    returned. Angles are written to 1e-4°, the mean motion to 1e-8 rev/day,
+    the eccentricity to 1e-7 and the epoch to 1e-8 day (≈ 1 ms).
+    """
+    from sgp4.api import WGS72, Satrec
+    from sgp4.exporter import export_tle
+
+    epoch = epoch_utc.astimezone(timezone.utc)
+    days_since_1949 = (epoch - datetime(1949, 12, 31, tzinfo=timezone.utc)).total_seconds() / SECONDS_PER_DAY
+    satrec = Satrec()
+    satrec.sgp4init(WGS72, "i", int(catalog_number), days_since_1949, float(bstar_per_earth_radius), 0.0, 0.0,
+                    float(eccentricity), math.radians(arg_perigee_deg % 360.0), math.radians(inclination_deg),
+                    math.radians(mean_anomaly_deg % 360.0), mean_motion_rev_per_day * 2.0 * math.pi / 1440.0,
+                    math.radians(raan_deg % 360.0))
+    satrec.classification = "U"
+    satrec.intldesg = ""
+    line1, line2 = export_tle(satrec)
+    parse_element_set(line1, line2)
+    return line1, line2
+
+
 def element_set_altitude_m(line1, line2) -> float:
     """The nominal altitude of an element set: SGP4's mean semi-major axis less the 6371 km mean radius, m."""
     from sgp4.api import WGS72, Satrec
