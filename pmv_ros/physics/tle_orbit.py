@@ -289,8 +289,7 @@ class TleOrbit(StateOrbit):
             raise ValueError(f"orbit.tle_line2: apogee {apogee_m / 1e3:.0f} km is above the allowed "
                              f"{MAX_ALTITUDE_M / 1e3:g} km (mean motion and eccentricity)")
         if check_span_s > 0.0:
-            grid = self.epoch_s + np.arange(0.0, check_span_s + CHECK_STEP_S, CHECK_STEP_S)
-            self.state_eci(grid)  # raises OrbitPropagationError naming the first failing time
+            self.check_propagation(self.epoch_s, self.epoch_s + check_span_s)
         position, velocity = self.state_eci(np.array([self.epoch_s]))
         u, _, _ = orbit_angles_from_state(position[:, 0], velocity[:, 0])
         h = np.cross(position[:, 0], velocity[:, 0])
@@ -300,6 +299,15 @@ class TleOrbit(StateOrbit):
         self.inclination_rad = float(satrec.inclo)
         self.eccentricity = float(satrec.ecco)
         self.j2_node_drift = True  # SGP4 carries the secular J2 drift of node, perigee and mean anomaly
+
+    def check_propagation(self, first_s: float, last_s: float) -> None:
+        """Run SGP4 every :data:`CHECK_STEP_S` from ``first_s`` to ``last_s`` (simulation times, s), and at both ends.
+
+        Raises:
+            OrbitPropagationError: one line naming the first time SGP4 returns an error code.
+        """
+        grid = np.r_[np.arange(first_s, last_s, CHECK_STEP_S), last_s]
+        self.state_teme(grid)
 
     @property
     def mean_motion_rad_s(self) -> float:
@@ -370,8 +378,8 @@ class TleOrbit(StateOrbit):
     def _failure_message(self, t_s: float, code: int) -> str:
         if not math.isfinite(t_s):
             return f"SGP4 was asked for the state at t = {t_s} s"
-        when = (datetime(2000, 1, 1, 12, tzinfo=timezone.utc)
-                + timedelta(days=float(self.utc_julian_date(t_s)) - JD_J2000))
+        seconds = round((float(self.utc_julian_date(t_s)) - JD_J2000) * SECONDS_PER_DAY)  # to the second
+        when = _EPOCH_J2000 + timedelta(seconds=seconds)
         return (f"SGP4 error {code} at t = {t_s:.1f} s ({when:%Y-%m-%dT%H:%M:%S}Z, "
                 f"{float(self.minutes_since_elements(t_s)) / 1440.0:+.3f} days from the element set's epoch): "
                 f"{_sgp4_message(code)}")
