@@ -278,13 +278,13 @@ class TleOrbit(StateOrbit):
         radius_km = satrec.radiusearthkm
         perigee_m = satrec.a * radius_km * 1e3 * (1.0 - satrec.ecco) - EARTH_MEAN_RADIUS_M
         apogee_m = satrec.a * radius_km * 1e3 * (1.0 + satrec.ecco) - EARTH_MEAN_RADIUS_M
-        if satrec.error or not math.isfinite(perigee_m):
-            raise ValueError(f"orbit.tle_line2: SGP4 cannot start from these elements (error {satrec.error}: "
-                             f"{_sgp4_message(satrec.error)})")
-        if perigee_m < MIN_ALTITUDE_M:
+        if math.isfinite(perigee_m) and perigee_m < MIN_ALTITUDE_M:
             raise ValueError(f"orbit.tle_line2: the orbit is below the atmosphere: perigee {perigee_m / 1e3:.1f} km "
                              f"above the mean radius, at least {MIN_ALTITUDE_M / 1e3:g} km is needed "
                              "(mean motion and eccentricity)")
+        if satrec.error or not math.isfinite(perigee_m):
+            raise ValueError(f"orbit.tle_line2: SGP4 cannot start from these elements (error {satrec.error}: "
+                             f"{_sgp4_message(satrec.error)})")
         if apogee_m > MAX_ALTITUDE_M:
             raise ValueError(f"orbit.tle_line2: apogee {apogee_m / 1e3:.0f} km is above the allowed "
                              f"{MAX_ALTITUDE_M / 1e3:g} km (mean motion and eccentricity)")
