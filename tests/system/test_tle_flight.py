@@ -202,3 +202,29 @@ def test_campaign_days_count_from_the_element_sets_epoch(tmp_path):
     campaign.check(settings, campaign.plan([4], 1, False))  # day 4 from 00:00: an orbit ends before the decay
     with pytest.raises(ValueError, match=r"SGP4 error \d at t = 0.0 s \(2016-11-16T00:00:00Z, \+5.000 days"):
         campaign.check(settings, campaign.plan([1, 5], 1, False))  # day 5 starts after it
+
+
+def test_the_monitor_removes_the_oblateness_of_an_eccentric_orbit_with_each_samples_altitude():
+    # The three nodes' code without ROS (runtime/flight.py, what pmv campaign flies): e = 0.01, perigee
+    # 700 km, ideal detector, GRS80. The monitor takes u, inclination and altitude from each odometry
+    # state; what it leaves is the closed-form model's error (< 0.5′, tests/physics/test_eccentric_orbit.py)
+    # and the star tracker's noise (3″ across, 20″ about the boresight).
+    from pmv_ros.physics.constants import ARCMIN_RAD, EARTH_MEAN_RADIUS_M, GM_EARTH_M3_S2
+    from pmv_ros.physics.attitude import true_roll_pitch
+    from pmv_ros.runtime.assembly import build_models
+    from pmv_ros.runtime.flight import flight_values, fly
+
+    a_m = (EARTH_MEAN_RADIUS_M + 700e3) / 0.99
+    mean_motion = math.sqrt(GM_EARTH_M3_S2 / a_m**3) * 86400.0 / (2.0 * math.pi)
+    line1, line2 = make_element_set(EPOCH, 98.8, 0.0, 0.01, 45.0, 0.0, mean_motion)
+    overrides = {"orbit.tle_line1": line1, "orbit.tle_line2": line2, "sensor.detector": "ideal",
+                 "radiance.source": "uniform", "sensor.rate_hz": 0.5, "sensor.bright_body_exclusion_deg": 0.0,
+                 "remove_oblateness": True}
+    values = flight_values(preset_document(), overrides)
+    flight = fly(values, 2950)  # one orbit at 0.5 Hz
+    sigma = {c.channel: c.sigma_rad / ARCMIN_RAD for c in flight.summary.channels}
+    assert sigma["roll"] < 0.5 and sigma["pitch"] < 0.5
+    # the oblateness error the monitor took out: the sensed pitch less the body's true pitch
+    _, profile, _ = build_models(values.sensor)
+    _, true_pitch = true_roll_pitch(profile.quaternion(flight.t_s))
+    assert np.nanstd(flight.sensed_pitch_rad - true_pitch) / ARCMIN_RAD > 3.0
