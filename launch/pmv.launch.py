@@ -2,7 +2,7 @@
 
 Arguments (``ros2 launch pmv_ros pmv.launch.py --show-args`` lists them):
 
-* ``preset`` — kondor (default), meteor_m2, meteor_m2_2 (the package's
+* ``preset`` — kondor (default), meteor_m2, meteor_m2_2, meteor_m2_tle (the package's
   ``share/pmv_ros/config/<preset>.yaml``), or the path of your own params file;
 * ``follow`` — true: the sensor follows your ``/attitude/truth`` and the
   package starts no attitude model (nothing of it publishes ``/attitude/truth``).
@@ -32,7 +32,7 @@ from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
 PACKAGE = "pmv_ros"
-PRESETS = ("kondor", "meteor_m2", "meteor_m2_2")
+PRESETS = ("kondor", "meteor_m2", "meteor_m2_2", "meteor_m2_tle")
 NODES = ("sensor_node", "star_tracker_node", "error_monitor_node")
 
 ARGUMENTS = (

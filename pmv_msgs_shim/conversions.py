@@ -260,13 +260,17 @@ def write_orbit_state(msg: Odometry, stamp_s: float, frame_id: str, child_frame_
     nav_msgs/Odometry: the pose is in ``header.frame_id``, the twist in
     ``child_frame_id``. So: pose.position = the position in ``frame_id``
     (ECI); pose.orientation = the orbital frame's orientation in ``frame_id``
-    (:func:`orbital_frame`) — the child frame, ``orbital``; twist.linear = the
+    (:func:`pmv_ros.physics.orbit.orbital_frame_from_state`) — the child frame, ``orbital``; twist.linear = the
     velocity expressed in the orbital frame ((|v|, 0, 0) on a circular
     orbit); twist.angular = the orbital frame's rate relative to ECI in its
     own axes, (0, |r × v|/|r|², 0). ECI velocity = R(orientation)·twist.linear.
     Covariances are left as they are (zero in a message made by ``Odometry()``).
     """
-    x, y, z = orbital_frame_from_state(position_m, velocity_m_s)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        frame = orbital_frame_from_state(position_m, velocity_m_s)
+    if not np.all(np.isfinite(frame)):
+        raise ValueError(f"position {position_m} and velocity {velocity_m_s} define no orbital frame")
+    x, y, z = (tuple(axis) for axis in frame.T.tolist())
     q = _quaternion_of_axes(x, y, z)
     vx, vy, vz = (float(c) for c in velocity_m_s)
     rx, ry, rz = (float(c) for c in position_m)

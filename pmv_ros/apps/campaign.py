@@ -32,6 +32,7 @@ import numpy as np
 
 from ..storage.json_output import finite_json
 from ..physics.constants import ARCMIN_RAD
+from ..runtime.assembly import build_source_orbit
 from ..runtime.flight import OUTCOME_CODES, flight_values, fly
 from ..analysis.statistics import CHANNELS
 from ..runtime.monitor import Status
@@ -76,13 +77,20 @@ METADATA_KEY = b"pmv_campaign"
 MANIFEST = "campaign.json"
 
 
-def parse_days(spec: str, year: int) -> list[int]:
+def parse_days(spec: str, year: int, from_elements: bool = False) -> list[int]:
     """Days of year from ``"1,91,182,274"``, ``"1-365:7"`` or a mix; ValueError naming a bad item.
 
     Days run 1 … 365 (366 in a leap year of the preset's epoch); a range
-    ``a-b:s`` takes a, a + s, … up to b.
+    ``a-b:s`` takes a, a + s, … up to b. With ``from_elements`` (orbit.source
+    tle) they are days from the element set's epoch instead, 0 … 365.
     """
     last = 366 if _is_leap(year) else 365
+    if from_elements:
+        return _parse_day_items(spec, 0, 365, "days from the element set's epoch")
+    return _parse_day_items(spec, 1, last, f"days of year {year}")
+
+
+def _parse_day_items(spec: str, low: int, last: int, meaning: str) -> list[int]:
     days = set()
     for item in str(spec).split(","):
         item = item.strip()
@@ -97,9 +105,8 @@ def parse_days(spec: str, year: int) -> list[int]:
         except ValueError:
             raise ValueError(f"--days item {item!r} is not a day, a range a-b or a range a-b:step") from None
         for day in (first, stop):
-            if not 1 <= day <= last:
-                raise ValueError(f"--days: day {day} is outside the allowed range 1 … {last} "
-                                 f"(days of year {year})")
+            if not low <= day <= last:
+                raise ValueError(f"--days: day {day} is outside the allowed range {low} … {last} ({meaning})")
         if step < 1:
             raise ValueError(f"--days item {item!r}: the step must be ≥ 1")
         if stop < first:
@@ -120,6 +127,12 @@ def day_epoch(epoch_utc: str, day: int) -> str:
     moment = moment.astimezone(dt.timezone.utc)
     start = moment.replace(month=1, day=1) + dt.timedelta(days=day - 1)
     return start.strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
+def elements_day_epoch(epoch_utc: str, day: int) -> str:
+    """``day`` days after an element set's epoch (ISO 8601 UTC, to the microsecond), as ISO 8601 UTC."""
+    moment = dt.datetime.fromisoformat(epoch_utc.strip()).astimezone(dt.timezone.utc)
+    return (moment + dt.timedelta(days=day)).strftime("%Y-%m-%dT%H:%M:%S.%fZ")
 
 
 def season_of(epoch_utc: str) -> str:
@@ -150,6 +163,8 @@ class Settings:
     epoch_utc: str
     rate_hz: float | None
     orbits_per_task: float
+    #: orbit.source tle: ``epoch_utc`` is the element set's epoch and the days count from it
+    days_from_elements: bool = False
 
     def manifest(self) -> dict:
         """The settings as JSON-ready data (``campaign.json``)."""
@@ -164,7 +179,8 @@ def plan(days, seeds: int, components: bool) -> list[Task]:
 
 def task_overrides(settings: Settings, task: Task) -> dict:
     """The parameters a task sets on every node: its seed and epoch, the rate, its component."""
-    overrides = {"seed": task.seed, "sim.epoch_utc": day_epoch(settings.epoch_utc, task.day)}
+    epoch = (elements_day_epoch if settings.days_from_elements else day_epoch)(settings.epoch_utc, task.day)
+    overrides = {"seed": task.seed, "sim.epoch_utc": epoch}
     if settings.rate_hz is not None:
         overrides["sensor.rate_hz"] = settings.rate_hz
     overrides.update(COMPONENTS[task.component])
@@ -176,6 +192,8 @@ def task_samples(values, orbits: float) -> int:
     sensor = values.sensor
     orbit = CircularOrbit(sensor["orbit.altitude_km"] * 1e3, math.radians(sensor["orbit.inclination_deg"]),
                           j2_node_drift=sensor["orbit.j2_node_drift"])
+    if sensor["orbit.source"] != "circular":  # the element set's nodal period
+        orbit = build_source_orbit(sensor, 0.0, check_span_s=0.0)
     return max(2, round(orbits * orbit.period_s * sensor["sensor.rate_hz"]))
 
 
@@ -199,6 +217,11 @@ def check(settings: Settings, tasks: list[Task]) -> None:
                          ", so it would measure no frame")
     for name in {task.component for task in tasks} - {first.component}:  # each component's overrides once
         flight_values(settings.document, task_overrides(settings, Task(first.day, first.seed, name)))
+    if values.sensor["orbit.source"] != "circular":  # SGP4 over every day's span: an error code now, not on a worker
+        span_s = samples / values.sensor["sensor.rate_hz"]
+        for day in sorted({task.day for task in tasks}):
+            sensor = flight_values(settings.document, task_overrides(settings, Task(day, first.seed))).sensor
+            build_source_orbit(sensor, sensor["sim.start_time_s"], check_span_s=span_s)
 
 
 def run_task(settings: Settings, task: Task):

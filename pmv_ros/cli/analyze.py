@@ -323,7 +323,7 @@ def phase_from_odometry(messages, timeout_s: float):
     the odometry flies, and how many messages were unreadable.
     """
     import pmv_msgs_shim as shim
-    from ..runtime.monitor import orbit_angles_from_state
+    from ..physics.orbit import orbit_angles_from_state
 
     rows, unreadable = [], 0
     for recorded in messages:

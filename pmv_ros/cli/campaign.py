@@ -57,7 +57,8 @@ def add_parser(subparsers) -> None:
                     "year, budget.json and PNG plots.")
     parser.add_argument("--config", required=True, help="ros__parameters preset, e.g. config/meteor_m2.yaml")
     parser.add_argument("--days", required=True,
-                        help="days of year of the preset's year: a list and/or ranges, e.g. 1,91,182,274 or 1-365:7")
+                        help="days of year of the preset's year: a list and/or ranges, e.g. 1,91,182,274 or 1-365:7; "
+                             "with orbit.source tle, days from the element set's epoch, 0 … 365, e.g. 0-6")
     parser.add_argument("--seeds", required=True, type=_positive_int(1, MAX_SEEDS),
                         help="seeds per day: 0 … N−1, each the seed of every node's random processes")
     parser.add_argument("--orbits-per-task", type=ranged_float(0.0, MAX_ORBITS_PER_TASK, low_open=True), default=1.0,
@@ -98,6 +99,7 @@ def run(args) -> int:
     from ..apps import campaign
     from ..runtime.assembly import SENSOR_PARAMS, parse_epoch
     from ..runtime.parameters import ParameterError, preset_values
+    from ..physics.tle_orbit import parse_element_set
 
     path = Path(args.config)
     if not path.is_file():
@@ -109,11 +111,15 @@ def run(args) -> int:
     if not isinstance(document, dict):
         raise ValueError(f"{path}: not a ros__parameters params file")
     try:
-        epoch_utc = preset_values(document, "sensor_node", SENSOR_PARAMS)["sim.epoch_utc"]
+        sensor = preset_values(document, "sensor_node", SENSOR_PARAMS)
+        epoch_utc = sensor["sim.epoch_utc"]
         parse_epoch(epoch_utc)
         year = int(epoch_utc.strip()[:4])
-        days = campaign.parse_days(args.days, year)
-        settings = campaign.Settings(document, epoch_utc, args.rate_hz, args.orbits_per_task)
+        from_elements = sensor["orbit.source"] == "tle"  # days from the element set's epoch
+        if from_elements:
+            epoch_utc = parse_element_set(sensor["orbit.tle_line1"], sensor["orbit.tle_line2"]).epoch_utc.isoformat()
+        days = campaign.parse_days(args.days, year, from_elements)
+        settings = campaign.Settings(document, epoch_utc, args.rate_hz, args.orbits_per_task, from_elements)
         tasks = campaign.plan(days, args.seeds, args.components)
         campaign.check(settings, tasks)
     except ParameterError as error:

@@ -100,6 +100,9 @@ def run(args) -> int:
         orbit = pipeline.sensor.orbit
         rate = pipeline.sensor.get_parameter("sensor.rate_hz").value
         ticks = max(1, round(args.orbits * orbit.period_s * rate))
+        check = getattr(orbit, "check_propagation", None)  # an element set: SGP4 over the whole run, before it
+        if check is not None:
+            check(orbit.epoch_s, pipeline.sensor.sim_time_s + (ticks + 1) / rate)
         bar = tqdm(total=ticks, unit="tick", file=sys.stderr, disable=args.quiet, dynamic_ncols=True,
                    desc=f"{Path(args.config).stem} {args.orbits:g} orbit(s) at {rate:g} Hz", mininterval=1.0)
         refresh = max(1, ticks // 100)

@@ -47,6 +47,7 @@ from ..runtime.sample_stream import SampleStream, SensorSample, fast_time_block
 from ..runtime.sensor_health import SensorHealth, truth_source_warnings
 from ..runtime.truth_buffer import TruthAt, TruthBuffer
 from ..runtime.validation import Jump, JumpDetector, Rejection, StampCheck, check_quaternion_sample
+from ..physics.tle_orbit import OrbitPropagationError
 from .launch import run_node
 from .params import ParameterError, declare, install_validation
 
@@ -81,6 +82,7 @@ class SensorNode(PmvNode):
         self._pub_truth = self._pub_clock = None
         self._health = SensorHealth()
         self._truth_state = None  # follow mode: where the last tick's attitude came from
+        self._orbit_error = None  # an element set's orbit that SGP4 could not propagate: no output from then on
         self._graph_warnings, self._source_errors, self._graph_checked_s = (), (), None
         # Real time on a /clock someone else publishes: a tick on a single forged time is skipped, not measured.
         self._tick_clock = JumpDetector(1.0, forward_threshold_s=10.0)
@@ -198,7 +200,10 @@ class SensorNode(PmvNode):
         if self._following:
             self._sense_following(self._sim_time_s)
             return
-        self._publish_sample(self._stream.next_profile_sample(self._sim_time_s, period, self.fast_time_block))
+        sample = self._orbit_sample(self._sim_time_s, lambda: self._stream.next_profile_sample(
+            self._sim_time_s, period, self.fast_time_block))
+        if sample is not None:
+            self._publish_sample(sample)
 
     @property
     def fast_time_block(self) -> int:
@@ -216,8 +221,10 @@ class SensorNode(PmvNode):
             return
         if self._following:
             self._sense_following(now_s)
-        else:
-            self._publish_sample(self._stream.profile_sample(now_s))
+            return
+        sample = self._orbit_sample(now_s, lambda: self._stream.profile_sample(now_s))
+        if sample is not None:
+            self._publish_sample(sample)
 
     def _sense_following(self, t_s: float) -> None:
         """Measure with the attitude at ``t_s`` from the truth buffer; nothing when there is none."""
@@ -232,7 +239,22 @@ class SensorNode(PmvNode):
             self._health.count(f"skipped_{source.value}")
             self._publish_health(t_s)
             return
-        self._publish_sample(self._stream.sample(t_s, q))
+        sample = self._orbit_sample(t_s, lambda: self._stream.sample(t_s, q))
+        if sample is not None:
+            self._publish_sample(sample)
+
+    def _orbit_sample(self, t_s: float, compute) -> SensorSample | None:
+        """``compute()`` (a :class:`SensorSample`) unless the orbit has failed: None then. An SGP4 error code
+        stops the output for good: logged once as an ERROR, counted, and an ERROR on /diagnostics."""
+        if self._orbit_error is None:
+            try:
+                return compute()
+            except OrbitPropagationError as error:
+                self._orbit_error = f"orbit: {error}: no output from here on"
+                self.get_logger().error(self._orbit_error)
+        self._health.count("skipped_orbit_error")
+        self._publish_health(t_s)
+        return None
 
     def _publish_sample(self, sample: SensorSample) -> None:
         out, t_s = self._out, sample.t_s
@@ -257,7 +279,7 @@ class SensorNode(PmvNode):
         if self._graph_checked_s is None or not (0.0 <= t_s - self._graph_checked_s < period):
             self._graph_checked_s, self._graph_warnings = t_s, self._truth_publisher_warnings()
             self._source_errors = tuple(self.input_source_problems(max_age_s=0.0))  # a second truth source
-        source_errors = self._source_errors
+        source_errors = self._source_errors + ((self._orbit_error,) if self._orbit_error else ())
         newest = self._truth.newest_stamp_s if self._following else None
         summary = self._health.report(
             t_s, period, status=status, blinding=blinding, truth=self._truth_state,

@@ -439,10 +439,10 @@ class SensorModel:
 
         roll, pitch = roll_pitch_from_horizon_angles(corrected)
         roll_raw, pitch_raw = roll_pitch_from_horizon_angles(uncorrected)
-        u = self.orbit.argument_of_latitude(t)
+        # The orbit where it is at each sample (constant altitude and inclination on the circular orbit).
+        u, inclination, altitude = self.orbit.orbit_angles(t)
         if self.config.oblateness_compensation:
-            _, model_roll, model_pitch = closed_form_oblateness(u, self.orbit.altitude_m, self.orbit.inclination_rad,
-                                                                self.config.ellipsoid)
+            _, model_roll, model_pitch = closed_form_oblateness(u, altitude, inclination, self.config.ellipsoid)
             roll, pitch = roll - model_roll, pitch - model_pitch
             roll_raw, pitch_raw = roll_raw - model_roll, pitch_raw - model_pitch
         true_roll, true_pitch = true_roll_pitch(q)

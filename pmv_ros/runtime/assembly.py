@@ -18,6 +18,7 @@ from ..physics.ephemeris import Epoch
 from .monitor import ErrorMonitor, MonitorConfig
 from ..physics.orbit import CircularOrbit
 from .parameters import ParamSpec
+from ..physics.tle_orbit import TleOrbit, element_set_altitude_m
 from ..physics.sensor import ChainDetector, RadianceConfig, SensorConfig, SensorModel, nominal_scan_start_nadir_rad
 from ..physics.star_tracker import StarTracker, StarTrackerParameters
 from .validation import InputBounds
@@ -53,6 +54,9 @@ ORBIT_ALTITUDE = ParamSpec("orbit.altitude_km", 500.0, "circular orbit altitude 
 ORBIT_INCLINATION = ParamSpec("orbit.inclination_deg", 74.5, "orbit inclination", 0.0, 180.0, unit="deg",
                               read_only=True)
 
+#: Where the sensor's orbit comes from (interfaces.md "Orbit sources"); follow is not built yet.
+ORBIT_SOURCES = ("circular", "tle", "follow")
+
 #: Parameters of sensor_node (units in the names; YAML speaks km, deg, arcmin).
 SENSOR_PARAMS = INPUT_PARAMS + (
     ORBIT_ALTITUDE,
@@ -62,6 +66,13 @@ SENSOR_PARAMS = INPUT_PARAMS + (
     ParamSpec("orbit.u0_deg", 0.0, "argument of latitude at the start of the run", -360.0, 360.0, unit="deg",
               read_only=True),
     ParamSpec("orbit.j2_node_drift", False, "apply the secular J2 drift of the node", read_only=True),
+    ParamSpec("orbit.source", "circular", "circular: the circular orbit of orbit.altitude_km … u0_deg; tle: SGP4 "
+              "from orbit.tle_line1/2 (sim.epoch_utc is the run's start; the circular elements are not used); "
+              "follow: the state from /orbit/odometry (not available yet)", choices=ORBIT_SOURCES, read_only=True),
+    ParamSpec("orbit.tle_line1", "", "orbit.source tle: line 1 of the two-line element set (69 columns)",
+              constraints="line 1 of a two-line element set, 69 columns with its checksum", read_only=True),
+    ParamSpec("orbit.tle_line2", "", "orbit.source tle: line 2 of the two-line element set (69 columns)",
+              constraints="line 2 of a two-line element set, 69 columns with its checksum", read_only=True),
     ParamSpec("attitude.source", "profile", "profile: own attitude model published on /attitude/truth; "
               "follow: take the attitude from /attitude/truth", choices=("profile", "follow"), read_only=True),
     ParamSpec("attitude.roll_offset_arcmin", 0.0, "constant roll of the body", -2700.0, 2700.0, unit="arcmin"),
@@ -251,6 +262,9 @@ def build_models(values: dict, *, clock_epoch_s: float = 0.0, correction=READ_CO
         epoch_s=values["sim.start_time_s"] if values["sim.fast_time"] else clock_epoch_s,
         j2_node_drift=values["orbit.j2_node_drift"],
     )
+    epoch = parse_epoch(values["sim.epoch_utc"])  # parsed whatever the detector: a bad date is refused now
+    if values["orbit.source"] != "circular":
+        orbit = build_source_orbit(values, orbit.epoch_s, epoch=epoch)
     per_hour = ARCMIN_RAD / 3600.0
     profile = AttitudeProfile(
         roll_offset_rad=values["attitude.roll_offset_arcmin"] * ARCMIN_RAD,
@@ -262,7 +276,6 @@ def build_models(values: dict, *, clock_epoch_s: float = 0.0, correction=READ_CO
         roll_drift_rad_s=values["attitude.roll_drift_arcmin_per_h"] * per_hour,
         pitch_drift_rad_s=values["attitude.pitch_drift_arcmin_per_h"] * per_hour,
     )
-    epoch = parse_epoch(values["sim.epoch_utc"])  # parsed whatever the detector: a bad date is refused now
     # The clock's zero: simulation time 0 in fast time, the node start in real time.
     clock_epoch = Epoch(epoch.julian_date_utc - orbit.epoch_s / SECONDS_PER_DAY)
     detector = build_detector(values, orbit, epoch, correction)
@@ -276,6 +289,33 @@ def build_models(values: dict, *, clock_epoch_s: float = 0.0, correction=READ_CO
             orbit.altitude_m, math.radians(values["sensor.scan_margin_deg"])),
     )
     return orbit, profile, SensorModel(orbit, config, detector)
+
+
+#: How far ahead of the run's start an element set's orbit is checked at start-up, s (SGP4 error codes).
+ORBIT_CHECK_S = SECONDS_PER_DAY
+
+
+def build_source_orbit(values: dict, epoch_s: float, check_span_s: float = ORBIT_CHECK_S, *,
+                       epoch: Epoch | None = None):
+    """The orbit of ``orbit.source`` other than circular (a :class:`TleOrbit`); ValueError in one line if not.
+
+    ``check_span_s``: the span from the start checked for SGP4 error codes, s; ``epoch``: the run epoch
+    if already parsed (:func:`parse_epoch`).
+    """
+    source = values["orbit.source"]
+    if source == "follow":
+        raise ValueError("orbit.source = follow is not available yet (the sensor cannot take its orbit from "
+                         "/orbit/odometry in this version): use circular or tle")
+    epoch = parse_epoch(values["sim.epoch_utc"]) if epoch is None else epoch
+    return TleOrbit(values["orbit.tle_line1"], values["orbit.tle_line2"], epoch,
+                    epoch_s, check_span_s=check_span_s)
+
+
+def nominal_altitude_m(values: dict) -> float:
+    """The orbit's nominal altitude, m: ``orbit.altitude_km``, or an element set's mean one (orbit.source tle)."""
+    if values.get("orbit.source", "circular") == "tle":
+        return element_set_altitude_m(values["orbit.tle_line1"], values["orbit.tle_line2"])
+    return values["orbit.altitude_km"] * 1e3
 
 
 def build_detector(values: dict, orbit: CircularOrbit, epoch: Epoch, correction=READ_CORRECTION):
@@ -323,8 +363,9 @@ def read_correction(values: dict):
     read-only): no later parameter change, and so nothing a peer on the
     network sends, makes the node read a file.
     """
+    altitude_m = nominal_altitude_m(values)
     try:
-        return load_correction(values["sensor.correction"], values["orbit.altitude_km"] * 1e3)
+        return load_correction(values["sensor.correction"], altitude_m)
     except ValueError as error:
         raise ValueError(f"sensor.correction: {error}") from None
 

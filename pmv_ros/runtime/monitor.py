@@ -76,10 +76,10 @@ from enum import Enum
 import numpy as np
 
 from ..physics.attitude import true_roll_pitch
-from ..physics.constants import EARTH_MEAN_RADIUS_M, GM_EARTH_M3_S2
+from ..physics.constants import GM_EARTH_M3_S2
 from ..physics.ground_error import nadir_ground_error
 from ..physics.oblateness import closed_form_oblateness
-from ..physics.orbit import CircularOrbit
+from ..physics.orbit import CircularOrbit, orbit_angles_from_state
 from .validation import (
     QUATERNION_NORM_TOLERANCE,
     STAMP_REJECTIONS,
@@ -383,57 +383,6 @@ def _ground_arrays(columns, altitude_m: float):
     return (np.where(np.isnan(roll), np.nan, error.cross_track_m),
             np.where(np.isnan(pitch), np.nan, error.along_track_m),
             np.where(np.isnan(meridional), np.nan, error.circular_m))
-
-
-def orbit_angles_from_state(position_eci_m, velocity_eci_m_s):
-    """Argument of latitude u (rad), inclination (rad) and altitude above the mean radius (m) from r, v in ECI.
-
-    For the oblateness model of a monitor fed from /orbit/odometry. u is the
-    angle from the ascending node to r in the orbit plane (0 … 2π); for an
-    equatorial orbit the node is undefined and u is measured from the ECI x axis.
-    One state in plain floats rather than numpy: it runs once per odometry
-    message, where numpy's per-call overhead on 3-vectors would dominate;
-    ``(3, N)`` arrays give ``(N,)`` arrays (the batch monitor), the same steps.
-    """
-    if np.ndim(position_eci_m) == 2:
-        return _orbit_angles_arrays(np.asarray(position_eci_m, float), np.asarray(velocity_eci_m_s, float))
-    rx, ry, rz = (float(c) for c in position_eci_m)
-    vx, vy, vz = (float(c) for c in velocity_eci_m_s)
-    hx, hy, hz = ry * vz - rz * vy, rz * vx - rx * vz, rx * vy - ry * vx
-    h_norm = math.sqrt(hx * hx + hy * hy + hz * hz)
-    if not (math.isfinite(h_norm) and h_norm > 0.0):
-        raise ValueError("position and velocity must be finite and not parallel")
-    inclination = math.acos(max(-1.0, min(1.0, hz / h_norm)))
-    nx, ny = -hy, hx  # node direction: z × h
-    n_norm = math.hypot(nx, ny)
-    if n_norm < 1e-12 * h_norm:
-        nx, ny, n_norm = 1.0, 0.0, 1.0
-    nx, ny = nx / n_norm, ny / n_norm
-    # sin u = ((n × r) · h) / |h|, cos u = n · r
-    cx, cy, cz = ny * rz, -nx * rz, nx * ry - ny * rx
-    u = math.atan2((cx * hx + cy * hy + cz * hz) / h_norm, nx * rx + ny * ry)
-    radius = math.sqrt(rx * rx + ry * ry + rz * rz)
-    return u % (2.0 * math.pi), inclination, radius - EARTH_MEAN_RADIUS_M
-
-
-def _orbit_angles_arrays(r: np.ndarray, v: np.ndarray):
-    """:func:`orbit_angles_from_state` for ``(3, N)`` states, step for step."""
-    rx, ry, rz = r
-    vx, vy, vz = v
-    hx, hy, hz = ry * vz - rz * vy, rz * vx - rx * vz, rx * vy - ry * vx
-    h_norm = np.sqrt(hx * hx + hy * hy + hz * hz)
-    if not np.all(np.isfinite(h_norm) & (h_norm > 0.0)):
-        raise ValueError("position and velocity must be finite and not parallel")
-    inclination = np.arccos(np.clip(hz / h_norm, -1.0, 1.0))
-    nx, ny = -hy, hx
-    n_norm = np.hypot(nx, ny)
-    equatorial = n_norm < 1e-12 * h_norm
-    nx, ny, n_norm = np.where(equatorial, 1.0, nx), np.where(equatorial, 0.0, ny), np.where(equatorial, 1.0, n_norm)
-    nx, ny = nx / n_norm, ny / n_norm
-    cx, cy, cz = ny * rz, -nx * rz, nx * ry - ny * rx
-    u = np.arctan2((cx * hx + cy * hy + cz * hz) / h_norm, nx * rx + ny * ry)
-    radius = np.sqrt(rx * rx + ry * ry + rz * rz)
-    return np.mod(u, 2.0 * np.pi), inclination, radius - EARTH_MEAN_RADIUS_M
 
 
 def _orbit_record(t_s: float, position_eci_m, velocity_eci_m_s) -> tuple:
