@@ -76,7 +76,8 @@ class OrbitElements:
         return cls(epoch_utc=str(epoch_utc), epoch_stamp_s=float(orbit.epoch_s),
                    altitude_km=orbit.altitude_m / 1e3, inclination_deg=math.degrees(orbit.inclination_rad),
                    raan_deg=math.degrees(orbit.raan_rad), arg_latitude_deg=math.degrees(orbit.arg_latitude_at_epoch_rad),
-                   period_s=float(orbit.period_s), raan_rate_deg_per_day=math.degrees(orbit.raan_rate_rad_s) * SECONDS_PER_DAY)
+                   period_s=float(orbit.period_s),
+                   raan_rate_deg_per_day=math.degrees(orbit.raan_rate_rad_s) * SECONDS_PER_DAY)
 
     def argument_of_latitude_rad(self, stamp_s):
         """u at stamp(s) ``stamp_s`` (s on the node clock), rad, not wrapped; works on floats and numpy arrays."""

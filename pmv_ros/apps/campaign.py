@@ -35,7 +35,7 @@ from ..physics.constants import ARCMIN_RAD
 from ..runtime.assembly import build_source_orbit
 from ..runtime.flight import OUTCOME_CODES, flight_values, fly
 from ..analysis.statistics import CHANNELS
-from ..runtime.monitor import Status
+from ..runtime.monitor_records import Status
 from .report import channel_to_dict
 from ..physics.orbit import CircularOrbit
 from ..analysis.statistics import RunningStatistics

@@ -37,7 +37,8 @@ from nav_msgs.msg import Odometry
 import pmv_msgs_shim as shim
 from .base import PmvNode
 from ..runtime.assembly import MONITOR_PARAMS as PARAMS, build_monitor
-from ..runtime.monitor import SENSOR_REJECTIONS, ErrorMonitor, Status
+from ..runtime.monitor import ErrorMonitor
+from ..runtime.monitor_records import SENSOR_REJECTIONS, Status
 from .launch import run_node
 from .params import ParameterError, declare, install_validation
 

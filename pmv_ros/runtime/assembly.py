@@ -15,7 +15,8 @@ from ..physics.constants import ARCMIN_RAD, ARCSEC_RAD, EARTH_ROTATION_RATE_RAD_
 from ..physics.correction import load_correction
 from ..physics.environment import YEAR_DAYS, EnvironmentParameters
 from ..physics.ephemeris import Epoch
-from .monitor import ErrorMonitor, MonitorConfig
+from .monitor import ErrorMonitor
+from .monitor_records import MonitorConfig
 from ..physics.orbit import CircularOrbit
 from .parameters import ParamSpec
 from ..physics.tle_orbit import TleOrbit, element_set_altitude_m

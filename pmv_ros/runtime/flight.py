@@ -38,7 +38,7 @@ import numpy as np
 
 from ..physics.orbit import geocentric_latitude_longitude
 from .assembly import MONITOR_PARAMS, NODE_PARAMS, SENSOR_PARAMS, STAR_TRACKER_PARAMS, build_models, build_monitor
-from .monitor import BATCH_STATUSES, PENDING_CODE, MonitorSummary
+from .monitor_records import BATCH_STATUSES, PENDING_CODE, MonitorSummary
 from .parameters import ParameterError, preset_values, unknown_parameter_problem
 from .sample_stream import fast_time_block, stepped_times
 from .tracker import TrackerFrames, TrackerRuntime, track_stream

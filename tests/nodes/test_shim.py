@@ -291,7 +291,8 @@ def test_error_statistics_round_trip():
 
 
 def test_error_statistics_from_a_monitor_summary():
-    from pmv_ros.runtime.monitor import ErrorMonitor, MonitorConfig
+    from pmv_ros.runtime.monitor import ErrorMonitor
+    from pmv_ros.runtime.monitor_records import MonitorConfig
 
     monitor = ErrorMonitor(MonitorConfig(orbital_period_s=600.0, remove_oblateness=False))
     monitor.add_truth(1.0, 0.0, 0.0)

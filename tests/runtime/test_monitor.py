@@ -9,14 +9,9 @@ import pytest
 
 from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
 from pmv_ros.physics.constants import ARCMIN_RAD
-from pmv_ros.physics.orbit import CircularOrbit
-from pmv_ros.runtime.monitor import (
-    COUNTER_NAMES,
-    ErrorMonitor,
-    MonitorConfig,
-    Status,
-    orbit_angles_from_state,
-)
+from pmv_ros.physics.orbit import CircularOrbit, orbit_angles_from_state
+from pmv_ros.runtime.monitor import ErrorMonitor
+from pmv_ros.runtime.monitor_records import COUNTER_NAMES, MonitorConfig, Status
 from pmv_ros.runtime.validation import Rejection
 
 KONDOR_ALTITUDE_M, KONDOR_INCLINATION = 500e3, math.radians(74.5)
@@ -344,7 +339,7 @@ def test_batch_equals_the_per_sample_monitor_with_bad_input(jump, monkeypatch):
     Without a clock jump the array form runs (the per-sample fallback is made to fail); with one, the batch is
     fed sample by sample. 1e-9 arcmin: the same residuals summed in another order.
     """
-    from pmv_ros.runtime.monitor import BATCH_STATUSES, PENDING_CODE
+    from pmv_ros.runtime.monitor_records import BATCH_STATUSES, PENDING_CODE
 
     t, roll, pitch, frames, q, arrival, now, (position, velocity) = _hostile_batch(jump)
     config = small_config(min_interval_s=0.002)

@@ -19,7 +19,8 @@ from hypothesis import strategies as st
 
 from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
 from pmv_ros.physics.orbit import CircularOrbit
-from pmv_ros.runtime.monitor import ErrorMonitor, MonitorConfig
+from pmv_ros.runtime.monitor import ErrorMonitor
+from pmv_ros.runtime.monitor_records import MonitorConfig
 from pmv_ros.runtime.validation import (
     QUATERNION_NORM_TOLERANCE,
     InputBounds,

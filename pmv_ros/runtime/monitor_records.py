@@ -1,0 +1,290 @@
+"""The error monitor's records and configuration: statuses, counters, outcomes, summaries, batch outcomes.
+
+What :class:`pmv_ros.runtime.monitor.ErrorMonitor` takes and gives, in one
+place for the monitor, its batch path (:mod:`pmv_ros.runtime.monitor_batch`),
+its node and the campaign.
+"""
+
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import Enum
+
+import numpy as np
+
+from ..physics.ground_error import nadir_ground_error
+from ..physics.orbit import CircularOrbit, orbit_angles_from_state
+from .validation import (
+    STAMP_REJECTIONS,
+    TRUTH_REJECTIONS,
+    InputBounds,
+    Rejection,
+)
+from ..analysis.statistics import (
+    CHANNELS,
+    ChannelStatistics,
+    DEFAULT_MAX_GAP_FRACTION,
+    ORBIT_HARMONICS,
+    RunningStatistics,
+)
+
+
+
+class Status(str, Enum):
+    """What became of a valid sensor sample: ``ok`` or why it could not be aligned (the value is the counter name).
+
+    A sample rejected by validation has a :class:`~pmv_ros.runtime.validation.Rejection` instead.
+    """
+
+    OK = "ok"
+    # Alignment of a valid sensor sample with truth.
+    NO_TRUTH = "no_truth"                  # no truth at or before the stamp since the (re)start
+    TOO_OLD = "too_old"                    # older than the truth history kept (sensor far behind truth)
+    TRUTH_GAP = "truth_gap"                # bracketing truth samples further apart than max_truth_gap_s
+    STALE_TRUTH = "stale_truth"            # no truth covering the stamp arrived within max_truth_wait_s
+    PENDING_OVERFLOW = "pending_overflow"  # pushed out of a full pending queue
+    RESET = "reset"                        # still pending when a discontinuity reset the alignment
+    NO_VALID_ANGLE = "no_valid_angle"      # the sensor reported neither roll nor pitch (both chord pairs lost)
+
+
+#: Reasons a valid sensor sample could not be aligned with truth.
+SKIP_REASONS = (Status.NO_VALID_ANGLE, Status.NO_TRUTH, Status.TOO_OLD, Status.TRUTH_GAP, Status.STALE_TRUTH,
+                Status.PENDING_OVERFLOW, Status.RESET)
+
+#: Reasons an incoming sample is rejected, per stream.
+SENSOR_REJECTIONS = STAMP_REJECTIONS + (Rejection.IMPLAUSIBLE_ANGLE,)
+ODOMETRY_REJECTIONS = STAMP_REJECTIONS + (Rejection.IMPLAUSIBLE_ORBIT,)
+
+
+def _counter_names() -> tuple[str, ...]:
+    names = ["sensor_received", "truth_received", "odometry_received", "used"]
+    names += [f"skipped_{reason.value}" for reason in SKIP_REASONS]
+    names += [f"rejected_sensor_{reason.value}" for reason in SENSOR_REJECTIONS]
+    names += [f"rejected_truth_{reason.value}" for reason in TRUTH_REJECTIONS]
+    names += [f"rejected_odometry_{reason.value}" for reason in ODOMETRY_REJECTIONS]
+    names += ["used_one_angle", "truth_quaternions_normalised", "used_without_oblateness_model", "clock_jumps",
+              "clock_outliers", "alignment_resets"]
+    return tuple(names)
+
+
+#: Every counter the monitor keeps (fixed: memory does not grow with new reasons).
+COUNTER_NAMES = _counter_names()
+
+
+def _positive(name: str, value: float, low: float = 0.0, high: float = math.inf) -> float:
+    number = float(value)
+    if not (math.isfinite(number) and low < number <= high):
+        raise ValueError(f"{name} = {value} is outside the allowed range ({low:g}, {high:g}]")
+    return number
+
+
+@dataclass(frozen=True)
+class MonitorConfig:
+    """Parameters of :class:`ErrorMonitor` (SI, rad). Out-of-range values raise ValueError.
+
+    Args:
+        orbital_period_s: period for the harmonic ring, s (:meth:`for_orbit` derives it).
+        altitude_m: default altitude for the oblateness model and the ground error, m (None: per sample only).
+        inclination_rad: default inclination for the oblateness model, rad (None: per sample only).
+        remove_oblateness: report the statistics with the oblateness model removed (both are kept).
+        max_truth_gap_s: never interpolate truth across a gap longer than this, s.
+        max_truth_wait_s: give a sensor sample up when no truth covers it after this long, s.
+        truth_history_s: how far back truth is kept for late sensor samples, s.
+        truth_capacity: hard cap on stored truth samples.
+        max_pending: hard cap on sensor samples waiting for truth.
+        clock_jump_s: a stamp (or now) going back by more than this is a clock jump, s
+            (acted on once it is confirmed: see the module docstring).
+        future_tolerance_s: a stamp later than now + this is rejected, s.
+        min_interval_s: a stamp closer than this after the previous one of its stream is
+            rejected as too fast (0: no limit), s.
+        bounds: plausibility bounds of sensor angles and orbit states.
+        harmonic_bins: bins of the one-orbit ring.
+        harmonics: harmonics of the orbital frequency to report (physics.md §5.1).
+        max_harmonic_gap_fraction: largest hole in the last orbit for which harmonics are reported.
+        roll_offset_rad, pitch_offset_rad: known constant offsets (mounting) removed before the statistics.
+    """
+
+    orbital_period_s: float
+    altitude_m: float | None = None
+    inclination_rad: float | None = None
+    remove_oblateness: bool = True
+    max_truth_gap_s: float = 2.0
+    max_truth_wait_s: float = 10.0
+    truth_history_s: float = 60.0
+    truth_capacity: int = 4096
+    max_pending: int = 4096
+    clock_jump_s: float = 1.0
+    future_tolerance_s: float = 1.0
+    min_interval_s: float = 0.0
+    bounds: InputBounds = InputBounds()
+    harmonic_bins: int = 1024
+    harmonics: tuple = ORBIT_HARMONICS
+    max_harmonic_gap_fraction: float = DEFAULT_MAX_GAP_FRACTION
+    roll_offset_rad: float = 0.0
+    pitch_offset_rad: float = 0.0
+
+    def __post_init__(self) -> None:
+        _positive("orbital_period_s", self.orbital_period_s, 0.0, 1e7)
+        if self.altitude_m is not None:
+            _positive("altitude_m", self.altitude_m, 0.0, 1e8)
+        if self.inclination_rad is not None and not 0.0 <= self.inclination_rad <= math.pi:
+            raise ValueError(f"inclination_rad = {self.inclination_rad} is outside the allowed range [0, π]")
+        _positive("max_truth_gap_s", self.max_truth_gap_s, 0.0, 1e5)
+        _positive("max_truth_wait_s", self.max_truth_wait_s, 0.0, 1e5)
+        _positive("truth_history_s", self.truth_history_s, 0.0, 1e6)
+        _positive("clock_jump_s", self.clock_jump_s, 0.0, 1e6)
+        _positive("future_tolerance_s", self.future_tolerance_s, 0.0, 1e6)
+        if not (math.isfinite(self.min_interval_s) and 0.0 <= self.min_interval_s < self.clock_jump_s):
+            raise ValueError(f"min_interval_s = {self.min_interval_s} is outside the allowed range "
+                             f"[0, clock_jump_s = {self.clock_jump_s})")
+        _positive("max_harmonic_gap_fraction", self.max_harmonic_gap_fraction, 0.0, 1.0)
+        for name in ("truth_capacity", "max_pending"):
+            value = getattr(self, name)
+            if int(value) != value or not 2 <= value <= 10_000_000:
+                raise ValueError(f"{name} = {value} is outside the allowed range 2 … 10000000 (an integer)")
+        if int(self.harmonic_bins) != self.harmonic_bins or not 64 <= self.harmonic_bins <= 1_000_000:
+            raise ValueError(f"harmonic_bins = {self.harmonic_bins} is outside the allowed range 64 … 1000000")
+        if not self.harmonics or any(int(k) != k or k < 1 for k in self.harmonics):
+            raise ValueError(f"harmonics = {self.harmonics} must be a non-empty list of positive integers")
+        for name in ("roll_offset_rad", "pitch_offset_rad"):
+            if not math.isfinite(getattr(self, name)):
+                raise ValueError(f"{name} = {getattr(self, name)} must be finite")
+
+    @classmethod
+    def for_orbit(cls, altitude_m: float, inclination_rad: float, **options) -> "MonitorConfig":
+        """A configuration for a circular orbit: the period comes from :class:`CircularOrbit`."""
+        period = CircularOrbit(altitude_m, inclination_rad).period_s
+        return cls(orbital_period_s=period, altitude_m=altitude_m, inclination_rad=inclination_rad, **options)
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What became of one sensor sample: its residuals (rad) and ground error (m), or why it was skipped.
+
+    ``status`` is :attr:`Status.OK`, a :class:`Status` skip reason, or the
+    :class:`~pmv_ros.runtime.validation.Rejection` of an invalid sample.
+    ``residual_*`` is sensor − truth, as published on /pmv/residual.
+    ``roll_rad``/``pitch_rad``/``meridional_rad`` are the residuals that went
+    into the reported statistics (offsets removed, oblateness model removed
+    when configured). All NaN unless ``status`` is OK.
+    """
+
+    stamp_s: float
+    status: Status | Rejection
+    residual_roll_rad: float = math.nan
+    residual_pitch_rad: float = math.nan
+    roll_rad: float = math.nan
+    pitch_rad: float = math.nan
+    meridional_rad: float = math.nan
+    along_track_m: float = math.nan
+    cross_track_m: float = math.nan
+    circular_m: float = math.nan
+
+    @property
+    def ok(self) -> bool:
+        """True when the sample was aligned and used."""
+        return self.status is Status.OK
+
+
+@dataclass(frozen=True)
+class MonitorSummary:
+    """A snapshot of the monitor: channels roll, pitch, meridional and the sample counters."""
+
+    oblateness_removed: bool
+    channels: tuple
+    counters: dict
+    harmonics_full_orbit: bool
+
+    def channel(self, name: str) -> ChannelStatistics:
+        """The statistics of channel ``name``."""
+        for summary in self.channels:
+            if summary.channel == name:
+                return summary
+        raise KeyError(name)
+
+
+@dataclass
+class PendingSample:
+    stamp_s: float
+    roll_rad: float
+    pitch_rad: float
+    oblateness_roll_rad: float
+    oblateness_pitch_rad: float
+    altitude_m: float
+
+
+class StatisticsSet:
+    """Running statistics of roll, pitch, meridional and their ground errors."""
+
+    def __init__(self) -> None:
+        self.angles = [RunningStatistics() for _ in CHANNELS]
+        self.ground = [RunningStatistics() for _ in CHANNELS]
+
+    def reset(self) -> None:
+        for stats in self.angles + self.ground:
+            stats.reset()
+
+
+def ground_components(row, altitude_m: float) -> tuple[float, float, float]:
+    """(cross-track, along-track, circular) ground error, m, of a (roll, pitch, meridional) residual row.
+
+    Cross-track goes with roll, along-track with pitch, circular with
+    meridional; a lost angle gives NaN in its own component (and in the
+    circular one) only.
+    """
+    roll, pitch, meridional = row
+    error = nadir_ground_error(0.0 if math.isnan(roll) else roll, 0.0 if math.isnan(pitch) else pitch, altitude_m)
+    return (math.nan if math.isnan(roll) else error.cross_track_m,
+            math.nan if math.isnan(pitch) else error.along_track_m,
+            math.nan if math.isnan(meridional) else error.circular_m)
+
+
+#: Status codes of :meth:`ErrorMonitor.add_batch`: a sample's code is its index here; PENDING_CODE while it waits.
+BATCH_STATUSES = (Status.OK,) + SKIP_REASONS + SENSOR_REJECTIONS
+PENDING_CODE = -1
+
+
+@dataclass
+class BatchOutcome:
+    """What became of each sensor sample of a batch (:meth:`ErrorMonitor.add_batch`), ``(N,)`` arrays.
+
+    ``status``: index into :data:`BATCH_STATUSES`, :data:`PENDING_CODE` for a
+    sample still waiting for truth. The residuals are those of
+    :class:`Outcome` (sensor − truth; and as they entered the reported
+    statistics), NaN unless the sample was used.
+    """
+
+    status: np.ndarray
+    residual_roll_rad: np.ndarray
+    residual_pitch_rad: np.ndarray
+    roll_rad: np.ndarray
+    pitch_rad: np.ndarray
+    meridional_rad: np.ndarray
+
+    @classmethod
+    def empty(cls, n: int) -> "BatchOutcome":
+        """N samples, all pending."""
+        return cls(np.full(n, PENDING_CODE, np.int8), *(np.full(n, np.nan) for _ in range(5)))
+
+    def take(self, outcomes, index_of_stamp: dict) -> None:
+        """Record per-sample outcomes by their stamps (the per-sample path of add_batch)."""
+        for outcome in outcomes:
+            i = index_of_stamp.get(outcome.stamp_s)
+            if i is None:
+                continue
+            self.status[i] = BATCH_STATUSES.index(outcome.status)
+            if outcome.ok:
+                self.residual_roll_rad[i], self.residual_pitch_rad[i] = outcome.residual_roll_rad, outcome.residual_pitch_rad
+                self.roll_rad[i], self.pitch_rad[i] = outcome.roll_rad, outcome.pitch_rad
+                self.meridional_rad[i] = outcome.meridional_rad
+
+
+def orbit_record(t_s: float, position_eci_m, velocity_eci_m_s) -> tuple:
+    """What the monitor keeps of an accepted odometry state: (stamp_s, u_rad, inclination_rad, altitude_m,
+    mean motion rad/s) — the orbit of :meth:`ErrorMonitor.orbit_at`."""
+    u, inclination, altitude = orbit_angles_from_state(position_eci_m, velocity_eci_m_s)
+    radius = math.hypot(*(float(c) for c in position_eci_m))
+    speed = math.hypot(*(float(c) for c in velocity_eci_m_s))
+    return (t_s, u, inclination, altitude, speed / radius)
