@@ -31,7 +31,6 @@ line and column, exit status 2.
 
 from __future__ import annotations
 
-import csv
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -71,35 +70,60 @@ def _parse_error(path: str, line: int, message: str) -> ValueError:
     return ValueError(f"{path}, line {line}: {message}")
 
 
+#: Plausible range of every column a telemetry CSV row may carry (a value outside it is a one-line refusal
+#: naming the file, line and column; NaN/Inf are drop-outs, skipped and counted). Angles: the monitor's bound on
+#: a sensor sample (:class:`pmv_ros.runtime.validation.InputBounds`, 30°: the PMV sees no horizon beyond it);
+#: u within one turn either way; orbit numbers and times those of a mission (10⁶ orbits ≈ 190 years in LEO).
+def _column_bounds() -> dict:
+    from ..runtime.validation import InputBounds
+
+    angle_rad = InputBounds().max_abs_angle_rad
+    angle_arcmin = angle_rad / ARCMIN_RAD
+    return {"orbit": (-1e6, 1e6), "u_deg": (-360.0, 360.0), "t_s": (-1e10, 1e10),
+            "roll_arcmin": (-angle_arcmin, angle_arcmin), "pitch_arcmin": (-angle_arcmin, angle_arcmin),
+            "roll_rad": (-angle_rad, angle_rad), "pitch_rad": (-angle_rad, angle_rad),
+            "truth_roll_rad": (-angle_rad, angle_rad), "truth_pitch_rad": (-angle_rad, angle_rad)}
+
+
 def read_telemetry(path: str) -> Telemetry:
-    """Read a telemetry CSV of either layout; ValueError with file, line and column on any defect."""
+    """Read a telemetry CSV of either layout; ValueError with file, line and column on any defect.
+
+    Streamed row by row through :func:`pmv_ros.storage.files.iter_csv_rows`
+    (a regular UTF-8 file, bounded line length and row count) into compact
+    arrays: memory is ≈ 8 bytes a value, whatever the file holds. Every
+    value of a used column is checked against :func:`_column_bounds`.
+    """
+    from array import array
+
+    from ..storage.files import iter_csv_rows
+
+    rows = iter_csv_rows(path, "telemetry CSV")
     try:
-        with open(path, newline="", encoding="utf-8-sig") as stream:
-            lines = [(number, text) for number, text in enumerate(stream, start=1)
-                     if text.strip() and not text.lstrip().startswith("#")]
-    except (OSError, UnicodeDecodeError) as error:
-        reason = error.strerror if isinstance(error, OSError) and error.strerror else type(error).__name__
-        raise ValueError(f"{path}: cannot read the file ({reason})") from None
-    if not lines:
+        header_line, header = next(rows)
+    except StopIteration:
         raise ValueError(f"{path}: empty file, expected a header row {','.join(ORBIT_LAYOUT)} "
-                         f"or {','.join(TIME_LAYOUT)}")
-    rows = list(zip((n for n, _ in lines), csv.reader(text for _, text in lines)))
-    header_line, header = rows[0]
+                         f"or {','.join(TIME_LAYOUT)}") from None
     header = [name.strip() for name in header]
     layout, wanted = _layout(path, header_line, header)
     index = {name: header.index(name) for name in wanted}
-    values = {name: [] for name in wanted}
+    bounds = _column_bounds()
+    values = {name: array("d") for name in wanted}
     skipped = 0
-    for line, cells in rows[1:]:
+    for line, cells in rows:
         if len(cells) != len(header):
             raise _parse_error(path, line, f"{len(cells)} cells, the header has {len(header)}")
         row = {}
         for name in wanted:
             text = cells[index[name]].strip()
             try:
-                row[name] = float(text)
+                value = float(text)
             except ValueError:
                 raise ValueError(f"{path}, line {line}, column '{name}': {text!r} is not a number") from None
+            low, high = bounds[name]
+            if math.isfinite(value) and not low <= value <= high:
+                raise ValueError(f"{path}, line {line}, column '{name}': {value:g} is outside the allowed "
+                                 f"range [{low:g}, {high:g}]")
+            row[name] = value
         if not all(math.isfinite(v) for v in row.values()):
             skipped += 1
             continue
@@ -107,7 +131,8 @@ def read_telemetry(path: str) -> Telemetry:
             values[name].append(row[name])
     if not values[wanted[0]]:
         raise ValueError(f"{path}: no usable data rows after the header (line {header_line})")
-    return Telemetry(path, layout, {name: np.array(v) for name, v in values.items()}, skipped)
+    return Telemetry(path, layout, {name: np.frombuffer(v, dtype=float) for name, v in values.items()},
+                     skipped)
 
 
 def _layout(path: str, line: int, header: list[str]) -> tuple[str, tuple[str, ...]]:
@@ -299,13 +324,15 @@ _MAGIC = (b"\x89MCAP", b"SQLite format 3\x00")
 
 def is_recording(path: str) -> bool:
     """True for a rosbag2 directory or an MCAP/sqlite3 file (by name or by its first bytes)."""
+    from ..storage.files import open_regular_file
+
     candidate = Path(path)
     if candidate.is_dir() or candidate.suffix in (".mcap", ".db3"):
         return True
-    try:
-        with open(candidate, "rb") as stream:
+    try:  # never blocks: a FIFO or a device is not a recording (and the CSV reader refuses it)
+        with open_regular_file(candidate, "file", max_bytes=1 << 62) as stream:
             start = stream.read(16)
-    except OSError:
+    except (OSError, ValueError):
         return False
     return any(start.startswith(magic) for magic in _MAGIC)
 

@@ -93,19 +93,15 @@ def _rows(components: dict) -> list[dict]:
 
 def run(args) -> int:
     """Plan the tasks, run those not done on Dask, aggregate and report."""
-    import yaml
-
     from ..apps import campaign
     from ..runtime.assembly import SENSOR_PARAMS, parse_epoch
     from ..runtime.parameters import ParameterError, preset_values
+    from ..storage.files import read_yaml_file
 
     path = Path(args.config)
-    if not path.is_file():
+    if not path.exists():
         raise ValueError(f"config file {str(path)!r} does not exist")
-    try:
-        document = yaml.safe_load(path.read_text()) or {}
-    except yaml.YAMLError as error:
-        raise ValueError(f"{path}: not a YAML params file ({str(error).splitlines()[0]})") from None
+    document = read_yaml_file(path, "params file") or {}
     if not isinstance(document, dict):
         raise ValueError(f"{path}: not a ros__parameters params file")
     try:

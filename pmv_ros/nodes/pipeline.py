@@ -118,9 +118,9 @@ class Pipeline:
         args = ["--ros-args"]
         if config is not None:
             path = Path(config)
-            if not path.is_file():
+            if not path.exists():
                 raise ValueError(f"config file {str(path)!r} does not exist")
-            args += ["--params-file", str(path)]
+            args += ["--params-file", str(path)]  # checked by check_params_files before rclpy reads it
             for node_name in NODE_PARAMS:  # a misspelled key in a node's section: ParameterError, as a bad value
                 check_params_files(args, node_name)
         settings = {"sim.fast_time": True, **(overrides or {})}
