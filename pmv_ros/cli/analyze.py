@@ -434,8 +434,9 @@ def analyze_recording(path: str, altitude_m: float, inclination_rad: float, *, c
     import pmv_msgs_shim as shim
     from ..runtime.assembly import MONITOR_PARAMS, build_monitor
     from ..runtime.parameters import preset_values
-    from ..storage.recording import RecordingError, iter_recording, recorded_topics
+    from ..storage.recording import RecordingError, iter_recording, recorded_topics, recording_status
 
+    status = recording_status(path)  # bounds first; a cut MCAP file is read up to its last whole chunk
     truth_topics = (truth_topic,) if truth_topic else TRUTH_TOPICS
     wanted = {SENSOR_TOPIC: VECTOR3_STAMPED, ODOMETRY_TOPIC: ODOMETRY, DIAGNOSTICS_TOPIC: DIAGNOSTIC_ARRAY}
     wanted.update({topic: QUATERNION_STAMPED for topic in truth_topics})
@@ -549,12 +550,16 @@ def analyze_recording(path: str, altitude_m: float, inclination_rad: float, *, c
             "max_abs_arcmin": _arcmin(channel.max_abs_rad)}
     counters = {k: v for k, v in summary.counters.items() if v}
     counters.update({f"unreadable_{k}": v for k, v in unreadable.items() if v})
+    recording = {"messages": counts, "odometry": odometry_info,
+                 "orbit_elements": None if elements is None else dict(vars(elements)),
+                 "orbit_element_sets": len(elements_seen)}
+    if status is not None and not status.complete:
+        recording["recovered"] = {"messages": status.messages, "bytes_read": status.bytes_read,
+                                  "file_bytes": status.file_bytes, "stopped": status.stopped}
     return {
         "file": str(path), "layout": "recording", "rows_skipped": sum(unreadable.values()),
         "phase_source": phase_source, "truth_topic": truth_topic,
-        "recording": {"messages": counts, "odometry": odometry_info,
-                      "orbit_elements": None if elements is None else dict(vars(elements)),
-                      "orbit_element_sets": len(elements_seen)},
+        "recording": recording,
         **report, "per_sample": per_sample, "counters": counters,
     }
 
@@ -575,6 +580,10 @@ def _format_report(report: dict) -> str:
         f"(≈ {report['limit_ground_m']:.0f} m on the ground at nadir)",
         "",
     ]
+    recovered = report.get("recording", {}).get("recovered")
+    if recovered:
+        lines.insert(1, f"recording cut short ({recovered['stopped']}): recovered {recovered['messages']} messages "
+                        f"from the first {recovered['bytes_read']} of {recovered['file_bytes']} bytes")
     rows = []
     for name, detail in report["channels"].items():
         harmonics = detail["harmonics_arcmin"]
