@@ -19,6 +19,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.executors import SingleThreadedExecutor, TimeoutException
 from rclpy.parameter import Parameter
+from rclpy.signals import SignalHandlerOptions
 from rclpy.time_source import TimeSource
 from rosgraph_msgs.msg import Clock as ClockMsg
 
@@ -126,7 +127,9 @@ class Pipeline:
         settings = {"sim.fast_time": True, **(overrides or {})}
         # Constructor overrides outrank the preset's node sections (a global -p would not).
         self.context = rclpy.Context()
-        rclpy.init(args=args, context=self.context)
+        # No rclpy signal handlers: the caller decides what a signal means (`pmv simulate` stops the run
+        # between two ticks and closes its recording); rclpy's would shut the context down under it.
+        rclpy.init(args=args, context=self.context, signal_handler_options=SignalHandlerOptions.NO)
         self._settings, self._lean = settings, lean
         self.nodes = []
         self.executor = None

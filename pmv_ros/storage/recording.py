@@ -302,7 +302,10 @@ def _mcap_records(path: Path, state: dict):
                 state["stopped"] = "no footer"
                 return
             except Exception as error:  # a cut record: EndOfFile, a short read, struct errors of a partial header
-                reason = "cut inside a record" if capped.short else _reason(error)
+                if capped.position == state["bytes_read"]:
+                    reason = "no footer, the file ends after a whole record"
+                else:
+                    reason = "cut inside a record" if capped.short else _reason(error)
                 state["stopped"] = reason if state["bytes_read"] else f"not an MCAP file ({reason})"
                 return
             state["bytes_read"] = capped.position
