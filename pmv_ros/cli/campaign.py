@@ -122,7 +122,7 @@ def run(args) -> int:
     started = time.perf_counter()
     ran = campaign.run_campaign(settings, tasks, out, scheduler=args.scheduler, workers=workers,
                                 progress=not args.quiet)
-    result = campaign.budget(out, tasks)
+    result = campaign.budget(out, tasks, settings)
     files = campaign.write_budget(out, result)
     wall_s = time.perf_counter() - started
     summary = {
@@ -136,6 +136,8 @@ def run(args) -> int:
         "budget": {key: result[key] for key in ("components", "rss") if key in result},
         "tasks_statistics": result["tasks"],
     }
+    if ran["recomputed"]:  # task files that were there but not this campaign's results: name → why
+        summary["recomputed"] = ran["recomputed"]
     if args.json:
         print_json(summary)
         return 0
@@ -143,6 +145,9 @@ def run(args) -> int:
           f"{' × ' + str(len(campaign.COMPONENTS)) + ' components' if args.components else ''}), "
           f"{ran['ran']} run, {ran['skipped']} already done, in {wall_s:.1f} s wall on {summary['scheduler']}; "
           "residual statistics (sensor − star tracker as on /pmv/residual, arcmin):")
+    if ran["recomputed"]:
+        print(f"recomputed {len(ran['recomputed'])} task file(s) that did not hold their task's result: "
+              + "; ".join(f"{name} ({reason})" for name, reason in sorted(ran["recomputed"].items())))
     print(format_table(_rows(result["components"]), COLUMNS))
     if "rss" in result:
         rows = [{"group": group, "channel": channel, **values}
