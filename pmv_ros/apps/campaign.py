@@ -488,17 +488,48 @@ def open_client(scheduler: str | None, workers: int, timeout_s: float = 10.0):
     from distributed import Client, LocalCluster
 
     if scheduler:
-        try:
-            return Client(scheduler, timeout=f"{timeout_s}s"), None
-        except (OSError, TimeoutError, ValueError) as error:
-            reason = str(error).splitlines()[0] if str(error) else type(error).__name__
-            raise ValueError(f"cannot reach the Dask scheduler at {scheduler}: {reason}") from None
+        return _connect(scheduler, timeout_s), None
     with dask.config.set({"distributed.scheduler.allowed-failures": 3,
                           "distributed.nanny.pre-spawn-environ": WORKER_ENVIRONMENT}):
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
                                dashboard_address=":0",
                                silence_logs=logging.ERROR)
     return Client(cluster), cluster
+
+
+def _connect(scheduler: str, timeout_s: float):
+    """A client of the scheduler at ``scheduler``, or ValueError (one line) within ``timeout_s``.
+
+    distributed's own timeout covers the TCP connect, not the handshake after
+    it: a peer that accepts and then stays silent (an HTTP server, a bare
+    listener) held the client for minutes. So the client is made on a daemon
+    thread and waited for at most ``timeout_s``; a connection still hanging
+    then is given up (the thread ends with the process).
+    """
+    import threading
+
+    from distributed import Client
+
+    outcome = {}
+
+    def connect():
+        try:
+            outcome["client"] = Client(scheduler, timeout=f"{timeout_s}s")
+        except BaseException as error:  # reported below, on the caller's thread
+            outcome["error"] = error
+
+    thread = threading.Thread(target=connect, name="pmv-dask-connect", daemon=True)
+    thread.start()
+    thread.join(timeout_s)
+    if thread.is_alive():
+        raise ValueError(f"cannot reach the Dask scheduler at {scheduler}: no Dask answer within {timeout_s:g} s")
+    error = outcome.get("error")
+    if error is not None:
+        if not isinstance(error, (OSError, TimeoutError, ValueError)):
+            raise error
+        reason = str(error).splitlines()[0] if str(error) else type(error).__name__
+        raise ValueError(f"cannot reach the Dask scheduler at {scheduler}: {reason}") from None
+    return outcome["client"]
 
 
 def run_campaign(settings: Settings, tasks: list[Task], out: Path, *, scheduler: str | None = None,
