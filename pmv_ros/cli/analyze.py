@@ -88,51 +88,68 @@ def _column_bounds() -> dict:
 def read_telemetry(path: str) -> Telemetry:
     """Read a telemetry CSV of either layout; ValueError with file, line and column on any defect.
 
-    Streamed row by row through :func:`pmv_ros.storage.files.iter_csv_rows`
+    Streamed block by block through :func:`pmv_ros.storage.files.iter_csv_blocks`
     (a regular UTF-8 file, bounded line length and row count) into compact
     arrays: memory is ≈ 8 bytes a value, whatever the file holds. Every
     value of a used column is checked against :func:`_column_bounds`.
     """
-    from array import array
+    from ..storage.files import iter_csv_blocks
 
-    from ..storage.files import iter_csv_rows
-
-    rows = iter_csv_rows(path, "telemetry CSV")
+    blocks = iter_csv_blocks(path, "telemetry CSV")
     try:
-        header_line, header = next(rows)
+        numbers, rows = next(blocks)
     except StopIteration:
         raise ValueError(f"{path}: empty file, expected a header row {','.join(ORBIT_LAYOUT)} "
                          f"or {','.join(TIME_LAYOUT)}") from None
-    header = [name.strip() for name in header]
+    header_line, header = numbers[0], [name.strip() for name in rows[0]]
     layout, wanted = _layout(path, header_line, header)
-    index = {name: header.index(name) for name in wanted}
+    index = [header.index(name) for name in wanted]
     bounds = _column_bounds()
-    values = {name: array("d") for name in wanted}
-    skipped = 0
-    for line, cells in rows:
-        if len(cells) != len(header):
-            raise _parse_error(path, line, f"{len(cells)} cells, the header has {len(header)}")
-        row = {}
-        for name in wanted:
-            text = cells[index[name]].strip()
-            try:
-                value = float(text)
-            except ValueError:
-                raise ValueError(f"{path}, line {line}, column '{name}': {text!r} is not a number") from None
-            low, high = bounds[name]
-            if math.isfinite(value) and not low <= value <= high:
-                raise ValueError(f"{path}, line {line}, column '{name}': {value:g} is outside the allowed "
-                                 f"range [{low:g}, {high:g}]")
-            row[name] = value
-        if not all(math.isfinite(v) for v in row.values()):
-            skipped += 1
-            continue
-        for name in wanted:
-            values[name].append(row[name])
-    if not values[wanted[0]]:
+    parts, skipped = [], 0
+    block = (numbers[1:], rows[1:])
+    while True:
+        numbers, rows = block
+        if rows:
+            values, dropped = _block_values(path, numbers, rows, len(header), wanted, index, bounds)
+            parts.append(values)
+            skipped += dropped
+        try:
+            block = next(blocks)
+        except StopIteration:
+            break
+    columns = np.concatenate(parts, axis=1) if parts else np.empty((len(wanted), 0))
+    if not columns.shape[1]:
         raise ValueError(f"{path}: no usable data rows after the header (line {header_line})")
-    return Telemetry(path, layout, {name: np.frombuffer(v, dtype=float) for name, v in values.items()},
-                     skipped)
+    return Telemetry(path, layout, {name: columns[i] for i, name in enumerate(wanted)}, skipped)
+
+
+def _block_values(path, numbers, rows, width, wanted, index, bounds):
+    """``(values (len(wanted), n), rows skipped)`` of one block of rows; ValueError naming line and column."""
+    widths = np.fromiter(map(len, rows), dtype=np.int64, count=len(rows))
+    if np.any(widths != width):
+        at = int(np.argmax(widths != width))
+        raise _parse_error(path, numbers[at], f"{widths[at]} cells, the header has {width}")
+    values = np.empty((len(wanted), len(rows)))
+    for k, (name, column) in enumerate(zip(wanted, index)):
+        cells = [row[column] for row in rows]
+        try:
+            values[k] = np.array(cells, dtype=float)
+        except ValueError:
+            for line, text in zip(numbers, cells):
+                try:
+                    float(text)
+                except ValueError:
+                    raise ValueError(f"{path}, line {line}, column '{name}': {text.strip()!r} is not a number") from None
+            raise
+        low, high = bounds[name]
+        with np.errstate(invalid="ignore"):
+            outside = np.isfinite(values[k]) & ((values[k] < low) | (values[k] > high))
+        if outside.any():
+            at = int(np.argmax(outside))
+            raise ValueError(f"{path}, line {numbers[at]}, column '{name}': {values[k, at]:g} is outside the "
+                             f"allowed range [{low:g}, {high:g}]")
+    finite = np.isfinite(values).all(axis=0)  # a NaN/Inf cell: a telemetry drop-out, skipped and counted
+    return values[:, finite], int(finite.size - finite.sum())
 
 
 def _layout(path: str, line: int, header: list[str]) -> tuple[str, tuple[str, ...]]:

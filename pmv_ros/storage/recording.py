@@ -261,7 +261,9 @@ def _decompress_chunk(chunk, path) -> bytes:
         data = chunk.data
     else:
         raise RecordingError(f"{path}: a chunk is compressed with {chunk.compression!r}, not zstd or lz4")
-    if len(data) != declared:
+    if len(data) > declared:
+        raise RecordingError(f"{path}: a chunk expands beyond the {declared} bytes it declares")
+    if len(data) < declared:
         raise RecordingError(f"{path}: a chunk holds {len(data)} bytes uncompressed, it declares {declared}")
     return data
 
