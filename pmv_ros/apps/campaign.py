@@ -382,8 +382,8 @@ def check_result(path: Path, settings: Settings, task: Task):
     """The task file at ``path`` as ``(table, description)`` if it is this task's result; else ResultRejected.
 
     Trusted only if its description matches the task — format version, task
-    key, epoch, seed, the settings' digest (preset and overrides, rate,
-    length) and the task's overrides — its columns are the result's, and its
+    key, epoch and its season, seed, the settings' digest (preset and
+    overrides, rate, length) and the task's overrides — its columns are the result's, and its
     values pass the bounds the monitor applies to what it counts (finite
     times and angles, latitudes on the Earth, residuals within the
     monitor's 30° bound on a sensor sample, outcome codes it knows) and agree
@@ -394,9 +394,10 @@ def check_result(path: Path, settings: Settings, task: Task):
     from ..runtime.validation import InputBounds
 
     table, description = read_result(path)
+    overrides = task_overrides(settings, task)
     expected = {"format": RESULT_FORMAT, "task_key": task.name, "task": asdict(task),
-                "settings_sha256": settings_digest(settings), "overrides": finite_json(task_overrides(settings, task)),
-                "epoch_utc": task_overrides(settings, task)["sim.epoch_utc"]}
+                "settings_sha256": settings_digest(settings), "overrides": finite_json(overrides),
+                "epoch_utc": overrides["sim.epoch_utc"], "season": season_of(overrides["sim.epoch_utc"])}
     for key, value in expected.items():
         if description.get(key) != value:
             what = "missing" if key not in description else "does not match the task"

@@ -122,8 +122,9 @@ def test_kill_9_leaves_a_recording_analyze_reads(tmp_path, run_long, capsys):
     scan = scan_mcap(path)
     assert not scan.complete
     fraction = scan.messages / written_at_most
-    print(f"kill -9 after ≥ {run.written} messages: {scan.messages} recovered ({fraction:.1%} of ≤ "
-          f"{written_at_most}); {scan.bytes_read} of {scan.file_bytes} bytes readable ({scan.stopped})")
+    with capsys.disabled():
+        print(f"kill -9 after ≥ {run.written} messages: {scan.messages} recovered ({fraction:.1%} of ≤ "
+              f"{written_at_most}); {scan.bytes_read} of {scan.file_bytes} bytes readable ({scan.stopped})")
     assert fraction >= 0.95
 
     # The recovered messages are those of a complete run with the same seed, in the same order.
@@ -158,7 +159,8 @@ def test_a_full_disk_is_one_line_and_leaves_a_readable_file(tmp_path, capsys):
                               "0.3", "--seed", "11", "--quiet", "--record", str(path)], capture_output=True,
                              text=True, preexec_fn=limited, env=env, cwd=tmp_path, timeout=300)
     lines = _own_lines(process.stderr)
-    print(f"full disk: status {process.returncode}; {lines}")
+    with capsys.disabled():
+        print(f"full disk: status {process.returncode}; {lines}")
     assert process.returncode == 2 and "Traceback" not in process.stderr
     assert len(lines) == 1 and str(path) in lines[0] and "cannot write the recording" in lines[0], lines
     scan = scan_mcap(path)
