@@ -346,10 +346,11 @@ def read_result(path: Path, columns=None):
     path = Path(path)
     try:
         check_regular_file(path, "task result", MAX_RESULT_BYTES)
-        parquet = pq.ParquetFile(path)
     except ValueError as error:
         raise ResultRejected(str(error)) from None
-    except Exception as error:  # pyarrow's errors for a file that is not Parquet
+    try:
+        parquet = pq.ParquetFile(path)
+    except Exception as error:  # pyarrow's errors (some are ValueErrors) for a file that is not Parquet
         raise ResultRejected(f"{path}: not a Parquet file ({_one_line(error)})") from None
     with parquet:
         meta = parquet.metadata
@@ -363,9 +364,10 @@ def read_result(path: Path, columns=None):
             raise ResultRejected(f"{path}: its task description is larger than {MAX_DESCRIPTION_BYTES} bytes")
         try:
             description = parse_json(raw.decode("utf-8", "replace"), str(path), "task description")
-            table = parquet.read(columns=columns)
         except ValueError as error:
             raise ResultRejected(str(error)) from None
+        try:
+            table = parquet.read(columns=columns)
         except Exception as error:
             raise ResultRejected(f"{path}: cannot read the table ({_one_line(error)})") from None
     if not isinstance(description, dict):

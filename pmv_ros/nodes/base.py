@@ -245,6 +245,8 @@ class PmvNode(Node):
         self._source_checked_s, problems = wall, []
         now = self._arrival_s()
         clocks = self.clock_check.sources.sources_heard(wall)
+        if self._guarded_clock_subscription is not None:  # on use_sim_time: /clock is an input like the others
+            clocks = max(clocks, self.count_publishers("/clock"))
         if clocks > 1:
             problems.append(f"{clocks} publishers of /clock: only the first one heard sets the time "
                             f"({self.clock_check.counts['other_source']} messages of others dropped)")
