@@ -89,23 +89,24 @@ def _own_lines(stderr: str) -> list[str]:
     return [line for line in stderr.splitlines() if line.strip() and not line.startswith("[INFO]")]
 
 
-@pytest.mark.parametrize("stop", [signal.SIGINT, signal.SIGTERM])
-def test_a_signal_stops_the_run_and_closes_the_recording_whole(tmp_path, stop):
-    path = tmp_path / "run.mcap"
-    run = Recorder(path, tmp_path)
-    run.wait_for(2000)
-    sent = time.monotonic()
-    run.process.send_signal(stop)
-    status, stderr = run.finish()
-    took_s = time.monotonic() - sent
-    lines = _own_lines(stderr)
-    print(f"{stop.name}: status {status} {took_s:.2f} s after the signal; {lines}")
-    assert status == 128 + stop and "Traceback" not in stderr
-    assert len(lines) == 1 and f"stopped by {stop.name}" in lines[0] and "recording closed" in lines[0], lines
-    scan = scan_mcap(path)
-    written = int(lines[0].rsplit(", ", 1)[1].split()[0])
-    assert scan.complete and scan.messages == written >= 2000, (scan, written)
-    assert took_s < 5.0  # the stop itself is between two ticks (ms); the rest is the interpreter's exit
+def test_a_signal_stops_the_run_and_closes_the_recording_whole(tmp_path):
+    """SIGINT and SIGTERM, each to its own run (the two run side by side)."""
+    runs = {stop: Recorder(tmp_path / f"{stop.name}.mcap", tmp_path) for stop in (signal.SIGINT, signal.SIGTERM)}
+    for run in runs.values():
+        run.wait_for(2000)
+    for stop, run in runs.items():
+        sent = time.monotonic()
+        run.process.send_signal(stop)
+        status, stderr = run.finish()
+        took_s = time.monotonic() - sent
+        lines = _own_lines(stderr)
+        print(f"{stop.name}: status {status} {took_s:.2f} s after the signal; {lines}")
+        assert status == 128 + stop and "Traceback" not in stderr
+        assert len(lines) == 1 and f"stopped by {stop.name}" in lines[0] and "recording closed" in lines[0], lines
+        scan = scan_mcap(tmp_path / f"{stop.name}.mcap")
+        written = int(lines[0].rsplit(", ", 1)[1].split()[0])
+        assert scan.complete and scan.messages == written >= 2000, (scan, written)
+        assert took_s < 5.0  # the stop itself is between two ticks (ms); the rest is the interpreter's exit
 
 
 def test_kill_9_leaves_a_recording_analyze_reads(tmp_path, run_long, capsys):
@@ -114,6 +115,8 @@ def test_kill_9_leaves_a_recording_analyze_reads(tmp_path, run_long, capsys):
     target = 30_000 if run_long else 4_000
     path = tmp_path / "killed.mcap"
     run = Recorder(path, tmp_path)
+    reference = tmp_path / "reference.mcap"
+    whole = Recorder(reference, tmp_path)  # the same seed, side by side: the messages the killed run must hold
     run.wait_for(target)
     run.process.send_signal(signal.SIGKILL)
     status, _ = run.finish()
@@ -128,8 +131,6 @@ def test_kill_9_leaves_a_recording_analyze_reads(tmp_path, run_long, capsys):
     assert fraction >= 0.95
 
     # The recovered messages are those of a complete run with the same seed, in the same order.
-    reference = tmp_path / "reference.mcap"
-    whole = Recorder(reference, tmp_path)
     whole.wait_for(scan.messages + 200)
     whole.process.send_signal(signal.SIGTERM)
     assert whole.finish()[0] == 128 + signal.SIGTERM
