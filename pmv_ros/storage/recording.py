@@ -62,7 +62,7 @@ MAX_RECORDING_BYTES = 1 << 40
 MAX_BAG_FILES = 1024
 
 #: Wall time between two flushes of the recording being written, s: what ``kill -9`` can cost at most.
-FLUSH_INTERVAL_S = 0.25
+FLUSH_INTERVAL_S = 0.1
 
 #: Chunk size of the written recording, bytes uncompressed (the mcap library's default).
 CHUNK_BYTES = 1 << 20
