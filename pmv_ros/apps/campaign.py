@@ -73,6 +73,23 @@ MAX_TASK_SAMPLES = 5_000_000
 #: Key of the task description in each result file's Parquet metadata.
 METADATA_KEY = b"pmv_campaign"
 
+#: Version of the result files' layout and description; a file of another version is recomputed.
+RESULT_FORMAT = 2
+
+#: Columns of a result file, in order: float64 except ``outcome`` (int8).
+RESULT_COLUMNS = ("t_s", "u_rad", "latitude_rad", "outcome", "roll_rad", "pitch_rad", "meridional_rad")
+
+#: Largest result file read back, bytes (MAX_TASK_SAMPLES rows of 7 columns, compressed, fit well inside).
+MAX_RESULT_BYTES = 512 << 20
+
+#: Largest task description in a result file's metadata, bytes (≈ 3 kB in practice).
+MAX_DESCRIPTION_BYTES = 1 << 20
+
+#: Relative agreement asked of a file's values with the monitor's own summary in its description: float64
+#: sums of ≤ 5 million values in another order differ by ≲ 1e-12 relative; 1e-9 leaves room, a changed
+#: value of 0.01″ in 5 million moves a mean by more.
+SUMMARY_TOLERANCE = 1e-9
+
 #: The settings that decide what a task computes; a folder holds one campaign's.
 MANIFEST = "campaign.json"
 
@@ -171,6 +188,14 @@ class Settings:
         return {"preset": self.document, "rate_hz": self.rate_hz, "orbits_per_task": self.orbits_per_task}
 
 
+def settings_digest(settings: Settings) -> str:
+    """SHA-256 of the campaign's settings (the preset and its overrides, rate, length), as a result file records it."""
+    import hashlib
+
+    text = json.dumps(finite_json(settings.manifest()), sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
 def plan(days, seeds: int, components: bool) -> list[Task]:
     """Every task: days × seeds (0 … seeds − 1) × components (just "total" without ``components``)."""
     names = list(COMPONENTS) if components else ["total"]
@@ -247,7 +272,9 @@ def run_task(settings: Settings, task: Task):
         "pitch_rad": flight.pitch_rad,
         "meridional_rad": flight.meridional_rad,
     })
-    description = {"task": asdict(task), "epoch_utc": overrides["sim.epoch_utc"],
+    description = {"format": RESULT_FORMAT, "task": asdict(task), "task_key": task.name,
+                   "settings_sha256": settings_digest(settings), "overrides": finite_json(overrides),
+                   "epoch_utc": overrides["sim.epoch_utc"],
                    "season": season_of(overrides["sim.epoch_utc"]),
                    "rate_hz": values.sensor["sensor.rate_hz"], "samples": int(flight.t_s.size),
                    "outcome_codes": [status.value for status in OUTCOME_CODES],
@@ -280,11 +307,15 @@ def prepare_folder(out: Path, settings: Settings) -> None:
     out.mkdir(parents=True, exist_ok=True)
     manifest = out / MANIFEST
     mine = finite_json(settings.manifest())
-    if manifest.exists():
-        try:
-            theirs = json.loads(manifest.read_text())
-        except (OSError, ValueError):
-            raise ValueError(f"{manifest} is not a campaign manifest (remove it or use another --out)") from None
+    if manifest.exists() or manifest.is_symlink():
+        from ..storage.files import read_json_file
+
+        try:  # bounded: a FIFO, a device, a huge or deeply nested file is refused at once
+            theirs = read_json_file(manifest, "campaign manifest")
+        except ValueError as error:
+            raise ValueError(f"{error} (remove it or use another --out)") from None
+        if not isinstance(theirs, dict):
+            raise ValueError(f"{manifest} is not a campaign manifest (remove it or use another --out)")
         if theirs != mine:
             different = [key for key in mine if theirs.get(key) != mine[key]]
             raise ValueError(f"{out} holds a campaign with other settings ({', '.join(different) or 'manifest'}): "
@@ -312,13 +343,145 @@ def _write_atomically(path: Path, data: bytes) -> None:
     os.replace(temporary, path)
 
 
+class ResultRejected(ValueError):
+    """A task file that cannot be used as the task's result; the message is the reason, one line."""
+
+
 def read_result(path: Path, columns=None):
-    """A task file: ``(pyarrow.Table, description dict)``."""
+    """A task file: ``(pyarrow.Table, description dict)``; ResultRejected (one line) for a file that is not one.
+
+    Bounded before anything is decompressed: a regular file of at most
+    :data:`MAX_RESULT_BYTES`, at most :data:`MAX_TASK_SAMPLES` rows and as
+    many uncompressed bytes as that many rows of the result's columns take,
+    and a description of at most :data:`MAX_DESCRIPTION_BYTES`.
+    """
     import pyarrow.parquet as pq
 
-    table = pq.read_table(path, columns=columns)
-    metadata = pq.read_schema(path).metadata or {}
-    return table, json.loads(metadata[METADATA_KEY])
+    from ..storage.files import check_regular_file, parse_json
+
+    path = Path(path)
+    try:
+        check_regular_file(path, "task result", MAX_RESULT_BYTES)
+    except ValueError as error:
+        raise ResultRejected(str(error)) from None
+    try:
+        parquet = pq.ParquetFile(path)
+    except Exception as error:  # pyarrow's errors (some are ValueErrors) for a file that is not Parquet
+        raise ResultRejected(f"{path}: not a Parquet file ({_one_line(error)})") from None
+    with parquet:
+        meta = parquet.metadata
+        declared = sum(meta.row_group(i).total_byte_size for i in range(meta.num_row_groups))
+        if meta.num_rows > MAX_TASK_SAMPLES or declared > (MAX_TASK_SAMPLES * 8 * len(RESULT_COLUMNS)) * 2:
+            raise ResultRejected(f"{path}: declares {meta.num_rows} rows, {declared} bytes, more than a task has")
+        raw = (parquet.schema_arrow.metadata or {}).get(METADATA_KEY)
+        if raw is None:
+            raise ResultRejected(f"{path}: no task description in its metadata")
+        if len(raw) > MAX_DESCRIPTION_BYTES:
+            raise ResultRejected(f"{path}: its task description is larger than {MAX_DESCRIPTION_BYTES} bytes")
+        try:
+            description = parse_json(raw.decode("utf-8", "replace"), str(path), "task description")
+        except ValueError as error:
+            raise ResultRejected(str(error)) from None
+        try:
+            table = parquet.read(columns=columns)
+        except Exception as error:
+            raise ResultRejected(f"{path}: cannot read the table ({_one_line(error)})") from None
+    if not isinstance(description, dict):
+        raise ResultRejected(f"{path}: the task description is not a JSON object")
+    return table, description
+
+
+def _one_line(error: Exception) -> str:
+    text = " ".join(str(error).split()) or type(error).__name__
+    return text if len(text) <= 160 else text[:157] + "..."
+
+
+def check_result(path: Path, settings: Settings, task: Task):
+    """The task file at ``path`` as ``(table, description)`` if it is this task's result; else ResultRejected.
+
+    Trusted only if its description matches the task — format version, task
+    key, epoch and its season, seed, the settings' digest (preset and
+    overrides, rate, length) and the task's overrides — its columns are the result's, and its
+    values pass the bounds the monitor applies to what it counts (finite
+    times and angles, latitudes on the Earth, residuals within the
+    monitor's 30° bound on a sensor sample, outcome codes it knows) and agree
+    with the monitor's own summary stored beside them (count, mean, σ of
+    each channel to :data:`SUMMARY_TOLERANCE`).
+    """
+    from ..runtime.flight import PENDING_CODE
+    from ..runtime.validation import InputBounds
+
+    table, description = read_result(path)
+    overrides = task_overrides(settings, task)
+    expected = {"format": RESULT_FORMAT, "task_key": task.name, "task": asdict(task),
+                "settings_sha256": settings_digest(settings), "overrides": finite_json(overrides),
+                "epoch_utc": overrides["sim.epoch_utc"], "season": season_of(overrides["sim.epoch_utc"])}
+    for key, value in expected.items():
+        if description.get(key) != value:
+            what = "missing" if key not in description else "does not match the task"
+            raise ResultRejected(f"{path.name}: {key} {what}")
+    if table.column_names != list(RESULT_COLUMNS):
+        raise ResultRejected(f"{path.name}: columns {table.column_names} are not the result's")
+    if description.get("samples") != table.num_rows:
+        raise ResultRejected(f"{path.name}: {table.num_rows} rows, the description says {description.get('samples')}")
+    try:
+        columns = {name: table.column(name).to_numpy() for name in RESULT_COLUMNS}
+    except Exception as error:
+        raise ResultRejected(f"{path.name}: cannot read its columns ({_one_line(error)})") from None
+    outcome = columns["outcome"]
+    if outcome.dtype.kind not in "iu" or not np.all((outcome == PENDING_CODE)
+                                                   | ((outcome >= 0) & (outcome < len(OUTCOME_CODES)))):
+        raise ResultRejected(f"{path.name}: outcome codes the monitor does not have")
+    for name in ("t_s", "u_rad", "latitude_rad"):
+        if columns[name].dtype.kind != "f" or not np.all(np.isfinite(columns[name])):
+            raise ResultRejected(f"{path.name}: {name} is not finite everywhere")
+    if np.any(np.abs(columns["latitude_rad"]) > math.pi / 2) or np.any(np.diff(columns["t_s"]) <= 0.0):
+        raise ResultRejected(f"{path.name}: latitudes or times out of their bounds")
+    used = outcome == OUTCOME_CODES.index(Status.OK)
+    bound = InputBounds().max_abs_angle_rad
+    summary = description.get("summary")
+    channels = summary.get("channels") if isinstance(summary, dict) else None
+    if not isinstance(channels, dict):
+        raise ResultRejected(f"{path.name}: no monitor summary in the description")
+    for channel in CHANNELS:
+        values = columns[f"{channel}_rad"]
+        if values.dtype.kind != "f":
+            raise ResultRejected(f"{path.name}: {channel}_rad is not floating point")
+        values = values[used]
+        finite = values[np.isfinite(values)]
+        if np.any(np.isinf(values)) or np.any(np.abs(finite) > bound):
+            raise ResultRejected(f"{path.name}: {channel} values beyond the monitor's ±{math.degrees(bound):g}° bound")
+        mine = channels.get(channel)
+        if not isinstance(mine, dict) or mine.get("count") != finite.size:
+            raise ResultRejected(f"{path.name}: {finite.size} {channel} values, the monitor counted "
+                                 f"{mine.get('count') if isinstance(mine, dict) else None}")
+        if finite.size:
+            stats = RunningStatistics()
+            stats.update(finite)
+            for key, value in (("mean_arcmin", stats.mean), ("sigma_arcmin", stats.sigma)):
+                theirs = mine.get(key)
+                if not isinstance(theirs, (int, float)) or not math.isclose(
+                        value / ARCMIN_RAD, theirs, rel_tol=SUMMARY_TOLERANCE, abs_tol=1e-9):
+                    raise ResultRejected(f"{path.name}: {channel} {key} does not agree with the monitor's summary")
+    return table, description
+
+
+def stale_results(out: Path, settings: Settings, tasks: list[Task]) -> dict[str, str]:
+    """The tasks whose file is there but cannot be trusted: ``{task name: reason}`` (the files are removed)."""
+    reasons = {}
+    for task in tasks:
+        path = task_path(out, task)
+        if not (path.exists() or path.is_symlink()):
+            continue
+        try:
+            check_result(path, settings, task)
+        except ResultRejected as error:
+            reasons[task.name] = str(error)
+            try:
+                path.unlink()
+            except OSError as unlink_error:
+                raise ValueError(f"{path}: cannot replace an untrusted result ({unlink_error.strerror})") from None
+    return reasons
 
 
 # ------------------------------------------------------------------------ running on Dask
@@ -344,17 +507,48 @@ def open_client(scheduler: str | None, workers: int, timeout_s: float = 10.0):
     from distributed import Client, LocalCluster
 
     if scheduler:
-        try:
-            return Client(scheduler, timeout=f"{timeout_s}s"), None
-        except (OSError, TimeoutError, ValueError) as error:
-            reason = str(error).splitlines()[0] if str(error) else type(error).__name__
-            raise ValueError(f"cannot reach the Dask scheduler at {scheduler}: {reason}") from None
+        return _connect(scheduler, timeout_s), None
     with dask.config.set({"distributed.scheduler.allowed-failures": 3,
                           "distributed.nanny.pre-spawn-environ": WORKER_ENVIRONMENT}):
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
                                dashboard_address=":0",
                                silence_logs=logging.ERROR)
     return Client(cluster), cluster
+
+
+def _connect(scheduler: str, timeout_s: float):
+    """A client of the scheduler at ``scheduler``, or ValueError (one line) within ``timeout_s``.
+
+    distributed's own timeout covers the TCP connect, not the handshake after
+    it: a peer that accepts and then stays silent (an HTTP server, a bare
+    listener) held the client for minutes. So the client is made on a daemon
+    thread and waited for at most ``timeout_s``; a connection still hanging
+    then is given up (the thread ends with the process).
+    """
+    import threading
+
+    from distributed import Client
+
+    outcome = {}
+
+    def connect():
+        try:
+            outcome["client"] = Client(scheduler, timeout=f"{timeout_s}s")
+        except BaseException as error:  # reported below, on the caller's thread
+            outcome["error"] = error
+
+    thread = threading.Thread(target=connect, name="pmv-dask-connect", daemon=True)
+    thread.start()
+    thread.join(timeout_s)
+    if thread.is_alive():
+        raise ValueError(f"cannot reach the Dask scheduler at {scheduler}: no Dask answer within {timeout_s:g} s")
+    error = outcome.get("error")
+    if error is not None:
+        if not isinstance(error, (OSError, TimeoutError, ValueError)):
+            raise error
+        reason = str(error).splitlines()[0] if str(error) else type(error).__name__
+        raise ValueError(f"cannot reach the Dask scheduler at {scheduler}: {reason}") from None
+    return outcome["client"]
 
 
 def run_campaign(settings: Settings, tasks: list[Task], out: Path, *, scheduler: str | None = None,
@@ -369,8 +563,10 @@ def run_campaign(settings: Settings, tasks: list[Task], out: Path, *, scheduler:
     from tqdm import tqdm
 
     out = Path(out)
+    recomputed = stale_results(out, settings, tasks)
     todo = [task for task in tasks if not task_path(out, task).exists()]
-    report = {"ran": 0, "skipped": len(tasks) - len(todo), "wall_s": 0.0, "compute_s": 0.0, "samples": 0}
+    report = {"ran": 0, "skipped": len(tasks) - len(todo), "wall_s": 0.0, "compute_s": 0.0, "samples": 0,
+              "recomputed": recomputed}
     if not todo:
         return report
     started = time.perf_counter()
@@ -415,7 +611,7 @@ def _new_channels() -> dict:
     return {channel: RunningStatistics() for channel in CHANNELS}
 
 
-def budget(out: Path, tasks: list[Task]) -> dict:
+def budget(out: Path, tasks: list[Task], settings: Settings | None = None) -> dict:
     """Aggregate the task files of ``tasks`` into the error budget (JSON-ready, arcmin).
 
     Keys: ``components`` → component → ``{"year": …, "DJF": …, …}`` → channel
@@ -435,7 +631,8 @@ def budget(out: Path, tasks: list[Task]) -> dict:
             for channel in CHANNELS}  # sums, counts
     per_task = []
     for task in tasks:
-        table, description = read_result(task_path(out, task))
+        path = task_path(out, task)
+        table, description = read_result(path) if settings is None else check_result(path, settings, task)
         used = table.column("outcome").to_numpy() == ok
         latitude = np.degrees(table.column("latitude_rad").to_numpy())[used]
         season = description["season"]

@@ -8,6 +8,7 @@ parser with ``func=run``; ``run(args) -> int`` returns the exit status. A
 from __future__ import annotations
 
 import importlib
+import os
 import sys
 
 from .common import OneLineParser, fail
@@ -25,13 +26,38 @@ def build_parser() -> OneLineParser:
     return parser
 
 
+#: Exit status of a command whose output pipe was closed by its reader (128 + SIGPIPE, as a shell reports it).
+EXIT_CLOSED_PIPE = 141
+
+
 def main(argv=None) -> int:
-    """Entry point of the ``pmv`` console script."""
-    args = build_parser().parse_args(argv)
+    """Entry point of the ``pmv`` console script.
+
+    A reader that closes the output early (``pmv … --json | head``) ends the
+    command quietly with status 141, as a killed-by-SIGPIPE program would.
+    """
     try:
-        return args.func(args)
-    except ValueError as error:
-        return fail(f"pmv {args.command}", str(error))
+        args = build_parser().parse_args(argv)
+        try:
+            status = args.func(args)
+        except ValueError as error:
+            status = fail(f"pmv {args.command}", str(error))
+        if sys.stdout is not None:  # None: started with stdout closed (print writes nowhere)
+            sys.stdout.flush()
+        return status
+    except BrokenPipeError:
+        return _closed_pipe()
+
+
+def _closed_pipe() -> int:
+    """Point stdout at /dev/null (the interpreter's own flush at exit must not fail again); return 141."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError):
+        pass
+    return EXIT_CLOSED_PIPE
 
 
 if __name__ == "__main__":

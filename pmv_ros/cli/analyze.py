@@ -31,7 +31,6 @@ line and column, exit status 2.
 
 from __future__ import annotations
 
-import csv
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -71,43 +70,86 @@ def _parse_error(path: str, line: int, message: str) -> ValueError:
     return ValueError(f"{path}, line {line}: {message}")
 
 
+#: Plausible range of every column a telemetry CSV row may carry (a value outside it is a one-line refusal
+#: naming the file, line and column; NaN/Inf are drop-outs, skipped and counted). Angles: the monitor's bound on
+#: a sensor sample (:class:`pmv_ros.runtime.validation.InputBounds`, 30°: the PMV sees no horizon beyond it);
+#: u within one turn either way; orbit numbers and times those of a mission (10⁶ orbits ≈ 190 years in LEO).
+def _column_bounds() -> dict:
+    from ..runtime.validation import InputBounds
+
+    angle_rad = InputBounds().max_abs_angle_rad
+    angle_arcmin = angle_rad / ARCMIN_RAD
+    return {"orbit": (-1e6, 1e6), "u_deg": (-360.0, 360.0), "t_s": (-1e10, 1e10),
+            "roll_arcmin": (-angle_arcmin, angle_arcmin), "pitch_arcmin": (-angle_arcmin, angle_arcmin),
+            "roll_rad": (-angle_rad, angle_rad), "pitch_rad": (-angle_rad, angle_rad),
+            "truth_roll_rad": (-angle_rad, angle_rad), "truth_pitch_rad": (-angle_rad, angle_rad)}
+
+
 def read_telemetry(path: str) -> Telemetry:
-    """Read a telemetry CSV of either layout; ValueError with file, line and column on any defect."""
+    """Read a telemetry CSV of either layout; ValueError with file, line and column on any defect.
+
+    Streamed block by block through :func:`pmv_ros.storage.files.iter_csv_blocks`
+    (a regular UTF-8 file, bounded line length and row count) into compact
+    arrays: memory is ≈ 8 bytes a value, whatever the file holds. Every
+    value of a used column is checked against :func:`_column_bounds`.
+    """
+    from ..storage.files import iter_csv_blocks
+
+    blocks = iter_csv_blocks(path, "telemetry CSV")
     try:
-        with open(path, newline="", encoding="utf-8-sig") as stream:
-            lines = [(number, text) for number, text in enumerate(stream, start=1)
-                     if text.strip() and not text.lstrip().startswith("#")]
-    except (OSError, UnicodeDecodeError) as error:
-        reason = error.strerror if isinstance(error, OSError) and error.strerror else type(error).__name__
-        raise ValueError(f"{path}: cannot read the file ({reason})") from None
-    if not lines:
+        numbers, rows = next(blocks)
+    except StopIteration:
         raise ValueError(f"{path}: empty file, expected a header row {','.join(ORBIT_LAYOUT)} "
-                         f"or {','.join(TIME_LAYOUT)}")
-    rows = list(zip((n for n, _ in lines), csv.reader(text for _, text in lines)))
-    header_line, header = rows[0]
-    header = [name.strip() for name in header]
+                         f"or {','.join(TIME_LAYOUT)}") from None
+    header_line, header = numbers[0], [name.strip() for name in rows[0]]
     layout, wanted = _layout(path, header_line, header)
-    index = {name: header.index(name) for name in wanted}
-    values = {name: [] for name in wanted}
-    skipped = 0
-    for line, cells in rows[1:]:
-        if len(cells) != len(header):
-            raise _parse_error(path, line, f"{len(cells)} cells, the header has {len(header)}")
-        row = {}
-        for name in wanted:
-            text = cells[index[name]].strip()
-            try:
-                row[name] = float(text)
-            except ValueError:
-                raise ValueError(f"{path}, line {line}, column '{name}': {text!r} is not a number") from None
-        if not all(math.isfinite(v) for v in row.values()):
-            skipped += 1
-            continue
-        for name in wanted:
-            values[name].append(row[name])
-    if not values[wanted[0]]:
+    index = [header.index(name) for name in wanted]
+    bounds = _column_bounds()
+    parts, skipped = [], 0
+    block = (numbers[1:], rows[1:])
+    while True:
+        numbers, rows = block
+        if rows:
+            values, dropped = _block_values(path, numbers, rows, len(header), wanted, index, bounds)
+            parts.append(values)
+            skipped += dropped
+        try:
+            block = next(blocks)
+        except StopIteration:
+            break
+    columns = np.concatenate(parts, axis=1) if parts else np.empty((len(wanted), 0))
+    if not columns.shape[1]:
         raise ValueError(f"{path}: no usable data rows after the header (line {header_line})")
-    return Telemetry(path, layout, {name: np.array(v) for name, v in values.items()}, skipped)
+    return Telemetry(path, layout, {name: columns[i] for i, name in enumerate(wanted)}, skipped)
+
+
+def _block_values(path, numbers, rows, width, wanted, index, bounds):
+    """``(values (len(wanted), n), rows skipped)`` of one block of rows; ValueError naming line and column."""
+    widths = np.fromiter(map(len, rows), dtype=np.int64, count=len(rows))
+    if np.any(widths != width):
+        at = int(np.argmax(widths != width))
+        raise _parse_error(path, numbers[at], f"{widths[at]} cells, the header has {width}")
+    values = np.empty((len(wanted), len(rows)))
+    for k, (name, column) in enumerate(zip(wanted, index)):
+        cells = [row[column] for row in rows]
+        try:
+            values[k] = np.array(cells, dtype=float)
+        except ValueError:
+            for line, text in zip(numbers, cells):
+                try:
+                    float(text)
+                except ValueError:
+                    raise ValueError(f"{path}, line {line}, column '{name}': {text.strip()!r} is not a number") from None
+            raise
+        low, high = bounds[name]
+        with np.errstate(invalid="ignore"):
+            outside = np.isfinite(values[k]) & ((values[k] < low) | (values[k] > high))
+        if outside.any():
+            at = int(np.argmax(outside))
+            raise ValueError(f"{path}, line {numbers[at]}, column '{name}': {values[k, at]:g} is outside the "
+                             f"allowed range [{low:g}, {high:g}]")
+    finite = np.isfinite(values).all(axis=0)  # a NaN/Inf cell: a telemetry drop-out, skipped and counted
+    return values[:, finite], int(finite.size - finite.sum())
 
 
 def _layout(path: str, line: int, header: list[str]) -> tuple[str, tuple[str, ...]]:
@@ -299,13 +341,15 @@ _MAGIC = (b"\x89MCAP", b"SQLite format 3\x00")
 
 def is_recording(path: str) -> bool:
     """True for a rosbag2 directory or an MCAP/sqlite3 file (by name or by its first bytes)."""
+    from ..storage.files import open_regular_file
+
     candidate = Path(path)
     if candidate.is_dir() or candidate.suffix in (".mcap", ".db3"):
         return True
-    try:
-        with open(candidate, "rb") as stream:
+    try:  # never blocks: a FIFO or a device is not a recording (and the CSV reader refuses it)
+        with open_regular_file(candidate, "file", max_bytes=1 << 62) as stream:
             start = stream.read(16)
-    except OSError:
+    except (OSError, ValueError):
         return False
     return any(start.startswith(magic) for magic in _MAGIC)
 
@@ -407,8 +451,9 @@ def analyze_recording(path: str, altitude_m: float, inclination_rad: float, *, c
     import pmv_msgs_shim as shim
     from ..runtime.assembly import MONITOR_PARAMS, build_monitor
     from ..runtime.parameters import preset_values
-    from ..storage.recording import RecordingError, iter_recording, recorded_topics
+    from ..storage.recording import RecordingError, iter_recording, recorded_topics, recording_status
 
+    status = recording_status(path)  # bounds first; a cut MCAP file is read up to its last whole chunk
     truth_topics = (truth_topic,) if truth_topic else TRUTH_TOPICS
     wanted = {SENSOR_TOPIC: VECTOR3_STAMPED, ODOMETRY_TOPIC: ODOMETRY, DIAGNOSTICS_TOPIC: DIAGNOSTIC_ARRAY}
     wanted.update({topic: QUATERNION_STAMPED for topic in truth_topics})
@@ -522,12 +567,16 @@ def analyze_recording(path: str, altitude_m: float, inclination_rad: float, *, c
             "max_abs_arcmin": _arcmin(channel.max_abs_rad)}
     counters = {k: v for k, v in summary.counters.items() if v}
     counters.update({f"unreadable_{k}": v for k, v in unreadable.items() if v})
+    recording = {"messages": counts, "odometry": odometry_info,
+                 "orbit_elements": None if elements is None else dict(vars(elements)),
+                 "orbit_element_sets": len(elements_seen)}
+    if status is not None and not status.complete:
+        recording["recovered"] = {"messages": status.messages, "bytes_read": status.bytes_read,
+                                  "file_bytes": status.file_bytes, "stopped": status.stopped}
     return {
         "file": str(path), "layout": "recording", "rows_skipped": sum(unreadable.values()),
         "phase_source": phase_source, "truth_topic": truth_topic,
-        "recording": {"messages": counts, "odometry": odometry_info,
-                      "orbit_elements": None if elements is None else dict(vars(elements)),
-                      "orbit_element_sets": len(elements_seen)},
+        "recording": recording,
         **report, "per_sample": per_sample, "counters": counters,
     }
 
@@ -548,6 +597,10 @@ def _format_report(report: dict) -> str:
         f"(≈ {report['limit_ground_m']:.0f} m on the ground at nadir)",
         "",
     ]
+    recovered = report.get("recording", {}).get("recovered")
+    if recovered:
+        lines.insert(1, f"recording cut short ({recovered['stopped']}): recovered {recovered['messages']} messages "
+                        f"from the first {recovered['bytes_read']} of {recovered['file_bytes']} bytes")
     rows = []
     for name, detail in report["channels"].items():
         harmonics = detail["harmonics_arcmin"]

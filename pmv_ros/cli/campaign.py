@@ -94,20 +94,16 @@ def _rows(components: dict) -> list[dict]:
 
 def run(args) -> int:
     """Plan the tasks, run those not done on Dask, aggregate and report."""
-    import yaml
-
     from ..apps import campaign
     from ..runtime.assembly import SENSOR_PARAMS, parse_epoch
     from ..runtime.parameters import ParameterError, preset_values
     from ..physics.tle_orbit import parse_element_set
+    from ..storage.files import read_yaml_file
 
     path = Path(args.config)
-    if not path.is_file():
+    if not path.exists():
         raise ValueError(f"config file {str(path)!r} does not exist")
-    try:
-        document = yaml.safe_load(path.read_text()) or {}
-    except yaml.YAMLError as error:
-        raise ValueError(f"{path}: not a YAML params file ({str(error).splitlines()[0]})") from None
+    document = read_yaml_file(path, "params file") or {}
     if not isinstance(document, dict):
         raise ValueError(f"{path}: not a ros__parameters params file")
     try:
@@ -132,7 +128,7 @@ def run(args) -> int:
     started = time.perf_counter()
     ran = campaign.run_campaign(settings, tasks, out, scheduler=args.scheduler, workers=workers,
                                 progress=not args.quiet)
-    result = campaign.budget(out, tasks)
+    result = campaign.budget(out, tasks, settings)
     files = campaign.write_budget(out, result)
     wall_s = time.perf_counter() - started
     summary = {
@@ -146,6 +142,8 @@ def run(args) -> int:
         "budget": {key: result[key] for key in ("components", "rss") if key in result},
         "tasks_statistics": result["tasks"],
     }
+    if ran["recomputed"]:  # task files that were there but not this campaign's results: name → why
+        summary["recomputed"] = ran["recomputed"]
     if args.json:
         print_json(summary)
         return 0
@@ -153,6 +151,9 @@ def run(args) -> int:
           f"{' × ' + str(len(campaign.COMPONENTS)) + ' components' if args.components else ''}), "
           f"{ran['ran']} run, {ran['skipped']} already done, in {wall_s:.1f} s wall on {summary['scheduler']}; "
           "residual statistics (sensor − star tracker as on /pmv/residual, arcmin):")
+    if ran["recomputed"]:
+        print(f"recomputed {len(ran['recomputed'])} task file(s) that did not hold their task's result: "
+              + "; ".join(f"{name} ({reason})" for name, reason in sorted(ran["recomputed"].items())))
     print(format_table(_rows(result["components"]), COLUMNS))
     if "rss" in result:
         rows = [{"group": group, "channel": channel, **values}

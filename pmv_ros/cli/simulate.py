@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import signal
 import sys
 import time
 from pathlib import Path
@@ -75,14 +76,25 @@ def _rows(statistics_dict: dict) -> list[dict]:
     return rows
 
 
+def _stopped(args, pipeline, number: int, done: int, ticks: int) -> int:
+    """A run stopped by a signal: close the recording whole, say so in one line; status 128 + the signal."""
+    name = signal.Signals(number).name
+    note = ""
+    if pipeline.recording is not None:
+        pipeline.recording.close()
+        note = (f"; recording closed: {pipeline.recording.path}, "
+                f"{sum(pipeline.recording.counts.values())} messages")
+    print(f"pmv simulate: stopped by {name} after {done} of {ticks} ticks{note}", file=sys.stderr)
+    return 128 + number
+
+
 def run(args) -> int:
-    """Fly the configured spacecraft for ``--orbits`` orbits and report."""
-    from tqdm import tqdm  # imported here: `pmv oblateness` should not pay for it
+    """Fly the configured spacecraft for ``--orbits`` orbits and report.
 
-    from ..nodes.params import ParameterError
-    from ..nodes.pipeline import Pipeline
-    from ..apps.report import flight_record, statistics_to_dict, write_report
-
+    SIGINT or SIGTERM stops the run between two ticks: the recording is
+    closed whole, one line says where the run stopped, and the status is
+    128 + the signal's number (130, 143), as for a shell's interrupted job.
+    """
     from ..runtime.assembly import parse_epoch
 
     overrides = {} if args.rate_hz is None else {"sensor.rate_hz": args.rate_hz}
@@ -91,6 +103,43 @@ def run(args) -> int:
     if args.epoch is not None:
         parse_epoch(args.epoch)  # a bad date: one line, exit 2, before any node starts
         overrides["sim.epoch_utc"] = args.epoch
+    stop = _StopOnSignal()
+    try:
+        return _fly(args, overrides, stop)
+    finally:
+        stop.restore()
+
+
+class _StopOnSignal:
+    """SIGINT and SIGTERM stop the run between two ticks (≪ 1 s); the recording is then closed whole."""
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+    def __init__(self):
+        self.number = None
+        self._previous = {}
+        try:
+            for number in self.SIGNALS:
+                self._previous[number] = signal.signal(number, self._on_signal)
+        except ValueError:  # not the main thread (an embedding caller): signals stay the caller's
+            self.restore()
+
+    def _on_signal(self, number, frame) -> None:
+        self.number = number
+
+    def restore(self) -> None:
+        for number, handler in self._previous.items():
+            signal.signal(number, handler)
+        self._previous = {}
+
+
+def _fly(args, overrides: dict, stop: _StopOnSignal) -> int:
+    from tqdm import tqdm
+
+    from ..nodes.params import ParameterError
+    from ..nodes.pipeline import Pipeline
+    from ..apps.report import flight_record, statistics_to_dict, write_report
+
     try:
         pipeline = Pipeline(args.config, overrides, record=args.record)
     except ParameterError as error:
@@ -106,8 +155,12 @@ def run(args) -> int:
         bar = tqdm(total=ticks, unit="tick", file=sys.stderr, disable=args.quiet, dynamic_ncols=True,
                    desc=f"{Path(args.config).stem} {args.orbits:g} orbit(s) at {rate:g} Hz", mininterval=1.0)
         refresh = max(1, ticks // 100)
+        done = 0
         for tick in range(ticks):
+            if stop.number is not None:
+                break
             pipeline.step()
+            done += 1
             if (tick + 1) % refresh == 0:
                 bar.update(refresh)
                 statistics = pipeline.collector.statistics
@@ -115,8 +168,10 @@ def run(args) -> int:
                     roll, pitch = statistics.channel("roll"), statistics.channel("pitch")
                     bar.set_postfix_str(f"σ roll {roll.sigma_rad / ARCMIN_RAD:.2f}′ "
                                         f"σ pitch {pitch.sigma_rad / ARCMIN_RAD:.2f}′ N={roll.count}")
-        bar.update(ticks - bar.n)
+        bar.update(done - bar.n)
         bar.close()
+        if stop.number is not None:
+            return _stopped(args, pipeline, stop.number, done, ticks)
         final = pipeline.monitor.publish_statistics(pipeline.sensor.sim_time_s)
         pipeline.drain()
         wall_s = time.perf_counter() - started

@@ -10,7 +10,7 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from threadpoolctl import ThreadpoolController
 
-from ..runtime.validation import JumpDetector, SourceLock
+from ..runtime.validation import ClockCheck, JumpDetector, SourceLock
 from .params import coerce_parameters
 
 #: How often (wall clock, s) the graph is asked how many publishers an input has.
@@ -116,6 +116,12 @@ class PmvNode(Node):
         self._source_problems, self._source_checked_s = [], -float("inf")
         self._input_qos = QOS if (lean if reliable_inputs is None else reliable_inputs) else INPUT_QOS
         self._detached = []
+        self.clock_check = ClockCheck(ARRIVAL_JUMP_BACK_S, ARRIVAL_JUMP_AHEAD_S)
+        self._guarded_clock_subscription = None
+        if time_source is None:
+            self._guard_clock()
+            # use_sim_time switched on later: rclpy subscribes to /clock then; guard that subscription too.
+            self.add_post_set_parameters_callback(lambda parameters: self._guard_clock())
         if time_source is not None:
             for subscription in [s for s in self.subscriptions if s.topic_name == "/clock"]:
                 self.destroy_subscription(subscription)
@@ -136,6 +142,34 @@ class PmvNode(Node):
             self.add_waitable(waitable)
         self._detached = []
         return super().destroy_node()
+
+    # -- /clock -------------------------------------------------------------------------------
+
+    def _guard_clock(self) -> None:
+        """Put :class:`~pmv_ros.runtime.validation.ClockCheck` in front of rclpy's /clock callback.
+
+        rclpy's time source (created by ``use_sim_time``) hands every /clock
+        message straight to its clocks; a negative time raised there and
+        stopped the node, and any publisher could set the time. The
+        subscription rclpy made is kept (so rclpy can remove it when
+        ``use_sim_time`` goes off); only its callback is wrapped: a message
+        the check refuses is counted (``rejected_clock_<reason>`` on
+        /diagnostics) and never reaches the time source.
+        """
+        time_source = getattr(self, "_time_source", None)  # rclpy's, created by Node.__init__
+        subscription = getattr(time_source, "_clock_sub", None)
+        if subscription is None or subscription is self._guarded_clock_subscription:
+            return
+        forward, check = time_source.clock_callback, self.clock_check
+
+        def on_clock(message, info) -> None:
+            clock = message.clock
+            if check.admit(clock.sec, clock.nanosec, wall_s=time.monotonic(), gid=_publisher_gid(info),
+                           sequence=info.get("publication_sequence_number")) is None:
+                forward(message)
+
+        subscription.callback = on_clock
+        self._guarded_clock_subscription = subscription
 
     # -- parameters ---------------------------------------------------------------------------
 
@@ -216,6 +250,12 @@ class PmvNode(Node):
             return list(self._source_problems)
         self._source_checked_s, problems = wall, []
         now = self._arrival_s()
+        clocks = self.clock_check.sources.sources_heard(wall)
+        if self._guarded_clock_subscription is not None:  # on use_sim_time: /clock is an input like the others
+            clocks = max(clocks, self.count_publishers("/clock"))
+        if clocks > 1:
+            problems.append(f"{clocks} publishers of /clock: only the first one heard sets the time "
+                            f"({self.clock_check.counts['other_source']} messages of others dropped)")
         for topic, lock in self.source_locks.items():
             count = self.count_publishers(topic)
             if count > 1 or lock.sources_heard(now) > 1:
@@ -225,9 +265,13 @@ class PmvNode(Node):
         return list(problems)
 
     def input_source_counters(self) -> dict:
-        """``other_source_<topic>``: messages dropped per input because a second publisher sent them."""
-        return {f"other_source_{topic.strip('/').replace('/', '_')}": lock.other_source_messages
-                for topic, lock in self.source_locks.items() if lock.other_source_messages}
+        """``other_source_<topic>``: messages dropped per input because a second publisher sent them;
+        ``rejected_clock_<reason>``: /clock messages that did not set the time (see :meth:`_guard_clock`)."""
+        counters = {f"other_source_{topic.strip('/').replace('/', '_')}": lock.other_source_messages
+                    for topic, lock in self.source_locks.items() if lock.other_source_messages}
+        counters.update({f"rejected_clock_{reason}": count for reason, count in self.clock_check.counts.items()
+                         if count})
+        return counters
 
 
 def _publisher_gid(info):

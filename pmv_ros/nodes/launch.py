@@ -69,6 +69,9 @@ def run_node(factory, name: str, args=None) -> int:
     except ParameterError as error:
         print(f"{name}: invalid parameter: {error}", file=sys.stderr)
         return 1
+    except ValueError as error:  # the params file itself: not a regular file, not YAML, a YAML bomb
+        print(f"{name}: cannot start: {error}", file=sys.stderr)
+        return 1
     stop = StopRequest()
     try:
         try:

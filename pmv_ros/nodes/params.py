@@ -119,26 +119,25 @@ def params_files(args) -> list[str]:
 def check_params_files(args, node_name: str) -> None:
     """Refuse a key of ``node_name``'s own section of any params file on the command line that it does not declare.
 
-    Read once, at start-up, before rclpy reads the same files (a file rclpy
-    cannot read is left to rclpy's own error). The ``/**`` section may carry
-    any pmv_ros node's parameters; a key no node has is refused there too.
+    Read once, at start-up, before rclpy reads the same files, through the
+    package's bounded reader (:func:`pmv_ros.storage.files.read_yaml_file`): a
+    file that is not a regular UTF-8 file of at most 1 MiB (a FIFO, a device,
+    a binary file), that is not YAML, uses aliases or nests deeper than the
+    cap never reaches rclpy. The ``/**`` section may carry any pmv_ros node's
+    parameters; a key no node has is refused there too.
 
     Raises:
         ParameterError: one line naming the key, the node and the nearest valid name.
+        ValueError: the file itself is refused; one line naming the file and the reason.
     """
-    import yaml
-
     from ..runtime.assembly import NODE_PARAMS
     from ..runtime.parameters import flatten_parameters
-    from ..storage.files import read_text_file
+    from ..storage.files import read_yaml_file
 
     own = {spec.name for spec in NODE_PARAMS[node_name]}
     anyone = {spec.name for specs in NODE_PARAMS.values() for spec in specs}
     for path in params_files(args):
-        try:
-            document = yaml.safe_load(read_text_file(path, "params file")) or {}
-        except (ValueError, yaml.YAMLError):
-            continue  # rclpy refuses it with its own message
+        document = read_yaml_file(path, "params file") or {}
         if not isinstance(document, dict):
             continue
         for section, body in document.items():

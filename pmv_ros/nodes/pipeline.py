@@ -19,6 +19,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.executors import SingleThreadedExecutor, TimeoutException
 from rclpy.parameter import Parameter
+from rclpy.signals import SignalHandlerOptions
 from rclpy.time_source import TimeSource
 from rosgraph_msgs.msg import Clock as ClockMsg
 
@@ -118,15 +119,17 @@ class Pipeline:
         args = ["--ros-args"]
         if config is not None:
             path = Path(config)
-            if not path.is_file():
+            if not path.exists():
                 raise ValueError(f"config file {str(path)!r} does not exist")
-            args += ["--params-file", str(path)]
+            args += ["--params-file", str(path)]  # checked by check_params_files before rclpy reads it
             for node_name in NODE_PARAMS:  # a misspelled key in a node's section: ParameterError, as a bad value
                 check_params_files(args, node_name)
         settings = {"sim.fast_time": True, **(overrides or {})}
         # Constructor overrides outrank the preset's node sections (a global -p would not).
         self.context = rclpy.Context()
-        rclpy.init(args=args, context=self.context)
+        # No rclpy signal handlers: the caller decides what a signal means (`pmv simulate` stops the run
+        # between two ticks and closes its recording); rclpy's would shut the context down under it.
+        rclpy.init(args=args, context=self.context, signal_handler_options=SignalHandlerOptions.NO)
         self._settings, self._lean = settings, lean
         self.nodes = []
         self.executor = None

@@ -510,3 +510,54 @@ class _Track:
                 self.sequence_rate_hz = 0.8 * self.sequence_rate_hz + 0.2 * rate if known else rate
             self.sequence = sequence
         self.arrival_s = arrival_s
+
+
+# ------------------------------------------------------------------------------------ /clock
+
+#: Why a ``/clock`` message was not allowed to set a node's time (counted as ``rejected_clock_<reason>``).
+CLOCK_REJECTIONS = ("malformed", "negative", "other_source", "unconfirmed_jump")
+
+_INT32_MAX = 2**31 - 1
+
+
+class ClockCheck:
+    """Whether one ``/clock`` message may set a node's time; counts per reason.
+
+    Rule, in order: the time must be well formed (``sec`` an int32,
+    ``nanosec`` in [0, 1e9)) — else ``malformed``; not negative — else
+    ``negative`` (rclpy's time source raises on it and the node would stop);
+    from the first publisher heard (:class:`SourceLock`, silence measured on
+    the caller's wall clock) — else ``other_source``: a second ``/clock``
+    publisher is one more source on a stream; and on the current timeline or
+    a jump the next message confirms (:class:`JumpDetector`: back by more
+    than ``jump_back_s`` or ahead by more than ``jump_ahead_s``) — else
+    ``unconfirmed_jump``: a single forged time costs one message, never a
+    reset, and a real restart of the simulation costs one message.
+
+    Args:
+        jump_back_s, jump_ahead_s: the jump thresholds, s.
+        source_timeout_s: wall-clock silence after which the locked publisher is given up, s.
+    """
+
+    def __init__(self, jump_back_s: float, jump_ahead_s: float, source_timeout_s: float = 1.0) -> None:
+        self._jumps = JumpDetector(jump_back_s, forward_threshold_s=jump_ahead_s)
+        self.sources = SourceLock(source_timeout_s)
+        self.counts = dict.fromkeys(CLOCK_REJECTIONS, 0)
+
+    def admit(self, sec, nanosec, *, wall_s: float, gid=None, sequence: int | None = None) -> str | None:
+        """None if the message may set the time, else the reason it may not (and it is counted)."""
+        reason = None
+        if (not isinstance(sec, int) or not isinstance(nanosec, int) or isinstance(sec, bool)
+                or not 0 <= nanosec < 1_000_000_000 or not -_INT32_MAX - 1 <= sec <= _INT32_MAX):
+            reason = "malformed"
+        elif sec < 0:
+            reason = "negative"
+        else:
+            t_s = sec + nanosec * 1e-9
+            if not self.sources.admit(wall_s, gid=gid, sequence=sequence, stamp_s=t_s):
+                reason = "other_source"
+            elif self._jumps.observe(t_s) is Jump.SUSPECTED:
+                reason = "unconfirmed_jump"
+        if reason is not None:
+            self.counts[reason] += 1
+        return reason

@@ -1,0 +1,35 @@
+"""Child process of the recording tests: ``pmv`` with a count of the messages handed to the recording.
+
+Runs ``pmv_ros.cli.main`` on the arguments given; every 100th message
+handed to :meth:`McapRecording.write` (after it returned) writes the running
+count as one line to the file descriptor named by ``PMV_COUNT_FD``, unbuffered, so a parent that kills
+this process knows how many messages had been written to the recording
+before the kill — to within 100.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+from pmv_ros.storage import recording
+
+COUNT_EVERY = 100
+_COUNT_FD = int(os.environ["PMV_COUNT_FD"])
+
+_write = recording.McapRecording.write
+
+
+def _counted(self, topic, log_time_ns, data):
+    _write(self, topic, log_time_ns, data)
+    written = sum(self.counts.values())
+    if written % COUNT_EVERY == 0:
+        os.write(_COUNT_FD, f"{written}\n".encode())
+
+
+recording.McapRecording.write = _counted
+
+if __name__ == "__main__":
+    from pmv_ros.cli import main
+
+    sys.exit(main(sys.argv[1:]))
