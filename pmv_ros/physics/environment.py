@@ -179,20 +179,22 @@ MIN_WAVELENGTH_M = 1000.0
 #: e.g. σ_h = 10 km, is kept); it also bounds how fast a field can change along a chord's track, which lets
 #: the sensor evaluate it on a coarse grid (pmv_ros/physics/sensor.py).
 IFOV_MIN_WAVELENGTH_M = 100e3
-#: Shortest wavelength of the flight weather, m: a chord samples the weather at points ≈ 400 … 600 km apart
-#: along its line of sight (pmv_ros.physics.chain.DISC_SAMPLE_INWARD_RAD), so finer weather would only alias.
-#: The synoptic band (zones ≥ 1600 km) is far above it; ≈ 10 % of the red background's variance is moved
-#: up to it at R_b ≈ 1000 km.
+#: Shortest wavelength of the flight weather, m: the weather is a horizon level per chord (physics.md §3.2
+#: item 3), the level of the ≈ 1000 km of ground the comparators weigh, so finer weather would not act as
+#: one. The synoptic band (zones ≥ 1600 km) is far above it; ≈ 10 % of the red background's variance is
+#: moved up to it at R_b ≈ 1000 km.
 WEATHER_MIN_WAVELENGTH_M = 300e3
 
-#: Floating-point type of the layer-height fields' evaluation (the weather's stays float32). The same
-#: instant reached on two clocks (a real-time run's ≈ 1.7e9 s, a fast-time run's 0) differs by rounding
-#: only (≈ 10⁻⁷ s, 10⁻¹⁰ rad of Earth rotation); in float32 such a difference flips roundings of the
-#: height field's phases of up to ≈ 400 rad (100 km waves; ULP 3·10⁻⁵ rad), and the sensed angles of the
-#: two runs part by ≈ 5·10⁻⁶′; in float64 by ≈ 2·10⁻⁷′ (issue 22 asks 10⁻⁶′; a phase reduced to ±π in
-#: float64 and a float32 cosine gave 9·10⁻⁷′, too close). float64 costs ≈ 3× float32. The weather's shortest waves
-#: are 3× longer and a chord's angle is less sensitive to its level: float32 parts them by ≈ 2·10⁻⁷′.
-HEIGHT_FIELD_DTYPE = np.float64
+#: Floating-point type of the flight environment's Gaussian fields (the weather's red background and the
+#: layer heights; the synoptic band stays float32). The same instant reached on two clocks (a real-time
+#: run's ≈ 1.7e9 s, a fast-time run's 0) differs by rounding only (≈ 10⁻⁷ s, 10⁻¹⁰ rad of Earth rotation);
+#: in float32 such a difference flips roundings of phases of up to ≈ 400 rad (100 km waves; ULP 3·10⁻⁵
+#: rad), and the sensed angles of the two runs part by ≈ 5·10⁻⁶′ (heights) and ≈ 7·10⁻⁷′ (weather at
+#: η = 0.3); in float64 by ≈ 3·10⁻⁷′ (issue 22 asks 10⁻⁶′). Tried and dropped: a phase reduced to ±π in
+#: float64 with a float32 cosine (9·10⁻⁷′), float32 offsets from float64 references every 16 points of a
+#: track (2·10⁻⁶′). float64 costs ≈ 3× float32 and is most of the environment's cost in
+#: benchmarks/bench_chain.py.
+PRECISE_FIELD_DTYPE = np.float64
 
 #: Elements of the (points × components) work array evaluated at a
 #: time: ≈ 2 MB, so it stays in cache.
@@ -267,7 +269,7 @@ class GaussianSphereField:
     within an excess kurtosis of −1.5/M.
 
     Evaluation is cos of an (N × M) float32 array: ≈ 1 ns per point and
-    component (benchmarks/bench_environment.py).
+    component (benchmarks/bench_environment.py); ≈ 3× that in float64.
 
     Args:
         correlation_radius_m: e-folding distance R_x, m (10 km … 6371 km).
@@ -281,7 +283,7 @@ class GaussianSphereField:
             one of t₀ = 0 at (x, t₀ + t). The flight environment puts UTC here (seconds since J2000 at
             the simulation clock's zero), so the field is a function of absolute time (physics.md §3.2 item 6).
         dtype: float type of the evaluation (float32, fast; float64 where a 10⁻⁷ relative change of the
-            inputs must not show, see :data:`HEIGHT_FIELD_DTYPE`).
+            inputs must not show, see :data:`PRECISE_FIELD_DTYPE`).
     """
 
     def __init__(self, correlation_radius_m: float = 700e3, time_scale_s: float = 86400.0,
@@ -617,7 +619,8 @@ class WeatherField:
         background_seed, band_seed = _seed_sequence(seed).spawn(2)
         self.background_radius_m = background_radius_m(correlation_radius_m, self.synoptic_fraction, self.degrees)
         self.anomaly_field = GaussianSphereField(max(self.background_radius_m, 10e3), time_scale_s, n_components,
-                                                 background_seed, min_wavelength_m, time_origin_s)
+                                                 background_seed, min_wavelength_m, time_origin_s,
+                                                 PRECISE_FIELD_DTYPE)
         self.band_field = SynopticBandField(*self.degrees, time_scale_s, synoptic_components, band_seed,
                                             time_origin_s) \
             if self.synoptic_fraction > 0.0 else None
@@ -716,7 +719,7 @@ class LayerHeightField:
         self.half_range_m = check_range("layer height half-range", half_range_m / 1e3, 0.0,
                                         self.mean_m / 1e3, " km") * 1e3
         self.gaussian_field = GaussianSphereField(correlation_radius_m, time_scale_s, n_components, seed,
-                                                  min_wavelength_m, time_origin_s, HEIGHT_FIELD_DTYPE)
+                                                  min_wavelength_m, time_origin_s, PRECISE_FIELD_DTYPE)
 
     def height_m(self, lat_rad, lon_rad, t_s):
         """Layer height above the surface at points and times, m.
@@ -905,7 +908,8 @@ class RadianceEnvironment:
                                    max((f.dtype for f in self._fields), key=lambda d: d.itemsize)) \
             if self._fields else None
         # The weather alone, for points where only the radiance is wanted (sample(layers=False)).
-        self._weather_bank = _SpectralBank([self.weather.anomaly_field.components]) if self.weather else None
+        self._weather_bank = _SpectralBank([self.weather.anomaly_field.components], self.weather.anomaly_field.dtype) \
+            if self.weather else None
 
     def day_of_year(self, t_s):
         """Day of year at simulation time ``t_s`` (s): epoch day + t/86400, days."""
