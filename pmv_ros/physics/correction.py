@@ -22,7 +22,8 @@ the calibrated table (:func:`calibrated_correction_table`, shipped in
 for any other altitude), no table (``None``: Gam′ = Gam), or a table loaded
 from a file (:meth:`CorrectionTable.from_csv`). The stored curve of
 Meteor-M No.2-2 did not correct; its flight record implies an over-correcting
-one (physics.md §3.2 item 1): :func:`scaled_correction_table`, shipped as
+one, inferred as the working curve with a gain error, POP × s with 1 < s ≤ 2
+(physics.md §3.2 item 1): :func:`scaled_correction_table`, shipped as
 ``meteor_m2_2`` (:func:`meteor_m2_2_table`).
 
 File format: CSV, ``#`` comment lines allowed, a header row
@@ -202,48 +203,39 @@ def calibrated_correction_table(altitude_m, params=None) -> CorrectionTable:
     return rig_correction_table(altitude_m, params)
 
 
-#: Radiance about which a scaled curve pivots, r.u. (physics.md §3: the mean Earth radiance).
-SCALE_PIVOT_RADIANCE_RU = 2.4
-#: Allowed scale of a scaled rig curve (see :func:`scaled_correction_table`).
+#: Allowed gain s of a stored curve with a gain error (see :func:`scaled_correction_table`): 1 < s ≤ 2
+#: (physics.md §3.2 item 1). s = 1, the working curve itself, is accepted too.
 SCALE_BOUNDS = (1.0, 2.0)
 #: The stored curve inferred for Meteor-M No.2-2 (tools/calibrate_environment.py writes it), and its orbit.
 METEOR_M2_2_TABLE = "correction_meteor_m2_2_835km.csv"
 METEOR_M2_2_ALTITUDE_KM = 835
 
 
-def scaled_correction_table(table: CorrectionTable, scale: float,
-                            pivot_radiance_ru: float = SCALE_PIVOT_RADIANCE_RU, altitude_m: float = 835e3,
-                            params=None) -> CorrectionTable:
-    """A rig curve whose radiance dependence is ``scale`` times too strong: an over-correcting stored curve.
+def scaled_correction_table(table: CorrectionTable, scale: float) -> CorrectionTable:
+    """A stored curve with a gain error: POP_s(Del) = s·POP(Del), the working curve stored ``scale`` times too large.
 
-    POP_s(Del) = POP(Del₀) + s·(POP(Del) − POP(Del₀)), Del₀ the rig's Del at
-    the pivot radiance (a constant offset of POP cancels in every pair, so the
-    pivot changes nothing in β). The physical story (physics.md §3.2 item 1,
-    an inference from the No.2-2 record, not a published fact): the curve was
-    taken on a rig whose pulse rose more steeply than the flight unit's —
-    e.g. a faster detector/electronics chain or a sharper simulator edge — so
-    the rig's Del spread over 1 … 4 r.u. was 1/s of the flight spread for the
-    same spread of Gam; read with flight Del values, that curve applies s
-    times the correction a chord needs. s = 1 is the working curve.
+    physics.md §3.2 item 1, an inference from the Meteor-M No.2-2 record (not a
+    published fact): its curve "did not allow the brightness error to be
+    corrected", yet its pitch k = 2 is about half of No.2's — which only a
+    curve that over-corrects can give (no curve doubles k = 2 in this chain,
+    and a rig pulse steeper than flight's under-corrects). A table stored with
+    the wrong scale does it: at s ≈ 2 the brightness error comes back at full
+    size with the opposite sign. Per chord the corrected angle is then
+    Gam − s·POP, so every pair angle is β_raw + s·(β_working − β_raw), exactly.
 
     Args:
         table: the working (rig) curve.
-        scale: s, in :data:`SCALE_BOUNDS` (1 … 2: a rig pulse at most twice as steep).
-        pivot_radiance_ru: radiance whose POP is kept, r.u.
-        altitude_m: the orbit the rig imitated (for Del₀), m.
-        params: chain parameters (default: the calibrated ones).
+        scale: s, in :data:`SCALE_BOUNDS`.
     """
     s = float(scale)
     if not (math.isfinite(s) and SCALE_BOUNDS[0] <= s <= SCALE_BOUNDS[1]):
         raise ValueError(f"curve scale = {scale} is outside the allowed range {SCALE_BOUNDS[0]:g} … {SCALE_BOUNDS[1]:g}")
-    del_pivot, _, _ = simulate_rig(altitude_m, [pivot_radiance_ru], params)
-    pop_pivot = float(table(del_pivot[0]))
-    return CorrectionTable(table.del_rad, pop_pivot + s * (table.pop_rad - pop_pivot),
-                           source=f"{table.source or 'rig curve'} scaled ×{s:g} about {pivot_radiance_ru:g} r.u.")
+    return CorrectionTable(table.del_rad, s * table.pop_rad,
+                           source=f"{table.source or 'rig curve'} with a gain error ×{s:g}")
 
 
 def meteor_m2_2_table() -> CorrectionTable:
-    """The over-correcting stored curve inferred for Meteor-M No.2-2 (shipped in pmv_ros/data/)."""
+    """The over-correcting stored curve inferred for Meteor-M No.2-2: the working curve × s (shipped in pmv_ros/data/)."""
     text = resources.files("pmv_ros").joinpath("data", METEOR_M2_2_TABLE).read_text(encoding="utf-8")
     return CorrectionTable.from_csv_text(text, source=f"pmv_ros/data/{METEOR_M2_2_TABLE}")
 
@@ -259,8 +251,8 @@ def table_comment_value(text: str, key: str):
 def load_correction(spec, altitude_m, params=None):
     """The correction to fly with, from a word or a path: 'calibrated', 'meteor_m2_2', 'none' or a CSV file.
 
-    'meteor_m2_2' is the over-correcting curve inferred for Meteor-M No.2-2
-    (:func:`meteor_m2_2_table`; a curve of the 835 km orbit). Returns a
+    'meteor_m2_2' is the over-correcting curve inferred for Meteor-M No.2-2, the
+    working curve × s (:func:`meteor_m2_2_table`; a curve of the 835 km orbit). Returns a
     :class:`CorrectionTable`, or None for 'none'. ValueError for an unreadable file.
     """
     word = str(spec).strip()

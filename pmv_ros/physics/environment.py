@@ -179,13 +179,24 @@ MIN_WAVELENGTH_M = 1000.0
 #: e.g. σ_h = 10 km, is kept); it also bounds how fast a field can change along a chord's track, which lets
 #: the sensor evaluate it on a coarse grid (pmv_ros/physics/sensor.py).
 IFOV_MIN_WAVELENGTH_M = 100e3
-#: Shortest wavelength of the flight weather, m: a chord samples the weather at points ≈ 400 … 600 km apart
-#: along its line of sight (pmv_ros.physics.chain.DISC_SAMPLE_INWARD_RAD), so finer weather would only alias.
-#: The synoptic band (zones ≥ 1600 km) is far above it; ≈ 10 % of the red background's variance is moved
-#: up to it at R_b ≈ 1000 km.
+#: Shortest wavelength of the flight weather, m: the weather is a horizon level per chord (physics.md §3.2
+#: item 3), the level of the ≈ 1000 km of ground the comparators weigh, so finer weather would not act as
+#: one. The synoptic band (zones ≥ 1600 km) is far above it; ≈ 10 % of the red background's variance is
+#: moved up to it at R_b ≈ 1000 km.
 WEATHER_MIN_WAVELENGTH_M = 300e3
 
-#: Float32 elements of the (points × components) work array evaluated at a
+#: Floating-point type of the flight environment's Gaussian fields (the weather's red background and the
+#: layer heights; the synoptic band stays float32). The same instant reached on two clocks (a real-time
+#: run's ≈ 1.7e9 s, a fast-time run's 0) differs by rounding only (≈ 10⁻⁷ s, 10⁻¹⁰ rad of Earth rotation);
+#: in float32 such a difference flips roundings of phases of up to ≈ 400 rad (100 km waves; ULP 3·10⁻⁵
+#: rad), and the sensed angles of the two runs part by ≈ 5·10⁻⁶′ (heights) and ≈ 7·10⁻⁷′ (weather at
+#: η = 0.3); in float64 by ≈ 3·10⁻⁷′ (issue 22 asks 10⁻⁶′). Tried and dropped: a phase reduced to ±π in
+#: float64 with a float32 cosine (9·10⁻⁷′), float32 offsets from float64 references every 16 points of a
+#: track (2·10⁻⁶′). float64 costs ≈ 3× float32 and is most of the environment's cost in
+#: benchmarks/bench_chain.py.
+PRECISE_FIELD_DTYPE = np.float64
+
+#: Elements of the (points × components) work array evaluated at a
 #: time: ≈ 2 MB, so it stays in cache.
 _BLOCK_ELEMENTS = 1 << 19
 
@@ -211,14 +222,25 @@ def _exponential_wavenumbers(probabilities):
 
 
 def _reference_phases(phase_rad: np.ndarray, frequency_rad_s: np.ndarray, t: np.ndarray):
-    """A reference time of the batch ``t`` (s: its first finite time) and the components' phases there (float32).
+    """A reference time of the batch ``t`` (s: its first finite time) and the components' phases there (float64).
 
-    Phases are formed at the reference in float64 and reduced mod 2π, so float32
-    only ever sees times within the batch.
+    Phases are formed at the reference in float64 and reduced mod 2π, so a float32
+    evaluation only ever sees times within the batch.
     """
     finite_t = t[np.isfinite(t)]
     t_ref = float(finite_t[0]) if finite_t.size else 0.0
-    return t_ref, np.mod(phase_rad + frequency_rad_s * t_ref, 2.0 * math.pi).astype(np.float32)
+    return t_ref, np.mod(phase_rad + frequency_rad_s * t_ref, 2.0 * math.pi)
+
+
+def _phases_at_origin(phase_rad, frequency_rad_s, time_origin_s: float):
+    """Phases (rad, in [0, 2π)) that make a field's clock read ``time_origin_s`` at t = 0: b + ω·t₀ mod 2π.
+
+    Formed once in float64 (ω·t₀ ≲ 10⁵ rad for t₀ of decades, so the phase keeps ≈ 10⁻¹¹ rad).
+    """
+    t0 = check_range("time origin", time_origin_s, -1e10, 1e10, " s")
+    if t0 == 0.0:
+        return np.asarray(phase_rad, float)
+    return np.mod(np.asarray(phase_rad, float) + np.asarray(frequency_rad_s, float) * t0, 2.0 * math.pi)
 
 
 class GaussianSphereField:
@@ -247,7 +269,7 @@ class GaussianSphereField:
     within an excess kurtosis of −1.5/M.
 
     Evaluation is cos of an (N × M) float32 array: ≈ 1 ns per point and
-    component (benchmarks/bench_environment.py).
+    component (benchmarks/bench_environment.py); ≈ 3× that in float64.
 
     Args:
         correlation_radius_m: e-folding distance R_x, m (10 km … 6371 km).
@@ -257,10 +279,16 @@ class GaussianSphereField:
             gives the same field.
         min_wavelength_m: components of shorter wavelength are clipped to it, m
             (0.1 … 1000 km; :data:`MIN_WAVELENGTH_M` by default).
+        time_origin_s: the field's own time at t = 0, s (|t₀| ≤ 10¹⁰ s): the field at (x, t) is the
+            one of t₀ = 0 at (x, t₀ + t). The flight environment puts UTC here (seconds since J2000 at
+            the simulation clock's zero), so the field is a function of absolute time (physics.md §3.2 item 6).
+        dtype: float type of the evaluation (float32, fast; float64 where a 10⁻⁷ relative change of the
+            inputs must not show, see :data:`PRECISE_FIELD_DTYPE`).
     """
 
     def __init__(self, correlation_radius_m: float = 700e3, time_scale_s: float = 86400.0,
-                 n_components: int = 256, seed=0, min_wavelength_m: float = MIN_WAVELENGTH_M) -> None:
+                 n_components: int = 256, seed=0, min_wavelength_m: float = MIN_WAVELENGTH_M,
+                 time_origin_s: float = 0.0, dtype=np.float32) -> None:
         self.correlation_radius_m = check_range(
             "correlation radius", correlation_radius_m / 1e3, 10.0, EARTH_MEAN_RADIUS_M / 1e3, " km") * 1e3
         self.time_scale_s = check_range("time scale", time_scale_s, 60.0, math.inf, " s")
@@ -287,8 +315,9 @@ class GaussianSphereField:
         else:
             quantiles = (rng.permutation(m) + rng.uniform(0.0, 1.0, m)) / m
             frequency_rad_s = (math.sqrt(2.0) / self.time_scale_s) * ndtri(quantiles)
-        phase_rad = rng.uniform(0.0, 2.0 * math.pi, m)
-        self._bank = _SpectralBank([(wave_vectors, frequency_rad_s, phase_rad)])
+        phase_rad = _phases_at_origin(rng.uniform(0.0, 2.0 * math.pi, m), frequency_rad_s, time_origin_s)
+        self.dtype = np.dtype(dtype)
+        self._bank = _SpectralBank([(wave_vectors, frequency_rad_s, phase_rad)], self.dtype)
 
     def __call__(self, lat_rad, lon_rad, t_s):
         """Field value (dimensionless, zero mean, unit variance) at points and times.
@@ -318,16 +347,17 @@ class _SpectralBank:
             rad/s, phases ``(M,)`` rad), one tuple per field.
     """
 
-    def __init__(self, fields) -> None:
+    def __init__(self, fields, dtype=np.float32) -> None:
         self.components = list(fields)
+        self.dtype = np.dtype(dtype)
         wave_vectors = np.hstack([f[0] for f in fields])
         self._frequency_rad_s = np.concatenate([f[1] for f in fields])
         self._phase_rad = np.concatenate([f[2] for f in fields])
         # Rows: the three direction cosines of the point and the time since the
         # batch's reference time; float32 for the fast cosine (see MIN_WAVELENGTH_M).
-        self._design_weights = np.vstack([wave_vectors, self._frequency_rad_s]).astype(np.float32)
+        self._design_weights = np.vstack([wave_vectors, self._frequency_rad_s]).astype(self.dtype)
         # Block-diagonal amplitudes √(2/M): column i sums field i's cosines.
-        self._amplitudes = np.zeros((self._phase_rad.size, len(fields)), dtype=np.float32)
+        self._amplitudes = np.zeros((self._phase_rad.size, len(fields)), dtype=self.dtype)
         start = 0
         for column, field in enumerate(fields):
             m = field[2].size
@@ -341,13 +371,14 @@ class _SpectralBank:
             return out
         t_ref, phase_ref = _reference_phases(self._phase_rad, self._frequency_rad_s, t)
         cos_lat = np.cos(lat)
-        design = np.empty((lat.size, 4), dtype=np.float32)
+        phase_ref = phase_ref.astype(self.dtype)
+        design = np.empty((lat.size, 4), dtype=self.dtype)
         design[:, 0] = cos_lat * np.cos(lon)
         design[:, 1] = cos_lat * np.sin(lon)
         design[:, 2] = np.sin(lat)
         design[:, 3] = t - t_ref
         block_points = max(64, _BLOCK_ELEMENTS // self._phase_rad.size)
-        work = np.empty((min(block_points, lat.size), self._phase_rad.size), dtype=np.float32)
+        work = np.empty((min(block_points, lat.size), self._phase_rad.size), dtype=self.dtype)
         for start in range(0, lat.size, block_points):
             stop = min(start + block_points, lat.size)
             block = work[: stop - start]
@@ -392,10 +423,11 @@ class SynopticBandField:
         time_scale_s: e-folding time τ, s (≥ 60 s; ``math.inf`` freezes the field).
         n_components: number of sectoral components M (16 … 8192).
         seed: an int ≥ 0 or a ``numpy.random.SeedSequence``.
+        time_origin_s: the field's own time at t = 0, s (see :class:`GaussianSphereField`).
     """
 
     def __init__(self, degree_low: int = 15, degree_high: int = 25, time_scale_s: float = 86400.0,
-                 n_components: int = 128, seed=0) -> None:
+                 n_components: int = 128, seed=0, time_origin_s: float = 0.0) -> None:
         self.degree_low = _check_count("lowest synoptic degree", degree_low, 2, 200)
         self.degree_high = _check_count("highest synoptic degree", degree_high, self.degree_low, 200)
         self.time_scale_s = check_range("time scale", time_scale_s, 60.0, math.inf, " s")
@@ -418,7 +450,8 @@ class SynopticBandField:
         else:
             quantiles = (rng.permutation(m) + rng.uniform(0.0, 1.0, m)) / m
             self._frequency_rad_s = (math.sqrt(2.0) / self.time_scale_s) * ndtri(quantiles)
-        self._phase_rad = rng.uniform(0.0, 2.0 * math.pi, m)
+        self._phase_rad = _phases_at_origin(rng.uniform(0.0, 2.0 * math.pi, m), self._frequency_rad_s,
+                                            time_origin_s)
 
     def correlation(self, angle_rad):
         """Ensemble correlation at great-circle angle ψ (rad): the band mean of P_ℓ(cos ψ)."""
@@ -437,6 +470,7 @@ class SynopticBandField:
         if lat.size == 0:
             return out
         t_ref, phase_ref = _reference_phases(self._phase_rad, self._frequency_rad_s, t)
+        phase_ref = phase_ref.astype(np.float32)
         cos_lat = np.cos(lat)
         unit = np.empty((lat.size, 3), dtype=np.float32)
         unit[:, 0] = cos_lat * np.cos(lon)
@@ -569,12 +603,14 @@ class WeatherField:
         synoptic_zone_m: length λ of the synoptic zones along the track, m (500 … 10000 km).
         synoptic_components: sectoral components of the band field (16 … 8192).
         min_wavelength_m: shortest wavelength of the background, m (see :class:`GaussianSphereField`).
+        time_origin_s: the fields' own time at t = 0, s (see :class:`GaussianSphereField`).
     """
 
     def __init__(self, relative_variability: float = 0.15, correlation_radius_m: float = 700e3,
                  time_scale_s: float = 86400.0, n_components: int = 256, seed=0,
                  synoptic_fraction: float = 0.0, synoptic_zone_m: float = 2000e3,
-                 synoptic_components: int = 128, min_wavelength_m: float = MIN_WAVELENGTH_M) -> None:
+                 synoptic_components: int = 128, min_wavelength_m: float = MIN_WAVELENGTH_M,
+                 time_origin_s: float = 0.0) -> None:
         self.relative_variability = check_range("relative variability η′", relative_variability, 0.0, 1.0)
         self.synoptic_fraction = check_range("synoptic fraction", synoptic_fraction, 0.0, 0.95)
         self.degrees = synoptic_degrees(synoptic_zone_m)
@@ -583,8 +619,10 @@ class WeatherField:
         background_seed, band_seed = _seed_sequence(seed).spawn(2)
         self.background_radius_m = background_radius_m(correlation_radius_m, self.synoptic_fraction, self.degrees)
         self.anomaly_field = GaussianSphereField(max(self.background_radius_m, 10e3), time_scale_s, n_components,
-                                                 background_seed, min_wavelength_m)
-        self.band_field = SynopticBandField(*self.degrees, time_scale_s, synoptic_components, band_seed) \
+                                                 background_seed, min_wavelength_m, time_origin_s,
+                                                 PRECISE_FIELD_DTYPE)
+        self.band_field = SynopticBandField(*self.degrees, time_scale_s, synoptic_components, band_seed,
+                                            time_origin_s) \
             if self.synoptic_fraction > 0.0 else None
         self._weights = (math.sqrt(1.0 - self.synoptic_fraction), math.sqrt(self.synoptic_fraction))
 
@@ -671,16 +709,17 @@ class LayerHeightField:
         n_components: cosines in the spectral synthesis (16 … 8192).
         seed: an int ≥ 0 or a ``numpy.random.SeedSequence``.
         min_wavelength_m: shortest wavelength, m (see :class:`GaussianSphereField`).
+        time_origin_s: the field's own time at t = 0, s (see :class:`GaussianSphereField`).
     """
 
     def __init__(self, mean_m: float = 40e3, half_range_m: float = WINDOW_HALF_RANGE_M, correlation_radius_m: float = 700e3,
                  time_scale_s: float = 86400.0, n_components: int = 256, seed=1,
-                 min_wavelength_m: float = MIN_WAVELENGTH_M) -> None:
+                 min_wavelength_m: float = MIN_WAVELENGTH_M, time_origin_s: float = 0.0) -> None:
         self.mean_m = check_range("layer height", mean_m / 1e3, 5.0, 150.0, " km") * 1e3
         self.half_range_m = check_range("layer height half-range", half_range_m / 1e3, 0.0,
                                         self.mean_m / 1e3, " km") * 1e3
         self.gaussian_field = GaussianSphereField(correlation_radius_m, time_scale_s, n_components, seed,
-                                                  min_wavelength_m)
+                                                  min_wavelength_m, time_origin_s, PRECISE_FIELD_DTYPE)
 
     def height_m(self, lat_rad, lon_rad, t_s):
         """Layer height above the surface at points and times, m.
@@ -750,6 +789,11 @@ class EnvironmentParameters:
             layer, m (0 … 1 km; physics.md §3: spread < 0.5 km; default 0 = fixed).
         seed: int ≥ 0; the weather, window-height and CO₂-height fields get
             independent streams spawned from it.
+        field_time_origin_s: the random fields' time at simulation time 0, s (|t₀| ≤ 10¹⁰ s). The
+            flight environment gives UTC, seconds since J2000.0 (2000-01-01 12:00 UTC) at the clock's
+            zero, so weather and layer height are functions of position and absolute time (physics.md
+            §3.2 item 6): campaign days see different weather, and a real-time and a fast-time run of
+            one epoch see the same fields. 0 (the default): the fields run on the simulation clock.
     """
 
     climatology_enabled: bool = True
@@ -772,6 +816,7 @@ class EnvironmentParameters:
     co2_height_m: float = CO2_TOP_HEIGHT_M
     co2_height_half_range_m: float = 0.0
     seed: int = 0
+    field_time_origin_s: float = 0.0
 
     def __post_init__(self) -> None:
         for name in ("climatology_enabled", "weather_enabled", "height_variation_enabled"):
@@ -799,6 +844,7 @@ class EnvironmentParameters:
                         EARTH_MEAN_RADIUS_M / 1e3, " km")
         check_range("CO2 layer height", self.co2_height_m / 1e3, 20.0, 120.0, " km")
         check_range("CO2 layer half-range", self.co2_height_half_range_m / 1e3, 0.0, 1.0, " km")
+        check_range("field time origin", self.field_time_origin_s, -1e10, 1e10, " s")
         # The window layer lies under the CO₂ layer (physics.md §3 profile
         # order).
         top_of_window_km = (self.window_height_mean_m + self.window_height_half_range_m) / 1e3
@@ -840,23 +886,27 @@ class RadianceEnvironment:
             else p.height_correlation_radius_m
         self.weather = WeatherField(p.relative_variability, p.correlation_radius_m, p.time_scale_s,
                                     p.n_components, weather_seed, p.synoptic_fraction, p.synoptic_zone_m,
-                                    p.synoptic_components, p.weather_min_wavelength_m) \
+                                    p.synoptic_components, p.weather_min_wavelength_m, p.field_time_origin_s) \
             if p.weather_enabled else None
         self.window_layer = LayerHeightField(p.window_height_mean_m, p.window_height_half_range_m,
                                              height_radius_m, p.time_scale_s, p.n_components, window_seed,
-                                             p.min_wavelength_m) \
+                                             p.min_wavelength_m, p.field_time_origin_s) \
             if p.height_variation_enabled and p.window_height_half_range_m > 0.0 else None
         self.co2_layer = LayerHeightField(p.co2_height_m, p.co2_height_half_range_m, height_radius_m,
-                                          p.time_scale_s, p.n_components, co2_seed, p.min_wavelength_m) \
+                                          p.time_scale_s, p.n_components, co2_seed, p.min_wavelength_m,
+                                          p.field_time_origin_s) \
             if p.height_variation_enabled and p.co2_height_half_range_m > 0.0 else None
 
         # All random fields in one cosine pass (see sample()).
         self._fields = [f for f in (self.weather and self.weather.anomaly_field,
                                     self.window_layer and self.window_layer.gaussian_field,
                                     self.co2_layer and self.co2_layer.gaussian_field) if f is not None]
-        self._bank = _SpectralBank([f.components for f in self._fields]) if self._fields else None
+        self._bank = _SpectralBank([f.components for f in self._fields],
+                                   max((f.dtype for f in self._fields), key=lambda d: d.itemsize)) \
+            if self._fields else None
         # The weather alone, for points where only the radiance is wanted (sample(layers=False)).
-        self._weather_bank = _SpectralBank([self.weather.anomaly_field.components]) if self.weather else None
+        self._weather_bank = _SpectralBank([self.weather.anomaly_field.components], self.weather.anomaly_field.dtype) \
+            if self.weather else None
 
     def day_of_year(self, t_s):
         """Day of year at simulation time ``t_s`` (s): epoch day + t/86400, days."""
@@ -924,6 +974,13 @@ class RadianceEnvironment:
             return mean, np.zeros(lat.size)
         return mean, self._weather_bank.evaluate(lat, lon, t)[:, 0]
 
+    def background_anomaly(self, lat_rad, lon_rad, t_s):
+        """The weather's red background g (σ = 1) at points, flat; zeros without weather."""
+        lat, lon, t, _ = _flat_points(lat_rad, lon_rad, t_s)
+        if self.weather is None:
+            return np.zeros(lat.size)
+        return self._weather_bank.evaluate(lat, lon, t)[:, 0]
+
     def synoptic_band(self, lat_rad, lon_rad, t_s):
         """The synoptic band field s (σ = 1) at points, flat; None when the weather has no band."""
         if self.weather is None or self.weather.band_field is None:
@@ -932,7 +989,11 @@ class RadianceEnvironment:
         return self.weather.band_field.evaluate(lat, lon, t)
 
     def radiance_from_parts(self, mean_radiance_ru, background, band):
-        """Horizon radiance, r.u., from :meth:`weather_parts` and :meth:`synoptic_band` (band may be None)."""
+        """Horizon radiance, r.u., from :meth:`weather_parts` and :meth:`synoptic_band` (band may be None).
+
+        The parts broadcast: the sensor gives the climatology at every point of a chord's profile and
+        the anomaly of its horizon point only (the weather as a horizon level, physics.md §3.2 item 3).
+        """
         if self.weather is None:
             return np.asarray(mean_radiance_ru, float)
         return self.weather.radiance_from_anomaly(mean_radiance_ru, self.weather.combine(background, band))

@@ -162,6 +162,15 @@ class Epoch:
         """Julian date (UTC scale) at simulation time ``t_s`` (s), days."""
         return self.julian_date_utc + np.asarray(t_s, float) / SECONDS_PER_DAY
 
+    def seconds_since_j2000(self, t_s=0.0):
+        """UTC seconds from J2000.0 (2000-01-01 12:00 UTC, every day 86400 s) at simulation time ``t_s`` (s).
+
+        The epoch's part is rounded to the millisecond — what a Julian date in
+        float64 resolves (≈ 40 µs) — so an epoch given to the second gives a
+        whole number, the same in every run of that epoch.
+        """
+        return round((self.julian_date_utc - JD_J2000) * SECONDS_PER_DAY, 3) + np.asarray(t_s, float)
+
     def julian_date_tt(self, t_s):
         """Julian date in Terrestrial Time at simulation time ``t_s`` (s), days (TT − UTC = 69.184 s)."""
         return self.julian_date_utc + (np.asarray(t_s, float) + TT_MINUS_UTC_S) / SECONDS_PER_DAY
@@ -241,6 +250,48 @@ def sun_position_eci_m(jd_tt):
     longitude = mean_longitude + (1.915 * np.sin(mean_anomaly) + 0.020 * np.sin(2.0 * mean_anomaly)) * _DEG
     distance_au = 1.00014 - 0.01671 * np.cos(mean_anomaly) - 0.00014 * np.cos(2.0 * mean_anomaly)
     return _ecliptic_to_eci(longitude, 0.0 * n, distance_au * ASTRONOMICAL_UNIT_M, jd_tt)
+
+
+def mean_sun_right_ascension(jd_utc):
+    """Right ascension of the mean Sun, rad in [0, 2π): its mean longitude L = 280.460° + 0.9856474° n.
+
+    The fictitious mean Sun runs along the equator at the Sun's mean rate; local
+    mean solar time at a right ascension α is 12 h + (α − α_mean)/15° (h). L is the
+    Astronomical Almanac's low-precision mean longitude, the one of
+    :func:`sun_position_eci_m` (n = JD − 2451545.0).
+
+    Args:
+        jd_utc: Julian date, days (UTC; TT − UTC shifts L by 8·10⁻⁴ °, far below what matters here).
+    """
+    n = np.asarray(jd_utc, float) - JD_J2000
+    return np.mod((280.460 + 0.9856474 * n) * _DEG, 2.0 * math.pi)[()]
+
+
+def raan_from_local_time_of_node(ltan_h: float, epoch: Epoch) -> float:
+    """RAAN at the epoch, rad in [0, 2π), of an orbit whose ascending node is at local mean solar time ``ltan_h``.
+
+    Ω = α_mean(epoch) + 15°·(LTAN − 12 h) (:func:`mean_sun_right_ascension`).
+    A sun-synchronous orbit keeps this local time while its node drifts with
+    the mean Sun (J2: :attr:`pmv_ros.physics.orbit.CircularOrbit.raan_rate_rad_s`).
+
+    Args:
+        ltan_h: local time of the ascending node, h (0 … 24).
+        epoch: the UTC instant at which Ω is wanted.
+    """
+    check_range("local time of the ascending node", ltan_h, 0.0, 24.0, " h")
+    alpha = float(mean_sun_right_ascension(epoch.julian_date_utc))
+    return float(np.mod(alpha + (ltan_h - 12.0) * (math.pi / 12.0), 2.0 * math.pi))
+
+
+def local_time_of_node_h(orbit: CircularOrbit, epoch: Epoch, t_s):
+    """Local mean solar time of the orbit's ascending node at simulation time ``t_s`` (s), h in [0, 24).
+
+    The inverse of :func:`raan_from_local_time_of_node` for Ω(t) of the orbit;
+    ``epoch`` is the UTC instant at simulation time 0.
+    """
+    t = np.asarray(t_s, float)
+    alpha = mean_sun_right_ascension(epoch.julian_date(t))
+    return np.mod(12.0 + (orbit.raan(t) - alpha) * (12.0 / math.pi), 24.0)[()]
 
 
 # Periodic terms of the Moon: multiples of the Delaunay arguments (D, M, M', F)

@@ -161,6 +161,9 @@ MAX_FIELD_GRID_S = 30.0
 #: height's Gaussian field is interpolated and mapped to its uniform law afterwards: the map makes
 #: harmonics shorter than the field's own.)
 FIELD_GRID_FRACTION = {"band": 0.25, "weather": 0.25, "height": 0.25}
+#: Two clock readings closer than this, s, are the same instant for the track grid (float64 rounding of
+#: a clock at ≈ 2·10⁹ s is ≈ 2·10⁻⁷ s; samples are ≥ 10 ms apart).
+GRID_TIME_TOLERANCE_S = 1e-6
 #: Ground speed of a horizon point along its track, m/s (the orbital rate on the Earth's surface,
 #: ≈ 6.6 km/s at 500–835 km, plus up to 0.46 km/s of Earth rotation), rounded up.
 HORIZON_POINT_SPEED_M_S = 7.2e3
@@ -263,13 +266,21 @@ class ChainDetector:
     def _chord_radiance(self, t_s, position_m, sensor_axes):
         """Horizon radiance B_m (r.u.), disc samples (r.u.) and h_w (m) of each chord: ``(4, N)``, ``(4, N, 3)``, ``(4, N)``.
 
+        The weather as a horizon level (physics.md §3.2 item 3): the weather
+        anomaly a is taken once per chord and sample, at the chord's horizon
+        point, and scales the whole profile — B = B_clim(x)·(1 + η·a) at the
+        horizon point and at every disc sample x, each kept inside 1 … 4 r.u. —
+        while the climatology (and the window-layer height, at the horizon
+        point) stays a function of where the line of sight meets the Earth.
+
         Each field is evaluated at grid samples (one per grid spacing of the
         sample times, and the first and last) and interpolated in time to the
         other samples by a cubic spline: the synoptic band every
         ``band_grid_s``, the climatology and the weather's background every
         ``grid_s``, the window-layer height every ``height_grid_s``. When the
-        samples are sparser than a grid: at every sample. The weather's parts
-        are combined, and the radiance kept inside 1 … 4 r.u., at the samples.
+        samples are sparser than a grid: at every sample. The grids are tied to
+        the fields' clock (UTC when the environment has a time origin), so runs
+        of the same instants see the same nodes whatever their own clock reads.
         """
         t = np.atleast_1d(np.asarray(t_s, float))
         n = t.size
@@ -278,26 +289,36 @@ class ChainDetector:
             return (np.full(shape, self.radiance.disc_radiance_ru), None,
                     np.full(shape, self.radiance.window_height_m))
         points = 1 + len(chain.DISC_SAMPLE_INWARD_RAD)
+        origin_s = self.environment.parameters.field_time_origin_s
 
         located = {}  # the ground points of a node set, shared by fields on the same grid (short blocks)
 
         def along_track(spacing_s, inner, evaluate):
-            nodes = _grid_nodes(t, spacing_s)
-            key = (inner, nodes.tobytes())
-            if key not in located:
-                located[key] = self._ground_points(t[nodes], position_m[:, nodes], sensor_axes[:, :, nodes], inner)
-            values = [v.reshape(points if inner else 1, 4, nodes.size) for v in evaluate(*located[key])]
+            nodes = _grid_nodes(t, spacing_s, origin_s)
+            key = nodes.tobytes()
+            if (True, key) in located:  # the horizon points lead the profile's points
+                where = located[(True, key)]
+                if not inner:
+                    where = tuple(w[: 4 * nodes.size] for w in where)
+            else:
+                if (inner, key) not in located:
+                    located[(inner, key)] = self._ground_points(t[nodes], position_m[:, nodes],
+                                                                sensor_axes[:, :, nodes], inner)
+                where = located[(inner, key)]
+            values = [v.reshape(points if inner else 1, 4, nodes.size) for v in evaluate(*where)]
             return [_interpolate_in_time(t, nodes, v) for v in values]
 
-        mean, background = along_track(self.grid_s, True, self.environment.weather_parts)
-        band = None
-        if self.environment.weather is not None and self.environment.weather.band_field is not None:
-            band, = along_track(self.band_grid_s, True,
-                                lambda *where: (self.environment.synoptic_band(*where),))
-        radiance = self.environment.radiance_from_parts(mean, background, band)
-        layer = self.environment.window_layer
+        environment = self.environment
+        mean, = along_track(self.grid_s, True, lambda lat, lon, tt: (environment.mean_radiance_ru(lat, tt),))
+        background = band = None
+        if environment.weather is not None:
+            background, = along_track(self.grid_s, False, lambda *where: (environment.background_anomaly(*where),))
+            if environment.weather.band_field is not None:
+                band, = along_track(self.band_grid_s, False, lambda *where: (environment.synoptic_band(*where),))
+        radiance = environment.radiance_from_parts(mean, background, band)  # (points, 4, N)
+        layer = environment.window_layer
         if layer is None:
-            window = np.full(shape, self.environment.parameters.window_height_mean_m)
+            window = np.full(shape, environment.parameters.window_height_mean_m)
         else:  # the smooth Gaussian field is interpolated, then mapped to the uniform law at the samples
             gaussian, = along_track(self.height_grid_s, False, lambda *where: (layer.gaussian_field(*where),))
             window = layer.height_from_gaussian(gaussian[0])
@@ -361,24 +382,33 @@ def _interpolate_in_time(t, nodes, values):
     return values[..., j] * (1.0 - w) + values[..., j + 1] * w
 
 
-def _grid_nodes(t, spacing_s):
+def _grid_nodes(t, spacing_s, origin_s: float = 0.0):
     """Indices of the samples on which the environment is evaluated: all, or one per ``spacing_s`` (sorted times).
 
     The spacing is at most 1/8 of the samples' span. With samples sparser than
     half the spacing, or unsorted, or fewer than 3: every sample. Otherwise the
     first, the last, and for each multiple of the spacing the first sample at or
-    after it — a grid tied to the clock, so successive long blocks of samples
-    see the same nodes.
+    after it — a grid tied to the clock ``origin_s + t`` (the fields' clock), so
+    successive long blocks of samples see the same nodes.
     """
     n = t.size
     if n < 3 or not np.all(np.diff(t) >= 0.0):
         return np.arange(n)
-    # At least 8 intervals over the span, so the spline of a short block is not all end conditions.
-    spacing_s = min(spacing_s, (t[-1] - t[0]) / 8.0)
+    # At least 8 intervals over the span, so the spline of a short block is not all end conditions: the
+    # spacing halved as often as needed (a discrete set, so two clocks that read the same span to rounding
+    # pick the same spacing, and its multiples on a clock at ≈ 10⁹ s stay the same instants).
+    span = t[-1] - t[0]
+    if span < 8.0 * spacing_s:
+        spacing_s = spacing_s / 2.0 ** math.ceil(math.log2(8.0 * spacing_s / span)) if span > 0.0 else spacing_s
     if (t[-1] - t[0]) > 0.5 * spacing_s * (n - 1):
         return np.arange(n)
-    multiples = np.arange(math.ceil(t[0] / spacing_s), math.floor(t[-1] / spacing_s) + 1) * spacing_s
-    nodes = np.searchsorted(t, multiples, side="left")
+    # Multiples of the spacing on the fields' clock, as offsets from the block's start. A sample within
+    # GRID_TIME_TOLERANCE_S before a multiple counts as on it: the same instant read on another clock
+    # (real time: the node's start ≈ 1.7e9 s; fast time: 0) differs by rounding only.
+    start = origin_s + t[0]
+    multiples = np.arange(math.ceil(start / spacing_s - 1e-12), math.floor((origin_s + t[-1]) / spacing_s) + 1) \
+        * spacing_s
+    nodes = np.searchsorted(t - t[0], multiples - start - GRID_TIME_TOLERANCE_S, side="left")
     nodes = np.unique(np.concatenate([[0], nodes, [n - 1]]))
     return nodes[nodes < n]
 

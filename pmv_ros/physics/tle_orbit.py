@@ -44,8 +44,8 @@ from datetime import datetime, timedelta, timezone
 
 import numpy as np
 
-from .constants import EARTH_MEAN_RADIUS_M
-from .ephemeris import JD_J2000, SECONDS_PER_DAY, TT_MINUS_UTC_S, Epoch
+from .constants import EARTH_MEAN_RADIUS_M, SECONDS_PER_DAY
+from .ephemeris import JD_J2000, TT_MINUS_UTC_S, Epoch
 from .orbit import MAX_ALTITUDE_M, MIN_ALTITUDE_M, StateOrbit, orbit_angles_from_state
 
 #: Columns a line of an element set has (the checksum is the last).

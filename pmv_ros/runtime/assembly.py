@@ -14,7 +14,7 @@ from ..physics.attitude_profile import AttitudeProfile
 from ..physics.constants import ARCMIN_RAD, ARCSEC_RAD, EARTH_ROTATION_RATE_RAD_S, GRS80, SECONDS_PER_DAY, SPHERE
 from ..physics.correction import load_correction
 from ..physics.environment import YEAR_DAYS, EnvironmentParameters
-from ..physics.ephemeris import Epoch
+from ..physics.ephemeris import Epoch, raan_from_local_time_of_node
 from .monitor import ErrorMonitor
 from .monitor_records import MonitorConfig
 from ..physics.orbit import CircularOrbit
@@ -67,6 +67,9 @@ SENSOR_PARAMS = INPUT_PARAMS + (
     ParamSpec("orbit.u0_deg", 0.0, "argument of latitude at the start of the run", -360.0, 360.0, unit="deg",
               read_only=True),
     ParamSpec("orbit.j2_node_drift", False, "apply the secular J2 drift of the node", read_only=True),
+    ParamSpec("orbit.ltan_h", -1.0, "local mean solar time of the ascending node at the epoch (sun-synchronous "
+              "orbits): sets the node from the mean Sun instead of orbit.raan_deg; negative: not used",
+              -1.0, 24.0, unit="h", read_only=True),
     ParamSpec("orbit.source", "circular", "circular: the circular orbit of orbit.altitude_km … u0_deg; tle: SGP4 "
               "from orbit.tle_line1/2 (sim.epoch_utc is the run's start; the circular elements are not used); "
               "follow: the state from /orbit/odometry (not available yet)", choices=ORBIT_SOURCES, read_only=True),
@@ -96,7 +99,7 @@ SENSOR_PARAMS = INPUT_PARAMS + (
     ParamSpec("sensor.detector", "chain", "chain: the signal chain of physics.md §4; ideal: the geometric horizon "
               "of the emitting layer (geometry-only studies)", choices=("chain", "ideal")),
     ParamSpec("sensor.correction", "calibrated", "brightness-correction table: calibrated (the rig table), "
-              "meteor_m2_2 (the over-correcting curve inferred for Meteor-M No.2-2), none, "
+              "meteor_m2_2 (the working curve x s, the gain error inferred for Meteor-M No.2-2), none, "
               "or the path of a CSV file del_arcmin,pop_arcmin",
               constraints="calibrated, meteor_m2_2, none, or the path of a readable CSV file with columns "
                           "del_arcmin,pop_arcmin", read_only=True),
@@ -241,6 +244,17 @@ def parse_epoch(iso_string: str) -> Epoch:
         raise ValueError(f"sim.epoch_utc: {error}") from None
 
 
+def raan_at_epoch_rad(values: dict, epoch: Epoch) -> float:
+    """The node at the epoch, rad: ``orbit.raan_deg``, or from ``orbit.ltan_h`` and the mean Sun at the run
+    epoch (:func:`parse_epoch` of ``sim.epoch_utc``)."""
+    ltan_h = values.get("orbit.ltan_h", -1.0)
+    if ltan_h is None or ltan_h < 0.0:
+        return math.radians(values["orbit.raan_deg"])
+    if values["orbit.raan_deg"] != 0.0:
+        raise ValueError("orbit.ltan_h and orbit.raan_deg both set the node: give one of them")
+    return raan_from_local_time_of_node(ltan_h, epoch)
+
+
 #: ``correction`` of :func:`build_models` when the table is still to be read from ``sensor.correction``.
 READ_CORRECTION = object()
 
@@ -255,15 +269,15 @@ def build_models(values: dict, *, clock_epoch_s: float = 0.0, correction=READ_CO
         correction: the brightness-correction table already read (:func:`read_correction`; None: no
             correction), or :data:`READ_CORRECTION` to read what ``sensor.correction`` names now.
     """
+    epoch = parse_epoch(values["sim.epoch_utc"])  # parsed whatever the detector: a bad date is refused now
     orbit = CircularOrbit(
         altitude_m=values["orbit.altitude_km"] * 1e3,
         inclination_rad=math.radians(values["orbit.inclination_deg"]),
-        raan_rad=math.radians(values["orbit.raan_deg"]),
+        raan_rad=raan_at_epoch_rad(values, epoch),
         arg_latitude_at_epoch_rad=math.radians(values["orbit.u0_deg"]),
         epoch_s=values["sim.start_time_s"] if values["sim.fast_time"] else clock_epoch_s,
         j2_node_drift=values["orbit.j2_node_drift"],
     )
-    epoch = parse_epoch(values["sim.epoch_utc"])  # parsed whatever the detector: a bad date is refused now
     if values["orbit.source"] != "circular":
         orbit = build_source_orbit(values, orbit.epoch_s, epoch=epoch)
     per_hour = ARCMIN_RAD / 3600.0
@@ -344,6 +358,8 @@ def build_detector(values: dict, orbit: CircularOrbit, epoch: Epoch, correction=
         time_scale_s=values["environment.time_scale_h"] * 3600.0,
         epoch_day_of_year=day_at_clock_zero,
         seed=values["seed"],
+        # The fields on UTC (physics.md §3.2 item 6): seconds since J2000 when the clock reads 0.
+        field_time_origin_s=float(epoch.seconds_since_j2000()) - zero_s,
     )
     radiance = RadianceConfig(
         source=values["radiance.source"],

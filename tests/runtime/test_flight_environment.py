@@ -41,14 +41,28 @@ def test_switching_off_weather_and_height_reduces_the_kondor_residual():
     assert climatology_only[0] < 0.5 * full[0] and climatology_only[1] < 0.5 * full[1]
 
 
+def uncorrected_sigma_arcmin(values: dict) -> tuple[float, float]:
+    t, reading, orbit = fly_one_orbit(values)
+    _, model_roll, model_pitch = closed_form_oblateness(reading.argument_of_latitude_rad, orbit.altitude_m,
+                                                        orbit.inclination_rad)
+    return (float(np.nanstd(reading.sensed_roll_uncorrected_rad - model_roll)) / ARCMIN_RAD,
+            float(np.nanstd(reading.sensed_pitch_uncorrected_rad - model_pitch)) / ARCMIN_RAD)
+
+
 def test_each_component_adds_error():
+    # The layer height adds error the curve cannot correct. The weather is a horizon level per chord
+    # (physics.md §3.2 item 3): it adds error to the raw chain, and the working curve — made for a uniform
+    # horizon of any level — takes nearly all of it out again (within 0.3′ of the climatology alone).
     base = dict(environment__weather=False, environment__height_variation=False)
     climatology_only = methodical_sigma_arcmin(preset_values("kondor", **base))
     with_weather = methodical_sigma_arcmin(preset_values("kondor", environment__height_variation=False))
     with_height = methodical_sigma_arcmin(preset_values("kondor", environment__weather=False))
+    raw_climatology = uncorrected_sigma_arcmin(preset_values("kondor", **base))
+    raw_weather = uncorrected_sigma_arcmin(preset_values("kondor", environment__height_variation=False))
     for index in (0, 1):
-        assert with_weather[index] > climatology_only[index]
-        assert with_height[index] > climatology_only[index]
+        assert with_height[index] > climatology_only[index] + 0.5
+        assert raw_weather[index] > raw_climatology[index] + 1.0
+        assert abs(with_weather[index] - climatology_only[index]) < 0.3
 
 
 @pytest.mark.parametrize("preset", ["kondor", "meteor_m2"])
@@ -67,19 +81,22 @@ def test_everything_off_but_oblateness_leaves_only_its_signature(preset):
 
 
 def test_meteor_m2_2_flies_the_over_correcting_curve():
-    # physics.md §3.2 item 1: No.2-2 flies the rig curve scaled by s > 1 (an inference from its record);
-    # the corrected − uncorrected difference is then s × the working curve's, chord by chord.
+    # physics.md §3.2 item 1: No.2-2 flies the working curve with a gain error, POP × s, 1 < s ≤ 2 (an
+    # inference from its record); the corrected − uncorrected difference is then s × the working curve's,
+    # chord by chord.
     scale = json.loads((REPO / "pmv_ros" / "data" / "environment_calibration.json").read_text())["fitted"]["curve_scale"]
     assert 1.0 < scale <= 2.0
     _, working, _ = fly_one_orbit(preset_values("meteor_m2_2", sensor__correction="calibrated"))
     _, wrong, _ = fly_one_orbit(preset_values("meteor_m2_2"))
     np.testing.assert_allclose(wrong.crossing_nadir_uncorrected_rad, working.crossing_nadir_uncorrected_rad)
-    # POP_s = POP₀ + s·(POP − POP₀): per chord, wrong − s × working is the constant (1 − s)·POP₀
-    # (which cancels in every pair); 0.01′ allows the CSV's 6-decimal rounding.
+    # 0.001′ allows the CSV's 6-decimal rounding (5e-7′ per point, times s).
     excess = (wrong.crossing_nadir_rad - wrong.crossing_nadir_uncorrected_rad) \
         - scale * (working.crossing_nadir_rad - working.crossing_nadir_uncorrected_rad)
-    assert np.ptp(excess) < 0.01 * ARCMIN_RAD
-    assert abs(np.mean(excess)) > 1.0 * ARCMIN_RAD  # and it is not the working curve
+    # (Chords the Sun or the Moon blinds on the session date are NaN in both and left out.)
+    assert np.mean(np.isfinite(excess)) > 0.9
+    assert np.nanmax(np.abs(excess)) < 0.001 * ARCMIN_RAD
+    # and it is not the working curve: the correction differs by (s − 1) × the working one, arcmin on average
+    assert np.nanmean(np.abs(wrong.crossing_nadir_rad - working.crossing_nadir_rad)) > 1.0 * ARCMIN_RAD
     # "none" stays available: no correction at all.
     _, none, _ = fly_one_orbit(preset_values("meteor_m2_2", sensor__correction="none"))
     np.testing.assert_allclose(none.sensed_pitch_rad, none.sensed_pitch_uncorrected_rad)
@@ -158,15 +175,14 @@ def test_no_chord_is_lost_to_the_weather_over_a_year():
 
 
 def test_the_pitch_pair_is_a_comb_filter_and_the_roll_pair_is_not():
-    """The aft chord re-sees the fore chord's ground ≈ 940 s later (issue 11).
+    """The aft chord re-sees the fore chord's horizon point ≈ 940 s later (issue 11).
 
     For weather seen through the raw chain (no curve, no climatology, no height variation) the pitch
-    error is ≈ e(t) − e(t − Δ): nulls at k ≈ n·T/Δ. The chain weighs ground ≈ 300–500 km inside the
-    horizon, so Δ ≈ 840 s and the nulls fall near k ≈ 7, 14, 21.5 (6.5, 12.9, 19.4 for the horizon
-    points themselves); the Earth's rotation under the orbit fills them partly (measured with the
-    rotation switched off: nulls at 0.1 of the peaks at k = 7, 14, 21; with it 0.66, 0.52, 0.18 — the
-    field's own evolution, τ = 1 day, adds nothing in 940 s). The roll pair sees independent ground: no
-    nulls. RMS over 8 seeds; measured null/peak at k ≈ 21.5: 0.24 for pitch, 0.77 for roll.
+    error is ≈ e(t) − e(t − Δ): nulls at k ≈ n·T/Δ. With the weather a horizon level per chord (physics.md
+    §3.2 item 3, issue 22) e is the anomaly at the horizon point itself, so Δ ≈ 940 s and the nulls fall
+    near k ≈ 6.5, 12.9, 19.4; the Earth's rotation under the orbit fills them partly. The roll pair sees
+    independent ground: no nulls. RMS over 8 seeds; measured (issue 22) at k = 19, 20 against k = 15, 16:
+    0.50 for pitch, 0.78 for roll.
     """
     pitch, roll = [], []
     for seed in range(1, 9):
@@ -176,7 +192,7 @@ def test_the_pitch_pair_is_a_comb_filter_and_the_roll_pair_is_not():
         pitch.append(harmonic_spectrum(t, reading.sensed_pitch_rad, orbit.period_s, 30)[1] ** 2)
         roll.append(harmonic_spectrum(t, reading.sensed_roll_rad, orbit.period_s, 30)[1] ** 2)
     pitch, roll = np.sqrt(np.mean(pitch, axis=0)), np.sqrt(np.mean(roll, axis=0))
-    null, peak = [20, 21], [16, 17]  # k = 21, 22 and k = 17, 18 (index k − 1)
-    assert pitch[null].mean() < 0.5 * pitch[peak].mean()
-    assert roll[null].mean() > 0.6 * roll[peak].mean()
+    null, peak = [18, 19], [14, 15]  # k = 19, 20 and k = 15, 16 (index k − 1)
+    assert pitch[null].mean() < 0.6 * pitch[peak].mean()
+    assert roll[null].mean() > 0.65 * roll[peak].mean()
     assert pitch[null].mean() > 0.1 * pitch[peak].mean()  # partly filled, not a perfect null
