@@ -47,7 +47,7 @@ def main() -> None:
                     status = stop.code
         except _Timeout:
             status = "timeout"
-        except BaseException as error:  # a traceback: reported, the test fails on it
+        except BaseException:  # a traceback: reported, the test fails on it
             import traceback
 
             status = "exception"

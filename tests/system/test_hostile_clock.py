@@ -21,8 +21,6 @@ back (a second /clock publisher). Then:
 from __future__ import annotations
 
 import math
-import signal
-import subprocess
 import time
 
 import pytest
@@ -30,31 +28,15 @@ from rosgraph_msgs.msg import Clock
 
 import pmv_msgs_shim as shim
 from pmv_ros.physics.constants import ARCMIN_RAD
-from test_adversarial import PARAMS, VENV_BIN, Neighbour, child_env, monitor_status
+from neighbour import Neighbour, monitor_status, running_stack
 
 pytestmark = pytest.mark.adversarial
 
 
 @pytest.fixture
 def clock_stack(tmp_path):
-    params = tmp_path / "stack.yaml"
-    params.write_text(PARAMS)
-    processes = {}
-    for name in ("error_monitor_node", "star_tracker_node", "sensor_node"):
-        processes[name] = subprocess.Popen(
-            [str(VENV_BIN / name), "--ros-args", "--params-file", str(params)], env=child_env(tmp_path / "log"),
-            cwd=tmp_path, stdin=subprocess.DEVNULL, stdout=open(tmp_path / f"{name}.out", "w"),
-            stderr=subprocess.STDOUT)
-    yield processes
-    for process in processes.values():
-        if process.poll() is None:
-            process.send_signal(signal.SIGINT)
-    for process in processes.values():
-        try:
-            process.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait()
+    with running_stack(tmp_path) as processes:
+        yield processes
 
 
 def _forged(kind: int, now_s: float) -> Clock:
