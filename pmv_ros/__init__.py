@@ -3,7 +3,7 @@
 One folder per layer; every import points down the list:
 
 * :mod:`pmv_ros.cli` — the ``pmv`` command line: argparse and printing only;
-* :mod:`pmv_ros.apps` — the campaign on Dask, the telemetry analysis, the report;
+* :mod:`pmv_ros.apps` — the campaign on Dask, the analysis of recorded telemetry, the report;
 * :mod:`pmv_ros.nodes` — the ROS 2 nodes: parameters in, runtime, shim, publish;
 * :mod:`pmv_ros.runtime` — what the nodes do, without ROS (the campaign drives it too);
 * :mod:`pmv_ros.analysis` — error statistics and the flight-test procedure;

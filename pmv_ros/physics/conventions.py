@@ -16,8 +16,10 @@ that reads or prints them names its convention and calls :func:`convert`.
 
 from __future__ import annotations
 
-#: The conventions a command can name (``--convention``).
-CONVENTIONS = ("paper", "ros")
+#: The conventions a command can name (``--convention``): the published tables' (also the default for CSV
+#: telemetry and the convention of the closed-form oblateness model) and REP-103's.
+PAPER, ROS = "paper", "ros"
+CONVENTIONS = (PAPER, ROS)
 
 
 def _sign(source: str, target: str) -> float:

@@ -39,7 +39,6 @@ Bounds and recovery
 from __future__ import annotations
 
 import functools
-import os
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, replace

@@ -349,7 +349,7 @@ def test_phase_from_odometry_does_not_depend_on_the_twist_frame():
     """u from the pose positions whatever frame the twist is in; a lone message by nav_msgs' twist semantics."""
     from scipy.spatial.transform import Rotation
 
-    from pmv_ros.cli.analyze import phase_from_odometry
+    from pmv_ros.apps.telemetry import phase_from_odometry
 
     orbit = CircularOrbit(500e3, math.radians(74.5), raan_rad=0.7, arg_latitude_at_epoch_rad=1.1, epoch_s=100.0)
     times = 100.0 + np.arange(0.0, 600.0, 10.0)
