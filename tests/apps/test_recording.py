@@ -49,6 +49,10 @@ RUN_TOPICS = {
 #: the monitor's own alignment, so they differ from the live ones only by the samples still waiting
 #: for truth when the live statistics were taken (≤ a few of 5,600).
 AGREEMENT = 0.02
+#: A mean near zero gets an absolute floor instead, arcmin: those few waiting samples (σ ≈ 3′) move a mean
+#: over ≈ 5,600 samples by ≈ 3·3′/5600 ≈ 0.002′, which is more than 2 % of a mean of 0.015′ (the flight
+#: environment of issue 22 gives Kondor's residual means of that size).
+MEAN_FLOOR_ARCMIN = 0.01
 
 #: Methodical error of Kondor, oblateness excluded: the flight analysis' limit ≈ 8′ (physics.md §5).
 METHODICAL_LIMIT_ARCMIN = 8.0
@@ -86,16 +90,19 @@ def test_round_trip_statistics_agree_with_the_live_ones(round_trip, capsys):
         recorded, running = report["per_sample"][channel], live["channels"][channel]
         assert recorded["count"] == pytest.approx(running["count"], rel=0.002)
         assert recorded["sigma_arcmin"] == pytest.approx(running["sigma_arcmin"], rel=AGREEMENT)
-        assert recorded["mean_arcmin"] == pytest.approx(running["mean_arcmin"], rel=AGREEMENT)
+        assert recorded["mean_arcmin"] == pytest.approx(running["mean_arcmin"], rel=AGREEMENT, abs=MEAN_FLOOR_ARCMIN)
     # The flight-test procedure on the same residuals: its offsets K, T are the means of the u-binned
     # averages — with the orbit sampled evenly, the running means within the same 2 %.
-    assert report["roll_offset_arcmin"] == pytest.approx(live["channels"]["roll"]["mean_arcmin"], rel=AGREEMENT)
-    assert report["pitch_offset_arcmin"] == pytest.approx(live["channels"]["pitch"]["mean_arcmin"], rel=AGREEMENT)
-    # Its σ is of the 1° bin averages (≈ 16 samples each), which average out what varies within 16 s:
-    # a few per cent below the per-sample σ, never above it.
+    assert report["roll_offset_arcmin"] == pytest.approx(live["channels"]["roll"]["mean_arcmin"], rel=AGREEMENT,
+                                                         abs=MEAN_FLOOR_ARCMIN)
+    assert report["pitch_offset_arcmin"] == pytest.approx(live["channels"]["pitch"]["mean_arcmin"], rel=AGREEMENT,
+                                                          abs=MEAN_FLOOR_ARCMIN)
+    # Its σ is of the 1° bin averages (≈ 16 samples each), which average out what varies within 16 s
+    # (≈ 110 km of a horizon point's track): below the per-sample σ, never above it. With the calibrated
+    # mesoscale layer height (R_h = 50 km, issue 22) that is a good part of the scatter: measured 0.79.
     for channel in ("roll", "pitch"):
         ratio = report["channels"][channel]["sigma_arcmin"] / live["channels"][channel]["sigma_arcmin"]
-        assert 0.9 < ratio <= 1.0, ratio
+        assert 0.6 < ratio <= 1.0, ratio
     # 1° bins over one orbit; the Sun in a chord can blank one angle or the other for tens of seconds of
     # the orbit (≈ 40 s on 15 Jan 2024; none on kondor.yaml's 10 Sep 2013), so one or two bins may be empty.
     assert report["orbits"] == 1 and 355 <= report["orbital_angles"] <= 360
@@ -195,7 +202,7 @@ def test_a_wall_clock_recording_is_analysed_at_the_right_phase(wall_clock_run, c
     report = _analyze(capsys, path)
     for channel in ("roll", "pitch"):
         assert report["per_sample"][channel]["mean_arcmin"] == pytest.approx(live["channels"][channel]["mean_arcmin"],
-                                                                            rel=AGREEMENT)
+                                                                            rel=AGREEMENT, abs=MEAN_FLOOR_ARCMIN)
         assert report["per_sample"][channel]["sigma_arcmin"] == pytest.approx(
             live["channels"][channel]["sigma_arcmin"], rel=AGREEMENT)
     # The same from the elements on /diagnostics instead of the odometry.
@@ -220,9 +227,10 @@ def test_a_wall_clock_recording_is_analysed_at_the_right_phase(wall_clock_run, c
     # meridional mean it should be, and each channel's mean is small against its methodical scatter.
     # MO is the mean magnitude of 1° bin averages (≈ 17 samples each): the flight environment's mesoscale
     # window-layer scatter (correlated over ≈ 15 s of track, physics.md §3.2 item 4) partly averages out
-    # in a bin, so MO runs a little below the per-sample mean (measured ×0.91), never above it.
+    # in a bin, so MO runs below the per-sample mean (measured ×0.91 with R_h = 100 km; ×0.79 with the
+    # R_h = 50 km of issue 22's calibration), never above it.
     per_sample_mo = report["per_sample"]["meridional"]["mean_arcmin"]
-    assert 0.85 * per_sample_mo < report["mo_arcmin"] <= (1.0 + AGREEMENT) * per_sample_mo
+    assert 0.7 * per_sample_mo < report["mo_arcmin"] <= (1.0 + AGREEMENT) * per_sample_mo
     for channel in ("roll", "pitch"):
         assert abs(report["per_sample"][channel]["mean_arcmin"]) < report["per_sample"][channel]["sigma_arcmin"]
     # Stamp phase: the model (≈ 5′ roll, 9′ pitch, physics.md §2.1) removed at the wrong u stays in the
