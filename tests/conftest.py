@@ -6,7 +6,10 @@ The tests mirror the package's layers: ``physics/``, ``analysis/``,
 golden outputs, the layering). Support modules beside this file, imported by
 the tests (never a test module by another): ``children`` (the environment of
 child processes and their ROS domain), ``cli_runner`` (``pmv`` in-process),
-``flights`` (a preset flown without ROS), ``node_harness``, ``reference_chain``.
+``flights`` (a preset flown without ROS), ``neighbour`` (a hostile node on the
+stack's domain), ``node_harness``, ``reference_chain``; and in ``system/``
+``bounded_run``, ``cli_cases`` and ``record_child`` (children measured for
+time and memory).
 The published tables are :mod:`pmv_ros.physics.published`.
 """
 

@@ -310,18 +310,19 @@ def build_models(values: dict, *, clock_epoch_s: float = 0.0, correction=READ_CO
 ORBIT_CHECK_S = SECONDS_PER_DAY
 
 
-def build_source_orbit(values: dict, epoch_s: float, check_span_s: float = ORBIT_CHECK_S, *,
+def build_source_orbit(values: dict, epoch_s: float, check_span_s: float | None = None, *,
                        epoch: Epoch | None = None):
     """The orbit of ``orbit.source`` other than circular (a :class:`TleOrbit`); ValueError in one line if not.
 
-    ``check_span_s``: the span from the start checked for SGP4 error codes, s; ``epoch``: the run epoch
-    if already parsed (:func:`parse_epoch`).
+    ``check_span_s``: the span from the start checked for SGP4 error codes, s (None: :data:`ORBIT_CHECK_S`);
+    ``epoch``: the run epoch if already parsed (:func:`parse_epoch`).
     """
     source = values["orbit.source"]
     if source == "follow":
         raise ValueError("orbit.source = follow is not available yet (the sensor cannot take its orbit from "
                          "/orbit/odometry in this version): use circular or tle")
     epoch = parse_epoch(values["sim.epoch_utc"]) if epoch is None else epoch
+    check_span_s = ORBIT_CHECK_S if check_span_s is None else check_span_s
     return TleOrbit(values["orbit.tle_line1"], values["orbit.tle_line2"], epoch,
                     epoch_s, check_span_s=check_span_s)
 

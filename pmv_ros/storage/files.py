@@ -31,31 +31,12 @@ def read_text_file(path, what: str, max_bytes: int = MAX_PARAMETER_FILE_BYTES) -
         path: file name.
         what: what the file is, for the reason ("correction table").
     """
-    name = os.fsdecode(path) if isinstance(path, (bytes, os.PathLike)) else str(path)
-    try:
-        info = os.stat(name)
-    except OSError as error:
-        raise ValueError(f"cannot read {what} {name}: {error.strerror or error}") from None
-    _check_regular(info, name, what, max_bytes)
-    flags = os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_NOCTTY", 0) | getattr(os, "O_CLOEXEC", 0)
-    try:
-        descriptor = os.open(name, flags)
-    except OSError as error:
-        raise ValueError(f"cannot read {what} {name}: {error.strerror or error}") from None
-    try:
-        _check_regular(os.fstat(descriptor), name, what, max_bytes)
-        chunks, size = [], 0
-        while size <= max_bytes:
-            chunk = os.read(descriptor, max_bytes + 1 - size)
-            if not chunk:
-                break
-            chunks.append(chunk)
-            size += len(chunk)
-    except OSError as error:
-        raise ValueError(f"cannot read {what} {name}: {error.strerror or error}") from None
-    finally:
-        os.close(descriptor)
-    data = b"".join(chunks)
+    name = _name(path)
+    with open_regular_file(name, what, max_bytes) as stream:
+        try:
+            data = stream.read(max_bytes + 1)
+        except OSError as error:
+            raise ValueError(f"cannot read {what} {name}: {error.strerror or error}") from None
     if len(data) > max_bytes:
         raise ValueError(f"{what} {name} is larger than the {max_bytes} bytes allowed")
     if b"\0" in data:

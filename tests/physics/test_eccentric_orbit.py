@@ -26,7 +26,7 @@ PERIGEE_M, ECCENTRICITY, INCLINATION_DEG, ARG_PERIGEE_DEG = 700e3, 0.01, 98.8, 4
 SEMI_MAJOR_AXIS_M = (EARTH_MEAN_RADIUS_M + PERIGEE_M) / (1.0 - ECCENTRICITY)
 EPOCH = datetime(2016, 11, 11, tzinfo=timezone.utc)
 
-#: The bound of the closed-form model against ray geometry on circular orbits (tests/test_geometry.py:
+#: The bound of the closed-form model against ray geometry on circular orbits (tests/physics/test_geometry.py:
 #: the issue's 0.5′; ≈ 0.06′ is seen there).
 CLOSED_FORM_BOUND_ARCMIN = 0.5
 

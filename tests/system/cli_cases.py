@@ -3,7 +3,9 @@
 Usage: ``python cli_cases.py CASES.json`` with ``{name: [pmv arguments]}``;
 prints one JSON line per case: its exit status, what it printed on stdout and
 stderr, its wall time, and this process's peak resident memory after it
-(``ru_maxrss``: the peak so far, so the largest of these bounds every case).
+(``VmHWM``: the peak so far, so the largest of these bounds every case; not
+``ru_maxrss``, which a child inherits from the process that forked it — a
+test runner of several hundred MB).
 A case that runs past its time is stopped by SIGALRM and reported as
 ``"timeout"``.
 """
@@ -13,7 +15,6 @@ from __future__ import annotations
 import contextlib
 import io
 import json
-import resource
 import signal
 import sys
 import time
@@ -28,6 +29,14 @@ class _Timeout(Exception):
 
 def _alarm(number, frame):
     raise _Timeout()
+
+
+def _peak_rss_mb() -> float:
+    """This process's own peak resident memory since it was exec'd, MB (Linux /proc)."""
+    for line in open("/proc/self/status", encoding="ascii"):
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) / 1024.0
+    raise RuntimeError("no VmHWM in /proc/self/status")
 
 
 def main() -> None:
@@ -55,7 +64,7 @@ def main() -> None:
         finally:
             signal.alarm(0)
         wall_s = time.monotonic() - started
-        peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+        peak_mb = _peak_rss_mb()
         print(json.dumps({"name": name, "status": status, "stdout": out.getvalue(), "stderr": err.getvalue(),
                           "wall_s": wall_s, "peak_mb": peak_mb}), flush=True)
 

@@ -2,7 +2,7 @@
 
 The three nodes run as their executables in fast time at real speed (the
 sensor publishes /clock, the other two follow it), on a private domain, as
-in ``tests/test_adversarial.py`` (whose neighbour this test reuses). For
+in ``tests/system/test_adversarial.py`` (whose neighbour this test reuses). For
 3 s the neighbour publishes on /clock at 20 Hz, in turn: a negative time
 (``sec = -1``: rclpy's time source raised on it and the node died), a
 malformed one (``nanosec`` ≥ 1e9), and a stream an hour ahead and 90 s

@@ -11,7 +11,6 @@ on the same orbit object without ROS in tests/physics/test_tle_orbit.py.)
 from __future__ import annotations
 
 import math
-import os
 import subprocess
 import sys
 from datetime import datetime, timezone
@@ -19,6 +18,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
+from children import child_env, domain_id
 import yaml
 from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import Odometry
@@ -138,9 +139,7 @@ def test_an_sgp4_error_mid_run_stops_the_output_with_an_error(harness, monkeypat
 
 
 def _child_env(log_dir: Path) -> dict:
-    env = dict(os.environ, ROS_LOG_DIR=str(log_dir), ROS_AUTOMATIC_DISCOVERY_RANGE="OFF")
-    env["ROS_DOMAIN_ID"] = str(1 + (os.getpid() + 71) % 100)
-    return env
+    return child_env(log_dir, domain_id(0), discovery="OFF")  # it exits before it talks
 
 
 def test_a_malformed_element_set_stops_the_node_with_one_line(tmp_path):
