@@ -355,18 +355,20 @@ class SourceLock:
       gives only the publisher's own sequence number (each publisher numbers
       its messages 1, 2, 3, …), so there a source is a *track* of sequence
       numbers: a message continues the track whose last number is below its
-      own by at most ``max_sequence_gap`` (lost best-effort messages leave
-      gaps); where several could take it, the smallest step wins (a reliable
-      publisher's next message is exactly one on); where steps tie (a faster
-      publisher's count has caught up with the locked one's), the track the
-      message fits best in time: its numbering rate × the time since it was
-      last heard nearest the step, and the stamp nearest its expected next
-      stamp (last stamp + its stamp interval) measured in that track's own
-      stamp jitter (:meth:`_Track.misfit`). A single
-      publisher is therefore always one track, whatever its stamps do (its
-      clock jumps are the stamp checks' business). Two publishers numbering
-      in lockstep are told apart by their stamps only: where those coincide
-      too, only a GID can separate them.
+      own by at most ``max_sequence_gap``. Where several could take it, the
+      step that track's numbering rate explains wins first (its rate × the
+      time since it was last heard, rounded, at least one: a full queue or
+      best effort loses messages, so a real sample two numbers on after two
+      periods is as good as one number on — :meth:`_Track.excess_step`);
+      then, where steps are all explained (a faster publisher's count has
+      caught up with the locked one's), the track the message fits best in
+      time: the step nearest its rate's, and the stamp nearest its expected
+      one (last stamp + step × its stamp interval) measured in that track's
+      own stamp jitter (:meth:`_Track.misfit`). A single publisher is
+      therefore always one track, whatever its stamps do (its clock jumps are
+      the stamp checks' business). Two publishers numbering in lockstep are
+      told apart by their stamps only: where those coincide too, only a GID
+      can separate them.
     * The first source heard is locked. Its messages pass; every other
       source's are OTHER_SOURCE, counted, and the number of sources heard
       within ``timeout_s`` is what :attr:`sources_heard` reports.
@@ -436,9 +438,11 @@ class SourceLock:
             gap = sequence - track.sequence
             if not 0 < gap <= self.max_sequence_gap:
                 continue
-            # The next number first (a reliable publisher never skips one); where two sources could
-            # both take it (their counts met), the one this message fits best in time.
-            key = (gap, track.misfit(gap, stamp_s, arrival_s), track is not self._locked)
+            # The step its source's rate explains first (messages get lost: a step of 2 after 0.2 s of a
+            # 10 Hz source is as good as 1); where two sources could both take it (their counts met), the
+            # one this message fits best in time.
+            key = (track.excess_step(gap, arrival_s), track.misfit(gap, stamp_s, arrival_s), gap,
+                   track is not self._locked)
             if best_key is None or key < best_key:
                 best, best_key = track, key
         return best if best is not None else self._new_track(_Track())
@@ -473,33 +477,45 @@ class _Track:
 
         Two terms, each in units of this source's own regularity: how far ``gap``
         is from the numbers its rate says it used since it was last heard (1
-        while the rate is unknown), and how far the stamp is from one interval
-        on, in units of its usual stamp jitter. A sensor stamping on a fixed
-        grid has almost no jitter, so a neighbour's stamp that is off its grid
-        by milliseconds misfits it badly, even when the two counts have met.
+        while the rate is unknown), and how far the stamp is from ``gap``
+        intervals on (messages lost in between still took their numbers and
+        their stamps), in units of its usual stamp jitter. A sensor stamping
+        on a fixed grid has almost no jitter, so a neighbour's stamp that is
+        off its grid by milliseconds misfits it badly, even when the two
+        counts have met.
         """
         expected = self.sequence_rate_hz * (arrival_s - self.arrival_s)
         timing = abs(gap - expected) if math.isfinite(expected) else 1.0
-        miss = abs(stamp_s - self.expected_stamp_s(arrival_s))
-        if not math.isfinite(miss):
+        miss = abs(stamp_s - self.expected_stamp_s(gap, arrival_s))
+        if not math.isfinite(miss):  # its stamps are bad: numbers only
             return timing
         jitter = self.stamp_jitter_s if math.isfinite(self.stamp_jitter_s) else 0.0
         return timing + miss / (jitter + self.STAMP_JITTER_FLOOR_S)
 
-    def expected_stamp_s(self, arrival_s: float) -> float:
-        """The stamp this source's next message should carry: one interval on (or, before the interval is
-        known, as much as the arrival time moved on)."""
-        step = self.interval_s if math.isfinite(self.interval_s) else arrival_s - self.arrival_s
+    def expected_stamp_s(self, gap: int, arrival_s: float) -> float:
+        """The stamp this source's message ``gap`` numbers on should carry: ``gap`` intervals on (or,
+        before the interval is known, as much as the arrival time moved on)."""
+        step = gap * self.interval_s if math.isfinite(self.interval_s) else arrival_s - self.arrival_s
         return self.stamp_s + step
 
+    def excess_step(self, gap: int, arrival_s: float) -> int:
+        """How many numbers more than this source would have used (its rate × the time since it was last
+        heard, rounded; at least one) a message ``gap`` numbers on skips: 0 where lost messages explain
+        the gap."""
+        expected = self.sequence_rate_hz * (arrival_s - self.arrival_s)
+        used = math.floor(expected + 0.5) if math.isfinite(expected) else 1
+        return max(0, gap - max(1, used))
+
     def hear(self, sequence, stamp_s: float, arrival_s: float) -> None:
+        gap = sequence - self.sequence if sequence is not None and self.sequence is not None else 1
+        gap = gap if gap >= 1 else 1
         if math.isfinite(stamp_s) and stamp_s > 0.0:  # a bad stamp says nothing about the cadence
-            miss = abs(stamp_s - self.expected_stamp_s(arrival_s))
+            miss = abs(stamp_s - self.expected_stamp_s(gap, arrival_s))
             if math.isfinite(miss) and math.isfinite(self.interval_s):
                 known = math.isfinite(self.stamp_jitter_s)
                 self.stamp_jitter_s = 0.8 * self.stamp_jitter_s + 0.2 * miss if known else miss
             if math.isfinite(self.stamp_s) and stamp_s > self.stamp_s:
-                step = stamp_s - self.stamp_s
+                step = (stamp_s - self.stamp_s) / gap
                 self.interval_s = step if not math.isfinite(self.interval_s) else 0.8 * self.interval_s + 0.2 * step
             self.stamp_s = stamp_s
         if sequence is not None:

@@ -197,19 +197,23 @@ def test_two_publishers_in_lockstep_are_told_apart_by_sequence_and_stamp():
     assert set(kept) == {"first"} and len(kept) == 399
 
 
+@pytest.mark.parametrize("loss", [0.0, 0.1, 0.3])
 @pytest.mark.parametrize("seed", range(50))
-def test_a_faster_second_sensor_whose_count_catches_up_never_takes_the_lock(seed):
+def test_a_faster_second_sensor_whose_count_catches_up_never_takes_the_lock(seed, loss):
     # The adversarial suite's attack: the real sensor at 10 Hz (numbered from 50, it started first);
     # a neighbour from 1 s on at 40 Hz numbered from 1, stamping near the real grid. Its count meets the
     # real one's once (near 3 s): the step then ties, and only the numbering rates tell the two apart.
+    # Under load a subscriber's queue drops messages of both (``loss``): a real message two numbers
+    # on must still beat a neighbour's one number on (the CI failure of 2026-12-02: with the smallest
+    # step first, 98 of 300 seeds at 10 % loss let a neighbour's sample through).
     rng = np.random.default_rng(seed)
     lock = SourceLock(timeout_s=1.0)
     events = [(0.1 * k + rng.uniform(0.0, 0.02), 49 + k, 100.0 + 0.1 * k, "real") for k in range(1, 61)]
     events += [(1.0 + 0.025 * k + rng.uniform(0.0, 0.01), k, 101.0 + 0.025 * k + rng.uniform(-0.05, 0.05),
                 "neighbour") for k in range(1, 161)]
-    events.sort()
+    events = sorted(event for event in events if rng.random() >= loss)
     kept = [who for arrival, sequence, stamp, who in events if lock.admit(arrival, sequence=sequence, stamp_s=stamp)]
-    assert kept.count("real") == 60 and "neighbour" not in kept
+    assert kept.count("real") == sum(who == "real" for *_, who in events) and "neighbour" not in kept
 
 
 def test_a_flood_from_a_second_publisher_never_takes_the_lock():
