@@ -21,8 +21,11 @@ $(STAMP): requirements.txt setup.py setup.cfg package.xml
 demo: $(STAMP)
 	$(BIN)/pmv simulate --config config/kondor.yaml --orbits 1 --report report
 
+# Two workers: half the suite waits on child processes and simulated time, so two share the two cores well.
+# A test module runs whole on one worker (its module fixtures once); modules that share a session fixture
+# share a worker (tests/conftest.py, SHARED_FIXTURE_GROUPS).
 test: $(STAMP)
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n 2 --dist loadgroup
 
 # Tests marked `long` at full length: the 24 h soak (≈ 20 min) and 60 s of 50 Hz load; figures printed.
 test-long: $(STAMP)

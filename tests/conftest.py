@@ -33,6 +33,22 @@ os.environ.setdefault("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
 REPO = Path(__file__).resolve().parents[1]
 
 
+#: Test modules that share a session fixture (its expensive run happens once per worker): one worker each.
+SHARED_FIXTURE_GROUPS = {
+    "tests/apps/test_recording.py": "kondor_orbit_run",   # and the main job: one Kondor orbit, recorded
+    "tests/system/test_main_job.py": "kondor_orbit_run",
+    "tests/system/test_colcon.py": "colcon_install",      # and the launch tests: one colcon build
+    "tests/system/test_launch.py": "colcon_install",
+}
+
+
+def pytest_collection_modifyitems(config, items):
+    """Under ``pytest -n 2 --dist loadgroup`` (``make test``): a module's tests on one worker, as one group."""
+    for item in items:
+        module = Path(str(item.path)).resolve().relative_to(REPO).as_posix()
+        item.add_marker(pytest.mark.xdist_group(SHARED_FIXTURE_GROUPS.get(module, module)))
+
+
 def pytest_addoption(parser):
     parser.addoption("--run-long", action="store_true", default=False,
                      help="run the full-length soak/stress versions of tests marked 'long'")
@@ -42,6 +58,26 @@ def pytest_addoption(parser):
 def run_long(request) -> bool:
     """True when the full-length soak/stress runs were asked for (--run-long)."""
     return bool(request.config.getoption("--run-long"))
+
+
+@pytest.fixture(scope="session")
+def kondor_orbit_run(tmp_path_factory):
+    """The main job as a user runs it, once per test run, shared by the main-job and recording tests:
+    ``pmv simulate --config config/kondor.yaml --orbits 1 --rate-hz 1 --record run.mcap --report report
+    --json`` in a child process (one full orbit at 1 Hz: the 10 Hz of the preset takes ≈ 10× longer; the
+    physics is the same). (simulate's JSON, the MCAP file, the report folder)."""
+    import json
+    from types import SimpleNamespace
+
+    work = tmp_path_factory.mktemp("kondor_orbit")
+    mcap, report = work / "run.mcap", work / "report"
+    result = subprocess.run(
+        [sys.executable, "-m", "pmv_ros.cli", "simulate", "--config", str(REPO / "config" / "kondor.yaml"),
+         "--orbits", "1", "--rate-hz", "1", "--record", str(mcap), "--report", str(report), "--json", "--quiet"],
+        capture_output=True, text=True, timeout=600, cwd=REPO,
+        env=dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="OFF"))
+    assert result.returncode == 0, result.stderr
+    return SimpleNamespace(summary=json.loads(result.stdout), mcap=mcap, report=report)
 
 
 @pytest.fixture

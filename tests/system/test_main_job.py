@@ -18,16 +18,11 @@ import pytest
 REPO = Path(__file__).resolve().parents[2]
 
 
-@pytest.fixture(scope="module")
-def kondor_orbit(tmp_path_factory):
-    report = tmp_path_factory.mktemp("report")
-    # One full orbit at 1 Hz output (the 10 Hz of the preset takes ≈ 10× longer; the physics is the same).
-    result = subprocess.run(
-        [sys.executable, "-m", "pmv_ros.cli", "simulate", "--config", str(REPO / "config" / "kondor.yaml"),
-         "--orbits", "1", "--rate-hz", "1", "--report", str(report), "--json", "--quiet"],
-        capture_output=True, text=True, timeout=300, cwd=REPO)
-    assert result.returncode == 0, result.stderr
-    return json.loads(result.stdout), report
+@pytest.fixture
+def kondor_orbit(kondor_orbit_run):
+    """One Kondor orbit at 1 Hz through ``pmv simulate --report`` (the run is conftest's, shared with the
+    recording tests); (simulate's JSON, the report folder)."""
+    return kondor_orbit_run.summary, kondor_orbit_run.report
 
 
 def test_residual_sigma_is_a_few_arcmin(kondor_orbit):

@@ -8,7 +8,7 @@ in the middle of a callback or a publish. Every other stop sends a second
 signal shortly after the first — what a process-group Ctrl-C under
 ``ros2 launch`` does — so it arrives during the teardown.
 
-Three SIGINT and three SIGTERM stops per node in the default run, 20 + 20
+Two SIGINT and two SIGTERM stops per node in the default run (one of each with a second signal), 20 + 20
 with ``--run-long``. Each must end within 5 s with status 0 and nothing that
 looks like a traceback on stderr.
 """
@@ -93,14 +93,14 @@ def _stops(repeats: int):
 
 @pytest.mark.parametrize("node", NODES)
 def test_signals_stop_every_node_cleanly(node, tmp_path, run_long):
-    _run_stops(node, tmp_path, 3)
+    _run_stops(node, tmp_path, 2)
 
 
 @pytest.mark.long
 @pytest.mark.parametrize("node", NODES)
 def test_signals_stop_every_node_cleanly_twenty_times(node, tmp_path, run_long):
     if not run_long:
-        pytest.skip("the 20 + 20 loop runs with --run-long (the default run does 3 + 3)")
+        pytest.skip("the 20 + 20 loop runs with --run-long (the default run does 2 + 2)")
     _run_stops(node, tmp_path, 20)
 
 
