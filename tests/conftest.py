@@ -44,6 +44,8 @@ SHARED_FIXTURE_GROUPS = {
 
 def pytest_collection_modifyitems(config, items):
     """Under ``pytest -n 2 --dist loadgroup`` (``make test``): a module's tests on one worker, as one group."""
+    if not config.pluginmanager.hasplugin("xdist"):
+        return
     for item in items:
         module = Path(str(item.path)).resolve().relative_to(REPO).as_posix()
         item.add_marker(pytest.mark.xdist_group(SHARED_FIXTURE_GROUPS.get(module, module)))
