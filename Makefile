@@ -23,9 +23,11 @@ demo: $(STAMP)
 
 # Two workers: half the suite waits on child processes and simulated time, so two share the two cores well.
 # A test module runs whole on one worker (its module fixtures once); modules that share a session fixture
-# share a worker (tests/conftest.py, SHARED_FIXTURE_GROUPS).
+# share a worker (tests/conftest.py, pytest_xdist_make_scheduler). Tests whose figures are rates of wall time
+# (marked serial) run afterwards, alone.
 test: $(STAMP)
-	$(BIN)/python -m pytest -q -n 2 --dist loadgroup
+	$(BIN)/python -m pytest -q -n 2 -m "not serial"
+	$(BIN)/python -m pytest -q -m serial
 
 # Tests marked `long` at full length: the 24 h soak (≈ 20 min) and 60 s of 50 Hz load; figures printed.
 test-long: $(STAMP)

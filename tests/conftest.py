@@ -41,14 +41,34 @@ SHARED_FIXTURE_GROUPS = {
     "tests/system/test_launch.py": "colcon_install",
 }
 
+#: Test modules whose figures are rates of wall time (ticks a second, residuals a second, callback time):
+#: marked ``serial``, and ``make test`` runs them after the two workers, alone on the machine.
+SERIAL_MODULES = (
+    "tests/nodes/test_load.py",
+    "tests/system/test_adversarial.py",
+    "tests/system/test_hostile_clock.py",
+    "tests/system/test_soak.py",
+)
+
 
 def pytest_collection_modifyitems(config, items):
-    """Under ``pytest -n 2 --dist loadgroup`` (``make test``): a module's tests on one worker, as one group."""
-    if not config.pluginmanager.hasplugin("xdist"):
-        return
+    """Mark the tests of the serial modules ``serial``."""
     for item in items:
-        module = Path(str(item.path)).resolve().relative_to(REPO).as_posix()
-        item.add_marker(pytest.mark.xdist_group(SHARED_FIXTURE_GROUPS.get(module, module)))
+        if Path(str(item.path)).resolve().relative_to(REPO).as_posix() in SERIAL_MODULES:
+            item.add_marker(pytest.mark.serial)
+
+
+def pytest_xdist_make_scheduler(config, log):
+    """Under ``pytest -n 2`` (``make test``): a test module runs whole on one worker (its module fixtures
+    once), and modules that share a session fixture on the same one."""
+    from xdist.scheduler import LoadScopeScheduling
+
+    class ModuleGroups(LoadScopeScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            module = nodeid.split("::", 1)[0]
+            return SHARED_FIXTURE_GROUPS.get(module, module)
+
+    return ModuleGroups(config, log)
 
 
 def pytest_addoption(parser):
