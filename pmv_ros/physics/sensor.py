@@ -11,7 +11,7 @@ its physics reads):
    reports the geometric horizon of the emitting layer (``detector=None``);
 3. validity — a chord whose half-plane has no horizon, whose scan found no
    crossing, or whose swept arc has the Sun or the Moon within the exclusion
-   angle (:func:`pmv_ros.physics.ephemeris.bright_body_in_chords`) reports no
+   angle (:func:`pmv_ros.physics.bright_body.bright_body_in_chords`) reports no
    crossing (NaN) and says why (:class:`ChordStatus`);
 4. pair angles — roll from the ±Y pair, pitch from the ±X pair
    (:func:`pmv_ros.physics.geometry.roll_pitch_from_horizon_angles`): a lost
@@ -35,9 +35,10 @@ from scipy.interpolate import CubicSpline
 
 from . import chain
 from .attitude import true_roll_pitch
+from .bright_body import bright_body_in_chords
 from .constants import EARTH_MEAN_RADIUS_M, GRS80, Ellipsoid
 from .environment import EnvironmentParameters, RadianceEnvironment
-from .ephemeris import BODY_NAMES, Epoch, bright_body_in_chords
+from .ephemeris import BODY_NAMES, Epoch
 from .geometry import CHORD_AZIMUTHS_RAD, chord_line_of_sight, roll_pitch_from_horizon_angles, tangent_nadir_angles
 from .oblateness import closed_form_oblateness, sensor_axes_eci
 from .orbit import CircularOrbit, eci_to_ecef, geocentric_latitude_longitude

@@ -1,4 +1,4 @@
-"""Sun/Moon ephemeris, run epoch and the bright-body-in-a-chord check (pmv_ros.physics.ephemeris).
+"""Sun/Moon ephemeris, run epoch and the bright-body-in-a-chord check (pmv_ros.physics.ephemeris, .bright_body).
 
 Reference values and where they come from:
 
@@ -24,21 +24,23 @@ import numpy as np
 import pytest
 
 from pmv_ros.physics.attitude import body_axes_in_orbital, quaternion_from_roll_pitch_yaw
+from pmv_ros.physics.bright_body import (
+    angular_distance_to_scan_arc,
+    bright_body_in_chords,
+    chords_seeing_body,
+    occulted_by_earth,
+)
 from pmv_ros.physics.constants import EARTH_MEAN_RADIUS_M, EARTH_ROTATION_RATE_RAD_S, SPHERE
 from pmv_ros.physics.ephemeris import (
     ASTRONOMICAL_UNIT_M,
     TT_MINUS_UTC_S,
     Epoch,
-    angular_distance_to_scan_arc,
-    bright_body_in_chords,
-    chords_seeing_body,
     greenwich_mean_sidereal_angle,
     julian_date_from_utc,
     mean_obliquity,
     moon_direction_eci,
     moon_direction_from,
     moon_position_eci_m,
-    occulted_by_earth,
     sun_direction_eci,
     sun_direction_from,
     sun_position_eci_m,

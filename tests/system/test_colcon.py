@@ -65,7 +65,10 @@ def test_colcon_install_layout(colcon_install):
         # The venv's python: its bootstrapper sets up the ROS libraries, its site-packages has rclpy.
         assert interpreter.parent.samefile(VENV_BIN), f"{name} runs {interpreter}, not the python of {VENV_BIN}"
     site = prefix / PYTHON_LIB
-    for package in ("pmv_ros", *(f"pmv_ros/{layer}" for layer in LAYERS), "pmv_msgs_shim"):
+    # Every package of the source tree, the subpackages of a layer too (physics/chain, physics/environment).
+    source_packages = {init.parent.relative_to(REPO).as_posix()
+                       for root in ("pmv_ros", "pmv_msgs_shim") for init in (REPO / root).rglob("__init__.py")}
+    for package in sorted({"pmv_ros", *(f"pmv_ros/{layer}" for layer in LAYERS), "pmv_msgs_shim", *source_packages}):
         assert (site / package / "__init__.py").is_file(), f"{package} not installed in {site}"
     data_files = [path for path in (REPO / "pmv_ros/data").glob("*") if path.is_file()]
     for data in data_files:
