@@ -94,13 +94,13 @@ def flight_environment():
     import yaml
 
     from pmv_ros.runtime import parameters
-    from pmv_ros.runtime.assembly import SENSOR_PARAMS, build_detector, build_models
+    from pmv_ros.runtime.assembly import SENSOR_PARAMS, build_detector, build_models, parse_epoch
 
     document = yaml.safe_load((Path(__file__).resolve().parents[1] / "config" / "kondor.yaml").read_text())
     values = parameters.preset_values(document, "sensor_node", SENSOR_PARAMS,
                                       {"sim.fast_time": True, "radiance.source": "environment"})
     orbit, _, _ = build_models(values)
-    return build_detector(values, orbit).radiance
+    return build_detector(values, orbit, parse_epoch(values["sim.epoch_utc"])).radiance
 
 
 def time_instrument(samples: int, repeats: int, sources=("uniform", "environment")) -> dict:
