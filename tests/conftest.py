@@ -58,6 +58,7 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(pytest.mark.serial)
 
 
+@pytest.hookimpl(optionalhook=True)  # an xdist hook: unknown when the suite runs without it (-p no:xdist)
 def pytest_xdist_make_scheduler(config, log):
     """Under ``pytest -n 2`` (``make test``): a test module runs whole on one worker (its module fixtures
     once), and modules that share a session fixture on the same one."""

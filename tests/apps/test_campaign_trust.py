@@ -27,6 +27,8 @@ import numpy as np
 import pytest
 
 from pmv_ros.apps import campaign
+from pmv_ros.runtime.flight import OUTCOME_CODES
+from pmv_ros.runtime.monitor_records import Status
 from pmv_ros.physics.constants import ARCMIN_RAD
 
 pytestmark = pytest.mark.adversarial
@@ -130,7 +132,7 @@ def test_check_result_names_why_a_file_is_not_the_tasks_result(clean, tmp_path, 
     elif tamper == "season":
         pq.write_table(with_description(season="JJA"), path)  # day 1 is in DJF
     elif tamper == "summary":  # one used value moved by 0.1′, the monitor's summary beside it not
-        used = np.flatnonzero(table.column("outcome").to_numpy() == campaign.OUTCOME_CODES.index(campaign.Status.OK))
+        used = np.flatnonzero(table.column("outcome").to_numpy() == OUTCOME_CODES.index(Status.OK))
         roll = table.column("roll_rad").to_numpy()
         _rewrite(path, _set_values(float(roll[used[0]]) + 0.1 * ARCMIN_RAD, slice(used[0], used[0] + 1)))
     elif tamper == "fifo":
