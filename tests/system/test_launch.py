@@ -19,13 +19,12 @@ import math
 import os
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 
 import pytest
 import rclpy
-from children import domain_id, install_env, join_domain
+from children import VENDOR, VENDOR_INSTALLER, domain_id, install_env, join_domain
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
 from rclpy.executors import SingleThreadedExecutor
@@ -34,31 +33,15 @@ from rosgraph_msgs.msg import Clock
 #: The colcon test's domain (the same block): the two never run children at once.
 DOMAIN_ID = domain_id(0)
 
-REPO = Path(__file__).resolve().parents[2]
-#: ../shared/vendor beside the repository (as CI lays it out), or where PMV_ROS_VENDOR points.
-VENDOR = Path(os.environ.get("PMV_ROS_VENDOR") or REPO.parent / "shared" / "vendor")
-INSTALLER = VENDOR / "install-ros-tools.sh"
-
 pytestmark = [
     pytest.mark.launch,
-    pytest.mark.skipif(not INSTALLER.is_file(), reason=f"no {VENDOR} (vendored ros2 launch snapshots): not tested"),
+    pytest.mark.skipif(not VENDOR_INSTALLER.is_file(),
+                       reason=f"no {VENDOR} (vendored ros2 launch snapshots): not tested"),
 ]
 
 #: First messages after a cold start of four Python processes on a busy 2-core machine.
 FIRST_MESSAGE_TIMEOUT_S = 60.0
 SHUTDOWN_TIMEOUT_S = 20.0
-
-
-@pytest.fixture(scope="module")
-def ros_tools(tmp_path_factory) -> Path:
-    """The venv copy with ros2cli, launch and launch_ros (../shared/vendor/install-ros-tools.sh)."""
-    work = tmp_path_factory.mktemp("ros_tools")
-    base = Path(sys.executable).parent.parent
-    result = subprocess.run(["bash", str(INSTALLER), str(base), str(work)], capture_output=True, text=True,
-                            timeout=600)
-    assert result.returncode == 0, f"install-ros-tools failed:\n{result.stdout}\n{result.stderr}"
-    assert (work / "venv/bin/ros2").is_file()
-    return work / "venv"
 
 
 def _launch_env(install: Path, tools: Path, log_dir: Path) -> dict:
@@ -203,7 +186,8 @@ def test_launch_follow_starts_no_attitude_source(colcon_install, ros_tools, grap
 
 
 def test_launch_namespace_fast_time_keeps_the_preset_sections(colcon_install, ros_tools, graph, tmp_path):
-    """namespace:=sat1: the preset's and follow.yaml's node sections still reach the renamed nodes; fast time runs."""
+    """namespace:=sat1: the preset's and follow.yaml's node sections still reach the renamed nodes, the topics and
+    frames move under sat1; fast time runs."""
     node, executor = graph
     launched = Launched(colcon_install, ros_tools, tmp_path, "namespace:=sat1", "follow:=true", "fast_time:=true",
                         "time_scale:=2")
@@ -213,12 +197,19 @@ def test_launch_namespace_fast_time_keeps_the_preset_sections(colcon_install, ro
         # The nodes are on the graph before they have finished starting: wait for the sensor's start line too.
         _spin_until(executor, launched, lambda: {("sensor_node", "/sat1"), ("error_monitor_node", "/sat1")}
                     <= set(node.get_node_names_and_namespaces()) and len(clock) >= 5
-                    and "sensor_node: H =" in launched.log(), FIRST_MESSAGE_TIMEOUT_S,
-                    "no /sat1 nodes, no /clock or no start line of the sensor")
-        assert node.get_publishers_info_by_topic("/attitude/truth") == []
+                    and "sensor_node: H =" in launched.log()
+                    and len(node.get_subscriptions_info_by_topic("/sat1/attitude/truth")) >= 2,
+                    FIRST_MESSAGE_TIMEOUT_S, "no /sat1 nodes, no /clock, no start line of the sensor or no "
+                    "subscriptions to /sat1/attitude/truth")
+        # The spacecraft's topics moved under the namespace; /clock stays shared.
+        assert node.get_publishers_info_by_topic("/sat1/attitude/truth") == []
+        assert node.get_publishers_info_by_topic("/sat1/pmv/attitude")
+        assert node.get_subscriptions_info_by_topic("/attitude/truth") == []
         launched.interrupt()
     finally:
         launched.kill()
     _assert_clean_exit(launched)
     # follow.yaml's sensor_node section and kondor.yaml's reached /sat1/sensor_node; the sensor runs the clock.
     assert "attitude from follow" in launched.log() and "fast time" in launched.log(), launched.log()
+    # The launch namespace prefixed the frames (the inertial frame is shared by every spacecraft).
+    assert "frames eci → sat1/orbital → sat1/base_link → sat1/pmv_sensor" in launched.log(), launched.log()
