@@ -109,13 +109,14 @@ class Pipeline:
             (:class:`~pmv_ros.nodes.base.PmvNode`); the graph is private to the process.
         record: a file to record every topic of the run into, as a rosbag2 MCAP file
             (:class:`~pmv_ros.nodes.recorder.TopicRecorder`, logged at simulation time); None for none.
-            Only a recorded run publishes /tf and /tf_static: nothing else in the process's private graph
-            reads them, and two more messages per tick would cost the main job time for nothing.
+        publish_tf: the sensor publishes /tf and /tf_static (when tf2_msgs is there); None: only when
+            recording — nothing else in the process's private graph reads them, and two more messages
+            per tick would cost the main job time for nothing (benchmarks/bench_tf.py measures it).
     """
 
     def __init__(self, config: str | os.PathLike | None = None, overrides: dict | None = None,
                  isolated: bool = True, collect: bool = True, lean: bool = True,
-                 record: str | os.PathLike | None = None):
+                 record: str | os.PathLike | None = None, publish_tf: bool | None = None):
         if isolated:
             os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "OFF"
         args = ["--ros-args"]
@@ -133,7 +134,7 @@ class Pipeline:
         # between two ticks and closes its recording); rclpy's would shut the context down under it.
         rclpy.init(args=args, context=self.context, signal_handler_options=SignalHandlerOptions.NO)
         self._settings, self._lean = settings, lean
-        self.publish_tf = record is not None
+        self.publish_tf = record is not None if publish_tf is None else publish_tf
         self.nodes = []
         self.executor = None
         hold_single_threaded_blas()  # released in close()
