@@ -227,6 +227,9 @@ class PmvNode(Node):
     def input_subscription(self, message_type, topic: str, callback, source_timeout_s: float = 1.0):
         """A subscription to an input, from one source only: ``callback(message)`` for the locked publisher's messages.
 
+        ``topic`` is resolved in the node's namespace (a relative name moves with it); the lock is kept under
+        the resolved name in :attr:`source_locks`, so each spacecraft's stream has its own.
+
         Best effort unless the node takes its inputs reliably (see ``__init__``).
         The message info's publisher GID, or on Jazzy its publication
         sequence number, goes to a :class:`pmv_ros.runtime.validation.SourceLock`
@@ -284,8 +287,9 @@ class PmvNode(Node):
     def input_source_counters(self) -> dict:
         """``other_source_<topic>``: messages dropped per input because a second publisher sent them;
         ``rejected_clock_<reason>``: /clock messages that did not set the time (see :meth:`_guard_clock`)."""
-        counters = {f"other_source_{self._input_names[topic].strip('/').replace('/', '_')}": lock.other_source_messages
-                    for topic, lock in self.source_locks.items() if lock.other_source_messages}
+        # Keys from the names the node gave (other_source_attitude_truth), the same in every namespace.
+        counters = {f"other_source_{self._input_names[topic].strip('/').replace('/', '_')}":
+                    lock.other_source_messages for topic, lock in self.source_locks.items() if lock.other_source_messages}
         counters.update({f"rejected_clock_{reason}": count for reason, count in self.clock_check.counts.items()
                          if count})
         return counters

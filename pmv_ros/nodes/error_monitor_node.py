@@ -16,7 +16,9 @@ memory is bounded by the monitor's caps.
 Bad input is dropped before it touches any state and counted per reason
 (``rejected_<stream>_<reason>``: the checks of :mod:`pmv_ros.runtime.validation`,
 with the ``input.*`` plausibility bounds), messages the shim cannot read as
-``rejected_<stream>_unreadable``; only accepted sensor samples drive the
+``rejected_<stream>_unreadable``, messages stamped in another frame than their
+stream's (``frames.*``: angles in the sensor frame, truth in the orbital one,
+odometry from ``eci`` to the orbital frame) as ``rejected_<stream>_wrong_frame``; only accepted sensor samples drive the
 statistics schedule. Only the first publisher heard on each input is used; a
 second one is an ERROR on ``/diagnostics`` with the publishers' count and its
 messages are dropped (``other_source_<topic>``). Outages, restarts and clock

@@ -22,9 +22,17 @@ state is an ERROR on ``/diagnostics`` at once and logged once. Bad truth
 (non-finite, far-from-unit, zero, future, duplicate, backward, too-fast
 stamps: :mod:`pmv_ros.runtime.validation`) is dropped and counted; a truth clock
 that jumps back by more than ``attitude.follow_timeout_s`` starts a new
-timeline once the next stamp confirms it. Only the first publisher of
+timeline once the next stamp confirms it. Truth stamped in another frame than
+the orbital one (``frames.*``) is refused (``rejected_truth_wrong_frame``).
+Only the first publisher of
 ``/attitude/truth`` heard is followed; a second one is an ERROR on
 ``/diagnostics`` (:class:`pmv_ros.runtime.validation.SourceLock`).
+
+Topic names are relative (a namespace moves them), frames come from the
+``frames.*`` parameters, the instrument scans in its own frame, turned on the
+body by ``sensor.mounting_*`` (:mod:`pmv_ros.runtime.frames`), and the node
+publishes its transforms on /tf and /tf_static when tf2_msgs is there
+(:mod:`pmv_ros.nodes.tf`).
 
 ``sensor.correction`` is read once, at start-up, and is read-only: no
 parameter change, and nothing from the network, makes the node read a file.
@@ -119,12 +127,12 @@ class SensorNode(PmvNode):
                 self._start_timer(self._values)
         else:
             self._start_timer(self._values)
-        v = self._values
+        v, frames = self._values, self._frames
+        pacing = 'fast time, publishing its own /clock' if v['sim.fast_time'] else 'paced by its clock, ' + self.clock_name()
         self.get_logger().info(
             f"sensor_node: H = {v['orbit.altitude_km']:g} km, i = {v['orbit.inclination_deg']:g}°, "
-            f"{v['sensor.rate_hz']:g} Hz, attitude from {v['attitude.source']}, "
-            f"{'fast time, publishing its own /clock' if v['sim.fast_time'] else 'paced by its clock, ' + self.clock_name()}"
-            f"; frames {self._frames.eci} → {self._frames.orbital} → {self._frames.base_link} → {self._frames.sensor}")
+            f"{v['sensor.rate_hz']:g} Hz, attitude from {v['attitude.source']}, {pacing}; "
+            f"frames {frames.eci} → {frames.orbital} → {frames.base_link} → {frames.sensor}")
 
     # -- parameters ---------------------------------------------------------------------------
 
@@ -314,7 +322,8 @@ class SensorNode(PmvNode):
             level = max(summary.level, shim.Level.ERROR if source_errors else shim.Level.OK)  # a second source
             report = shim.HealthReport(stamp_s=t_s, statuses=(shim.HealthStatus(
                 name=self.status_name("horizon"), level=shim.Level(level), message=summary.message,
-                hardware_id=self.hardware_id("pmv"), values={**summary.values, **self.input_source_counters()}), self._orbit_status))
+                hardware_id=self.hardware_id("pmv"), values={**summary.values, **self.input_source_counters()}),
+                self._orbit_status))
             self._pub_diagnostics.publish(shim.write_health(self._out["diagnostics"], report))
 
     def _truth_publisher_warnings(self) -> tuple:

@@ -14,8 +14,9 @@ release queue holds at most ``latency_s × rate_hz`` frames.
 Bad input (issues 6, 15; the checks are :mod:`pmv_ros.runtime.validation`): a
 truth message with a non-finite or far-from-unit quaternion, a zero, future
 (beyond ``future_tolerance_s`` of the node clock), duplicate, backward or
-too-fast (``input.max_rate_hz``) stamp is dropped and counted per reason on
-``/diagnostics``; a near-unit quaternion is normalised. None of them moves
+too-fast (``input.max_rate_hz``) stamp, or stamped in another frame than the
+orbital one (``rejected_truth_wrong_frame``: an inertial quaternion, say), is
+dropped and counted per reason on ``/diagnostics``; a near-unit quaternion is normalised. None of them moves
 the frame grid, so the frames published are those of the clean stream. Only
 the first publisher of ``/attitude/truth`` heard is used; a second one is an
 ERROR on ``/diagnostics`` and its messages are dropped.
