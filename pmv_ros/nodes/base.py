@@ -288,8 +288,11 @@ class PmvNode(Node):
         """``other_source_<topic>``: messages dropped per input because a second publisher sent them;
         ``rejected_clock_<reason>``: /clock messages that did not set the time (see :meth:`_guard_clock`)."""
         # Keys from the names the node gave (other_source_attitude_truth), the same in every namespace.
-        counters = {f"other_source_{self._input_names[topic].strip('/').replace('/', '_')}":
-                    lock.other_source_messages for topic, lock in self.source_locks.items() if lock.other_source_messages}
+        counters = {}
+        for topic, lock in self.source_locks.items():
+            if lock.other_source_messages:
+                stream = self._input_names[topic].strip("/").replace("/", "_")
+                counters[f"other_source_{stream}"] = lock.other_source_messages
         counters.update({f"rejected_clock_{reason}": count for reason, count in self.clock_check.counts.items()
                          if count})
         return counters

@@ -128,7 +128,8 @@ class SensorNode(PmvNode):
         else:
             self._start_timer(self._values)
         v, frames = self._values, self._frames
-        pacing = 'fast time, publishing its own /clock' if v['sim.fast_time'] else 'paced by its clock, ' + self.clock_name()
+        pacing = ("fast time, publishing its own /clock" if v["sim.fast_time"]
+                  else "paced by its clock, " + self.clock_name())
         self.get_logger().info(
             f"sensor_node: H = {v['orbit.altitude_km']:g} km, i = {v['orbit.inclination_deg']:g}°, "
             f"{v['sensor.rate_hz']:g} Hz, attitude from {v['attitude.source']}, {pacing}; "
