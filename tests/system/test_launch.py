@@ -350,8 +350,12 @@ def test_two_spacecraft_share_only_clock_diagnostics_and_tf_and_fly_as_alone(col
         stamp = max(set(in_fleet) & set(by_itself))  # the last statistics both runs published
         assert stamp[0] >= LOCKSTEP_SAMPLES // 10 - 2, stamp
         for a, b in zip(in_fleet[stamp].channels, by_itself[stamp].channels):
-            assert (a.channel, a.count, a.mean_rad, a.sigma_rad) == (b.channel, b.count, b.mean_rad, b.sigma_rad)
+            # The residuals are bit-identical; the running sums take them in arrival order, which across
+            # processes can group them otherwise: the last bit may differ (seen: 2e-19 rad), so 1e-9′ as golden.
+            assert (a.channel, a.count) == (b.channel, b.count)
+            assert abs(a.mean_rad - b.mean_rad) < 1e-9 * ARCMIN_RAD
+            assert abs(a.sigma_rad - b.sigma_rad) < 1e-9 * ARCMIN_RAD
         roll = in_fleet[stamp].channels[0]
         print(f"{name} ({preset}) in the fleet and alone, statistics at {stamp[0] + stamp[1] * 1e-9:.1f} s: "
               f"N = {roll.count}, roll mean {roll.mean_rad / ARCMIN_RAD:+.4f}′, σ {roll.sigma_rad / ARCMIN_RAD:.4f}′ "
-              f"(equal); {common} residuals equal")
+              f"(equal to 1e-9′); {common} residuals bit-identical")
