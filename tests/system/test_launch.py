@@ -223,6 +223,9 @@ def test_launch_namespace_fast_time_keeps_the_preset_sections(colcon_install, ro
 
 #: Samples each spacecraft takes in the two-spacecraft run (20 s of simulation time at 10 Hz).
 LOCKSTEP_SAMPLES = 200
+#: Wall time for the launched nodes to discover one another once this process sees them all, s (3 s lost the
+#: first samples of a run once at load 10).
+DISCOVERY_SETTLE_S = 10.0
 #: The spacecraft of the two-spacecraft run: namespace → preset.
 FLEET = {"sat1": "kondor", "sat2": "meteor_m2"}
 
@@ -317,7 +320,11 @@ def test_two_spacecraft_share_only_clock_diagnostics_and_tf_and_fly_as_alone(col
 
         for name, launched in launches.items():
             _spin_until(executor, launched, ready, FIRST_MESSAGE_TIMEOUT_S, f"{name} not up")
-        for _ in range(30):  # let the launched nodes discover each other too
+        # The launched nodes must have matched each other's endpoints before the first sample (a sample sent
+        # earlier is lost, and the run no longer compares with the one alone); the graph this process sees
+        # does not tell, so wait as long as discovery of seven processes takes on a busy 2-core machine.
+        settle = time.monotonic() + DISCOVERY_SETTLE_S
+        while time.monotonic() < settle:
             executor.spin_once(timeout_sec=0.1)
         _lockstep(lambda: executor.spin_once(timeout_sec=0.01), clock,
                   [lambda name=name: len(got[name]["attitude"]) for name in FLEET], LOCKSTEP_SAMPLES, 20.0)
