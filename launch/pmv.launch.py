@@ -14,9 +14,11 @@ Arguments (``ros2 launch pmv_ros pmv.launch.py --show-args`` lists them):
   the ≈ 3000 msg/s the machine moves, see the README);
 * ``use_sim_time`` — true: all three nodes take their time from a ``/clock``
   someone else publishes (a simulator of yours); ignored with fast_time;
-* ``namespace`` — a namespace for the three nodes (their topics are absolute
-  names and stay as they are); the preset's node sections are applied to the
-  namespaced nodes.
+* ``namespace`` — one spacecraft of several: the three nodes and every topic
+  of theirs but ``/clock``, ``/diagnostics``, ``/tf`` and ``/tf_static`` move
+  under it (``/sat1/pmv/attitude``), and their frames get it as a prefix
+  (``sat1/orbital``, ``sat1/base_link``, ``sat1/pmv_sensor``; ``eci`` is shared);
+  the preset's node sections are applied to the namespaced nodes.
 """
 
 from __future__ import annotations
@@ -41,7 +43,8 @@ ARGUMENTS = (
     ("fast_time", "false", "true: the sensor runs a simulation clock and publishes /clock; the others follow it"),
     ("time_scale", "10.0", "fast time: multiple of real time (0 = as fast as possible, not for several processes)"),
     ("use_sim_time", "false", "true: every node takes its time from a /clock published by someone else"),
-    ("namespace", "", "namespace of the three nodes (topics are absolute names and do not move)"),
+    ("namespace", "", "one spacecraft of several: its nodes and topics move under this namespace, its frames "
+                      "get it as a prefix (sat1 -> /sat1/pmv/attitude, sat1/base_link)"),
 )
 
 
@@ -87,10 +90,13 @@ def _nodes(context):
     namespace = LaunchConfiguration("namespace").perform(context).strip()
     files = [str(path)] + ([str(config / "follow.yaml")] if follow else [])
     files = _namespaced(files, namespace)
-    sensor = {"use_sim_time": use_sim_time and not fast_time}
+    from pmv_ros.runtime.frames import prefix_for_namespace  # here: --show-args needs no numerics
+
+    frames = {"frames.prefix": prefix_for_namespace(namespace)}
+    sensor = {"use_sim_time": use_sim_time and not fast_time, **frames}
     if fast_time:
         sensor.update({"sim.fast_time": True, "sim.time_scale": time_scale})
-    others = {"use_sim_time": use_sim_time or fast_time}
+    others = {"use_sim_time": use_sim_time or fast_time, **frames}
     return [Node(package=PACKAGE, executable=name, name=name, namespace=namespace, output="screen",
                  parameters=[*files, sensor if name == "sensor_node" else others])
             for name in NODES]

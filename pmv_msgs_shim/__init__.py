@@ -25,6 +25,7 @@ from .conversions import (
     read_attitude_angles,
     read_attitude_quaternion,
     read_orbit_state,
+    read_transform,
     time_from_msg,
     time_to_msg,
     to_msg,
@@ -35,7 +36,9 @@ from .conversions import (
     write_health,
     write_horizon_crossings,
     write_orbit_state,
+    write_orbital_transform,
     write_stamp,
+    write_transform,
 )
 from .orbit_elements import (
     ORBIT_STATUS_NAME,
@@ -74,7 +77,7 @@ __all__ = [
     "check_stamp", "checked_lines_of_sight", "read_attitude_angles", "read_attitude_quaternion", "read_orbit_state",
     "write_attitude_angles", "write_attitude_quaternion", "write_clock", "write_error_statistics", "write_health",
     "write_horizon_crossings",
-    "write_orbit_state", "write_stamp",
+    "write_orbit_state", "write_stamp", "read_transform", "write_orbital_transform", "write_transform",
     "ORBIT_STATUS_NAME", "WIRE_CONVENTION", "OrbitElements", "find_orbit_elements", "orbit_elements_from_status",
     "orbit_elements_status",
 ]

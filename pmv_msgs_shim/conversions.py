@@ -27,6 +27,9 @@ Wire layouts
                             floats ("nan" where there is no value yet).
     /diagnostics            DiagnosticArray of :class:`HealthStatus`.
     /clock                  rosgraph_msgs/Clock: simulation time.
+    /tf, /tf_static         TransformStamped (in a tf2_msgs/TFMessage, which the node
+                            builds: tf2_msgs may be absent): the child frame's pose in
+                            the parent frame — translation (m) and rotation (x, y, z, w).
 
 Writers and readers for the hot paths
     ``write_<record>(msg, stamp_s, frame_id, …)`` fills a message in place
@@ -47,7 +50,7 @@ from functools import singledispatch
 import numpy as np
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import Point32, PolygonStamped, QuaternionStamped, Vector3Stamped
+from geometry_msgs.msg import Point32, PolygonStamped, QuaternionStamped, TransformStamped, Vector3Stamped
 from nav_msgs.msg import Odometry
 from rosgraph_msgs.msg import Clock
 
@@ -309,6 +312,44 @@ def read_orbit_state(msg: Odometry) -> tuple[float, tuple, tuple]:
         raise ValueError(f"odometry orientation ({o.x}, {o.y}, {o.z}, {o.w}) is not a rotation")
     q = (o.x / norm, o.y / norm, o.z / norm, o.w / norm)
     return check_stamp(time_from_msg(msg.header.stamp)), (p.x, p.y, p.z), _rotate(q, (v.x, v.y, v.z))
+
+
+# --------------------------------------------------------------------- transforms
+
+def write_transform(msg: TransformStamped, stamp_s: float, parent_frame: str, child_frame: str, translation_m,
+                    q_xyzw) -> TransformStamped:
+    """Fill a TransformStamped in place: the pose of ``child_frame`` in ``parent_frame`` (tf2's rule); returns it."""
+    _header(msg, stamp_s, parent_frame)
+    msg.child_frame_id = child_frame
+    transform = msg.transform
+    t, r = transform.translation, transform.rotation
+    t.x, t.y, t.z = (float(c) for c in translation_m)
+    r.x, r.y, r.z, r.w = (float(c) for c in q_xyzw)
+    return msg
+
+
+def write_orbital_transform(msg: TransformStamped, odometry: Odometry) -> TransformStamped:
+    """Fill a TransformStamped in place with the ``eci → orbital`` transform an /orbit/odometry message holds.
+
+    nav_msgs puts the pose of ``child_frame_id`` (orbital) in ``header.frame_id``
+    (ECI): position and orientation are the transform's translation and
+    rotation, with the odometry's stamp (see :func:`write_orbit_state`).
+    """
+    header, pose = odometry.header, odometry.pose.pose
+    msg.header.stamp.sec, msg.header.stamp.nanosec = header.stamp.sec, header.stamp.nanosec
+    msg.header.frame_id, msg.child_frame_id = header.frame_id, odometry.child_frame_id
+    transform = msg.transform
+    t, r, p, o = transform.translation, transform.rotation, pose.position, pose.orientation
+    t.x, t.y, t.z = p.x, p.y, p.z
+    r.x, r.y, r.z, r.w = o.x, o.y, o.z, o.w
+    return msg
+
+
+def read_transform(msg: TransformStamped) -> tuple[float, str, str, tuple, tuple]:
+    """(stamp_s, parent_frame, child_frame, translation_m, q_xyzw) of a TransformStamped."""
+    t, r = msg.transform.translation, msg.transform.rotation
+    return (check_stamp(time_from_msg(msg.header.stamp)), msg.header.frame_id, msg.child_frame_id,
+            (t.x, t.y, t.z), (r.x, r.y, r.z, r.w))
 
 
 # ------------------------------------------------------------------- diagnostics

@@ -35,8 +35,10 @@ from pmv_ros.physics.constants import SECONDS_PER_DAY
 
 from .records import HealthStatus, Level
 
-#: Name of the orbit status in sensor_node's /diagnostics.
+#: Name of the orbit status in the /diagnostics of a sensor_node without namespace; in a namespace
+#: the node's fully qualified name stands between ``pmv_ros`` and ``: orbit`` (``pmv_ros/sat1/sensor_node: orbit``).
 ORBIT_STATUS_NAME = "pmv_ros/sensor_node: orbit"
+_ORBIT_STATUS_PREFIX, _ORBIT_STATUS_SUFFIX = "pmv_ros/", ": orbit"
 
 #: Sign convention of roll and pitch on the sensor's topics: REP-103 (interfaces.md).
 WIRE_CONVENTION = "ros"
@@ -84,14 +86,15 @@ class OrbitElements:
         return math.radians(self.arg_latitude_deg) + 2.0 * math.pi * (stamp_s - self.epoch_stamp_s) / self.period_s
 
 
-def orbit_elements_status(elements: OrbitElements) -> HealthStatus:
-    """The /diagnostics status that carries ``elements``."""
+def orbit_elements_status(elements: OrbitElements, name: str = ORBIT_STATUS_NAME,
+                          hardware_id: str = "pmv") -> HealthStatus:
+    """The /diagnostics status named ``name`` that carries ``elements``."""
     values = [("epoch_utc", elements.epoch_utc)]
     values += [(key, repr(float(getattr(elements, key)))) for key in _FLOAT_KEYS]
     values.append(("roll_pitch_convention", elements.roll_pitch_convention))
     message = (f"epoch {elements.epoch_utc} at stamp {elements.epoch_stamp_s:.3f} s: H = {elements.altitude_km:g} km, "
                f"i = {elements.inclination_deg:g}°, u0 = {elements.arg_latitude_deg:g}°")
-    return HealthStatus(name=ORBIT_STATUS_NAME, level=Level.OK, message=message, hardware_id="pmv",
+    return HealthStatus(name=name, level=Level.OK, message=message, hardware_id=hardware_id,
                         values=tuple(values))
 
 
@@ -115,12 +118,20 @@ def orbit_elements_from_status(status) -> OrbitElements:
     return OrbitElements(**fields)
 
 
-def find_orbit_elements(diagnostic_array) -> OrbitElements | None:
-    """The orbit elements of a /diagnostics message (DiagnosticArray or HealthReport), or None if it has none."""
+def is_orbit_status_name(name: str) -> bool:
+    """Whether ``name`` is the orbit status of some sensor_node (any namespace)."""
+    return name.startswith(_ORBIT_STATUS_PREFIX) and name.endswith(_ORBIT_STATUS_SUFFIX)
+
+
+def find_orbit_elements(diagnostic_array, name: str | None = None) -> OrbitElements | None:
+    """The orbit elements of a /diagnostics message (DiagnosticArray or HealthReport), or None if it has none.
+
+    ``name``: the status of one sensor (``pmv_ros/sat1/sensor_node: orbit``); None: the first sensor's found.
+    """
     statuses = getattr(diagnostic_array, "status", None)
     if statuses is None:
         statuses = diagnostic_array.statuses
     for status in statuses:
-        if status.name == ORBIT_STATUS_NAME:
+        if status.name == name if name is not None else is_orbit_status_name(status.name):
             return orbit_elements_from_status(status)
     return None

@@ -15,16 +15,15 @@ from typing import Mapping
 import numpy as np
 
 from pmv_ros.analysis.statistics import ChannelStatistics
+from pmv_ros.runtime.frames import DEFAULT_FRAMES
 from pmv_ros.runtime.records import Level
 
-#: Frame of the sensor (= body) axes: boresight −Z, chords along ±X, ±Y.
-SENSOR_FRAME = "pmv_sensor"
-#: Orbital frame: Z up along the geocentric radius, X towards the velocity in the orbit plane, Y = Z × X.
-ORBITAL_FRAME = "orbital"
-#: Earth-centred inertial frame.
-ECI_FRAME = "eci"
-#: Spacecraft body frame.
-BODY_FRAME = "body"
+#: The default frame ids (interfaces.md "Frames"; their one home is :mod:`pmv_ros.runtime.frames`):
+#: record defaults and a reader's expectations. A node stamps with its own ``frames.*`` parameters.
+SENSOR_FRAME = DEFAULT_FRAMES.sensor
+ORBITAL_FRAME = DEFAULT_FRAMES.orbital
+ECI_FRAME = DEFAULT_FRAMES.eci
+BODY_FRAME = DEFAULT_FRAMES.base_link
 
 
 #: Tolerance on |line of sight| − 1 for a valid chord (float32 on the wire gives ~1e-7).

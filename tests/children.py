@@ -23,6 +23,11 @@ DISCOVERY_ENV = ("ROS_DOMAIN_ID", "ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_STATIC_P
 BOOTSTRAP_ENV = ("_ROS_WHEELS_BOOTSTRAP_COMPLETE", "LD_LIBRARY_PATH")
 PYTHON_LIB = f"lib/python{sys.version_info.major}.{sys.version_info.minor}/site-packages"
 
+#: ../shared/vendor beside the repository (as CI lays it out), or where PMV_ROS_VENDOR points: snapshots of the
+#: real ROS 2 tools (ros2cli, launch) and tf2_msgs with the script that installs them into a venv copy.
+VENDOR = Path(os.environ.get("PMV_ROS_VENDOR") or Path(__file__).resolve().parents[2] / "shared" / "vendor")
+VENDOR_INSTALLER = VENDOR / "install-ros-tools.sh"
+
 
 def domain_id(block: int) -> int:
     """A ROS domain of this run's own in ``block`` (0: 1…100, 1: 101…200): apart from other runs by the pid,

@@ -7,7 +7,8 @@ golden outputs, the layering). Support modules beside this file, imported by
 the tests (never a test module by another): ``children`` (the environment of
 child processes and their ROS domain), ``cli_runner`` (``pmv`` in-process),
 ``flights`` (a preset flown without ROS), ``neighbour`` (a hostile node on the
-stack's domain), ``node_harness``, ``reference_chain``; and in ``system/``
+stack's domain), ``node_harness``, ``reference_chain``, ``tf_scenario`` (a
+namespaced sensor and its transforms read back); and in ``system/``
 ``bounded_run``, ``cli_cases`` and ``record_child`` (children measured for
 time and memory).
 The published tables are :mod:`pmv_ros.physics.published`.
@@ -117,6 +118,25 @@ def harness():
     yield make
     for item in made:
         item.close()
+
+
+@pytest.fixture(scope="session")
+def ros_tools(tmp_path_factory) -> Path:
+    """A venv copy with ros2cli, launch, launch_ros and tf2_msgs (../shared/vendor/install-ros-tools.sh), once per run.
+
+    Skips when the vendored snapshots are not there (users without them still get a green run).
+    """
+    from children import VENDOR, VENDOR_INSTALLER
+
+    if not VENDOR_INSTALLER.is_file():
+        pytest.skip(f"no {VENDOR} (vendored ROS 2 tool snapshots): not tested")
+    work = tmp_path_factory.mktemp("ros_tools")
+    base = Path(sys.executable).parent.parent
+    result = subprocess.run(["bash", str(VENDOR_INSTALLER), str(base), str(work)], capture_output=True, text=True,
+                            timeout=600)
+    assert result.returncode == 0, f"install-ros-tools failed:\n{result.stdout}\n{result.stderr}"
+    assert (work / "venv/bin/ros2").is_file()
+    return work / "venv"
 
 
 def _colcon_missing() -> str | None:

@@ -97,6 +97,18 @@ class PmvNode(Node):
     :func:`pmv_ros.nodes.params.install_validation`.
     """
 
+    def status_name(self, part: str = "") -> str:
+        """Name of a /diagnostics status of this node: ``pmv_ros`` + its fully qualified name (+ ``: part``).
+
+        ``pmv_ros/sensor_node: horizon`` with no namespace, ``pmv_ros/sat1/sensor_node: horizon`` in
+        ``sat1``: /diagnostics is shared by every spacecraft of a graph, so each status says whose it is.
+        """
+        return f"pmv_ros{self.get_fully_qualified_name()}" + (f": {part}" if part else "")
+
+    def hardware_id(self, device: str) -> str:
+        """``hardware_id`` of this node's /diagnostics statuses: the device and the node's fully qualified name."""
+        return f"{device}:{self.get_fully_qualified_name()}"
+
     def clock_name(self) -> str:
         """The clock this node runs on, for its start-up line: simulation time from /clock or the wall clock."""
         if self.get_parameter("use_sim_time").value:
@@ -111,7 +123,8 @@ class PmvNode(Node):
         self.parameter_specs = {}  # name → ParamSpec, filled by install_validation
         super().__init__(name, **kwargs)
         self._lean = lean
-        self.source_locks = {}  # input topic → SourceLock (see input_subscription)
+        self.source_locks = {}  # input topic (resolved name) → SourceLock (see input_subscription)
+        self._input_names = {}  # input topic (resolved name) → the name the node gave (for counter keys)
         self._arrival_clock = JumpDetector(ARRIVAL_JUMP_BACK_S, forward_threshold_s=ARRIVAL_JUMP_AHEAD_S)
         self._source_problems, self._source_checked_s = [], -float("inf")
         self._input_qos = QOS if (lean if reliable_inputs is None else reliable_inputs) else INPUT_QOS
@@ -214,6 +227,9 @@ class PmvNode(Node):
     def input_subscription(self, message_type, topic: str, callback, source_timeout_s: float = 1.0):
         """A subscription to an input, from one source only: ``callback(message)`` for the locked publisher's messages.
 
+        ``topic`` is resolved in the node's namespace (a relative name moves with it); the lock is kept under
+        the resolved name in :attr:`source_locks`, so each spacecraft's stream has its own.
+
         Best effort unless the node takes its inputs reliably (see ``__init__``).
         The message info's publisher GID, or on Jazzy its publication
         sequence number, goes to a :class:`pmv_ros.runtime.validation.SourceLock`
@@ -225,7 +241,7 @@ class PmvNode(Node):
         ``source_timeout_s`` of simulation time), through a jump detector: a
         single forged ``/clock`` cannot make the locked source look silent.
         """
-        lock = self.source_locks[topic] = SourceLock(source_timeout_s)
+        lock = SourceLock(source_timeout_s)
 
         def on_message(message, info) -> None:
             stamp = message.header.stamp
@@ -233,7 +249,11 @@ class PmvNode(Node):
                           stamp_s=stamp.sec + stamp.nanosec * 1e-9):
                 callback(message)
 
-        return self.subscription(message_type, topic, on_message, self._input_qos)
+        subscription = self.subscription(message_type, topic, on_message, self._input_qos)
+        # Keyed by the name resolved in the node's namespace: one lock per stream of one spacecraft.
+        self.source_locks[subscription.topic_name] = lock
+        self._input_names[subscription.topic_name] = topic
+        return subscription
 
     def _arrival_s(self) -> float:
         """Now on the node clock, s, as the source locks see it (a jump counts once the next reading confirms it)."""
@@ -267,8 +287,12 @@ class PmvNode(Node):
     def input_source_counters(self) -> dict:
         """``other_source_<topic>``: messages dropped per input because a second publisher sent them;
         ``rejected_clock_<reason>``: /clock messages that did not set the time (see :meth:`_guard_clock`)."""
-        counters = {f"other_source_{topic.strip('/').replace('/', '_')}": lock.other_source_messages
-                    for topic, lock in self.source_locks.items() if lock.other_source_messages}
+        # Keys from the names the node gave (other_source_attitude_truth), the same in every namespace.
+        counters = {}
+        for topic, lock in self.source_locks.items():
+            if lock.other_source_messages:
+                stream = self._input_names[topic].strip("/").replace("/", "_")
+                counters[f"other_source_{stream}"] = lock.other_source_messages
         counters.update({f"rejected_clock_{reason}": count for reason, count in self.clock_check.counts.items()
                          if count})
         return counters

@@ -16,7 +16,9 @@ memory is bounded by the monitor's caps.
 Bad input is dropped before it touches any state and counted per reason
 (``rejected_<stream>_<reason>``: the checks of :mod:`pmv_ros.runtime.validation`,
 with the ``input.*`` plausibility bounds), messages the shim cannot read as
-``rejected_<stream>_unreadable``; only accepted sensor samples drive the
+``rejected_<stream>_unreadable``, messages stamped in another frame than their
+stream's (``frames.*``: angles in the sensor frame, truth in the orbital one,
+odometry from ``eci`` to the orbital frame) as ``rejected_<stream>_wrong_frame``; only accepted sensor samples drive the
 statistics schedule. Only the first publisher heard on each input is used; a
 second one is an ERROR on ``/diagnostics`` with the publishers' count and its
 messages are dropped (``other_source_<topic>``). Outages, restarts and clock
@@ -38,7 +40,9 @@ import pmv_msgs_shim as shim
 from .base import PmvNode
 from ..runtime.assembly import MONITOR_PARAMS as PARAMS, build_monitor
 from ..runtime.monitor import ErrorMonitor
+from ..runtime.frames import Frames
 from ..runtime.monitor_records import SENSOR_REJECTIONS, Status
+from ..runtime.validation import Rejection, check_frame
 from .launch import run_node
 from .params import ParameterError, declare, install_validation
 
@@ -50,23 +54,27 @@ class ErrorMonitorNode(PmvNode):
         super().__init__("error_monitor_node", **kwargs)
         self._values = declare(self, PARAMS)
         try:
+            self._frames = Frames.from_values(self._values)
             self._monitor = build_monitor(self._values)
         except ValueError as error:  # a combination the ranges cannot check
             raise ParameterError(str(error)) from None
         install_validation(self, PARAMS, self._values, self._rebuild)
-        self._pub_residual = self.publisher(Vector3Stamped, "/pmv/residual")
+        # Relative names: in a namespace, this spacecraft's topics move under it (interfaces.md "Topics").
+        self._pub_residual = self.publisher(Vector3Stamped, "pmv/residual")
         # Filled in place for every publication (rclpy serialises at publish).
         self._out_residual, self._out_statistics, self._out_diagnostics = (Vector3Stamped(), DiagnosticArray(),
                                                                            DiagnosticArray())
-        self._pub_statistics = self.publisher(DiagnosticArray, "/pmv/error_statistics")
+        self._pub_statistics = self.publisher(DiagnosticArray, "pmv/error_statistics")
         self._pub_diagnostics = self.publisher(DiagnosticArray, "/diagnostics")
         timeout = self._values["input.source_timeout_s"]
-        self.input_subscription(Vector3Stamped, "/pmv/attitude", self._on_sensor, timeout)
-        self._truth_subscription = self.input_subscription(QuaternionStamped, "/star_tracker/attitude",
+        self.input_subscription(Vector3Stamped, "pmv/attitude", self._on_sensor, timeout)
+        self._truth_subscription = self.input_subscription(QuaternionStamped, "star_tracker/attitude",
                                                            self._on_truth, timeout)
-        self.input_subscription(Odometry, "/orbit/odometry", self._on_odometry, timeout)
-        self._rejected_messages = dict.fromkeys(
-            (f"rejected_{stream}_unreadable" for stream in ("sensor", "truth", "odometry")), 0)
+        self.input_subscription(Odometry, "orbit/odometry", self._on_odometry, timeout)
+        # What the node refuses before the core sees it: messages the shim cannot read, and messages
+        # stamped in another frame than their stream's (fixed keys: memory stays bounded).
+        self._rejected_messages = {f"rejected_{stream}_{reason}": 0 for stream in ("sensor", "truth", "odometry")
+                                   for reason in ("unreadable", Rejection.WRONG_FRAME.value)}
         self._next_statistics_s = None
         self._last_statistics = None
         self._rejected_reported = 0
@@ -85,13 +93,24 @@ class ErrorMonitorNode(PmvNode):
         now = self.get_clock().now().nanoseconds * 1e-9
         return now if now > 0.0 else None
 
-    def _reject(self, stream: str) -> None:
-        """Count a message of ``stream`` the shim could not read (fixed keys: memory stays bounded)."""
-        self._rejected_messages[f"rejected_{stream}_unreadable"] += 1
+    def _reject(self, stream: str, reason: str = "unreadable") -> None:
+        """Count a message of ``stream`` the node refused before the core (fixed keys: memory stays bounded)."""
+        self._rejected_messages[f"rejected_{stream}_{reason}"] += 1
+
+    def _in_frame(self, stream: str, frame_id: str, expected: str) -> bool:
+        """Whether a message of ``stream`` is stamped in ``expected``; counts it as rejected when not."""
+        rejection = check_frame(frame_id, expected)
+        if rejection is not None:
+            self._reject(stream, rejection.value)
+        return rejection is None
 
     # -- inputs ------------------------------------------------------------------------------------
 
     def _on_odometry(self, message: Odometry) -> None:
+        # nav_msgs: the pose in header.frame_id (ECI), the twist in child_frame_id (orbital).
+        if not (self._in_frame("odometry", message.header.frame_id, self._frames.eci)
+                and self._in_frame("odometry", message.child_frame_id, self._frames.orbital)):
+            return
         try:
             stamp_s, position, velocity = shim.read_orbit_state(message)
         except ValueError:
@@ -102,6 +121,8 @@ class ErrorMonitorNode(PmvNode):
         self._handle(self._monitor.take_settled())
 
     def _on_truth(self, message: QuaternionStamped) -> None:
+        if not self._in_frame("truth", message.header.frame_id, self._frames.orbital):
+            return
         try:
             stamp_s, q_xyzw = shim.read_attitude_quaternion(message)
         except ValueError:
@@ -110,6 +131,8 @@ class ErrorMonitorNode(PmvNode):
         self._handle(self._monitor.add_truth_quaternion(stamp_s, q_xyzw, now_s=self._now_s()))
 
     def _on_sensor(self, message: Vector3Stamped) -> None:
+        if not self._in_frame("sensor", message.header.frame_id, self._frames.sensor):
+            return
         try:
             stamp_s, roll_rad, pitch_rad = shim.read_attitude_angles(message)
         except ValueError:
@@ -130,7 +153,7 @@ class ErrorMonitorNode(PmvNode):
             if outcome.status is Status.OK:
                 # One message, filled in place for every residual (rclpy serialises at publish).
                 self._pub_residual.publish(shim.write_attitude_angles(
-                    self._out_residual, outcome.stamp_s, shim.SENSOR_FRAME,
+                    self._out_residual, outcome.stamp_s, self._frames.sensor,
                     outcome.residual_roll_rad, outcome.residual_pitch_rad))
 
     # -- outputs -----------------------------------------------------------------------------------
@@ -204,9 +227,9 @@ class ErrorMonitorNode(PmvNode):
                   "pending": self._monitor.pending_count, "truth_buffer": self._monitor.truth_buffer_length}
         self._pub_diagnostics.publish(shim.write_health(self._out_diagnostics, shim.HealthReport(
             stamp_s=now or 0.0, statuses=(shim.HealthStatus(
-                name="pmv_ros/error_monitor_node", level=level,
+                name=self.status_name(), level=level,
                 message="; ".join(problems) if problems else "aligned with truth",
-                hardware_id="pmv", values=values),))))
+                hardware_id=self.hardware_id("pmv"), values=values),))))
 
 
 def main(args=None) -> int:

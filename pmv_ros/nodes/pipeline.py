@@ -67,8 +67,8 @@ class ReportCollector(PmvNode):
         self._stride = 1
         self._statistics_msg = None
         self._statistics = None
-        self.subscription(Vector3Stamped, "/pmv/residual", self._on_residual)
-        self.subscription(DiagnosticArray, "/pmv/error_statistics", self._on_statistics)
+        self.subscription(Vector3Stamped, "pmv/residual", self._on_residual)
+        self.subscription(DiagnosticArray, "pmv/error_statistics", self._on_statistics)
 
     def _on_residual(self, message) -> None:
         self.residual_count += 1
@@ -109,11 +109,14 @@ class Pipeline:
             (:class:`~pmv_ros.nodes.base.PmvNode`); the graph is private to the process.
         record: a file to record every topic of the run into, as a rosbag2 MCAP file
             (:class:`~pmv_ros.nodes.recorder.TopicRecorder`, logged at simulation time); None for none.
+        publish_tf: the sensor publishes /tf and /tf_static (when tf2_msgs is there); None: only when
+            recording — nothing else in the process's private graph reads them, and two more messages
+            per tick would cost the main job time for nothing (benchmarks/bench_tf.py measures it).
     """
 
     def __init__(self, config: str | os.PathLike | None = None, overrides: dict | None = None,
                  isolated: bool = True, collect: bool = True, lean: bool = True,
-                 record: str | os.PathLike | None = None):
+                 record: str | os.PathLike | None = None, publish_tf: bool | None = None):
         if isolated:
             os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "OFF"
         args = ["--ros-args"]
@@ -131,6 +134,7 @@ class Pipeline:
         # between two ticks and closes its recording); rclpy's would shut the context down under it.
         rclpy.init(args=args, context=self.context, signal_handler_options=SignalHandlerOptions.NO)
         self._settings, self._lean = settings, lean
+        self.publish_tf = record is not None if publish_tf is None else publish_tf
         self.nodes = []
         self.executor = None
         hold_single_threaded_blas()  # released in close()
@@ -196,6 +200,8 @@ class Pipeline:
         ``overrides`` are added to the pipeline's parameters for this node.
         """
         node_class, sim_time, arguments = self.ROLES[role]
+        if node_class is SensorNode:
+            arguments = {**arguments, "publish_tf": self.publish_tf}
         source = self._time_source() if sim_time else None
         node = self._add(node_class(**arguments, **self._options(source, overrides)))
         if source is not None:

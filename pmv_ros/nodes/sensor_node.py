@@ -22,9 +22,17 @@ state is an ERROR on ``/diagnostics`` at once and logged once. Bad truth
 (non-finite, far-from-unit, zero, future, duplicate, backward, too-fast
 stamps: :mod:`pmv_ros.runtime.validation`) is dropped and counted; a truth clock
 that jumps back by more than ``attitude.follow_timeout_s`` starts a new
-timeline once the next stamp confirms it. Only the first publisher of
+timeline once the next stamp confirms it. Truth stamped in another frame than
+the orbital one (``frames.*``) is refused (``rejected_truth_wrong_frame``).
+Only the first publisher of
 ``/attitude/truth`` heard is followed; a second one is an ERROR on
 ``/diagnostics`` (:class:`pmv_ros.runtime.validation.SourceLock`).
+
+Topic names are relative (a namespace moves them), frames come from the
+``frames.*`` parameters, the instrument scans in its own frame, turned on the
+body by ``sensor.mounting_*`` (:mod:`pmv_ros.runtime.frames`), and the node
+publishes its transforms on /tf and /tf_static when tf2_msgs is there
+(:mod:`pmv_ros.nodes.tf`).
 
 ``sensor.correction`` is read once, at start-up, and is read-only: no
 parameter change, and nothing from the network, makes the node read a file.
@@ -46,10 +54,12 @@ from ..runtime.assembly import SENSOR_PARAMS as PARAMS, build_models, read_corre
 from ..runtime.sample_stream import SampleStream, SensorSample, fast_time_block
 from ..runtime.sensor_health import SensorHealth, truth_source_warnings
 from ..runtime.truth_buffer import TruthAt, TruthBuffer
-from ..runtime.validation import Jump, JumpDetector, Rejection, StampCheck, check_quaternion_sample
+from ..runtime.frames import Frames, Mounting
+from ..runtime.validation import Jump, JumpDetector, Rejection, StampCheck, check_frame, check_quaternion_sample
 from ..physics.tle_orbit import OrbitPropagationError
 from .launch import run_node
 from .params import ParameterError, declare, install_validation
+from .tf import NO_TF2_MSGS, SensorTransforms, tf_message_type
 
 
 
@@ -60,24 +70,30 @@ class SensorNode(PmvNode):
     Args:
         external_drive: fast time stepped by the caller through :meth:`step`
             (``pmv simulate``) instead of by the node's own wall-clock timer.
+        publish_tf: publish /tf and /tf_static (when tf2_msgs is there). The
+            in-process pipeline turns it off unless it records: nothing else
+            in its private graph listens, and every message per tick costs
+            the main job time.
     """
 
-    def __init__(self, *, external_drive: bool = False, **kwargs):
+    def __init__(self, *, external_drive: bool = False, publish_tf: bool = True, **kwargs):
         super().__init__("sensor_node", **kwargs)
         self._values = declare(self, PARAMS)
         self._external_drive = external_drive
         self._clock_epoch_s = self.get_clock().now().nanoseconds * 1e-9
         try:
+            self._frames = Frames.from_values(self._values)
             self._correction = read_correction(self._values)  # the one file read: here, at start-up
             self._rebuild(self._values)
         except ValueError as error:  # a combination, a date or a file the ranges cannot check
             raise ParameterError(str(error)) from None
         install_validation(self, PARAMS, self._values, self._rebuild_live)
         self._following = self._values["attitude.source"] == "follow"
-        self._pub_crossings = self.publisher(PolygonStamped, "/pmv/horizon_crossings")
-        self._pub_attitude = self.publisher(Vector3Stamped, "/pmv/attitude")
-        self._pub_attitude_raw = self.publisher(Vector3Stamped, "/pmv/attitude_uncorrected")
-        self._pub_odometry = self.publisher(Odometry, "/orbit/odometry")
+        # Relative names: in a namespace, every topic of this spacecraft moves under it (interfaces.md "Topics").
+        self._pub_crossings = self.publisher(PolygonStamped, "pmv/horizon_crossings")
+        self._pub_attitude = self.publisher(Vector3Stamped, "pmv/attitude")
+        self._pub_attitude_raw = self.publisher(Vector3Stamped, "pmv/attitude_uncorrected")
+        self._pub_odometry = self.publisher(Odometry, "orbit/odometry")
         self._pub_diagnostics = self.publisher(DiagnosticArray, "/diagnostics")
         self._pub_truth = self._pub_clock = None
         self._health = SensorHealth()
@@ -91,11 +107,19 @@ class SensorNode(PmvNode):
                          attitude=Vector3Stamped(), attitude_raw=Vector3Stamped(), clock=ClockMsg(),
                          diagnostics=DiagnosticArray())
         if self._following:
-            self.input_subscription(QuaternionStamped, "/attitude/truth", self._on_truth,
+            self.input_subscription(QuaternionStamped, "attitude/truth", self._on_truth,
                                     self._values["input.source_timeout_s"])
         else:
-            self._pub_truth = self.publisher(QuaternionStamped, "/attitude/truth")
+            self._pub_truth = self.publisher(QuaternionStamped, "attitude/truth")
         self._sim_time_s = self._values["sim.start_time_s"]
+        self._transforms = None
+        tf_message = tf_message_type() if publish_tf else None
+        if publish_tf and tf_message is None:
+            self.get_logger().warning(NO_TF2_MSGS)
+        elif tf_message is not None:
+            self._transforms = SensorTransforms(self, tf_message, self._frames,
+                                                Mounting.from_values(self._values).q_body_to_sensor,
+                                                own_attitude=not self._following, stamp_s=self._now_s())
         self._timer = None
         if self._values["sim.fast_time"]:
             self._pub_clock = self.publisher(ClockMsg, "/clock")
@@ -103,11 +127,13 @@ class SensorNode(PmvNode):
                 self._start_timer(self._values)
         else:
             self._start_timer(self._values)
-        v = self._values
+        v, frames = self._values, self._frames
+        pacing = ("fast time, publishing its own /clock" if v["sim.fast_time"]
+                  else "paced by its clock, " + self.clock_name())
         self.get_logger().info(
             f"sensor_node: H = {v['orbit.altitude_km']:g} km, i = {v['orbit.inclination_deg']:g}°, "
-            f"{v['sensor.rate_hz']:g} Hz, attitude from {v['attitude.source']}, "
-            f"{'fast time, publishing its own /clock' if v['sim.fast_time'] else 'paced by its clock, ' + self.clock_name()}")
+            f"{v['sensor.rate_hz']:g} Hz, attitude from {v['attitude.source']}, {pacing}; "
+            f"frames {frames.eci} → {frames.orbital} → {frames.base_link} → {frames.sensor}")
 
     # -- parameters ---------------------------------------------------------------------------
 
@@ -125,7 +151,8 @@ class SensorNode(PmvNode):
         if previous is not None:  # a parameter change keeps the truth received so far
             self._truth.take_samples(previous)
         # Epoch and elements on every /diagnostics, so that recordings can be analysed (issue 13).
-        self._orbit_status = shim.orbit_elements_status(shim.OrbitElements.from_orbit(orbit, values["sim.epoch_utc"]))
+        self._orbit_status = shim.orbit_elements_status(shim.OrbitElements.from_orbit(orbit, values["sim.epoch_utc"]),
+                                                        self.status_name("orbit"), self.hardware_id("pmv"))
 
     def _rebuild_live(self, values: dict) -> None:
         if values["sim.fast_time"]:
@@ -154,6 +181,10 @@ class SensorNode(PmvNode):
 
     def _on_truth(self, message: QuaternionStamped) -> None:
         """Follow mode: keep valid truth in the buffer; drop and count bad messages."""
+        rejection = check_frame(message.header.frame_id, self._frames.orbital)  # an inertial quaternion, say
+        if rejection is not None:
+            self._health.count(f"rejected_truth_{rejection.value}")
+            return
         try:
             record = shim.attitude_quaternion_from_msg(message)
         except ValueError:  # negative or non-finite stamp
@@ -257,17 +288,19 @@ class SensorNode(PmvNode):
         return None
 
     def _publish_sample(self, sample: SensorSample) -> None:
-        out, t_s = self._out, sample.t_s
+        out, t_s, frames = self._out, sample.t_s, self._frames
         if self._pub_truth is not None:
-            self._pub_truth.publish(shim.write_attitude_quaternion(out["truth"], t_s, shim.ORBITAL_FRAME,
-                                                                   sample.q_xyzw))
-        self._pub_odometry.publish(shim.write_orbit_state(out["odometry"], t_s, shim.ECI_FRAME, shim.ORBITAL_FRAME,
-                                                          sample.position_eci_m, sample.velocity_eci_m_s))
-        self._pub_crossings.publish(shim.write_horizon_crossings(out["crossings"], t_s, shim.SENSOR_FRAME,
+            self._pub_truth.publish(shim.write_attitude_quaternion(out["truth"], t_s, frames.orbital, sample.q_xyzw))
+        odometry = shim.write_orbit_state(out["odometry"], t_s, frames.eci, frames.orbital,
+                                          sample.position_eci_m, sample.velocity_eci_m_s)
+        self._pub_odometry.publish(odometry)
+        if self._transforms is not None:
+            self._transforms.publish(odometry, t_s, sample.q_xyzw)
+        self._pub_crossings.publish(shim.write_horizon_crossings(out["crossings"], t_s, frames.sensor,
                                                                  sample.line_of_sight))
-        self._pub_attitude.publish(shim.write_attitude_angles(out["attitude"], t_s, shim.SENSOR_FRAME,
+        self._pub_attitude.publish(shim.write_attitude_angles(out["attitude"], t_s, frames.sensor,
                                                               sample.roll_rad, sample.pitch_rad))
-        self._pub_attitude_raw.publish(shim.write_attitude_angles(out["attitude_raw"], t_s, shim.SENSOR_FRAME,
+        self._pub_attitude_raw.publish(shim.write_attitude_angles(out["attitude_raw"], t_s, frames.sensor,
                                                                   sample.roll_uncorrected_rad,
                                                                   sample.pitch_uncorrected_rad))
         self._health.record_sample(sample.chord_status)
@@ -289,8 +322,9 @@ class SensorNode(PmvNode):
         if summary is not None:
             level = max(summary.level, shim.Level.ERROR if source_errors else shim.Level.OK)  # a second source
             report = shim.HealthReport(stamp_s=t_s, statuses=(shim.HealthStatus(
-                name="pmv_ros/sensor_node: horizon", level=shim.Level(level), message=summary.message,
-                hardware_id="pmv", values={**summary.values, **self.input_source_counters()}), self._orbit_status))
+                name=self.status_name("horizon"), level=shim.Level(level), message=summary.message,
+                hardware_id=self.hardware_id("pmv"), values={**summary.values, **self.input_source_counters()}),
+                self._orbit_status))
             self._pub_diagnostics.publish(shim.write_health(self._out["diagnostics"], report))
 
     def _truth_publisher_warnings(self) -> tuple:
@@ -298,7 +332,7 @@ class SensorNode(PmvNode):
         source is an ERROR from :meth:`input_source_problems`: only the first one heard is followed)."""
         if self._following:
             return ()
-        others = self.count_publishers("/attitude/truth") - (self._pub_truth is not None)
+        others = self.count_publishers(self._pub_truth.topic_name) - 1
         return truth_source_warnings(others)
 
 

@@ -14,8 +14,9 @@ release queue holds at most ``latency_s × rate_hz`` frames.
 Bad input (issues 6, 15; the checks are :mod:`pmv_ros.runtime.validation`): a
 truth message with a non-finite or far-from-unit quaternion, a zero, future
 (beyond ``future_tolerance_s`` of the node clock), duplicate, backward or
-too-fast (``input.max_rate_hz``) stamp is dropped and counted per reason on
-``/diagnostics``; a near-unit quaternion is normalised. None of them moves
+too-fast (``input.max_rate_hz``) stamp, or stamped in another frame than the
+orbital one (``rejected_truth_wrong_frame``: an inertial quaternion, say), is
+dropped and counted per reason on ``/diagnostics``; a near-unit quaternion is normalised. None of them moves
 the frame grid, so the frames published are those of the clean stream. Only
 the first publisher of ``/attitude/truth`` heard is used; a second one is an
 ERROR on ``/diagnostics`` and its messages are dropped.
@@ -45,10 +46,15 @@ from .base import PmvNode
 from ..physics.star_tracker import Outcome
 from ..runtime.assembly import STAR_TRACKER_PARAMS as PARAMS
 from ..runtime.tracker import TrackerRuntime
-from ..runtime.validation import TRUTH_REJECTIONS, Rejection, StampCheck, check_quaternion_sample
+from ..runtime.frames import Frames
+from ..runtime.validation import TRUTH_REJECTIONS, Rejection, StampCheck, check_frame, check_quaternion_sample
 from .launch import run_node
 from .params import ParameterError, declare, install_validation
 
+
+
+#: Why a truth message is dropped here: the checks of the stream, and a frame other than the orbital one.
+_REJECTIONS = TRUTH_REJECTIONS + (Rejection.WRONG_FRAME,)
 
 
 class StarTrackerNode(PmvNode):
@@ -59,6 +65,7 @@ class StarTrackerNode(PmvNode):
         self._values = declare(self, PARAMS)
         self._start_s = self.get_clock().now().nanoseconds * 1e-9
         try:
+            self._frames = Frames.from_values(self._values)
             self._runtime = TrackerRuntime(self._values, self._start_s)
             self._stamps = StampCheck(1.0, 1.0).reconfigured(self._values["clock_jump_s"],
                                                              self._values["future_tolerance_s"],
@@ -66,13 +73,14 @@ class StarTrackerNode(PmvNode):
         except ValueError as error:  # a combination the ranges cannot check
             raise ParameterError(str(error)) from None
         install_validation(self, PARAMS, self._values, self._rebuild)
-        self._publisher = self.publisher(QuaternionStamped, "/star_tracker/attitude")
+        # Relative names: in a namespace, this spacecraft's topics move under it (interfaces.md "Topics").
+        self._publisher = self.publisher(QuaternionStamped, "star_tracker/attitude")
         self._diagnostics = self.publisher(DiagnosticArray, "/diagnostics")
-        self.input_subscription(QuaternionStamped, "/attitude/truth", self._on_truth,
+        self.input_subscription(QuaternionStamped, "attitude/truth", self._on_truth,
                                 self._values["input.source_timeout_s"])
         # Filled in place for every publication (rclpy serialises at publish).
         self._out, self._out_diagnostics = QuaternionStamped(), DiagnosticArray()
-        self._counters = {f"rejected_truth_{reason.value}": 0 for reason in TRUTH_REJECTIONS}
+        self._counters = {f"rejected_truth_{reason.value}": 0 for reason in _REJECTIONS}
         self._counters.update(truth_quaternions_normalised=0, clock_jumps=0, clock_outliers=0,
                               frames_dropped_at_clock_jump=0)
         self._rejected_reported = 0
@@ -104,6 +112,10 @@ class StarTrackerNode(PmvNode):
         self._last_diagnostics_s = -math.inf
 
     def _on_truth(self, message: QuaternionStamped) -> None:
+        rejection = check_frame(message.header.frame_id, self._frames.orbital)  # an inertial quaternion, say
+        if rejection is not None:
+            self._counters[f"rejected_truth_{rejection.value}"] += 1
+            return
         try:
             t_s, q_xyzw = shim.read_attitude_quaternion(message)
         except ValueError:  # a negative or non-finite stamp
@@ -120,7 +132,8 @@ class StarTrackerNode(PmvNode):
         self._counters["truth_quaternions_normalised"] += sample.normalised
         self._runtime.add_truth(t_s, sample.q_xyzw)
         for frame_s, q_measured in self._runtime.release(t_s):
-            self._publisher.publish(shim.write_attitude_quaternion(self._out, frame_s, shim.ORBITAL_FRAME, q_measured))
+            self._publisher.publish(shim.write_attitude_quaternion(self._out, frame_s, self._frames.orbital,
+                                                                     q_measured))
         self._maybe_publish_diagnostics(t_s)
 
     def _maybe_publish_diagnostics(self, t_s: float) -> None:
@@ -148,7 +161,7 @@ class StarTrackerNode(PmvNode):
         values.update(self._counters)
         values.update(self.input_source_counters())
         values["release_queue"] = len(self._runtime.queue)
-        rejected = sum(self._counters[f"rejected_truth_{reason.value}"] for reason in TRUTH_REJECTIONS)
+        rejected = sum(self._counters[f"rejected_truth_{reason.value}"] for reason in _REJECTIONS)
         if rejected > self._rejected_reported:
             problems = problems + ["rejected /attitude/truth messages"]
         self._rejected_reported = rejected
@@ -156,8 +169,8 @@ class StarTrackerNode(PmvNode):
         problems = source_errors + problems
         level = shim.Level.ERROR if source_errors else shim.Level.WARN if problems else shim.Level.OK
         report = shim.HealthReport(stamp_s=t_s, statuses=(shim.HealthStatus(
-            name="pmv_ros/star_tracker_node", level=level, message="; ".join(problems) or "attitude available",
-            hardware_id="star_tracker", values=values),))
+            name=self.status_name(), level=level, message="; ".join(problems) or "attitude available",
+            hardware_id=self.hardware_id("star_tracker"), values=values),))
         self._diagnostics.publish(shim.write_health(self._out_diagnostics, report))
 
     @property

@@ -34,7 +34,7 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from . import chain
-from .attitude import true_roll_pitch
+from .attitude import quaternion_product, true_roll_pitch
 from .bright_body import bright_body_in_chords
 from .constants import EARTH_MEAN_RADIUS_M, GRS80, Ellipsoid
 from .environment import EnvironmentParameters, RadianceEnvironment
@@ -83,6 +83,10 @@ class SensorConfig:
         scan_start_nadir_rad: scan start θ₀ of the bright-body arc, rad;
             None: the detector's, or the nominal one of the orbit
             (:func:`nominal_scan_start_nadir_rad`) for the ideal detector.
+        mounting_q_xyzw: orientation of the sensor frame in the body frame
+            (x, y, z, w); None: the sensor axes are the body axes. The
+            instrument scans in its own frame, so it reads roll and pitch of
+            the sensor frame: a misalignment shows as a constant offset.
     """
 
     ellipsoid: Ellipsoid = GRS80
@@ -91,8 +95,13 @@ class SensorConfig:
     bright_body_exclusion_rad: float = 0.0
     epoch: Epoch | None = None
     scan_start_nadir_rad: float | None = None
+    mounting_q_xyzw: tuple | None = None
 
     def __post_init__(self) -> None:
+        if self.mounting_q_xyzw is not None:
+            norm = math.sqrt(sum(float(c) ** 2 for c in self.mounting_q_xyzw))
+            if len(self.mounting_q_xyzw) != 4 or not abs(norm - 1.0) < 1e-9:
+                raise ValueError(f"mounting_q_xyzw = {self.mounting_q_xyzw} is not a unit quaternion (x, y, z, w)")
         if not (0.0 <= self.ideal_layer_height_m <= 100e3):
             raise ValueError(f"ideal_layer_height_m = {self.ideal_layer_height_m} is outside the allowed range 0 … 100000 m")
         exclusion = float(self.bright_body_exclusion_rad)
@@ -445,12 +454,14 @@ class SensorModel:
 
         Args:
             t_s: ``(N,)`` simulation times, s.
-            q_orbital_to_body: ``(4, N)`` true body attitudes (x, y, z, w).
+            q_orbital_to_body: ``(4, N)`` true body attitudes (x, y, z, w); the sensor frame is the
+                body frame turned by the mounting (``SensorConfig.mounting_q_xyzw``).
         """
         t = np.atleast_1d(np.asarray(t_s, float))
         q = np.asarray(q_orbital_to_body, float).reshape(4, -1)
+        q_sensor = q if self.config.mounting_q_xyzw is None else quaternion_product(q, self.config.mounting_q_xyzw)
         position, _ = self.orbit.state_eci(t)
-        axes = sensor_axes_eci(self.orbit, t, q)
+        axes = sensor_axes_eci(self.orbit, t, q_sensor)
         horizon = None
         if self.detector is None:
             corrected, uncorrected, status = self._ideal_detection(position, axes)
@@ -463,7 +474,7 @@ class SensorModel:
         if self.config.bright_body_exclusion_rad > 0.0:
             if horizon is None:
                 horizon = tangent_nadir_angles(position, axes, self.config.ellipsoid, 0.0)
-            status, blinding = self._exclude_bright_bodies(t, q, horizon, status)
+            status, blinding = self._exclude_bright_bodies(t, q_sensor, horizon, status)
         valid = status == ChordStatus.VALID
         corrected = np.where(valid, corrected, np.nan)
         uncorrected = np.where(valid, uncorrected, np.nan)

@@ -18,6 +18,7 @@ from ..physics.ephemeris import Epoch, raan_from_local_time_of_node
 from .monitor import ErrorMonitor
 from .monitor_records import MonitorConfig
 from ..physics.orbit import CircularOrbit
+from .frames import FRAME_PARAMS, MOUNTING_PARAMS, Mounting
 from .parameters import ParamSpec
 from ..physics.tle_orbit import TleOrbit, element_set_altitude_m
 from ..physics.sensor import ChainDetector, RadianceConfig, SensorConfig, SensorModel, nominal_scan_start_nadir_rad
@@ -59,7 +60,7 @@ ORBIT_INCLINATION = ParamSpec("orbit.inclination_deg", 74.5, "orbit inclination"
 ORBIT_SOURCES = ("circular", "tle", "follow")
 
 #: Parameters of sensor_node (units in the names; YAML speaks km, deg, arcmin).
-SENSOR_PARAMS = INPUT_PARAMS + (
+SENSOR_PARAMS = INPUT_PARAMS + FRAME_PARAMS + MOUNTING_PARAMS + (
     ORBIT_ALTITUDE,
     ORBIT_INCLINATION,
     ParamSpec("orbit.raan_deg", 0.0, "right ascension of the ascending node at epoch", -360.0, 360.0, unit="deg",
@@ -154,7 +155,7 @@ SENSOR_PARAMS = INPUT_PARAMS + (
 MAX_OUTAGES = 64
 
 #: Parameters of star_tracker_node.
-STAR_TRACKER_PARAMS = INPUT_PARAMS + (
+STAR_TRACKER_PARAMS = INPUT_PARAMS + FRAME_PARAMS + (
     replace(ORBIT_ALTITUDE, description="orbit altitude (gives the orbital rate for the rate limit)"),
     ParamSpec("rate_hz", 2.0, "frame rate of the star tracker", 0.01, 50.0, unit="Hz"),
     ParamSpec("latency_s", 0.25, "delay from frame time to publication", 0.0, 60.0, unit="s"),
@@ -192,7 +193,7 @@ def build_tracker(values: dict, start_s: float) -> StarTracker:
 
 
 #: Parameters of error_monitor_node.
-MONITOR_PARAMS = INPUT_PARAMS + MONITOR_INPUT_PARAMS + (
+MONITOR_PARAMS = INPUT_PARAMS + FRAME_PARAMS + MONITOR_INPUT_PARAMS + (
     replace(ORBIT_ALTITUDE, description="nominal orbit altitude (until /orbit/odometry arrives)"),
     replace(ORBIT_INCLINATION, description="nominal inclination (until /orbit/odometry arrives)"),
     ParamSpec("remove_oblateness", True, "report statistics with the closed-form oblateness model removed"),
@@ -294,6 +295,7 @@ def build_models(values: dict, *, clock_epoch_s: float = 0.0, correction=READ_CO
     # The clock's zero: simulation time 0 in fast time, the node start in real time.
     clock_epoch = Epoch(epoch.julian_date_utc - orbit.epoch_s / SECONDS_PER_DAY)
     detector = build_detector(values, orbit, epoch, correction)
+    mounting = Mounting.from_values(values)
     config = SensorConfig(
         ellipsoid=GRS80 if values["sensor.earth_model"] == "GRS80" else SPHERE,
         ideal_layer_height_m=values["sensor.layer_height_km"] * 1e3,
@@ -302,6 +304,7 @@ def build_models(values: dict, *, clock_epoch_s: float = 0.0, correction=READ_CO
         epoch=clock_epoch,
         scan_start_nadir_rad=None if detector is not None else nominal_scan_start_nadir_rad(
             orbit.altitude_m, math.radians(values["sensor.scan_margin_deg"])),
+        mounting_q_xyzw=None if mounting.aligned else mounting.q_body_to_sensor,
     )
     return orbit, profile, SensorModel(orbit, config, detector)
 

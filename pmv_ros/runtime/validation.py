@@ -65,6 +65,7 @@ class Rejection(str, Enum):
     IMPLAUSIBLE_ANGLE = "implausible_angle"  # |roll| or |pitch| beyond the plausibility bound
     IMPLAUSIBLE_ORBIT = "implausible_orbit"  # radius, speed or energy not those of a bound Earth orbit
     OTHER_SOURCE = "other_source"            # from a second publisher on the stream (see SourceLock)
+    WRONG_FRAME = "wrong_frame"              # stamped in another frame than the stream's (check_frame)
 
 
 #: The stamp reasons, in the order :class:`StampCheck` tries them.
@@ -72,6 +73,17 @@ STAMP_REJECTIONS = (Rejection.NON_FINITE, Rejection.ZERO_STAMP, Rejection.FUTURE
                     Rejection.BACKWARDS, Rejection.UNCONFIRMED_JUMP, Rejection.TOO_FAST)
 #: Reasons a truth message is dropped (the /diagnostics keys are rejected_truth_<reason>).
 TRUTH_REJECTIONS = STAMP_REJECTIONS + (Rejection.BAD_QUATERNION,)
+
+
+def check_frame(frame_id: str, expected: str) -> Rejection | None:
+    """WRONG_FRAME unless a message is stamped in the frame its stream is defined in (None then).
+
+    interfaces.md "Frames": an input is checked against its expected frame —
+    an inertial quaternion on /attitude/truth, whose attitude is relative to
+    the orbital frame, would otherwise be taken as an orbital attitude.
+    Frame ids compare exactly (tf2 does too): no prefix is guessed.
+    """
+    return None if frame_id == expected else Rejection.WRONG_FRAME
 
 
 # ----------------------------------------------------------------------------------- values

@@ -52,7 +52,7 @@ from pmv_msgs_shim import (
 def test_frame_ids_are_the_documented_names():
     from pmv_msgs_shim import BODY_FRAME, ECI_FRAME, ORBITAL_FRAME, SENSOR_FRAME
 
-    assert (SENSOR_FRAME, ORBITAL_FRAME, ECI_FRAME, BODY_FRAME) == ("pmv_sensor", "orbital", "eci", "body")
+    assert (SENSOR_FRAME, ORBITAL_FRAME, ECI_FRAME, BODY_FRAME) == ("pmv_sensor", "orbital", "eci", "base_link")
 
 
 def test_importing_the_shim_and_the_core_does_not_import_rclpy():
