@@ -38,8 +38,9 @@ REPO = Path(__file__).resolve().parents[1]
 SHARED_FIXTURE_GROUPS = {
     "tests/apps/test_recording.py": "kondor_orbit_run",   # and the main job: one Kondor orbit, recorded
     "tests/system/test_main_job.py": "kondor_orbit_run",
-    "tests/system/test_colcon.py": "colcon_install",      # and the launch tests: one colcon build
-    "tests/system/test_launch.py": "colcon_install",
+    "tests/system/test_colcon.py": "colcon_install",      # and the launch tests: one colcon build,
+    "tests/system/test_launch.py": "colcon_install",      # one install of the vendored ROS tools
+    "tests/system/test_tf_vendored.py": "colcon_install",
 }
 
 #: Test modules whose figures are rates of wall time (ticks a second, residuals a second, callback time):
