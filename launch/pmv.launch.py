@@ -18,7 +18,19 @@ Arguments (``ros2 launch pmv_ros pmv.launch.py --show-args`` lists them):
   of theirs but ``/clock``, ``/diagnostics``, ``/tf`` and ``/tf_static`` move
   under it (``/sat1/pmv/attitude``), and their frames get it as a prefix
   (``sat1/orbital``, ``sat1/base_link``, ``sat1/pmv_sensor``; ``eci`` is shared);
-  the preset's node sections are applied to the namespaced nodes.
+  the preset's node sections are applied to the namespaced nodes;
+* ``rate_hz`` — the sensor's output rate, Hz (default: the preset's);
+* ``seed`` — the seed of the sensor's and the star tracker's random processes
+  (default: the preset's);
+* ``log_level`` — debug, info (default), warn, error or fatal, for the three nodes;
+* ``respawn`` — true: a node that dies is started again after 2 s;
+* ``star_tracker``, ``monitor`` — false: leave that node out (your stack has its
+  own star tracker or monitor; they talk on the same topics).
+
+``rate_hz`` and ``seed`` reach the nodes in a params file of node sections
+passed after the preset's: a node section beats a ``-p``, so a plain override
+would lose to the preset. A value that cannot be used ends the launch with
+one line naming the argument and a non-zero exit, before any node starts.
 """
 
 from __future__ import annotations
@@ -45,7 +57,15 @@ ARGUMENTS = (
     ("use_sim_time", "false", "true: every node takes its time from a /clock published by someone else"),
     ("namespace", "", "one spacecraft of several: its nodes and topics move under this namespace, its frames "
                       "get it as a prefix (sat1 -> /sat1/pmv/attitude, sat1/base_link)"),
+    ("rate_hz", "", "the sensor's output rate, Hz (empty: the preset's)"),
+    ("seed", "", "seed of the sensor's and the star tracker's random processes (empty: the preset's)"),
+    ("log_level", "info", "log level of the three nodes: debug, info, warn, error or fatal"),
+    ("respawn", "false", "true: a node that dies is started again after 2 s"),
+    ("star_tracker", "true", "false: no star_tracker_node (your stack publishes star_tracker/attitude)"),
+    ("monitor", "true", "false: no error_monitor_node"),
 )
+LOG_LEVELS = ("debug", "info", "warn", "error", "fatal")
+RESPAWN_DELAY_S = 2.0
 
 
 class LaunchArgumentError(RuntimeError):
@@ -57,6 +77,31 @@ def _flag(context, name: str) -> bool:
     if value not in ("true", "false"):
         raise LaunchArgumentError(f"{name}:={value!r}: expected true or false")
     return value == "true"
+
+
+def _checked(context, name: str, spec):
+    """The launch argument ``name`` as the value of parameter ``spec`` (None when empty), or LaunchArgumentError."""
+    text = LaunchConfiguration(name).perform(context).strip()
+    if not text:
+        return None
+    try:
+        value = int(text, 10) if isinstance(spec.default, int) else float(text)
+    except ValueError:
+        raise LaunchArgumentError(f"{name}:={text}: expected {spec.kind}") from None
+    problem = spec.check(value)
+    if problem:
+        raise LaunchArgumentError(f"{name}:={text}: {problem}")
+    return value
+
+
+def _node_sections(values: dict, namespace: str) -> str:
+    """A params file with one section per node (``values``: node → parameters), full names when namespaced."""
+    prefix = "/" + namespace.strip("/") if namespace else ""
+    document = {(f"{prefix}/{node}" if prefix else node): {"ros__parameters": parameters}
+                for node, parameters in values.items() if parameters}
+    with tempfile.NamedTemporaryFile("w", prefix="pmv_launch_", suffix=".yaml", delete=False) as stream:
+        yaml.safe_dump(document, stream)
+    return stream.name
 
 
 def _namespaced(files: list[str], namespace: str) -> list[str]:
@@ -88,18 +133,38 @@ def _nodes(context):
     except ValueError:
         raise LaunchArgumentError("time_scale: expected a number") from None
     namespace = LaunchConfiguration("namespace").perform(context).strip()
+    log_level = LaunchConfiguration("log_level").perform(context).strip().lower()
+    if log_level not in LOG_LEVELS:
+        raise LaunchArgumentError(f"log_level:={log_level}: expected one of {', '.join(LOG_LEVELS)}")
+    respawn = _flag(context, "respawn")
+    wanted = {"sensor_node": True, "star_tracker_node": _flag(context, "star_tracker"),
+              "error_monitor_node": _flag(context, "monitor")}
+    from pmv_ros.runtime.assembly import NODE_PARAMS  # here: --show-args needs no numerics
+    from pmv_ros.runtime.frames import prefix_for_namespace
+
+    def spec(node: str, parameter: str):
+        return next(s for s in NODE_PARAMS[node] if s.name == parameter)
+
+    rate_hz = _checked(context, "rate_hz", spec("sensor_node", "sensor.rate_hz"))
+    seed = _checked(context, "seed", spec("sensor_node", "seed"))
     files = [str(path)] + ([str(config / "follow.yaml")] if follow else [])
     files = _namespaced(files, namespace)
-    from pmv_ros.runtime.frames import prefix_for_namespace  # here: --show-args needs no numerics
-
     frames = {"frames.prefix": prefix_for_namespace(namespace)}
     sensor = {"use_sim_time": use_sim_time and not fast_time, **frames}
     if fast_time:
         sensor.update({"sim.fast_time": True, "sim.time_scale": time_scale})
     others = {"use_sim_time": use_sim_time or fast_time, **frames}
+    chosen = {"sensor_node": {}, "star_tracker_node": {}, "error_monitor_node": {}}
+    if rate_hz is not None:
+        chosen["sensor_node"]["sensor.rate_hz"] = rate_hz
+    if seed is not None:
+        chosen["sensor_node"]["seed"] = chosen["star_tracker_node"]["seed"] = seed
+    if any(chosen.values()):
+        files.append(_node_sections(chosen, namespace))
     return [Node(package=PACKAGE, executable=name, name=name, namespace=namespace, output="screen",
-                 parameters=[*files, sensor if name == "sensor_node" else others])
-            for name in NODES]
+                 parameters=[*files, sensor if name == "sensor_node" else others],
+                 ros_arguments=["--log-level", log_level], respawn=respawn, respawn_delay=RESPAWN_DELAY_S)
+            for name in NODES if wanted[name]]
 
 
 def generate_launch_description() -> LaunchDescription:

@@ -189,6 +189,66 @@ def test_launch_follow_starts_no_attitude_source(colcon_install, ros_tools, grap
     assert roll and all(abs(r - math.radians(0.1)) < math.radians(0.25) for r in roll), roll
 
 
+#: Launch arguments that cannot be used, and a word the refusal must name.
+BAD_ARGUMENTS = (("preset:=kondr", "preset"), ("follow:=yes", "follow"), ("rate_hz:=-1", "sensor.rate_hz"),
+                 ("rate_hz:=fast", "rate_hz"), ("seed:=1e9", "seed"), ("log_level:=loud", "log_level"),
+                 ("star_tracker:=maybe", "star_tracker"))
+
+
+def test_an_unusable_launch_argument_ends_the_launch_non_zero_with_one_line(colcon_install, ros_tools, tmp_path):
+    started = []
+    for k, (argument, _) in enumerate(BAD_ARGUMENTS):  # all at once: each refusal comes before any node starts
+        (tmp_path / str(k)).mkdir()
+        started.append(Launched(colcon_install, ros_tools, tmp_path / str(k), argument))
+    try:
+        for launched, (argument, word) in zip(started, BAD_ARGUMENTS):
+            launched.process.wait(timeout=FIRST_MESSAGE_TIMEOUT_S)
+            log = launched.log()
+            errors = [line for line in log.splitlines() if "ERROR" in line]
+            assert launched.process.returncode != 0, f"{argument}: exit 0\n{log}"
+            assert len(errors) == 1 and word in errors[0] and "Traceback" not in log, f"{argument}:\n{log}"
+            assert "process started" not in log, f"{argument}: a node started\n{log}"
+    finally:
+        for launched in started:
+            launched.kill()
+
+
+def test_launch_arguments_reach_the_nodes(colcon_install, ros_tools, graph, tmp_path):
+    """rate_hz, seed and log_level reach the sensor over the preset's node section; star_tracker:=false and
+    monitor:=false leave those nodes out."""
+    node, executor = graph
+    attitude = []
+    node.create_subscription(Vector3Stamped, "/pmv/attitude", attitude.append, 10)
+    launched = Launched(colcon_install, ros_tools, tmp_path, "rate_hz:=4", "seed:=3", "log_level:=warn",
+                        "star_tracker:=false", "monitor:=false")
+    try:
+        _spin_until(executor, launched, lambda: len(attitude) >= 6, FIRST_MESSAGE_TIMEOUT_S, "no /pmv/attitude")
+        names = set(node.get_node_names())
+        parameters = _parameters(node, executor, launched, "/sensor_node", ["sensor.rate_hz", "seed"])
+        launched.interrupt()
+    finally:
+        launched.kill()
+    log = launched.log()
+    assert parameters == [4.0, 3], parameters  # kondor.yaml's section says 10 Hz and seed 1
+    stamps = [m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec for m in attitude]
+    assert all(abs(b - a - 0.25) < 0.01 for a, b in zip(stamps, stamps[1:])), stamps  # 4 Hz (± timer jitter)
+    assert "sensor_node" in names and not {"star_tracker_node", "error_monitor_node"} & names, names
+    assert "star_tracker_node" not in log and "error_monitor_node" not in log, log
+    assert "sensor_node: H =" not in log, log  # its INFO start-up line, below log_level warn
+
+
+def _parameters(node, executor, launched, target: str, names: list) -> list:
+    """The values of ``names`` on node ``target``, through its get_parameters service."""
+    from rcl_interfaces.srv import GetParameters
+
+    client = node.create_client(GetParameters, f"{target}/get_parameters")
+    _spin_until(executor, launched, client.service_is_ready, FIRST_MESSAGE_TIMEOUT_S, f"no {target}/get_parameters")
+    future = client.call_async(GetParameters.Request(names=names))
+    _spin_until(executor, launched, future.done, FIRST_MESSAGE_TIMEOUT_S, f"no answer from {target}")
+    values = future.result().values
+    return [value.double_value if value.type == 3 else value.integer_value for value in values]
+
+
 def test_launch_namespace_fast_time_keeps_the_preset_sections(colcon_install, ros_tools, graph, tmp_path):
     """namespace:=sat1: the preset's and follow.yaml's node sections still reach the renamed nodes, the topics and
     frames move under sat1; fast time runs."""
