@@ -15,8 +15,9 @@ for ±Y, pitch for ±X); ``/diagnostics`` names the chord and the cause.
 Follow mode (``attitude.source: follow``; README "Follow mode") never
 publishes ``/attitude/truth``. It measures with the attitude at its own
 sample time (:class:`pmv_ros.runtime.truth_buffer.TruthBuffer`: slerp between
-truth samples, the last body rate for at most
-``attitude.extrapolation_periods`` truth periods past the newest), stamps
+truth samples, the last body rate for ``attitude.extrapolation_periods`` truth
+periods past the newest, and up to ``attitude.extrapolation_s`` to bridge a
+late truth sample, counted ``truth_bridged``), stamps
 the output with that time, and publishes nothing from stale truth: the stale
 state is an ERROR on ``/diagnostics`` at once and logged once. Bad truth
 (non-finite, far-from-unit, zero, future, duplicate, backward, too-fast
@@ -43,7 +44,7 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 import pmv_msgs_shim as shim
 from .base import PmvNode
 from ..runtime.assembly import SENSOR_PARAMS as PARAMS, build_models, read_correction
-from ..runtime.sample_stream import SampleStream, SensorSample, fast_time_block
+from ..runtime.sample_stream import SampleGrid, SampleStream, SensorSample, fast_time_block
 from ..runtime.sensor_health import SensorHealth, truth_source_warnings
 from ..runtime.truth_buffer import TruthAt, TruthBuffer
 from ..runtime.validation import Jump, JumpDetector, Rejection, StampCheck, check_quaternion_sample
@@ -114,6 +115,10 @@ class SensorNode(PmvNode):
     def _rebuild(self, values: dict) -> None:
         orbit, profile, model = build_models(values, clock_epoch_s=self._clock_epoch_s, correction=self._correction)
         self._stream = SampleStream(model, orbit, profile, shim.checked_lines_of_sight)
+        # Real time: the sample times, on the grid of the orbit's epoch (the node clock at the start).
+        period_s = 1.0 / values["sensor.rate_hz"]
+        grid = getattr(self, "_grid", None)
+        self._grid = SampleGrid(self._clock_epoch_s, period_s) if grid is None else grid.with_period(period_s)
         timeout = values["attitude.follow_timeout_s"]
         # Older by more than the timeout: the source restarted on a new clock (once the next stamp confirms it).
         stamps = getattr(self, "_truth_stamps", None) or StampCheck(timeout, timeout)
@@ -121,7 +126,8 @@ class SensorNode(PmvNode):
         for lock in self.source_locks.values():
             lock.timeout_s = values["input.source_timeout_s"]
         previous = getattr(self, "_truth", None)
-        self._truth = TruthBuffer(values["attitude.extrapolation_periods"], values["attitude.follow_timeout_s"])
+        self._truth = TruthBuffer(values["attitude.extrapolation_periods"], values["attitude.follow_timeout_s"],
+                                  bridge_s=values["attitude.extrapolation_s"])
         if previous is not None:  # a parameter change keeps the truth received so far
             self._truth.take_samples(previous)
         # Epoch and elements on every /diagnostics, so that recordings can be analysed (issue 13).
@@ -198,11 +204,11 @@ class SensorNode(PmvNode):
         self._sim_time_s += period
         self._pub_clock.publish(shim.write_clock(self._out["clock"], self._sim_time_s))
         if self._following:
-            self._sense_following(self._sim_time_s)
+            self._sense_following([self._sim_time_s])
             return
-        sample = self._orbit_sample(self._sim_time_s, lambda: self._stream.next_profile_sample(
-            self._sim_time_s, period, self.fast_time_block))
-        if sample is not None:
+        samples = self._orbit_samples(self._sim_time_s, lambda: [self._stream.next_profile_sample(
+            self._sim_time_s, period, self.fast_time_block)])
+        for sample in samples:
             self._publish_sample(sample)
 
     @property
@@ -212,6 +218,13 @@ class SensorNode(PmvNode):
         return fast_time_block(v["sensor.rate_hz"], v["sim.time_scale"], self._external_drive)
 
     def _on_real_time_tick(self) -> None:
+        """Publish every sample of the sensor's grid due since the last one (one block), each at its own stamp.
+
+        The timer runs on the node clock; a ``/clock`` that steps by more than
+        a period fires it once per step, so the samples are taken from the
+        grid (:class:`pmv_ros.runtime.sample_stream.SampleGrid`), not from the
+        tick. A confirmed clock jump restarts the grid at the new time.
+        """
         now_s = self.get_clock().now().nanoseconds * 1e-9
         jump = self._tick_clock.observe(now_s)
         if jump is Jump.OUTLIER:
@@ -219,33 +232,44 @@ class SensorNode(PmvNode):
         if jump is Jump.SUSPECTED:
             self._health.count("skipped_unconfirmed_clock_jump")
             return
+        if jump in (Jump.CONFIRMED_BACK, Jump.CONFIRMED_FORWARD):
+            self._grid.restart()
+        times = self._grid.due(now_s)
+        if times.size == 0:
+            return
         if self._following:
-            self._sense_following(now_s)
+            self._sense_following(times.tolist())
             return
-        sample = self._orbit_sample(now_s, lambda: self._stream.profile_sample(now_s))
-        if sample is not None:
+        for sample in self._orbit_samples(float(times[-1]), lambda: self._stream.profile_samples(times)):
             self._publish_sample(sample)
 
-    def _sense_following(self, t_s: float) -> None:
-        """Measure with the attitude at ``t_s`` from the truth buffer; nothing when there is none."""
-        q, source = self._truth.attitude_at(t_s)
-        was_stale, self._truth_state = self._truth_state is TruthAt.STALE, source
-        if source is TruthAt.STALE and not was_stale:
-            self.get_logger().error(f"/attitude/truth is stale at t = {t_s:.3f} s (newest "
-                                    f"{self._truth.newest_stamp_s:.3f} s): no angles until it returns")
-        elif was_stale and source.usable:
-            self.get_logger().info(f"/attitude/truth is back at t = {t_s:.3f} s")
-        if not source.usable:
-            self._health.count(f"skipped_{source.value}")
-            self._publish_health(t_s)
-            return
-        sample = self._orbit_sample(t_s, lambda: self._stream.sample(t_s, q))
-        if sample is not None:
-            self._publish_sample(sample)
+    def _sense_following(self, times: list) -> None:
+        """Measure at each of ``times`` (s, in order) with the attitude the truth buffer gives there, the
+        samples that have one computed as one block; a time without one publishes nothing but health."""
+        found = [self._truth.attitude_at(t_s) for t_s in times]
+        usable = [(t_s, q) for t_s, (q, source) in zip(times, found) if source.usable]
+        samples = iter(self._orbit_samples(times[-1], lambda: self._stream.samples(
+            [t for t, _ in usable], [q for _, q in usable])) if usable else ())
+        for t_s, (_, source) in zip(times, found):
+            was_stale, self._truth_state = self._truth_state is TruthAt.STALE, source
+            if source is TruthAt.STALE and not was_stale:
+                self.get_logger().error(f"/attitude/truth is stale at t = {t_s:.3f} s (newest "
+                                        f"{self._truth.newest_stamp_s:.3f} s): no angles until it returns")
+            elif was_stale and source.usable:
+                self.get_logger().info(f"/attitude/truth is back at t = {t_s:.3f} s")
+            if not source.usable:
+                self._health.count(f"skipped_{source.value}")
+                self._publish_health(t_s)
+                continue
+            if source is TruthAt.BRIDGED:  # a late truth sample, bridged by the last rate: counted, no alarm
+                self._health.count("truth_bridged")
+            sample = next(samples, None)
+            if sample is not None:
+                self._publish_sample(sample)
 
-    def _orbit_sample(self, t_s: float, compute) -> SensorSample | None:
-        """``compute()`` (a :class:`SensorSample`) unless the orbit has failed: None then. An SGP4 error code
-        stops the output for good: logged once as an ERROR, counted, and an ERROR on /diagnostics."""
+    def _orbit_samples(self, t_s: float, compute) -> list:
+        """``compute()`` (a list of :class:`SensorSample`) unless the orbit has failed: [] then. An SGP4 error
+        code stops the output for good: logged once as an ERROR, counted, and an ERROR on /diagnostics."""
         if self._orbit_error is None:
             try:
                 return compute()
@@ -254,7 +278,7 @@ class SensorNode(PmvNode):
                 self.get_logger().error(self._orbit_error)
         self._health.count("skipped_orbit_error")
         self._publish_health(t_s)
-        return None
+        return []
 
     def _publish_sample(self, sample: SensorSample) -> None:
         out, t_s = self._out, sample.t_s

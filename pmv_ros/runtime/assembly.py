@@ -19,6 +19,7 @@ from .monitor import ErrorMonitor
 from .monitor_records import MonitorConfig
 from ..physics.orbit import CircularOrbit
 from .parameters import ParamSpec
+from .truth_buffer import DEFAULT_BRIDGE_S
 from ..physics.tle_orbit import TleOrbit, element_set_altitude_m
 from ..physics.sensor import ChainDetector, RadianceConfig, SensorConfig, SensorModel, nominal_scan_start_nadir_rad
 from ..physics.star_tracker import StarTracker, StarTrackerParameters
@@ -90,7 +91,12 @@ SENSOR_PARAMS = INPUT_PARAMS + (
     ParamSpec("attitude.pitch_drift_arcmin_per_h", 0.0, "linear drift of the body pitch with time", -600.0, 600.0,
               unit="arcmin/h"),
     ParamSpec("attitude.extrapolation_periods", 2.0, "in follow mode, how far past the newest truth the last body "
-              "rate is carried, in truth periods; later the truth is stale and no angles are published", 0.0, 10.0),
+              "rate is carried as a matter of course, in truth periods (further, up to attitude.extrapolation_s, "
+              "it bridges a late truth sample and is counted truth_bridged)", 0.0, 10.0),
+    ParamSpec("attitude.extrapolation_s", DEFAULT_BRIDGE_S, "in follow mode, how far past the newest truth the last "
+              "body rate is carried at most (a scheduler hiccup of the attitude stack; the longer of this and "
+              "extrapolation_periods applies, never beyond follow_timeout_s); later the truth is stale and no "
+              "angles are published", 0.0, 10.0, unit="s"),
     ParamSpec("attitude.follow_timeout_s", 1.0, "in follow mode, no interpolation across a truth gap longer than this "
               "and no extrapolation further; also the tolerance of future stamps", 0.01, 3600.0, unit="s"),
     ParamSpec("sensor.rate_hz", 10.0, "output rate of the sensor", 0.1, 100.0, unit="Hz"),

@@ -10,6 +10,7 @@ floats and tuples, so publishing does no numpy indexing.
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from typing import NamedTuple
 
@@ -71,6 +72,61 @@ def stepped_times(start_s: float, period_s: float, samples: int, block: int) -> 
     return times[:samples]
 
 
+#: Grid times within this fraction of a period after the clock reading are due already: a clock
+#: stepping by whole periods lands on the grid up to rounding (1 s = 10 × 0.1 s in binary floats).
+GRID_TOLERANCE = 1e-6
+
+
+class SampleGrid:
+    """The sensor's own sample times on a clock it does not step: ``epoch_s + k·period_s``, k integer.
+
+    A real-time sensor (the wall clock, or a ``/clock`` someone else
+    publishes) asks :meth:`due` at each tick of its timer. However far the
+    clock moved since the last tick — a tenth of a period or ten seconds of
+    a simulation clock stepping in big strides — it gets every grid time
+    since the last sample, in order, each to be stamped with itself
+    (interfaces.md "Time"). The first tick, and the first after
+    :meth:`restart` (a confirmed clock jump), gives only the latest grid
+    time: a clock that leapt is not back-filled. A clock that stepped back
+    less than a jump gives nothing until it passes the last sample again.
+
+    Args:
+        epoch_s: a time on the grid, s (the node clock at the start: the orbit's epoch).
+        period_s: the sample period, s.
+    """
+
+    def __init__(self, epoch_s: float, period_s: float):
+        if not (math.isfinite(epoch_s) and math.isfinite(period_s) and period_s > 0.0):
+            raise ValueError(f"a sample grid needs a finite epoch and a period > 0 s, not {epoch_s}, {period_s}")
+        self.epoch_s, self.period_s = float(epoch_s), float(period_s)
+        self.last_s: float | None = None
+
+    def restart(self) -> None:
+        """Forget the last sample: the next :meth:`due` starts at the clock (after a confirmed jump)."""
+        self.last_s = None
+
+    def with_period(self, period_s: float) -> "SampleGrid":
+        """The same grid origin and last sample with another period (a rate change): the next sample is the
+        first of the new grid after the last one."""
+        grid = SampleGrid(self.epoch_s, period_s)
+        grid.last_s = self.last_s
+        return grid
+
+    def _index(self, t_s: float) -> int:
+        """The last grid index at or before ``t_s`` (with :data:`GRID_TOLERANCE`)."""
+        return math.floor((t_s - self.epoch_s) / self.period_s + GRID_TOLERANCE)
+
+    def due(self, now_s: float) -> np.ndarray:
+        """The ``(N,)`` grid times due at clock reading ``now_s`` and not yet given, s, in order (N may be 0)."""
+        last = self._index(now_s)
+        first = last if self.last_s is None else self._index(self.last_s) + 1
+        if last < first:
+            return np.empty(0)
+        times = self.epoch_s + self.period_s * np.arange(first, last + 1, dtype=float)
+        self.last_s = float(times[-1])
+        return times
+
+
 class SampleStream:
     """Sample rows of one sensor: its model, orbit and attitude profile.
 
@@ -103,14 +159,18 @@ class SampleStream:
             self._pending = deque(self.rows(times, self.profile.quaternion(times)))
         return self._pending.popleft()
 
-    def profile_sample(self, t_s: float) -> SensorSample:
-        """One own-profile sample at ``t_s`` (real time)."""
-        times = np.array([t_s])
-        return self.rows(times, self.profile.quaternion(times))[0]
+    def profile_samples(self, times) -> list[SensorSample]:
+        """Own-profile samples at ``(N,)`` times, s (real time: the samples a clock step made due)."""
+        times = np.asarray(times, float)
+        return [row for start in range(0, times.size, FAST_TIME_BLOCK)
+                for row in self.rows(times[start:start + FAST_TIME_BLOCK],
+                                     self.profile.quaternion(times[start:start + FAST_TIME_BLOCK]))]
 
-    def sample(self, t_s: float, q_xyzw) -> SensorSample:
-        """One sample at ``t_s`` with the given attitude (x, y, z, w)."""
-        return self.rows(np.array([t_s]), np.asarray(q_xyzw, float)[:, None])[0]
+    def samples(self, times, q_xyzw) -> list[SensorSample]:
+        """Samples at ``(N,)`` times, s, with the given ``(N, 4)`` attitudes (x, y, z, w) — follow mode."""
+        times, q = np.asarray(times, float), np.asarray(q_xyzw, float).reshape(-1, 4)
+        return [row for start in range(0, times.size, FAST_TIME_BLOCK)
+                for row in self.rows(times[start:start + FAST_TIME_BLOCK], q[start:start + FAST_TIME_BLOCK].T)]
 
     def rows(self, times: np.ndarray, q: np.ndarray) -> list[SensorSample]:
         """Run the instrument for ``(N,)`` times and ``(4, N)`` attitudes: N samples."""
