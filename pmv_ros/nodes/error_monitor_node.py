@@ -60,6 +60,7 @@ class ErrorMonitorNode(PmvNode):
                                                                            DiagnosticArray())
         self._pub_statistics = self.publisher(DiagnosticArray, "/pmv/error_statistics")
         self._pub_diagnostics = self.publisher(DiagnosticArray, "/diagnostics")
+        self.watch_clock("pmv_ros/error_monitor_node: clock", self._pub_diagnostics)
         timeout = self._values["input.source_timeout_s"]
         self.input_subscription(Vector3Stamped, "/pmv/attitude", self._on_sensor, timeout)
         self._truth_subscription = self.input_subscription(QuaternionStamped, "/star_tracker/attitude",

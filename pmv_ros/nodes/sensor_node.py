@@ -80,6 +80,7 @@ class SensorNode(PmvNode):
         self._pub_attitude_raw = self.publisher(Vector3Stamped, "/pmv/attitude_uncorrected")
         self._pub_odometry = self.publisher(Odometry, "/orbit/odometry")
         self._pub_diagnostics = self.publisher(DiagnosticArray, "/diagnostics")
+        self.watch_clock("pmv_ros/sensor_node: clock", self._pub_diagnostics)
         self._pub_truth = self._pub_clock = None
         self._health = SensorHealth()
         self._truth_state = None  # follow mode: where the last tick's attitude came from
@@ -234,13 +235,14 @@ class SensorNode(PmvNode):
             return
         if jump in (Jump.CONFIRMED_BACK, Jump.CONFIRMED_FORWARD):
             self._grid.restart()
-        times = self._grid.due(now_s)
-        if times.size == 0:
+        indices = self._grid.due(now_s)
+        if not indices:
             return
         if self._following:
-            self._sense_following(times.tolist())
+            self._sense_following(self._grid.time_of(indices).tolist())
             return
-        for sample in self._orbit_samples(float(times[-1]), lambda: self._stream.profile_samples(times)):
+        last_s = float(self._grid.time_of(indices[-1]))
+        for sample in self._orbit_samples(last_s, lambda: self._stream.grid_profile_samples(self._grid, indices)):
             self._publish_sample(sample)
 
     def _sense_following(self, times: list) -> None:

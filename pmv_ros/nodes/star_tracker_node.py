@@ -68,6 +68,7 @@ class StarTrackerNode(PmvNode):
         install_validation(self, PARAMS, self._values, self._rebuild)
         self._publisher = self.publisher(QuaternionStamped, "/star_tracker/attitude")
         self._diagnostics = self.publisher(DiagnosticArray, "/diagnostics")
+        self.watch_clock("pmv_ros/star_tracker_node: clock", self._diagnostics)
         self.input_subscription(QuaternionStamped, "/attitude/truth", self._on_truth,
                                 self._values["input.source_timeout_s"])
         # Filled in place for every publication (rclpy serialises at publish).
