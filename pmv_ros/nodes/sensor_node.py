@@ -4,8 +4,9 @@ Propagates the orbit on the ROS clock (or on its own simulation clock in
 fast-time mode, publishing ``/clock``), takes the body attitude from its own
 profile (published on ``/attitude/truth``) or follows the user's
 ``/attitude/truth``, runs the four chords through the instrument model and
-publishes crossings, roll/pitch (REP-103, corrected and uncorrected),
-odometry and health. The work in :mod:`pmv_ros.runtime` and :mod:`pmv_ros.physics`, message layout in
+publishes crossings, roll/pitch (REP-103, corrected and uncorrected), the
+same as an orientation with covariance for estimators (``pmv/attitude_imu``,
+:mod:`pmv_ros.runtime.estimator_output`), odometry and health. The work in :mod:`pmv_ros.runtime` and :mod:`pmv_ros.physics`, message layout in
 :mod:`pmv_msgs_shim`, health in :mod:`pmv_ros.runtime.sensor_health`.
 
 A chord without a horizon, without a crossing, or with the Sun or the Moon
@@ -40,11 +41,13 @@ from geometry_msgs.msg import PolygonStamped, QuaternionStamped, Vector3Stamped
 from nav_msgs.msg import Odometry
 from rclpy.clock import Clock, ClockType
 from rosgraph_msgs.msg import Clock as ClockMsg
+from sensor_msgs.msg import Imu
 
 import pmv_msgs_shim as shim
 from .base import PmvNode
 from ..runtime.assembly import SENSOR_PARAMS as PARAMS, build_models, read_correction
 from ..runtime.sample_stream import SampleGrid, SampleStream, SensorSample, fast_time_block
+from ..runtime.estimator_output import estimator_orientation, variance_from_rms_arcmin
 from ..runtime.sensor_health import SensorHealth, truth_source_warnings
 from ..runtime.truth_buffer import TruthAt, TruthBuffer
 from ..runtime.validation import Jump, JumpDetector, Rejection, StampCheck, check_quaternion_sample
@@ -78,6 +81,7 @@ class SensorNode(PmvNode):
         self._pub_crossings = self.publisher(PolygonStamped, "/pmv/horizon_crossings")
         self._pub_attitude = self.publisher(Vector3Stamped, "/pmv/attitude")
         self._pub_attitude_raw = self.publisher(Vector3Stamped, "/pmv/attitude_uncorrected")
+        self._pub_imu = self.publisher(Imu, "pmv/attitude_imu")
         self._pub_odometry = self.publisher(Odometry, "/orbit/odometry")
         self._pub_diagnostics = self.publisher(DiagnosticArray, "/diagnostics")
         self.watch_clock("pmv_ros/sensor_node: clock", self._pub_diagnostics)
@@ -90,7 +94,7 @@ class SensorNode(PmvNode):
         self._tick_clock = JumpDetector(1.0, forward_threshold_s=10.0)
         # One message per topic, filled in place for every sample (rclpy serialises at publish).
         self._out = dict(truth=QuaternionStamped(), odometry=Odometry(), crossings=PolygonStamped(),
-                         attitude=Vector3Stamped(), attitude_raw=Vector3Stamped(), clock=ClockMsg(),
+                         attitude=Vector3Stamped(), attitude_raw=Vector3Stamped(), imu=Imu(), clock=ClockMsg(),
                          diagnostics=DiagnosticArray())
         if self._following:
             self.input_subscription(QuaternionStamped, "/attitude/truth", self._on_truth,
@@ -116,6 +120,8 @@ class SensorNode(PmvNode):
     def _rebuild(self, values: dict) -> None:
         orbit, profile, model = build_models(values, clock_epoch_s=self._clock_epoch_s, correction=self._correction)
         self._stream = SampleStream(model, orbit, profile, shim.checked_lines_of_sight)
+        self._imu_variances = (variance_from_rms_arcmin(values["imu.roll_error_rms_arcmin"]),
+                               variance_from_rms_arcmin(values["imu.pitch_error_rms_arcmin"]))
         # Real time: the sample times, on the grid of the orbit's epoch (the node clock at the start).
         period_s = 1.0 / values["sensor.rate_hz"]
         grid = getattr(self, "_grid", None)
@@ -296,6 +302,9 @@ class SensorNode(PmvNode):
         self._pub_attitude_raw.publish(shim.write_attitude_angles(out["attitude_raw"], t_s, shim.SENSOR_FRAME,
                                                                   sample.roll_uncorrected_rad,
                                                                   sample.pitch_uncorrected_rad))
+        imu = estimator_orientation(sample.roll_rad, sample.pitch_rad, *self._imu_variances)
+        self._pub_imu.publish(shim.write_attitude_imu(out["imu"], t_s, shim.SENSOR_FRAME, imu.q_xyzw,
+                                                      imu.variances_rad2))
         self._health.record_sample(sample.chord_status)
         self._publish_health(t_s, sample.chord_status, sample.blinding_body)
 

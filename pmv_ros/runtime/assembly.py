@@ -59,6 +59,10 @@ ORBIT_INCLINATION = ParamSpec("orbit.inclination_deg", 74.5, "orbit inclination"
 #: Where the sensor's orbit comes from (interfaces.md "Orbit sources"); follow is not built yet.
 ORBIT_SOURCES = ("circular", "tle", "follow")
 
+#: Roll and pitch error RMS of the Kondor preset (the defaults fly its orbit), arcmin: the defaults of
+#: ``imu.*_error_rms_arcmin`` (config/kondor.yaml says how they were measured).
+IMU_DEFAULT_RMS_ARCMIN = (6.38, 9.12)
+
 #: Parameters of sensor_node (units in the names; YAML speaks km, deg, arcmin).
 SENSOR_PARAMS = INPUT_PARAMS + (
     ORBIT_ALTITUDE,
@@ -152,6 +156,13 @@ SENSOR_PARAMS = INPUT_PARAMS + (
               0.0, 2.0e9, unit="s", read_only=True),
     ParamSpec("diagnostics_period_s", 1.0, "period of /diagnostics health reports", 0.1, 3600.0, unit="s"),
     ParamSpec("seed", 0, "seed of every random process of the sensor", 0, 2**31 - 1, read_only=True),
+    # The defaults are the default orbit's (Kondor's, 500 km, 74.5°); each preset states its own budget.
+    ParamSpec("imu.roll_error_rms_arcmin", IMU_DEFAULT_RMS_ARCMIN[0], "/pmv/attitude_imu: root mean square of the "
+              "sensor's roll error (sensed - true, oblateness included unless compensated on board); its square is "
+              "the roll variance of orientation_covariance", 0.001, 600.0, unit="arcmin"),
+    ParamSpec("imu.pitch_error_rms_arcmin", IMU_DEFAULT_RMS_ARCMIN[1], "/pmv/attitude_imu: root mean square of the "
+              "sensor's pitch error; its square is the pitch variance of orientation_covariance", 0.001, 600.0,
+              unit="arcmin"),
 )
 
 
