@@ -49,7 +49,7 @@ from ..runtime.assembly import SENSOR_PARAMS as PARAMS, build_models, read_corre
 from ..runtime.sample_stream import SampleGrid, SampleStream, SensorSample, fast_time_block
 from ..runtime.estimator_output import estimator_orientation, variance_from_rms_arcmin
 from ..runtime.sensor_health import SensorHealth, truth_source_warnings
-from ..runtime.truth_buffer import TruthAt, TruthBuffer
+from ..runtime.truth_buffer import PendingSamples, TruthAt, TruthBuffer
 from ..runtime.validation import Jump, JumpDetector, Rejection, StampCheck, check_quaternion_sample
 from ..physics.tle_orbit import OrbitPropagationError
 from .launch import run_node
@@ -102,6 +102,7 @@ class SensorNode(PmvNode):
         else:
             self._pub_truth = self.publisher(QuaternionStamped, "/attitude/truth")
         self._sim_time_s = self._values["sim.start_time_s"]
+        self._waiting = PendingSamples()  # follow mode, real time: due sample times waiting for truth
         self._timer = None
         if self._values["sim.fast_time"]:
             self._pub_clock = self.publisher(ClockMsg, "/clock")
@@ -182,6 +183,8 @@ class SensorNode(PmvNode):
             self._health.count(f"rejected_truth_{sample.rejection.value}")
             return
         self._truth.add(record.stamp_s, sample.q_xyzw)
+        if self._waiting and not self._values["sim.fast_time"]:  # sample times that waited for this truth
+            self._sense_following(self._waiting.ready(self._truth, self._now_s()))
 
     # -- ticks ----------------------------------------------------------------------------------
 
@@ -211,7 +214,7 @@ class SensorNode(PmvNode):
         self._sim_time_s += period
         self._pub_clock.publish(shim.write_clock(self._out["clock"], self._sim_time_s))
         if self._following:
-            self._sense_following([self._sim_time_s])
+            self._sense_following([(self._sim_time_s, *self._truth.attitude_at(self._sim_time_s))])
             return
         samples = self._orbit_samples(self._sim_time_s, lambda: [self._stream.next_profile_sample(
             self._sim_time_s, period, self.fast_time_block)])
@@ -225,12 +228,14 @@ class SensorNode(PmvNode):
         return fast_time_block(v["sensor.rate_hz"], v["sim.time_scale"], self._external_drive)
 
     def _on_real_time_tick(self) -> None:
-        """Publish every sample of the sensor's grid due since the last one (one block), each at its own stamp.
+        """Publish every sample of the sensor's grid due since the last one, in order, each at its own stamp.
 
         The timer runs on the node clock; a ``/clock`` that steps by more than
         a period fires it once per step, so the samples are taken from the
         grid (:class:`pmv_ros.runtime.sample_stream.SampleGrid`), not from the
-        tick. A confirmed clock jump restarts the grid at the new time.
+        tick: with the own attitude profile computed in the grid's blocks
+        (those of a fast-time run), in follow mode the due ones as one block.
+        A confirmed clock jump restarts the grid at the new time.
         """
         now_s = self.get_clock().now().nanoseconds * 1e-9
         jump = self._tick_clock.observe(now_s)
@@ -241,24 +246,28 @@ class SensorNode(PmvNode):
             return
         if jump in (Jump.CONFIRMED_BACK, Jump.CONFIRMED_FORWARD):
             self._grid.restart()
+            self._waiting.clear()
         indices = self._grid.due(now_s)
-        if not indices:
+        if self._following:  # due times wait for the truth that covers them (it may come after the tick)
+            self._waiting.add(self._grid.time_of(indices).tolist(), now_s)
+            self._sense_following(self._waiting.ready(self._truth, now_s))
             return
-        if self._following:
-            self._sense_following(self._grid.time_of(indices).tolist())
+        if not indices:
             return
         last_s = float(self._grid.time_of(indices[-1]))
         for sample in self._orbit_samples(last_s, lambda: self._stream.grid_profile_samples(self._grid, indices)):
             self._publish_sample(sample)
 
-    def _sense_following(self, times: list) -> None:
-        """Measure at each of ``times`` (s, in order) with the attitude the truth buffer gives there, the
-        samples that have one computed as one block; a time without one publishes nothing but health."""
-        found = [self._truth.attitude_at(t_s) for t_s in times]
-        usable = [(t_s, q) for t_s, (q, source) in zip(times, found) if source.usable]
-        samples = iter(self._orbit_samples(times[-1], lambda: self._stream.samples(
+    def _sense_following(self, found: list) -> None:
+        """Measure at each ``(t_s, q, source)`` of ``found`` (in order; the attitude the truth buffer gives at
+        t_s and where it came from), the samples that have one computed as one block; a time without one
+        publishes nothing but health."""
+        if not found:
+            return
+        usable = [(t_s, q) for t_s, q, source in found if source.usable]
+        samples = iter(self._orbit_samples(found[-1][0], lambda: self._stream.samples(
             [t for t, _ in usable], [q for _, q in usable])) if usable else ())
-        for t_s, (_, source) in zip(times, found):
+        for t_s, _, source in found:
             was_stale, self._truth_state = self._truth_state is TruthAt.STALE, source
             if source is TruthAt.STALE and not was_stale:
                 self.get_logger().error(f"/attitude/truth is stale at t = {t_s:.3f} s (newest "

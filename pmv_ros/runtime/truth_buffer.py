@@ -154,3 +154,46 @@ class TruthBuffer:
             return None, TruthAt.TRUTH_GAP
         (q,), _ = slerp(stamps[before], attitudes[before], stamps[after], attitudes[after], [t_s])
         return q, TruthAt.INTERPOLATED
+
+
+class PendingSamples:
+    """Sample times of a following sensor waiting for the truth that covers them, in order.
+
+    On a clock that steps by more than a period (or on the wall clock, where
+    the truth of an instant arrives after it), the truth for a sample time
+    often arrives after the tick that made the sample due. A due time waits
+    here until truth covers it (then it is interpolated) or until the clock
+    has moved on by the truth's horizon since the tick that made it due (then
+    it takes what the buffer gives: extrapolated, bridged, or stale) — a
+    clock that leapt a second ahead of the truth is not the truth being late.
+    Memory is bounded by what one clock step and the horizon hold.
+    """
+
+    def __init__(self):
+        self._times = deque()
+
+    def __len__(self) -> int:
+        return len(self._times)
+
+    def clear(self) -> None:
+        """Forget the waiting times (a new timeline)."""
+        self._times.clear()
+
+    def add(self, times, now_s: float) -> None:
+        """Queue sample times, s (in order, after those queued), made due at clock reading ``now_s``."""
+        self._times.extend((float(t), float(now_s)) for t in times)
+
+    def ready(self, truth: TruthBuffer, now_s: float) -> list[tuple[float, tuple | None, TruthAt]]:
+        """The queued times that can be measured at clock reading ``now_s``, in order, with the attitude and its
+        source: each covered by truth, or waited for long enough since it was due — the longer of the
+        buffer's horizon and its ``bridge_s``."""
+        out, times = [], self._times
+        wait_s = max(truth.horizon_s(), truth.bridge_s)
+        while times:
+            (t_s, due_s), newest = times[0], truth.newest_stamp_s
+            covered = newest is not None and t_s <= newest + _SAME_INSTANT_S
+            if not covered and now_s - due_s < wait_s:
+                break
+            times.popleft()
+            out.append((t_s, *truth.attitude_at(t_s)))
+        return out

@@ -7,7 +7,7 @@ import pytest
 from scipy.spatial.transform import Rotation, Slerp
 
 from pmv_ros.physics.star_tracker import FrameGrid
-from pmv_ros.runtime.truth_buffer import DEFAULT_BRIDGE_S, TruthAt, TruthBuffer
+from pmv_ros.runtime.truth_buffer import DEFAULT_BRIDGE_S, PendingSamples, TruthAt, TruthBuffer
 
 RATE_RAD_S = np.array([2e-3, -1e-3, 5e-4])  # a constant body rate, orbital components
 
@@ -118,3 +118,24 @@ def test_the_frame_grid_slerps_each_frame_between_the_truth_around_it():
     assert frames == []
     frames, _, _ = grid.add(10.6, attitude(10.6))
     assert frames == pytest.approx([10.0, 10.5])
+
+
+def test_due_times_wait_for_the_truth_that_covers_them_or_until_the_horizon_has_passed():
+    buffer, waiting = TruthBuffer(extrapolation_periods=2.0, max_gap_s=1.0), PendingSamples()
+    for k in range(3):  # 50 Hz truth up to 1.04 s
+        buffer.add(1.0 + 0.02 * k, attitude(1.0 + 0.02 * k))
+    waiting.add([1.02, 1.1, 1.2], 1.2)  # a clock step made three samples due at 1.2 s
+    ready = waiting.ready(buffer, now_s=1.2)
+    assert [(t, source) for t, _, source in ready] == [(1.02, TruthAt.INTERPOLATED)] and len(waiting) == 2
+    for k in range(3, 9):  # the truth of the step arrives after the tick: up to 1.16 s
+        buffer.add(1.0 + 0.02 * k, attitude(1.0 + 0.02 * k))
+    ready = waiting.ready(buffer, now_s=1.2)
+    assert [(t, source) for t, _, source in ready] == [(1.1, TruthAt.INTERPOLATED)]
+    assert same_rotation(ready[0][1], attitude(1.1), atol=1e-12)
+    # No more truth: 1.2 waits until the clock is the horizon (0.3 s) past it, then takes what there is.
+    assert waiting.ready(buffer, now_s=1.2 + DEFAULT_BRIDGE_S - 0.01) == []
+    (t_s, q, source), = waiting.ready(buffer, now_s=1.2 + DEFAULT_BRIDGE_S)
+    assert t_s == 1.2 and source is TruthAt.BRIDGED and same_rotation(q, attitude(1.2), atol=1e-12)
+    waiting.add([1.6], 1.65)
+    assert waiting.ready(buffer, now_s=1.9) == []  # a clock that leapt ahead of the truth: not yet late
+    assert waiting.ready(buffer, now_s=1.95)[0][1:] == (None, TruthAt.STALE) and len(waiting) == 0
