@@ -88,6 +88,7 @@ class SensorNode(PmvNode):
         self._pub_truth = self._pub_clock = None
         self._health = SensorHealth()
         self._truth_state = None  # follow mode: where the last tick's attitude came from
+        self._stale_logged = False  # follow mode: the stale truth was logged and has not come back since
         self._orbit_error = None  # an element set's orbit that SGP4 could not propagate: no output from then on
         self._graph_warnings, self._source_errors, self._graph_checked_s = (), (), None
         # Real time on a /clock someone else publishes: a tick on a single forged time is skipped, not measured.
@@ -268,11 +269,14 @@ class SensorNode(PmvNode):
         samples = iter(self._orbit_samples(found[-1][0], lambda: self._stream.samples(
             [t for t, _ in usable], [q for _, q in usable])) if usable else ())
         for t_s, _, source in found:
-            was_stale, self._truth_state = self._truth_state is TruthAt.STALE, source
-            if source is TruthAt.STALE and not was_stale:
+            self._truth_state = source
+            # Said once each way: samples between the stale ones and the truth's return may read truth_gap.
+            if source is TruthAt.STALE and not self._stale_logged:
+                self._stale_logged = True
                 self.get_logger().error(f"/attitude/truth is stale at t = {t_s:.3f} s (newest "
                                         f"{self._truth.newest_stamp_s:.3f} s): no angles until it returns")
-            elif was_stale and source.usable:
+            elif source.usable and self._stale_logged:
+                self._stale_logged = False
                 self.get_logger().info(f"/attitude/truth is back at t = {t_s:.3f} s")
             if not source.usable:
                 self._health.count(f"skipped_{source.value}")
