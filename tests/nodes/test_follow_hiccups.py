@@ -84,10 +84,10 @@ def test_truth_a_quarter_second_late_is_bridged_by_default_and_stale_with_the_ol
     # and nothing is an ERROR. The control, the old default of two truth periods (40 ms at 50 Hz) and no
     # seconds-long horizon: a sample waits that long for its truth, then the truth is stale — samples are
     # dropped with an ERROR.
-    samples, statuses = fly(harness, 30.0, {}, late_s=0.25)
-    expected = np.arange(round(samples[0] * SENSOR_HZ), round(30.0 * SENSOR_HZ) + 1) / SENSOR_HZ
+    samples, statuses = fly(harness, 20.0, {}, late_s=0.25)
+    expected = np.arange(round(samples[0] * SENSOR_HZ), round(20.0 * SENSOR_HZ) + 1) / SENSOR_HZ
     assert samples.size == expected.size and not [s for s in statuses if s.level == shim.Level.ERROR]
-    samples, statuses = fly(harness, 30.0, {"attitude.extrapolation_s": 0.0}, late_s=0.25)
+    samples, statuses = fly(harness, 20.0, {"attitude.extrapolation_s": 0.0}, late_s=0.25)
     print(f"0.25 s bursts with a two-period horizon: {expected.size - samples.size} of {expected.size} samples lost")
     assert samples.size < expected.size
     assert [s for s in statuses if s.level == shim.Level.ERROR and "stale" in s.message]

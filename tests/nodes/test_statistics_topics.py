@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import math
 
+import pytest
+
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.node import Node
@@ -22,10 +24,13 @@ KEYS = {"/pmv/residual_mean": "mean_arcmin", "/pmv/residual_sigma": "sigma_arcmi
         "/pmv/residual_limit": "three_sigma_arcmin"}
 
 
-def test_numeric_statistics_equal_the_diagnostic_array_to_the_digits_printed_and_nothing_reads_nan():
+@pytest.mark.long
+def test_numeric_statistics_equal_the_diagnostic_array_to_the_digits_printed_and_nothing_reads_nan(run_long):
+    # 1.2 orbits with --run-long (the harmonics turn from "pending" to numbers after the first); by
+    # default the first quarter orbit, all of it pending harmonics.
     rate_hz = 0.2  # an orbit of 500 km (5677 s) in ≈ 1140 samples
     period_s = CircularOrbit(altitude_m=500e3, inclination_rad=math.radians(74.5)).period_s
-    steps = int(1.2 * period_s * rate_hz)
+    steps = int((1.2 if run_long else 0.25) * period_s * rate_hz)
     overrides = {"sensor.rate_hz": rate_hz, "sensor.detector": "ideal", "statistics_rate_hz": 0.02}
     with Pipeline(None, overrides, collect=False) as pipeline:
         probe = Node("probe", context=pipeline.context)
@@ -37,7 +42,7 @@ def test_numeric_statistics_equal_the_diagnostic_array_to_the_digits_printed_and
         pipeline.nodes.append(probe)
         pipeline.step(steps)
     statistics = got["/pmv/error_statistics"]
-    assert len(statistics) >= 20 and all(len(got[topic]) == len(statistics) for topic in KEYS)
+    assert len(statistics) >= 5 and all(len(got[topic]) == len(statistics) for topic in KEYS)
     pending_seen = numbers_seen = 0
     for index, message in enumerate(statistics):
         stamp_s = shim.time_from_msg(message.header.stamp)
@@ -60,6 +65,6 @@ def test_numeric_statistics_equal_the_diagnostic_array_to_the_digits_printed_and
                 else:  # the digits printed are repr(value in arcmin): the same float, to the last digit
                     numbers_seen += 1
                     assert repr(value / ARCMIN_RAD) == printed, (topic, channel, value, printed)
-    assert numbers_seen > 100
+    assert numbers_seen > 40
     print(f"{len(statistics)} statistics messages over {steps / rate_hz:.0f} s: {numbers_seen} numbers equal to "
           f"the digits printed, {pending_seen} pending (NaN on the numeric topics)")
