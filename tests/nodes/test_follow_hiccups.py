@@ -80,7 +80,7 @@ def test_bursts_of_late_truth_for_200_s_lose_no_sample_and_raise_no_error(harnes
 
 
 def test_truth_a_quarter_second_late_is_bridged_by_default_and_stale_with_the_old_two_period_horizon(harness):
-    # Bursts of up to 0.25 s late (the "≈ 0.25 s at any truth rate"): by default no sample is lost
+    # Bursts of up to 0.25 s late (a hiccup of a quarter second, at any truth rate): by default no sample is lost
     # and nothing is an ERROR. The control, the old default of two truth periods (40 ms at 50 Hz) and no
     # seconds-long horizon: a sample waits that long for its truth, then the truth is stale — samples are
     # dropped with an ERROR.
