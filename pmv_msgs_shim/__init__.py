@@ -79,6 +79,7 @@ __all__ = [
     "write_attitude_angles", "write_attitude_quaternion", "write_clock", "write_error_statistics", "write_health",
     "write_horizon_crossings", "write_attitude_imu", "read_attitude_imu", "write_statistics_vector",
     "write_orbit_state", "write_stamp",
-    "PENDING", "ORBIT_STATUS_NAME", "WIRE_CONVENTION", "OrbitElements", "find_orbit_elements", "orbit_elements_from_status",
+    "PENDING", "ORBIT_STATUS_NAME", "WIRE_CONVENTION", "OrbitElements", "find_orbit_elements",
+    "orbit_elements_from_status",
     "orbit_elements_status",
 ]

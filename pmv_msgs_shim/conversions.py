@@ -421,7 +421,8 @@ def _channel_values(channel: ChannelStatistics, oblateness_removed: bool) -> lis
         ("limit_high_arcmin", _statistic(channel.limit_high_rad / ARCMIN_RAD)),
         ("max_abs_arcmin", _statistic(channel.max_abs_rad / ARCMIN_RAD)),
     ]
-    values += [(f"harmonic_k{k:02d}_arcmin", _statistic(a / ARCMIN_RAD)) for k, a in sorted(channel.harmonics_rad.items())]
+    values += [(f"harmonic_k{k:02d}_arcmin", _statistic(a / ARCMIN_RAD))
+               for k, a in sorted(channel.harmonics_rad.items())]
     values += [
         ("ground_mean_m", _statistic(channel.ground_mean_m)),
         ("ground_sigma_m", _statistic(channel.ground_sigma_m)),

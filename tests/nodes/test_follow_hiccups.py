@@ -75,8 +75,8 @@ def test_bursts_of_late_truth_for_200_s_lose_no_sample_and_raise_no_error(harnes
     assert samples.size == expected.size and np.allclose(samples, expected, atol=1e-6), (samples.size, expected.size)
     assert not [s for s in statuses if s.level == shim.Level.ERROR]
     bridged = int(dict(statuses[-1].values).get("truth_bridged", 0))
-    print(f"{duration_s:.0f} s of 50 Hz truth with 0.1 s bursts: {samples.size} samples, none dropped, {bridged} bridged, "
-          "no ERROR")
+    print(f"{duration_s:.0f} s of 50 Hz truth with 0.1 s bursts: {samples.size} samples, none dropped, "
+          f"{bridged} bridged, no ERROR")
 
 
 def test_truth_a_quarter_second_late_is_bridged_by_default_and_stale_with_the_old_two_period_horizon(harness):
