@@ -6,6 +6,7 @@ without ``rclpy.init()``.
 """
 
 from .conversions import (
+    PENDING,
     SAMPLES_STATUS_NAME,
     STATISTICS_STATUS_PREFIX,
     attitude_angles_from_msg,
@@ -35,6 +36,9 @@ from .conversions import (
     write_error_statistics,
     write_health,
     write_horizon_crossings,
+    write_attitude_imu,
+    read_attitude_imu,
+    write_statistics_vector,
     write_orbit_state,
     write_orbital_transform,
     write_stamp,
@@ -76,8 +80,9 @@ __all__ = [
     "horizon_crossings_to_msg", "orbit_state_from_msg", "orbit_state_to_msg", "time_from_msg", "time_to_msg", "to_msg",
     "check_stamp", "checked_lines_of_sight", "read_attitude_angles", "read_attitude_quaternion", "read_orbit_state",
     "write_attitude_angles", "write_attitude_quaternion", "write_clock", "write_error_statistics", "write_health",
-    "write_horizon_crossings",
+    "write_horizon_crossings", "write_attitude_imu", "read_attitude_imu", "write_statistics_vector",
     "write_orbit_state", "write_stamp", "read_transform", "write_orbital_transform", "write_transform",
-    "ORBIT_STATUS_NAME", "WIRE_CONVENTION", "OrbitElements", "find_orbit_elements", "orbit_elements_from_status",
+    "PENDING", "ORBIT_STATUS_NAME", "WIRE_CONVENTION", "OrbitElements", "find_orbit_elements",
+    "orbit_elements_from_status",
     "orbit_elements_status",
 ]

@@ -9,6 +9,14 @@ Wire layouts
                             chords +X, +Y, −X, −Y; an invalid chord is a NaN point.
     /pmv/attitude, /pmv/residual
                             Vector3Stamped: x = roll, y = pitch (rad), z = 0.
+    /pmv/attitude_imu       Imu: orientation of header.frame_id (the sensor frame)
+                            in the orbital frame (roll, pitch, yaw 0);
+                            orientation_covariance row-major about x, y, z, the
+                            roll, pitch, yaw variances on its diagonal;
+                            angular_velocity_covariance[0] and
+                            linear_acceleration_covariance[0] = −1 (not provided).
+    /pmv/residual_mean, /pmv/residual_sigma, /pmv/residual_limit
+                            Vector3Stamped: x = roll, y = pitch, z = meridional (rad).
     /attitude/truth, /star_tracker/attitude
                             QuaternionStamped: body in header.frame_id (orbital).
     /orbit/odometry         Odometry by nav_msgs' rules: pose.position = r and
@@ -24,7 +32,9 @@ Wire layouts
                             max_abs_arcmin, harmonic_kNN_arcmin (NN = 01…),
                             ground_mean_m, ground_sigma_m, ground_max_abs_m,
                             oblateness_removed. Numbers are Python ``repr`` of
-                            floats ("nan" where there is no value yet).
+                            floats; a statistic not defined yet (a harmonic
+                            before a whole orbit, σ before two samples) is
+                            "pending", never "nan".
     /diagnostics            DiagnosticArray of :class:`HealthStatus`.
     /clock                  rosgraph_msgs/Clock: simulation time.
     /tf, /tf_static         TransformStamped (in a tf2_msgs/TFMessage, which the node
@@ -53,6 +63,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Point32, PolygonStamped, QuaternionStamped, TransformStamped, Vector3Stamped
 from nav_msgs.msg import Odometry
 from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import Imu
 
 from pmv_ros.analysis.statistics import CHANNELS, ChannelStatistics
 from pmv_ros.physics.constants import ARCMIN_RAD
@@ -207,6 +218,36 @@ def write_attitude_quaternion(msg: QuaternionStamped, stamp_s: float, frame_id: 
     quaternion = msg.quaternion
     x, y, z, w = q_xyzw
     quaternion.x, quaternion.y, quaternion.z, quaternion.w = float(x), float(y), float(z), float(w)
+    return msg
+
+
+def write_attitude_imu(msg: Imu, stamp_s: float, frame_id: str, q_xyzw, variances_rad2) -> Imu:
+    """Fill an Imu in place (see "Writers" above) from the orientation (x, y, z, w) and the roll, pitch, yaw
+    variances (rad², the covariance's diagonal); angular velocity and linear acceleration are marked not
+    provided (``covariance[0] = -1``, sensor_msgs/Imu); returns it."""
+    _header(msg, stamp_s, frame_id)
+    orientation = msg.orientation
+    x, y, z, w = q_xyzw
+    orientation.x, orientation.y, orientation.z, orientation.w = float(x), float(y), float(z), float(w)
+    covariance = msg.orientation_covariance  # float64 (9,): off-diagonal terms stay 0
+    covariance[0], covariance[4], covariance[8] = variances_rad2
+    msg.angular_velocity_covariance[0] = msg.linear_acceleration_covariance[0] = -1.0
+    return msg
+
+
+def read_attitude_imu(msg: Imu) -> tuple[float, tuple, tuple]:
+    """(stamp_s, (x, y, z, w), (roll, pitch, yaw variances in rad²)) of an Imu, the stamp checked."""
+    q, covariance = msg.orientation, msg.orientation_covariance
+    return (check_stamp(time_from_msg(msg.header.stamp)), (q.x, q.y, q.z, q.w),
+            (float(covariance[0]), float(covariance[4]), float(covariance[8])))
+
+
+def write_statistics_vector(msg: Vector3Stamped, stamp_s: float, frame_id: str, roll: float, pitch: float,
+                            meridional: float) -> Vector3Stamped:
+    """Fill a Vector3Stamped in place with one statistic per channel: x roll, y pitch, z meridional (rad)."""
+    _header(msg, stamp_s, frame_id)
+    vector = msg.vector
+    vector.x, vector.y, vector.z = float(roll), float(pitch), float(meridional)
     return msg
 
 
@@ -366,6 +407,22 @@ def _number(value: float) -> str:
     return repr(float(value))
 
 
+#: What /pmv/error_statistics says for a statistic that is not defined yet (a harmonic before a whole
+#: orbit, σ before two samples): a word a plotter skips and a person reads, never "nan".
+PENDING = "pending"
+
+
+def _statistic(value: float) -> str:
+    """A statistic for /pmv/error_statistics: ``repr`` of the float, :data:`PENDING` while it is not defined."""
+    value = float(value)
+    return repr(value) if math.isfinite(value) else PENDING
+
+
+def _read_statistic(text: str) -> float:
+    """The float of a /pmv/error_statistics value, NaN for :data:`PENDING` (and for "nan" of older recordings)."""
+    return math.nan if text == PENDING else float(text)
+
+
 def _write_statuses(msg: DiagnosticArray, stamp_s: float, statuses) -> DiagnosticArray:
     """Fill a DiagnosticArray from (name, level, message, hardware_id, [(key, value), …]) tuples.
 
@@ -398,18 +455,19 @@ def _channel_level(channel: ChannelStatistics) -> tuple[Level, str]:
 def _channel_values(channel: ChannelStatistics, oblateness_removed: bool) -> list[tuple[str, str]]:
     values = [
         ("count", str(channel.count)),
-        ("mean_arcmin", _number(channel.mean_rad / ARCMIN_RAD)),
-        ("sigma_arcmin", _number(channel.sigma_rad / ARCMIN_RAD)),
-        ("three_sigma_arcmin", _number(channel.three_sigma_rad / ARCMIN_RAD)),
-        ("limit_low_arcmin", _number(channel.limit_low_rad / ARCMIN_RAD)),
-        ("limit_high_arcmin", _number(channel.limit_high_rad / ARCMIN_RAD)),
-        ("max_abs_arcmin", _number(channel.max_abs_rad / ARCMIN_RAD)),
+        ("mean_arcmin", _statistic(channel.mean_rad / ARCMIN_RAD)),
+        ("sigma_arcmin", _statistic(channel.sigma_rad / ARCMIN_RAD)),
+        ("three_sigma_arcmin", _statistic(channel.three_sigma_rad / ARCMIN_RAD)),
+        ("limit_low_arcmin", _statistic(channel.limit_low_rad / ARCMIN_RAD)),
+        ("limit_high_arcmin", _statistic(channel.limit_high_rad / ARCMIN_RAD)),
+        ("max_abs_arcmin", _statistic(channel.max_abs_rad / ARCMIN_RAD)),
     ]
-    values += [(f"harmonic_k{k:02d}_arcmin", _number(a / ARCMIN_RAD)) for k, a in sorted(channel.harmonics_rad.items())]
+    values += [(f"harmonic_k{k:02d}_arcmin", _statistic(a / ARCMIN_RAD))
+               for k, a in sorted(channel.harmonics_rad.items())]
     values += [
-        ("ground_mean_m", _number(channel.ground_mean_m)),
-        ("ground_sigma_m", _number(channel.ground_sigma_m)),
-        ("ground_max_abs_m", _number(channel.ground_max_abs_m)),
+        ("ground_mean_m", _statistic(channel.ground_mean_m)),
+        ("ground_sigma_m", _statistic(channel.ground_sigma_m)),
+        ("ground_max_abs_m", _statistic(channel.ground_max_abs_m)),
         ("oblateness_removed", "true" if oblateness_removed else "false"),
     ]
     return values
@@ -453,16 +511,16 @@ def error_statistics_from_msg(msg: DiagnosticArray) -> ErrorStatistics:
             continue
 
         def angle(key):
-            return float(values.get(key, "nan")) * ARCMIN_RAD
+            return _read_statistic(values.get(key, PENDING)) * ARCMIN_RAD
 
-        harmonics = {int(m.group(1)): float(v) * ARCMIN_RAD
+        harmonics = {int(m.group(1)): _read_statistic(v) * ARCMIN_RAD
                      for k, v in values.items() if (m := _HARMONIC_KEY.match(k))}
         channels.append(ChannelStatistics(
             channel=channel, count=int(values.get("count", "0")), mean_rad=angle("mean_arcmin"),
             sigma_rad=angle("sigma_arcmin"), max_abs_rad=angle("max_abs_arcmin"), harmonics_rad=harmonics,
-            ground_mean_m=float(values.get("ground_mean_m", "nan")),
-            ground_sigma_m=float(values.get("ground_sigma_m", "nan")),
-            ground_max_abs_m=float(values.get("ground_max_abs_m", "nan"))))
+            ground_mean_m=_read_statistic(values.get("ground_mean_m", PENDING)),
+            ground_sigma_m=_read_statistic(values.get("ground_sigma_m", PENDING)),
+            ground_max_abs_m=_read_statistic(values.get("ground_max_abs_m", PENDING))))
     return ErrorStatistics(time_from_msg(msg.header.stamp), tuple(channels), counters, removed, hardware_id)
 
 

@@ -4,12 +4,16 @@ from __future__ import annotations
 
 import time
 
+from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import SetParametersResult
+from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import EventHandler, PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from threadpoolctl import ThreadpoolController
 
+import pmv_msgs_shim as shim
+from ..runtime.clock_watch import CLOCK_STALL_S, CLOCK_WATCH_PERIOD_S, ClockWatch
 from ..runtime.validation import ClockCheck, JumpDetector, SourceLock
 from .params import coerce_parameters
 
@@ -183,6 +187,31 @@ class PmvNode(Node):
 
         subscription.callback = on_clock
         self._guarded_clock_subscription = subscription
+
+    def watch_clock(self, diagnostics_publisher) -> None:
+        """Say on /diagnostics (through ``diagnostics_publisher``, status ``<node>: clock``) when this node's /clock
+        stops, and when it
+        moves again (:class:`pmv_ros.runtime.clock_watch.ClockWatch`): on a steady wall-clock timer, which runs
+        while the node clock stands. Only under ``use_sim_time``, and not for the in-process pipeline's lean
+        nodes, whose clocks the pipeline sets itself."""
+        if self._lean:
+            return
+        watch, message = ClockWatch(CLOCK_STALL_S), DiagnosticArray()
+
+        def on_watch() -> None:
+            if not self.get_parameter("use_sim_time").value:
+                return
+            clock_s = self.get_clock().now().nanoseconds * 1e-9
+            report = watch.observe(clock_s, time.monotonic())
+            if report is not None:
+                diagnostics_publisher.publish(shim.write_health(message, shim.HealthReport(
+                    stamp_s=max(clock_s, 0.0), statuses=(shim.HealthStatus(
+                        name=self.status_name("clock"), level=report.level, message=report.message,
+                        hardware_id=self.hardware_id("clock"),
+                        values={"clock_stalls": watch.stalls}),))))
+
+        self.clock_watch = watch
+        self.create_timer(CLOCK_WATCH_PERIOD_S, on_watch, clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     # -- parameters ---------------------------------------------------------------------------
 

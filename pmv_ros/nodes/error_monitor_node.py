@@ -4,7 +4,9 @@ Subscribes to ``/pmv/attitude`` (sensor), ``/star_tracker/attitude`` (truth)
 and ``/orbit/odometry`` (where the spacecraft is, for the oblateness model);
 publishes ``/pmv/residual`` (sensed − true, REP-103) for every aligned sample,
 ``/pmv/error_statistics`` every ``1/statistics_rate_hz`` seconds of sample
-time, and ``/diagnostics``. The alignment and statistics are
+time with the same numbers on ``/pmv/residual_mean``, ``_sigma`` and
+``_limit`` (Vector3Stamped: x roll, y pitch, z meridional, rad; NaN where
+the DiagnosticArray says "pending"), and ``/diagnostics``. The alignment and statistics are
 :class:`pmv_ros.runtime.monitor.ErrorMonitor`; this node only converts and wires.
 
 Statistics are driven by the sample stamps, so the node behaves the same on
@@ -43,8 +45,14 @@ from ..runtime.monitor import ErrorMonitor
 from ..runtime.frames import Frames
 from ..runtime.monitor_records import SENSOR_REJECTIONS, Status
 from ..runtime.validation import Rejection, check_frame
+from ..analysis.statistics import CHANNELS
 from .launch import run_node
 from .params import ParameterError, declare, install_validation
+
+
+#: The numeric statistics topics (``pmv/residual_<name>``) and the channel statistic each carries, rad;
+#: "limit" is the half-width 3σ of the bound mean ± 3σ (``three_sigma_arcmin`` on /pmv/error_statistics).
+STATISTICS_VECTORS = {"mean": "mean_rad", "sigma": "sigma_rad", "limit": "three_sigma_rad"}
 
 
 class ErrorMonitorNode(PmvNode):
@@ -65,7 +73,11 @@ class ErrorMonitorNode(PmvNode):
         self._out_residual, self._out_statistics, self._out_diagnostics = (Vector3Stamped(), DiagnosticArray(),
                                                                            DiagnosticArray())
         self._pub_statistics = self.publisher(DiagnosticArray, "pmv/error_statistics")
+        # The same statistics as numbers a plotter draws: x roll, y pitch, z meridional, rad.
+        self._pub_numbers = {name: (self.publisher(Vector3Stamped, f"pmv/residual_{name}"), Vector3Stamped())
+                             for name in STATISTICS_VECTORS}
         self._pub_diagnostics = self.publisher(DiagnosticArray, "/diagnostics")
+        self.watch_clock(self._pub_diagnostics)
         timeout = self._values["input.source_timeout_s"]
         self.input_subscription(Vector3Stamped, "pmv/attitude", self._on_sensor, timeout)
         self._truth_subscription = self.input_subscription(QuaternionStamped, "star_tracker/attitude",
@@ -170,6 +182,10 @@ class ErrorMonitorNode(PmvNode):
         """Publish the current statistics on /pmv/error_statistics (and return them)."""
         statistics = shim.ErrorStatistics.from_summary(self._monitor.summary(), stamp_s)
         self._pub_statistics.publish(shim.write_error_statistics(self._out_statistics, statistics))
+        for name, field in STATISTICS_VECTORS.items():
+            publisher, message = self._pub_numbers[name]
+            publisher.publish(shim.write_statistics_vector(message, stamp_s, shim.SENSOR_FRAME, *(
+                getattr(statistics.channel(channel), field) for channel in CHANNELS)))
         self._last_statistics = statistics
         return statistics
 

@@ -4,8 +4,9 @@ Propagates the orbit on the ROS clock (or on its own simulation clock in
 fast-time mode, publishing ``/clock``), takes the body attitude from its own
 profile (published on ``/attitude/truth``) or follows the user's
 ``/attitude/truth``, runs the four chords through the instrument model and
-publishes crossings, roll/pitch (REP-103, corrected and uncorrected),
-odometry and health. The work in :mod:`pmv_ros.runtime` and :mod:`pmv_ros.physics`, message layout in
+publishes crossings, roll/pitch (REP-103, corrected and uncorrected), the
+same as an orientation with covariance for estimators (``pmv/attitude_imu``,
+:mod:`pmv_ros.runtime.estimator_output`), odometry and health. The work in :mod:`pmv_ros.runtime` and :mod:`pmv_ros.physics`, message layout in
 :mod:`pmv_msgs_shim`, health in :mod:`pmv_ros.runtime.sensor_health`.
 
 A chord without a horizon, without a crossing, or with the Sun or the Moon
@@ -15,8 +16,9 @@ for ±Y, pitch for ±X); ``/diagnostics`` names the chord and the cause.
 Follow mode (``attitude.source: follow``; README "Follow mode") never
 publishes ``/attitude/truth``. It measures with the attitude at its own
 sample time (:class:`pmv_ros.runtime.truth_buffer.TruthBuffer`: slerp between
-truth samples, the last body rate for at most
-``attitude.extrapolation_periods`` truth periods past the newest), stamps
+truth samples, the last body rate for ``attitude.extrapolation_periods`` truth
+periods past the newest, and up to ``attitude.extrapolation_s`` to bridge a
+late truth sample, counted ``truth_bridged``), stamps
 the output with that time, and publishes nothing from stale truth: the stale
 state is an ERROR on ``/diagnostics`` at once and logged once. Bad truth
 (non-finite, far-from-unit, zero, future, duplicate, backward, too-fast
@@ -47,13 +49,15 @@ from geometry_msgs.msg import PolygonStamped, QuaternionStamped, Vector3Stamped
 from nav_msgs.msg import Odometry
 from rclpy.clock import Clock, ClockType
 from rosgraph_msgs.msg import Clock as ClockMsg
+from sensor_msgs.msg import Imu
 
 import pmv_msgs_shim as shim
 from .base import PmvNode
 from ..runtime.assembly import SENSOR_PARAMS as PARAMS, build_models, read_correction
-from ..runtime.sample_stream import SampleStream, SensorSample, fast_time_block
+from ..runtime.sample_stream import SampleGrid, SampleStream, SensorSample, fast_time_block
+from ..runtime.estimator_output import estimator_orientation, variance_from_rms_arcmin
 from ..runtime.sensor_health import SensorHealth, truth_source_warnings
-from ..runtime.truth_buffer import TruthAt, TruthBuffer
+from ..runtime.truth_buffer import PendingSamples, TruthAt, TruthBuffer
 from ..runtime.frames import Frames, Mounting
 from ..runtime.validation import Jump, JumpDetector, Rejection, StampCheck, check_frame, check_quaternion_sample
 from ..physics.tle_orbit import OrbitPropagationError
@@ -93,18 +97,21 @@ class SensorNode(PmvNode):
         self._pub_crossings = self.publisher(PolygonStamped, "pmv/horizon_crossings")
         self._pub_attitude = self.publisher(Vector3Stamped, "pmv/attitude")
         self._pub_attitude_raw = self.publisher(Vector3Stamped, "pmv/attitude_uncorrected")
+        self._pub_imu = self.publisher(Imu, "pmv/attitude_imu")
         self._pub_odometry = self.publisher(Odometry, "orbit/odometry")
         self._pub_diagnostics = self.publisher(DiagnosticArray, "/diagnostics")
+        self.watch_clock(self._pub_diagnostics)
         self._pub_truth = self._pub_clock = None
         self._health = SensorHealth()
         self._truth_state = None  # follow mode: where the last tick's attitude came from
+        self._stale_logged = False  # follow mode: the stale truth was logged and has not come back since
         self._orbit_error = None  # an element set's orbit that SGP4 could not propagate: no output from then on
         self._graph_warnings, self._source_errors, self._graph_checked_s = (), (), None
         # Real time on a /clock someone else publishes: a tick on a single forged time is skipped, not measured.
         self._tick_clock = JumpDetector(1.0, forward_threshold_s=10.0)
         # One message per topic, filled in place for every sample (rclpy serialises at publish).
         self._out = dict(truth=QuaternionStamped(), odometry=Odometry(), crossings=PolygonStamped(),
-                         attitude=Vector3Stamped(), attitude_raw=Vector3Stamped(), clock=ClockMsg(),
+                         attitude=Vector3Stamped(), attitude_raw=Vector3Stamped(), imu=Imu(), clock=ClockMsg(),
                          diagnostics=DiagnosticArray())
         if self._following:
             self.input_subscription(QuaternionStamped, "attitude/truth", self._on_truth,
@@ -120,6 +127,7 @@ class SensorNode(PmvNode):
             self._transforms = SensorTransforms(self, tf_message, self._frames,
                                                 Mounting.from_values(self._values).q_body_to_sensor,
                                                 own_attitude=not self._following, stamp_s=self._now_s())
+        self._waiting = PendingSamples()  # follow mode, real time: due sample times waiting for truth
         self._timer = None
         if self._values["sim.fast_time"]:
             self._pub_clock = self.publisher(ClockMsg, "/clock")
@@ -140,6 +148,12 @@ class SensorNode(PmvNode):
     def _rebuild(self, values: dict) -> None:
         orbit, profile, model = build_models(values, clock_epoch_s=self._clock_epoch_s, correction=self._correction)
         self._stream = SampleStream(model, orbit, profile, shim.checked_lines_of_sight)
+        self._imu_variances = (variance_from_rms_arcmin(values["imu.roll_error_rms_arcmin"]),
+                               variance_from_rms_arcmin(values["imu.pitch_error_rms_arcmin"]))
+        # Real time: the sample times, on the grid of the orbit's epoch (the node clock at the start).
+        period_s = 1.0 / values["sensor.rate_hz"]
+        grid = getattr(self, "_grid", None)
+        self._grid = SampleGrid(self._clock_epoch_s, period_s) if grid is None else grid.with_period(period_s)
         timeout = values["attitude.follow_timeout_s"]
         # Older by more than the timeout: the source restarted on a new clock (once the next stamp confirms it).
         stamps = getattr(self, "_truth_stamps", None) or StampCheck(timeout, timeout)
@@ -147,7 +161,8 @@ class SensorNode(PmvNode):
         for lock in self.source_locks.values():
             lock.timeout_s = values["input.source_timeout_s"]
         previous = getattr(self, "_truth", None)
-        self._truth = TruthBuffer(values["attitude.extrapolation_periods"], values["attitude.follow_timeout_s"])
+        self._truth = TruthBuffer(values["attitude.extrapolation_periods"], values["attitude.follow_timeout_s"],
+                                  bridge_s=values["attitude.extrapolation_s"])
         if previous is not None:  # a parameter change keeps the truth received so far
             self._truth.take_samples(previous)
         # Epoch and elements on every /diagnostics, so that recordings can be analysed (issue 13).
@@ -200,6 +215,8 @@ class SensorNode(PmvNode):
             self._health.count(f"rejected_truth_{sample.rejection.value}")
             return
         self._truth.add(record.stamp_s, sample.q_xyzw)
+        if self._waiting and not self._values["sim.fast_time"]:  # sample times that waited for this truth
+            self._sense_following(self._waiting.ready(self._truth, self._now_s()))
 
     # -- ticks ----------------------------------------------------------------------------------
 
@@ -229,11 +246,11 @@ class SensorNode(PmvNode):
         self._sim_time_s += period
         self._pub_clock.publish(shim.write_clock(self._out["clock"], self._sim_time_s))
         if self._following:
-            self._sense_following(self._sim_time_s)
+            self._sense_following([(self._sim_time_s, *self._truth.attitude_at(self._sim_time_s))])
             return
-        sample = self._orbit_sample(self._sim_time_s, lambda: self._stream.next_profile_sample(
-            self._sim_time_s, period, self.fast_time_block))
-        if sample is not None:
+        samples = self._orbit_samples(self._sim_time_s, lambda: [self._stream.next_profile_sample(
+            self._sim_time_s, period, self.fast_time_block)])
+        for sample in samples:
             self._publish_sample(sample)
 
     @property
@@ -243,6 +260,15 @@ class SensorNode(PmvNode):
         return fast_time_block(v["sensor.rate_hz"], v["sim.time_scale"], self._external_drive)
 
     def _on_real_time_tick(self) -> None:
+        """Publish every sample of the sensor's grid due since the last one, in order, each at its own stamp.
+
+        The timer runs on the node clock; a ``/clock`` that steps by more than
+        a period fires it once per step, so the samples are taken from the
+        grid (:class:`pmv_ros.runtime.sample_stream.SampleGrid`), not from the
+        tick: with the own attitude profile computed in the grid's blocks
+        (those of a fast-time run), in follow mode the due ones as one block.
+        A confirmed clock jump restarts the grid at the new time.
+        """
         now_s = self.get_clock().now().nanoseconds * 1e-9
         jump = self._tick_clock.observe(now_s)
         if jump is Jump.OUTLIER:
@@ -250,33 +276,52 @@ class SensorNode(PmvNode):
         if jump is Jump.SUSPECTED:
             self._health.count("skipped_unconfirmed_clock_jump")
             return
-        if self._following:
-            self._sense_following(now_s)
+        if jump in (Jump.CONFIRMED_BACK, Jump.CONFIRMED_FORWARD):
+            self._grid.restart()
+            self._waiting.clear()
+        indices = self._grid.due(now_s)
+        if self._following:  # due times wait for the truth that covers them (it may come after the tick)
+            self._waiting.add(self._grid.time_of(indices).tolist(), now_s)
+            self._sense_following(self._waiting.ready(self._truth, now_s))
             return
-        sample = self._orbit_sample(now_s, lambda: self._stream.profile_sample(now_s))
-        if sample is not None:
+        if not indices:
+            return
+        last_s = float(self._grid.time_of(indices[-1]))
+        for sample in self._orbit_samples(last_s, lambda: self._stream.grid_profile_samples(self._grid, indices)):
             self._publish_sample(sample)
 
-    def _sense_following(self, t_s: float) -> None:
-        """Measure with the attitude at ``t_s`` from the truth buffer; nothing when there is none."""
-        q, source = self._truth.attitude_at(t_s)
-        was_stale, self._truth_state = self._truth_state is TruthAt.STALE, source
-        if source is TruthAt.STALE and not was_stale:
-            self.get_logger().error(f"/attitude/truth is stale at t = {t_s:.3f} s (newest "
-                                    f"{self._truth.newest_stamp_s:.3f} s): no angles until it returns")
-        elif was_stale and source.usable:
-            self.get_logger().info(f"/attitude/truth is back at t = {t_s:.3f} s")
-        if not source.usable:
-            self._health.count(f"skipped_{source.value}")
-            self._publish_health(t_s)
+    def _sense_following(self, found: list) -> None:
+        """Measure at each ``(t_s, q, source)`` of ``found`` (in order; the attitude the truth buffer gives at
+        t_s and where it came from), the samples that have one computed as one block; a time without one
+        publishes nothing but health."""
+        if not found:
             return
-        sample = self._orbit_sample(t_s, lambda: self._stream.sample(t_s, q))
-        if sample is not None:
-            self._publish_sample(sample)
+        usable = [(t_s, q) for t_s, q, source in found if source.usable]
+        samples = iter(self._orbit_samples(found[-1][0], lambda: self._stream.samples(
+            [t for t, _ in usable], [q for _, q in usable])) if usable else ())
+        for t_s, _, source in found:
+            self._truth_state = source
+            # Said once each way: samples between the stale ones and the truth's return may read truth_gap.
+            if source is TruthAt.STALE and not self._stale_logged:
+                self._stale_logged = True
+                self.get_logger().error(f"/attitude/truth is stale at t = {t_s:.3f} s (newest "
+                                        f"{self._truth.newest_stamp_s:.3f} s): no angles until it returns")
+            elif source.usable and self._stale_logged:
+                self._stale_logged = False
+                self.get_logger().info(f"/attitude/truth is back at t = {t_s:.3f} s")
+            if not source.usable:
+                self._health.count(f"skipped_{source.value}")
+                self._publish_health(t_s)
+                continue
+            if source is TruthAt.BRIDGED:  # a late truth sample, bridged by the last rate: counted, no alarm
+                self._health.count("truth_bridged")
+            sample = next(samples, None)
+            if sample is not None:
+                self._publish_sample(sample)
 
-    def _orbit_sample(self, t_s: float, compute) -> SensorSample | None:
-        """``compute()`` (a :class:`SensorSample`) unless the orbit has failed: None then. An SGP4 error code
-        stops the output for good: logged once as an ERROR, counted, and an ERROR on /diagnostics."""
+    def _orbit_samples(self, t_s: float, compute) -> list:
+        """``compute()`` (a list of :class:`SensorSample`) unless the orbit has failed: [] then. An SGP4 error
+        code stops the output for good: logged once as an ERROR, counted, and an ERROR on /diagnostics."""
         if self._orbit_error is None:
             try:
                 return compute()
@@ -285,7 +330,7 @@ class SensorNode(PmvNode):
                 self.get_logger().error(self._orbit_error)
         self._health.count("skipped_orbit_error")
         self._publish_health(t_s)
-        return None
+        return []
 
     def _publish_sample(self, sample: SensorSample) -> None:
         out, t_s, frames = self._out, sample.t_s, self._frames
@@ -303,6 +348,9 @@ class SensorNode(PmvNode):
         self._pub_attitude_raw.publish(shim.write_attitude_angles(out["attitude_raw"], t_s, frames.sensor,
                                                                   sample.roll_uncorrected_rad,
                                                                   sample.pitch_uncorrected_rad))
+        imu = estimator_orientation(sample.roll_rad, sample.pitch_rad, *self._imu_variances)
+        self._pub_imu.publish(shim.write_attitude_imu(out["imu"], t_s, frames.sensor, imu.q_xyzw,
+                                                      imu.variances_rad2))
         self._health.record_sample(sample.chord_status)
         self._publish_health(t_s, sample.chord_status, sample.blinding_body)
 

@@ -76,6 +76,7 @@ class StarTrackerNode(PmvNode):
         # Relative names: in a namespace, this spacecraft's topics move under it (interfaces.md "Topics").
         self._publisher = self.publisher(QuaternionStamped, "star_tracker/attitude")
         self._diagnostics = self.publisher(DiagnosticArray, "/diagnostics")
+        self.watch_clock(self._diagnostics)
         self.input_subscription(QuaternionStamped, "attitude/truth", self._on_truth,
                                 self._values["input.source_timeout_s"])
         # Filled in place for every publication (rclpy serialises at publish).

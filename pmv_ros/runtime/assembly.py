@@ -20,6 +20,7 @@ from .monitor_records import MonitorConfig
 from ..physics.orbit import CircularOrbit
 from .frames import FRAME_PARAMS, MOUNTING_PARAMS, Mounting
 from .parameters import ParamSpec
+from .truth_buffer import DEFAULT_BRIDGE_S
 from ..physics.tle_orbit import TleOrbit, element_set_altitude_m
 from ..physics.sensor import ChainDetector, RadianceConfig, SensorConfig, SensorModel, nominal_scan_start_nadir_rad
 from ..physics.star_tracker import StarTracker, StarTrackerParameters
@@ -59,6 +60,10 @@ ORBIT_INCLINATION = ParamSpec("orbit.inclination_deg", 74.5, "orbit inclination"
 #: Where the sensor's orbit comes from (interfaces.md "Orbit sources"); follow is not built yet.
 ORBIT_SOURCES = ("circular", "tle", "follow")
 
+#: Roll and pitch error RMS of the Kondor preset (the defaults fly its orbit), arcmin: the defaults of
+#: ``imu.*_error_rms_arcmin`` (config/kondor.yaml says how they were measured).
+IMU_DEFAULT_RMS_ARCMIN = (6.38, 9.12)
+
 #: Parameters of sensor_node (units in the names; YAML speaks km, deg, arcmin).
 SENSOR_PARAMS = INPUT_PARAMS + FRAME_PARAMS + MOUNTING_PARAMS + (
     ORBIT_ALTITUDE,
@@ -91,7 +96,12 @@ SENSOR_PARAMS = INPUT_PARAMS + FRAME_PARAMS + MOUNTING_PARAMS + (
     ParamSpec("attitude.pitch_drift_arcmin_per_h", 0.0, "linear drift of the body pitch with time", -600.0, 600.0,
               unit="arcmin/h"),
     ParamSpec("attitude.extrapolation_periods", 2.0, "in follow mode, how far past the newest truth the last body "
-              "rate is carried, in truth periods; later the truth is stale and no angles are published", 0.0, 10.0),
+              "rate is carried as a matter of course, in truth periods (further, up to attitude.extrapolation_s, "
+              "it bridges a late truth sample and is counted truth_bridged)", 0.0, 10.0),
+    ParamSpec("attitude.extrapolation_s", DEFAULT_BRIDGE_S, "in follow mode, how far past the newest truth the last "
+              "body rate is carried at most (a scheduler hiccup of the attitude stack; the longer of this and "
+              "extrapolation_periods applies, never beyond follow_timeout_s); later the truth is stale and no "
+              "angles are published", 0.0, 10.0, unit="s"),
     ParamSpec("attitude.follow_timeout_s", 1.0, "in follow mode, no interpolation across a truth gap longer than this "
               "and no extrapolation further; also the tolerance of future stamps", 0.01, 3600.0, unit="s"),
     ParamSpec("sensor.rate_hz", 10.0, "output rate of the sensor", 0.1, 100.0, unit="Hz"),
@@ -147,6 +157,13 @@ SENSOR_PARAMS = INPUT_PARAMS + FRAME_PARAMS + MOUNTING_PARAMS + (
               0.0, 2.0e9, unit="s", read_only=True),
     ParamSpec("diagnostics_period_s", 1.0, "period of /diagnostics health reports", 0.1, 3600.0, unit="s"),
     ParamSpec("seed", 0, "seed of every random process of the sensor", 0, 2**31 - 1, read_only=True),
+    # The defaults are the default orbit's (Kondor's, 500 km, 74.5°); each preset states its own budget.
+    ParamSpec("imu.roll_error_rms_arcmin", IMU_DEFAULT_RMS_ARCMIN[0], "/pmv/attitude_imu: root mean square of the "
+              "sensor's roll error (sensed - true, oblateness included unless compensated on board); its square is "
+              "the roll variance of orientation_covariance", 0.001, 600.0, unit="arcmin"),
+    ParamSpec("imu.pitch_error_rms_arcmin", IMU_DEFAULT_RMS_ARCMIN[1], "/pmv/attitude_imu: root mean square of the "
+              "sensor's pitch error; its square is the pitch variance of orientation_covariance", 0.001, 600.0,
+              unit="arcmin"),
 )
 
 

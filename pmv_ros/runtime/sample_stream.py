@@ -10,6 +10,7 @@ floats and tuples, so publishing does no numpy indexing.
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from typing import NamedTuple
 
@@ -71,6 +72,69 @@ def stepped_times(start_s: float, period_s: float, samples: int, block: int) -> 
     return times[:samples]
 
 
+#: Grid times within this fraction of a period after the clock reading are due already: a clock
+#: stepping by whole periods lands on the grid up to rounding (1 s = 10 × 0.1 s in binary floats).
+GRID_TOLERANCE = 1e-6
+
+
+class SampleGrid:
+    """The sensor's own sample times on a clock it does not step: ``epoch_s + k·period_s``, k = 1, 2, …
+
+    A real-time sensor (the wall clock, or a ``/clock`` someone else
+    publishes) asks :meth:`due` at each tick of its timer. However far the
+    clock moved since the last tick — a tenth of a period or ten seconds of
+    a simulation clock stepping in big strides — it gets every grid index
+    since the last sample, in order, each sample to be stamped with its own
+    time (interfaces.md "Time"). The first tick, and the first after
+    :meth:`restart` (a confirmed clock jump), gives only the latest grid
+    time: a clock that leapt is not back-filled. A clock that stepped back
+    less than a jump gives nothing until it passes the last sample again.
+
+    Sample k is the k-th step of a fast-time run that started at ``epoch_s``
+    (``SensorNode.step``): the same instants, and computed in the same blocks
+    (:meth:`SampleStream.grid_profile_samples`).
+
+    Args:
+        epoch_s: the grid's origin, s (the node clock at the start: the orbit's epoch).
+        period_s: the sample period, s.
+    """
+
+    def __init__(self, epoch_s: float, period_s: float):
+        if not (math.isfinite(epoch_s) and math.isfinite(period_s) and period_s > 0.0):
+            raise ValueError(f"a sample grid needs a finite epoch and a period > 0 s, not {epoch_s}, {period_s}")
+        self.epoch_s, self.period_s = float(epoch_s), float(period_s)
+        self.last_index: int | None = None
+
+    def restart(self) -> None:
+        """Forget the last sample: the next :meth:`due` starts at the clock (after a confirmed jump)."""
+        self.last_index = None
+
+    def with_period(self, period_s: float) -> "SampleGrid":
+        """The same origin with another period (a rate change): the next sample is the first of the new grid
+        after the last one."""
+        grid = SampleGrid(self.epoch_s, period_s)
+        if self.last_index is not None:
+            grid.last_index = grid.index_at(self.time_of(self.last_index))
+        return grid
+
+    def index_at(self, t_s: float) -> int:
+        """The last grid index at or before ``t_s`` (with :data:`GRID_TOLERANCE`)."""
+        return math.floor((t_s - self.epoch_s) / self.period_s + GRID_TOLERANCE)
+
+    def time_of(self, index) -> float | np.ndarray:
+        """The time of grid index (or ``(N,)`` indices) ``index``, s."""
+        return self.epoch_s + self.period_s * np.asarray(index, float)
+
+    def due(self, now_s: float) -> range:
+        """The grid indices due at clock reading ``now_s`` and not yet given, in order (maybe none)."""
+        last = self.index_at(now_s)
+        first = last if self.last_index is None else self.last_index + 1
+        if last < first:
+            return range(0)
+        self.last_index = last
+        return range(first, last + 1)
+
+
 class SampleStream:
     """Sample rows of one sensor: its model, orbit and attitude profile.
 
@@ -86,6 +150,7 @@ class SampleStream:
         self.model, self.orbit, self.profile = model, orbit, profile
         self._check = check_lines_of_sight
         self._pending = deque()
+        self._grid_block = (None, None, [])  # real time: (grid, block number, its samples)
 
     @property
     def pending(self) -> int:
@@ -103,14 +168,31 @@ class SampleStream:
             self._pending = deque(self.rows(times, self.profile.quaternion(times)))
         return self._pending.popleft()
 
-    def profile_sample(self, t_s: float) -> SensorSample:
-        """One own-profile sample at ``t_s`` (real time)."""
-        times = np.array([t_s])
-        return self.rows(times, self.profile.quaternion(times))[0]
+    def grid_profile_samples(self, grid: SampleGrid, indices: range) -> list[SensorSample]:
+        """Own-profile samples at the grid ``indices`` (real time: the samples a clock step made due).
 
-    def sample(self, t_s: float, q_xyzw) -> SensorSample:
-        """One sample at ``t_s`` with the given attitude (x, y, z, w)."""
-        return self.rows(np.array([t_s]), np.asarray(q_xyzw, float)[:, None])[0]
+        Computed in the grid's blocks of :data:`FAST_TIME_BLOCK` samples —
+        indices 1 … 512, 513 … 1024, …: the blocks of a fast-time run from the
+        grid's origin — and the current block kept. The environment's fields
+        are interpolated over a block (:mod:`pmv_ros.physics.sensor`), so the
+        same blocks make a run on any clock sense what fast time senses.
+        """
+        samples = []
+        for index in indices:
+            number, offset = divmod(index - 1, FAST_TIME_BLOCK)
+            kept_grid, kept_number, block = self._grid_block
+            if kept_grid is not grid or kept_number != number:
+                times = grid.time_of(np.arange(number * FAST_TIME_BLOCK + 1, (number + 1) * FAST_TIME_BLOCK + 1))
+                block = self.rows(times, self.profile.quaternion(times))
+                self._grid_block = (grid, number, block)
+            samples.append(block[offset])
+        return samples
+
+    def samples(self, times, q_xyzw) -> list[SensorSample]:
+        """Samples at ``(N,)`` times, s, with the given ``(N, 4)`` attitudes (x, y, z, w) — follow mode."""
+        times, q = np.asarray(times, float), np.asarray(q_xyzw, float).reshape(-1, 4)
+        return [row for start in range(0, times.size, FAST_TIME_BLOCK)
+                for row in self.rows(times[start:start + FAST_TIME_BLOCK], q[start:start + FAST_TIME_BLOCK].T)]
 
     def rows(self, times: np.ndarray, q: np.ndarray) -> list[SensorSample]:
         """Run the instrument for ``(N,)`` times and ``(4, N)`` attitudes: N samples."""

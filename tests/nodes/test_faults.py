@@ -18,6 +18,7 @@ executor, drained after every publication; each test has its own context.
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 import pytest
@@ -445,26 +446,32 @@ def test_following_sensor_drops_bad_truth_and_reads_the_clean_attitude(harness):
 def test_following_sensor_on_the_wall_clock_takes_truth_stamped_now(harness):
     # Real time (no fast time): "now" for the future-stamp check is the node clock, so truth
     # stamped now is read, and truth stamped a minute ahead is dropped as a future stamp.
-    # The tick comes a few ms after the newest truth: within the extrapolation horizon, here
-    # ten truth periods (capped by follow_timeout_s, 1 s) so that a loaded machine cannot miss it.
-    h = harness(SensorNode, {"attitude.source": "follow", "sim.fast_time": False, "sensor.rate_hz": 1.0,
-                             "sensor.detector": "ideal", "attitude.extrapolation_periods": 10.0})
+    # Each tick samples the grid times (10 Hz) due since the last one: each lies within the
+    # last 0.1 s, between truth samples or a few ms past the newest (the extrapolation horizon,
+    # 0.25 s, covers a loaded machine).
+    h = harness(SensorNode, {"attitude.source": "follow", "sim.fast_time": False, "sensor.rate_hz": 10.0,
+                             "sensor.detector": "ideal"})
     attitude = h.record(Vector3Stamped, "/pmv/attitude")
     diagnostics = h.record(DiagnosticArray, "/diagnostics")
     truth = h.publisher(QuaternionStamped, "/attitude/truth")
     q = np.array(quaternion_from_roll_pitch_yaw(10 * ARCMIN_RAD, -4 * ARCMIN_RAD, 0.0))
+    ticks = []
     for k in range(3):
+        if k:
+            time.sleep(0.11)  # more than a period: at least one new grid time is due
         now_s = h.node.get_clock().now().nanoseconds * 1e-9
         truth.publish(quaternion_msg(now_s + 60.0, q))
         if k == 0:  # a second sample: the rate to carry on
             truth.publish(quaternion_msg(now_s - 0.1, q))
         truth.publish(quaternion_msg(now_s, q))
         h.drain()
-        h.node._on_real_time_tick()  # the 1 Hz timer's work, without waiting for it
+        h.node._on_real_time_tick()  # the timer's work, without waiting for it
+        ticks.append(h.node.get_clock().now().nanoseconds * 1e-9)
         h.drain()
-    assert len(attitude) == 3
+    stamps = np.array([shim.time_from_msg(m.header.stamp) for m in attitude])
+    assert len(attitude) >= 3 and stamps[-1] <= ticks[-1] and np.all(np.diff(stamps) > 0.099)
     np.testing.assert_allclose([[m.vector.x, m.vector.y] for m in attitude],
-                               [[10 * ARCMIN_RAD, -4 * ARCMIN_RAD]] * 3, atol=0.05 * ARCMIN_RAD)
+                               [[10 * ARCMIN_RAD, -4 * ARCMIN_RAD]] * len(attitude), atol=0.05 * ARCMIN_RAD)
     # /diagnostics comes once a second or when the chords change: the first report already counts the first.
     report = values_of(health(diagnostics, "pmv_ros/sensor_node: horizon")[-1][1])
     assert int(report["rejected_truth_future_stamp"]) >= 1 and not any(k.startswith("skipped_") for k in report)

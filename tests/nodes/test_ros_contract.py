@@ -35,6 +35,7 @@ from pmv_ros.physics.attitude import quaternion_from_rotation_vector, quaternion
 from pmv_ros.physics.constants import ARCMIN_RAD
 from pmv_ros.runtime.assembly import SENSOR_PARAMS, build_models
 from pmv_ros.runtime.parameters import preset_values
+from pmv_ros.runtime.truth_buffer import DEFAULT_BRIDGE_S
 
 #: Sphere + uniform horizon through the full signal chain (default detector and correction).
 SPHERE_UNIFORM = {"sensor.earth_model": "sphere", "radiance.source": "uniform", "sensor.bright_body_exclusion_deg": 0.0}
@@ -323,9 +324,10 @@ def test_a_slew_in_real_time_is_measured_at_its_stamp(harness):
 
 
 def test_stopped_truth_is_flagged_within_one_period_after_the_horizon_and_gives_no_angle(harness, capfd):
-    # Truth at 50 Hz until t = 3 s, then none; the horizon is two truth periods (40 ms). The first
-    # sensor sample after 3.04 s is flagged ERROR on /diagnostics (at the latest one 10 Hz period
-    # later), no angle is stamped after 3.04 s, the log says it once; truth back → angles back.
+    # Truth at 50 Hz until t = 3 s, then none; the horizon is attitude.extrapolation_s (0.3 s, longer
+    # than two truth periods). The first sensor sample after 3.3 s is flagged ERROR on /diagnostics
+    # (at the latest one 10 Hz period later), no angle is stamped after 3.3 s, the log says it once;
+    # truth back → angles back.
     options = {"attitude.source": "follow", "use_sim_time": True, "sensor.rate_hz": 10.0,
                "diagnostics_period_s": 10.0, **SPHERE_UNIFORM}
     h = harness(SensorNode, options)
@@ -333,7 +335,7 @@ def test_stopped_truth_is_flagged_within_one_period_after_the_horizon_and_gives_
     diagnostics = h.record(DiagnosticArray, "/diagnostics")
     clock = h.publisher(Clock, "/clock")
     truth = h.publisher(QuaternionStamped, "/attitude/truth")
-    stop_s, resume_s, horizon_s = 3.0, 5.0, 2.0 / TRUTH_HZ
+    stop_s, resume_s, horizon_s = 3.0, 5.0, DEFAULT_BRIDGE_S
     for k in range(1, 351):  # 7 s
         t = k / TRUTH_HZ
         clock.publish(shim.clock_to_msg(t))
@@ -346,8 +348,9 @@ def test_stopped_truth_is_flagged_within_one_period_after_the_horizon_and_gives_
     assert np.any(stamps > resume_s) and np.any((stamps > stop_s - 0.5) & (stamps <= stop_s + horizon_s))
     reports = statuses(diagnostics)
     errors = [t for t, s in reports if s.level == shim.Level.ERROR and "stale /attitude/truth" in s.message]
-    assert errors and stop_s + horizon_s < errors[0] <= stop_s + horizon_s + 0.1 + 1e-9, errors
-    after = [s for t, s in reports if t > resume_s]
+    assert errors and stop_s + horizon_s - 1e-9 < errors[0] <= stop_s + horizon_s + 0.1 + 1e-9, errors
+    # The sample at the resume instant waits for that truth (it comes after the clock) and is the first again.
+    after = [s for t, s in reports if t >= resume_s - 1e-9]
     assert after and after[0].level == shim.Level.OK
     log = capfd.readouterr().err
     assert log.count("/attitude/truth is stale") == 1 and log.count("/attitude/truth is back") == 1

@@ -7,7 +7,7 @@ import pytest
 from scipy.spatial.transform import Rotation, Slerp
 
 from pmv_ros.physics.star_tracker import FrameGrid
-from pmv_ros.runtime.truth_buffer import TruthAt, TruthBuffer
+from pmv_ros.runtime.truth_buffer import DEFAULT_BRIDGE_S, PendingSamples, TruthAt, TruthBuffer
 
 RATE_RAD_S = np.array([2e-3, -1e-3, 5e-4])  # a constant body rate, orbital components
 
@@ -38,7 +38,7 @@ def test_between_samples_it_is_scipys_slerp_and_at_a_sample_the_sample():
 
 
 def test_past_the_newest_the_last_rate_for_at_most_the_horizon_then_stale():
-    buffer = TruthBuffer(extrapolation_periods=2.0, max_gap_s=1.0)
+    buffer = TruthBuffer(extrapolation_periods=2.0, max_gap_s=1.0, bridge_s=0.0)
     for k in range(5):  # 50 Hz
         buffer.add(1.0 + 0.02 * k, attitude(1.0 + 0.02 * k))
     assert buffer.horizon_s() == pytest.approx(0.04)
@@ -53,6 +53,30 @@ def test_past_the_newest_the_last_rate_for_at_most_the_horizon_then_stale():
     slow.add(0.0, attitude(0.0))
     slow.add(0.5, attitude(0.5))
     assert slow.horizon_s() == 1.0 and slow.attitude_at(1.6)[1] is TruthAt.STALE
+
+
+def test_a_late_truth_sample_is_bridged_up_to_bridge_s_at_any_truth_rate_then_stale():
+    # 50 Hz truth: two periods (40 ms) are routine extrapolation; up to the default 0.3 s past the
+    # newest the last rate bridges a late sample (BRIDGED, usable); beyond it the truth is stale.
+    for rate_hz in (50.0, 10.0, 200.0):
+        buffer = TruthBuffer(extrapolation_periods=2.0, max_gap_s=1.0)
+        for k in range(5):
+            buffer.add(1.0 + k / rate_hz, attitude(1.0 + k / rate_hz))
+        newest = 1.0 + 4 / rate_hz
+        assert buffer.horizon_s() == pytest.approx(max(2.0 / rate_hz, DEFAULT_BRIDGE_S))
+        assert buffer.attitude_at(newest + 1.5 / rate_hz)[1] is TruthAt.EXTRAPOLATED
+        for ahead in (2.5 / rate_hz, 0.25, DEFAULT_BRIDGE_S - 1e-9):
+            q, source = buffer.attitude_at(newest + ahead)
+            assert source is (TruthAt.BRIDGED if ahead > 2.0 / rate_hz else TruthAt.EXTRAPOLATED) and source.usable
+            assert same_rotation(q, attitude(newest + ahead), atol=1e-12)  # a constant rate: exact
+        assert buffer.attitude_at(newest + DEFAULT_BRIDGE_S + 1e-3) == (None, TruthAt.STALE)
+    # Never beyond max_gap_s.
+    short = TruthBuffer(extrapolation_periods=2.0, max_gap_s=0.1, bridge_s=0.3)
+    short.add(0.0, attitude(0.0))
+    short.add(0.02, attitude(0.02))
+    assert short.horizon_s() == 0.1 and short.attitude_at(0.13)[1] is TruthAt.STALE
+    with pytest.raises(ValueError, match="bridge_s"):
+        TruthBuffer(bridge_s=-0.1)
 
 
 def test_what_it_does_not_know_it_does_not_give():
@@ -94,3 +118,24 @@ def test_the_frame_grid_slerps_each_frame_between_the_truth_around_it():
     assert frames == []
     frames, _, _ = grid.add(10.6, attitude(10.6))
     assert frames == pytest.approx([10.0, 10.5])
+
+
+def test_due_times_wait_for_the_truth_that_covers_them_or_until_the_horizon_has_passed():
+    buffer, waiting = TruthBuffer(extrapolation_periods=2.0, max_gap_s=1.0), PendingSamples()
+    for k in range(3):  # 50 Hz truth up to 1.04 s
+        buffer.add(1.0 + 0.02 * k, attitude(1.0 + 0.02 * k))
+    waiting.add([1.02, 1.1, 1.2], 1.2)  # a clock step made three samples due at 1.2 s
+    ready = waiting.ready(buffer, now_s=1.2)
+    assert [(t, source) for t, _, source in ready] == [(1.02, TruthAt.INTERPOLATED)] and len(waiting) == 2
+    for k in range(3, 9):  # the truth of the step arrives after the tick: up to 1.16 s
+        buffer.add(1.0 + 0.02 * k, attitude(1.0 + 0.02 * k))
+    ready = waiting.ready(buffer, now_s=1.2)
+    assert [(t, source) for t, _, source in ready] == [(1.1, TruthAt.INTERPOLATED)]
+    assert same_rotation(ready[0][1], attitude(1.1), atol=1e-12)
+    # No more truth: 1.2 waits until the clock is the horizon (0.3 s) past it, then takes what there is.
+    assert waiting.ready(buffer, now_s=1.2 + DEFAULT_BRIDGE_S - 0.01) == []
+    (t_s, q, source), = waiting.ready(buffer, now_s=1.2 + DEFAULT_BRIDGE_S)
+    assert t_s == 1.2 and source is TruthAt.BRIDGED and same_rotation(q, attitude(1.2), atol=1e-12)
+    waiting.add([1.6], 1.65)
+    assert waiting.ready(buffer, now_s=1.9) == []  # a clock that leapt ahead of the truth: not yet late
+    assert waiting.ready(buffer, now_s=1.95)[0][1:] == (None, TruthAt.STALE) and len(waiting) == 0
