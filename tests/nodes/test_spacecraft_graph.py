@@ -38,8 +38,9 @@ SHARED = {"/clock", "/diagnostics", "/tf", "/tf_static"}
 #: rclpy's own topics.
 ROS_OWN = {"/parameter_events", "/rosout"}
 #: A spacecraft's own topics, relative to its namespace.
-OWN = {"pmv/horizon_crossings", "pmv/attitude", "pmv/attitude_uncorrected", "orbit/odometry", "attitude/truth",
-       "star_tracker/attitude", "pmv/residual", "pmv/error_statistics"}
+OWN = {"pmv/horizon_crossings", "pmv/attitude", "pmv/attitude_uncorrected", "pmv/attitude_imu", "orbit/odometry",
+       "attitude/truth", "star_tracker/attitude", "pmv/residual", "pmv/error_statistics", "pmv/residual_mean",
+       "pmv/residual_sigma", "pmv/residual_limit"}
 
 #: Quick sensors: the geometric horizon, one radiance everywhere.
 QUICK = {"sensor.detector": "ideal", "radiance.source": "uniform", "sensor.bright_body_exclusion_deg": 0.0}
