@@ -146,6 +146,9 @@ def _fly(args, overrides: dict, stop: _StopOnSignal) -> int:
         raise ValueError(f"{args.config}: {error}") from None
     started = time.perf_counter()
     with pipeline:
+        if pipeline.sensor.get_parameter("orbit.source").value == "follow":
+            raise ValueError(f"{args.config}: orbit.source = follow: pmv simulate flies an orbit of its own (circular "
+                             "or tle), there is no user's orbit/odometry to follow")
         orbit = pipeline.sensor.orbit
         rate = pipeline.sensor.get_parameter("sensor.rate_hz").value
         ticks = max(1, round(args.orbits * orbit.period_s * rate))

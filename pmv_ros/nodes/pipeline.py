@@ -30,6 +30,7 @@ from .error_monitor_node import ErrorMonitorNode
 from .params import check_params_files
 from .sensor_node import SensorNode
 from .star_tracker_node import StarTrackerNode
+from .tf import tf_message_type
 
 
 def drain(executor, max_callbacks: int = 100_000) -> int:
@@ -110,8 +111,9 @@ class Pipeline:
         record: a file to record every topic of the run into, as a rosbag2 MCAP file
             (:class:`~pmv_ros.nodes.recorder.TopicRecorder`, logged at simulation time); None for none.
         publish_tf: the sensor publishes /tf and /tf_static (when tf2_msgs is there); None: only when
-            recording — nothing else in the process's private graph reads them, and two more messages
-            per tick would cost the main job time for nothing (benchmarks/bench_tf.py measures it).
+            recording and tf2_msgs is there — nothing else in the process's private graph reads them, and
+            two more messages per tick would cost the main job time for nothing (benchmarks/bench_tf.py
+            measures it).
     """
 
     def __init__(self, config: str | os.PathLike | None = None, overrides: dict | None = None,
@@ -134,7 +136,8 @@ class Pipeline:
         # between two ticks and closes its recording); rclpy's would shut the context down under it.
         rclpy.init(args=args, context=self.context, signal_handler_options=SignalHandlerOptions.NO)
         self._settings, self._lean = settings, lean
-        self.publish_tf = record is not None if publish_tf is None else publish_tf
+        # Recording without tf2_msgs: the recording has no transforms, and no node warns about what nobody asked.
+        self.publish_tf = (record is not None and tf_message_type() is not None) if publish_tf is None else publish_tf
         self.nodes = []
         self.executor = None
         hold_single_threaded_blas()  # released in close()

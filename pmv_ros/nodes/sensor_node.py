@@ -44,6 +44,8 @@ from __future__ import annotations
 
 import sys
 
+import numpy as np
+
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PolygonStamped, QuaternionStamped, Vector3Stamped
 from nav_msgs.msg import Odometry
@@ -59,11 +61,16 @@ from ..runtime.estimator_output import estimator_orientation, variance_from_rms_
 from ..runtime.sensor_health import SensorHealth, truth_source_warnings
 from ..runtime.truth_buffer import PendingSamples, TruthAt, TruthBuffer
 from ..runtime.frames import Frames, Mounting
-from ..runtime.validation import Jump, JumpDetector, Rejection, StampCheck, check_frame, check_quaternion_sample
+from ..runtime.validation import (InputBounds, Jump, JumpDetector, Rejection, StampCheck, check_frame,
+                                  check_orbit_state, check_quaternion_sample)
 from ..physics.tle_orbit import OrbitPropagationError
+from ..runtime.orbit_buffer import OrbitAt
 from .launch import run_node
 from .params import ParameterError, declare, install_validation
 from .tf import NO_TF2_MSGS, SensorTransforms, tf_message_type
+
+#: orbit.source follow: what a state of the user's odometry must be (a bound Earth orbit, validation.py's bounds).
+ORBIT_BOUNDS = InputBounds()
 
 
 
@@ -98,7 +105,10 @@ class SensorNode(PmvNode):
         self._pub_attitude = self.publisher(Vector3Stamped, "pmv/attitude")
         self._pub_attitude_raw = self.publisher(Vector3Stamped, "pmv/attitude_uncorrected")
         self._pub_imu = self.publisher(Imu, "pmv/attitude_imu")
-        self._pub_odometry = self.publisher(Odometry, "orbit/odometry")
+        # orbit.source follow: the user's stack owns orbit/odometry and the sensor flies it (runtime/orbit_buffer.py).
+        self._orbit_following = self._values["orbit.source"] == "follow"
+        self._orbit_problem = None  # orbit.source follow: (OrbitAt, message) while sample times have no orbit
+        self._pub_odometry = None if self._orbit_following else self.publisher(Odometry, "orbit/odometry")
         self._pub_diagnostics = self.publisher(DiagnosticArray, "/diagnostics")
         self.watch_clock(self._pub_diagnostics)
         self._pub_truth = self._pub_clock = None
@@ -118,6 +128,11 @@ class SensorNode(PmvNode):
                                     self._values["input.source_timeout_s"])
         else:
             self._pub_truth = self.publisher(QuaternionStamped, "attitude/truth")
+        if self._orbit_following:
+            timeout = self._values["orbit.follow_timeout_s"]
+            self._odometry_stamps = StampCheck(timeout, timeout, 1.0 / self._values["input.max_rate_hz"])
+            self.input_subscription(Odometry, "orbit/odometry", self._on_odometry,
+                                    self._values["input.source_timeout_s"])
         self._sim_time_s = self._values["sim.start_time_s"]
         self._transforms = None
         tf_message = tf_message_type() if publish_tf else None
@@ -165,9 +180,11 @@ class SensorNode(PmvNode):
                                   bridge_s=values["attitude.extrapolation_s"])
         if previous is not None:  # a parameter change keeps the truth received so far
             self._truth.take_samples(previous)
-        # Epoch and elements on every /diagnostics, so that recordings can be analysed (issue 13).
-        self._orbit_status = shim.orbit_elements_status(shim.OrbitElements.from_orbit(orbit, values["sim.epoch_utc"]),
-                                                        self.status_name("orbit"), self.hardware_id("pmv"))
+        # Epoch and elements on every /diagnostics, so that recordings can be analysed (issue 13); a followed
+        # orbit has none (the user's odometry is the record of it).
+        self._orbit_status = None if values["orbit.source"] == "follow" else shim.orbit_elements_status(
+            shim.OrbitElements.from_orbit(orbit, values["sim.epoch_utc"]), self.status_name("orbit"),
+            self.hardware_id("pmv"))
 
     def _rebuild_live(self, values: dict) -> None:
         if values["sim.fast_time"]:
@@ -218,6 +235,60 @@ class SensorNode(PmvNode):
         if self._waiting and not self._values["sim.fast_time"]:  # sample times that waited for this truth
             self._sense_following(self._waiting.ready(self._truth, self._now_s()))
 
+    def _on_odometry(self, message: Odometry) -> None:
+        """orbit.source follow: keep the user's valid orbit states; drop and count bad messages."""
+        frames = self._frames
+        rejection = (check_frame(message.header.frame_id, frames.eci)
+                     or check_frame(message.child_frame_id, frames.orbital))
+        if rejection is None:
+            try:
+                stamp_s, position, velocity = shim.read_orbit_state(message)
+            except ValueError:  # an orientation that is no rotation, or a bad stamp
+                rejection = Rejection.NON_FINITE
+            else:
+                rejection = check_orbit_state(position, velocity, ORBIT_BOUNDS)
+        if rejection is None:
+            rejection, jumped = self._odometry_stamps.check(stamp_s, self._now_s())
+            if jumped:
+                self._health.count("clock_jumps")
+                self._stream.orbit.buffer.clear()
+        if rejection is not None:
+            self._health.count(f"rejected_odometry_{rejection.value}")
+            return
+        self._stream.orbit.buffer.add(stamp_s, position, velocity)
+
+    def _orbit_covered(self, times) -> list:
+        """orbit.source follow: the times of ``times`` the followed orbit gives a state at. Each other one is
+        counted (``skipped_<reason>``) and publishes health only; a stale orbit is an ERROR, said once each
+        way on the log, as for stale truth."""
+        buffer, covered = self._stream.orbit.buffer, []
+        for t_s in times:
+            where = buffer.where(t_s)
+            if where.usable:
+                if self._orbit_problem is not None:
+                    self.get_logger().info(f"orbit/odometry covers the samples again at t = {t_s:.3f} s")
+                    self._orbit_problem = None
+                covered.append(t_s)
+                continue
+            self._health.count(f"skipped_{where.value}")
+            if self._orbit_problem is None or self._orbit_problem[0] is not where:
+                newest = buffer.newest_stamp_s
+                self._orbit_problem = (where, f"orbit/odometry: {where.value.replace('_', ' ')} at t = {t_s:.3f} s "
+                                              f"(newest state {'none' if newest is None else f'{newest:.3f} s'}): "
+                                              "no output until the odometry covers the sample times")
+                if where is OrbitAt.STALE:
+                    self.get_logger().error(self._orbit_problem[1])
+            self._publish_health(t_s)
+        return covered
+
+    def _sense_profile_on_followed_orbit(self, times) -> None:
+        """orbit.source follow with the own attitude model: each covered time alone (no orbit exists ahead of
+        the user's odometry to compute a block from)."""
+        for t_s in self._orbit_covered(times):
+            for sample in self._orbit_samples(t_s, lambda: self._stream.samples(
+                    [t_s], self._stream.profile.quaternion(np.array([t_s])).T)):
+                self._publish_sample(sample)
+
     # -- ticks ----------------------------------------------------------------------------------
 
     @property
@@ -247,6 +318,9 @@ class SensorNode(PmvNode):
         self._pub_clock.publish(shim.write_clock(self._out["clock"], self._sim_time_s))
         if self._following:
             self._sense_following([(self._sim_time_s, *self._truth.attitude_at(self._sim_time_s))])
+            return
+        if self._orbit_following:
+            self._sense_profile_on_followed_orbit([self._sim_time_s])
             return
         samples = self._orbit_samples(self._sim_time_s, lambda: [self._stream.next_profile_sample(
             self._sim_time_s, period, self.fast_time_block)])
@@ -286,6 +360,9 @@ class SensorNode(PmvNode):
             return
         if not indices:
             return
+        if self._orbit_following:
+            self._sense_profile_on_followed_orbit(self._grid.time_of(indices).tolist())
+            return
         last_s = float(self._grid.time_of(indices[-1]))
         for sample in self._orbit_samples(last_s, lambda: self._stream.grid_profile_samples(self._grid, indices)):
             self._publish_sample(sample)
@@ -297,6 +374,9 @@ class SensorNode(PmvNode):
         if not found:
             return
         usable = [(t_s, q) for t_s, q, source in found if source.usable]
+        covered = set(self._orbit_covered([t for t, _ in usable])) if self._orbit_following else None
+        if covered is not None:
+            usable = [(t_s, q) for t_s, q in usable if t_s in covered]
         samples = iter(self._orbit_samples(found[-1][0], lambda: self._stream.samples(
             [t for t, _ in usable], [q for _, q in usable])) if usable else ())
         for t_s, _, source in found:
@@ -312,6 +392,8 @@ class SensorNode(PmvNode):
             if not source.usable:
                 self._health.count(f"skipped_{source.value}")
                 self._publish_health(t_s)
+                continue
+            if covered is not None and t_s not in covered:  # no orbit at t_s: counted and said already
                 continue
             if source is TruthAt.BRIDGED:  # a late truth sample, bridged by the last rate: counted, no alarm
                 self._health.count("truth_bridged")
@@ -338,7 +420,8 @@ class SensorNode(PmvNode):
             self._pub_truth.publish(shim.write_attitude_quaternion(out["truth"], t_s, frames.orbital, sample.q_xyzw))
         odometry = shim.write_orbit_state(out["odometry"], t_s, frames.eci, frames.orbital,
                                           sample.position_eci_m, sample.velocity_eci_m_s)
-        self._pub_odometry.publish(odometry)
+        if self._pub_odometry is not None:  # a followed orbit's odometry is the user's (its TF is still ours)
+            self._pub_odometry.publish(odometry)
         if self._transforms is not None:
             self._transforms.publish(odometry, t_s, sample.q_xyzw)
         self._pub_crossings.publish(shim.write_horizon_crossings(out["crossings"], t_s, frames.sensor,
@@ -361,18 +444,24 @@ class SensorNode(PmvNode):
             self._graph_checked_s, self._graph_warnings = t_s, self._truth_publisher_warnings()
             self._source_errors = tuple(self.input_source_problems(max_age_s=0.0))  # a second truth source
         source_errors = self._source_errors + ((self._orbit_error,) if self._orbit_error else ())
+        warnings = self._graph_warnings
+        if self._orbit_problem is not None:  # a stale followed orbit is an ERROR, one not there yet a WARN
+            where, problem = self._orbit_problem
+            source_errors, warnings = ((source_errors + (problem,), warnings) if where is OrbitAt.STALE
+                                       else (source_errors, warnings + (problem,)))
         newest = self._truth.newest_stamp_s if self._following else None
         summary = self._health.report(
             t_s, period, status=status, blinding=blinding, truth=self._truth_state,
             exclusion_deg=self._values["sensor.bright_body_exclusion_deg"],
             truth_age_s=float("nan") if newest is None else t_s - newest,
-            warnings=self._graph_warnings + source_errors)
+            warnings=warnings + source_errors,
+            **({"no_sample": "no orbit/odometry state at the sample time"} if self._orbit_problem else {}))
         if summary is not None:
             level = max(summary.level, shim.Level.ERROR if source_errors else shim.Level.OK)  # a second source
             report = shim.HealthReport(stamp_s=t_s, statuses=(shim.HealthStatus(
                 name=self.status_name("horizon"), level=shim.Level(level), message=summary.message,
                 hardware_id=self.hardware_id("pmv"), values={**summary.values, **self.input_source_counters()}),
-                self._orbit_status))
+                *((self._orbit_status,) if self._orbit_status is not None else ())))
             self._pub_diagnostics.publish(shim.write_health(self._out["diagnostics"], report))
 
     def _truth_publisher_warnings(self) -> tuple:

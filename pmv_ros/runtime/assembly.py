@@ -17,6 +17,7 @@ from ..physics.environment import YEAR_DAYS, EnvironmentParameters
 from ..physics.ephemeris import Epoch, raan_from_local_time_of_node
 from .monitor import ErrorMonitor
 from .monitor_records import MonitorConfig
+from .orbit_buffer import FollowedOrbit, OrbitBuffer
 from ..physics.orbit import CircularOrbit
 from .frames import FRAME_PARAMS, MOUNTING_PARAMS, Mounting
 from .parameters import ParamSpec
@@ -78,7 +79,13 @@ SENSOR_PARAMS = INPUT_PARAMS + FRAME_PARAMS + MOUNTING_PARAMS + (
               -1.0, 24.0, unit="h", read_only=True),
     ParamSpec("orbit.source", "circular", "circular: the circular orbit of orbit.altitude_km … u0_deg; tle: SGP4 "
               "from orbit.tle_line1/2 (sim.epoch_utc is the run's start; the circular elements are not used); "
-              "follow: the state from /orbit/odometry (not available yet)", choices=ORBIT_SOURCES, read_only=True),
+              "follow: the state from the user's orbit/odometry, interpolated to each sample (orbit.altitude_km is "
+              "then the nominal altitude the scan is set for)", choices=ORBIT_SOURCES, read_only=True),
+    ParamSpec("orbit.extrapolation_s", 2.0, "orbit.source follow: how far past the newest odometry the two-body "
+              "motion is carried before the orbit is stale (no output, an ERROR)", 0.0, 60.0, unit="s",
+              read_only=True),
+    ParamSpec("orbit.follow_timeout_s", 10.0, "orbit.source follow: no interpolation between odometry states "
+              "further apart", 0.01, 600.0, unit="s", read_only=True),
     ParamSpec("orbit.tle_line1", "", "orbit.source tle: line 1 of the two-line element set (69 columns)",
               constraints="line 1 of a two-line element set, 69 columns with its checksum", read_only=True),
     ParamSpec("orbit.tle_line2", "", "orbit.source tle: line 2 of the two-line element set (69 columns)",
@@ -332,15 +339,16 @@ ORBIT_CHECK_S = SECONDS_PER_DAY
 
 def build_source_orbit(values: dict, epoch_s: float, check_span_s: float | None = None, *,
                        epoch: Epoch | None = None):
-    """The orbit of ``orbit.source`` other than circular (a :class:`TleOrbit`); ValueError in one line if not.
+    """The orbit of ``orbit.source`` other than circular — a :class:`TleOrbit`, or for follow an empty
+    :class:`FollowedOrbit` the node fills from odometry; ValueError in one line if not.
 
     ``check_span_s``: the span from the start checked for SGP4 error codes, s (None: :data:`ORBIT_CHECK_S`);
     ``epoch``: the run epoch if already parsed (:func:`parse_epoch`).
     """
     source = values["orbit.source"]
     if source == "follow":
-        raise ValueError("orbit.source = follow is not available yet (the sensor cannot take its orbit from "
-                         "/orbit/odometry in this version): use circular or tle")
+        buffer = OrbitBuffer(values["orbit.extrapolation_s"], values["orbit.follow_timeout_s"])
+        return FollowedOrbit(buffer, values["orbit.altitude_km"] * 1e3, epoch_s)
     epoch = parse_epoch(values["sim.epoch_utc"]) if epoch is None else epoch
     check_span_s = ORBIT_CHECK_S if check_span_s is None else check_span_s
     return TleOrbit(values["orbit.tle_line1"], values["orbit.tle_line2"], epoch,

@@ -60,7 +60,7 @@ class SensorHealth:
         self.samples_published = 0
         self._chord_counts = [[0] * 4 for _ in ChordStatus]  # [status][chord]
         self._counters = {}  # reason → count
-        self._rejected_reported = 0
+        self._rejected_reported = {"truth": 0, "odometry": 0}  # rejected messages per input, last reported
         self._last_report_s = -math.inf
         self._last_condition = ()
 
@@ -80,7 +80,8 @@ class SensorHealth:
         self.samples_published += 1
 
     def report(self, t_s: float, period_s: float, *, status=None, blinding=None, truth: TruthAt | None = None,
-               exclusion_deg: float = 0.0, truth_age_s: float = math.nan, warnings=()) -> HealthSummary | None:
+               exclusion_deg: float = 0.0, truth_age_s: float = math.nan, warnings=(),
+               no_sample: str = "no /attitude/truth at the sample time") -> HealthSummary | None:
         """The status to publish at sample time ``t_s``, or None when none is due.
 
         Args:
@@ -88,6 +89,8 @@ class SensorHealth:
             truth: in follow mode, where the attitude of this tick came from.
             truth_age_s: in follow mode, how old the newest truth is at ``t_s``.
             warnings: further problems the node found (two publishers of /attitude/truth, ...).
+            no_sample: why there is no sample (status None): in follow mode the truth's absence, with a
+                followed orbit (orbit.source follow) the orbit's.
         """
         stale = truth is TruthAt.STALE
         condition = (() if status is None else (tuple(status), tuple(blinding)), stale, tuple(warnings))
@@ -110,18 +113,21 @@ class SensorHealth:
             values["truth"] = truth.value
             if math.isfinite(truth_age_s):
                 values["truth_age_s"] = f"{truth_age_s:.3f}"
-        rejected = sum(n for reason, n in self._counters.items() if reason.startswith("rejected_"))
-        fresh_rejections, self._rejected_reported = rejected > self._rejected_reported, rejected
+        fresh = []
+        for stream, topic in (("truth", "/attitude/truth"), ("odometry", "orbit/odometry")):
+            rejected = sum(n for reason, n in self._counters.items() if reason.startswith(f"rejected_{stream}_"))
+            if rejected > self._rejected_reported[stream]:
+                fresh.append(f"rejected {topic} messages")
+            self._rejected_reported[stream] = rejected
         level = Level.OK
         if stale:
             problems.append(f"stale /attitude/truth: the newest is {truth_age_s:.3f} s old, beyond the "
                             "extrapolation horizon; no angles are published")
             level = Level.ERROR
         elif status is None:
-            problems.append("no sample: no /attitude/truth at the sample time"
+            problems.append(f"no sample: {no_sample}"
                             + ("" if truth is None else f" ({truth.value.replace('_', ' ')})"))
-        if fresh_rejections:
-            problems.append("rejected /attitude/truth messages")
+        problems.extend(fresh)
         problems.extend(warnings)
         if problems and level == Level.OK:
             level = Level.WARN

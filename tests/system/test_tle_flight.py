@@ -177,12 +177,18 @@ def test_pmv_simulate_refuses_with_one_line(tmp_path, capsys, lines, arguments, 
     assert words in err[-1] and "Traceback" not in "\n".join(err)
 
 
-def test_orbit_source_follow_is_refused_for_now(tmp_path, capsys):
+def test_orbit_source_follow_is_refused_by_simulate_and_campaign(tmp_path, capsys):
+    # A followed orbit is the user's odometry: the in-process main job and a campaign have none to follow.
     document = preset_document()
     document["sensor_node"]["ros__parameters"]["orbit"]["source"] = "follow"
     (tmp_path / "follow.yaml").write_text(yaml.safe_dump(document))
     assert pmv_main(["simulate", "--config", str(tmp_path / "follow.yaml"), "--quiet"]) == 2
-    assert "orbit.source = follow is not available yet" in capsys.readouterr().err
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "orbit.source = follow: pmv simulate flies an orbit of its own" in err[0], err
+    assert pmv_main(["campaign", "--config", str(tmp_path / "follow.yaml"), "--days", "1", "--seeds", "1",
+                     "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "orbit.source = follow: a campaign flies an orbit of its own" in err[0], err
 
 
 def test_campaign_days_count_from_the_element_sets_epoch(tmp_path):

@@ -178,6 +178,9 @@ def check(settings: Settings, tasks: list[Task]) -> None:
     """Raise ValueError for settings that no task could fly, before any worker is asked."""
     first = tasks[0]
     values = flight_values(settings.document, task_overrides(settings, first))
+    if values.sensor["orbit.source"] == "follow":
+        raise ValueError("orbit.source = follow: a campaign flies an orbit of its own (circular or tle), there is no "
+                         "user's orbit/odometry to follow")
     if values.sensor["attitude.source"] != "profile":
         raise ValueError("attitude.source = follow: a campaign flies the sensor's own attitude profile")
     if any(task.component != "total" for task in tasks) and values.sensor["radiance.source"] != "environment":
