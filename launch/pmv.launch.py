@@ -128,11 +128,15 @@ def _nodes(context):
         raise LaunchArgumentError(f"preset:={preset}: not one of {', '.join(PRESETS)} and no such file")
     follow, fast_time = _flag(context, "follow"), _flag(context, "fast_time")
     use_sim_time = _flag(context, "use_sim_time")
-    try:
-        time_scale = float(LaunchConfiguration("time_scale").perform(context))
-    except ValueError:
-        raise LaunchArgumentError("time_scale: expected a number") from None
     namespace = LaunchConfiguration("namespace").perform(context).strip()
+    if namespace:
+        from rclpy.validate_namespace import validate_namespace
+
+        try:
+            validate_namespace("/" + namespace.strip("/"))
+        except Exception as error:  # rclpy's InvalidNamespaceException, with rcl's reason
+            reason = str(error).splitlines()[0]
+            raise LaunchArgumentError(f"namespace:={namespace}: {reason}") from None
     log_level = LaunchConfiguration("log_level").perform(context).strip().lower()
     if log_level not in LOG_LEVELS:
         raise LaunchArgumentError(f"log_level:={log_level}: expected one of {', '.join(LOG_LEVELS)}")
@@ -145,6 +149,7 @@ def _nodes(context):
     def spec(node: str, parameter: str):
         return next(s for s in NODE_PARAMS[node] if s.name == parameter)
 
+    time_scale = _checked(context, "time_scale", spec("sensor_node", "sim.time_scale"))
     rate_hz = _checked(context, "rate_hz", spec("sensor_node", "sensor.rate_hz"))
     seed = _checked(context, "seed", spec("sensor_node", "seed"))
     files = [str(path)] + ([str(config / "follow.yaml")] if follow else [])

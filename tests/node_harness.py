@@ -43,3 +43,16 @@ class Harness:
         self.node.destroy_node()
         self.tester.destroy_node()
         rclpy.shutdown(context=self.context)
+
+
+def probe(pipeline, topics: dict) -> dict:
+    """Record ``{topic: message type}`` of an in-process :class:`~pmv_ros.nodes.pipeline.Pipeline` into lists;
+    returns ``{topic: list}`` (the probe node is closed with the pipeline)."""
+    node = Node("probe", context=pipeline.context)
+    got = {}
+    for topic, kind in topics.items():
+        got[topic] = []
+        node.create_subscription(kind, topic, got[topic].append, 100)
+    pipeline.executor.add_node(node)
+    pipeline.nodes.append(node)
+    return got

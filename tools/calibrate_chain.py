@@ -190,7 +190,7 @@ def main(argv=None) -> int:
                       and DEFAULT_CHAIN_PARAMETERS.ramp == adopted.ramp)
     if not defaults_match:
         print(f"NOTE: ChainParameters defaults (T_p = {DEFAULT_CHAIN_PARAMETERS.detector_time_constant_s}) differ "
-              f"from the fit (T_p = {tau}); update pmv_ros/physics/chain.py.")
+              f"from the fit (T_p = {tau}); update pmv_ros/physics/chain/parameters.py.")
     if args.check:
         same = _matches_shipped(record, tables)
         print("shipped files are up to date" if same else "shipped files differ from a fresh fit")

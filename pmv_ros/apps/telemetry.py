@@ -432,7 +432,8 @@ def analyze_recording(path: str, altitude_m: float, inclination_rad: float, *, c
                 yield recorded
                 continue
             try:
-                found = shim.find_orbit_elements(recorded.message)
+                # The sensor whose topics are read (the un-namespaced one), not another spacecraft's.
+                found = shim.find_orbit_elements(recorded.message, shim.ORBIT_STATUS_NAME)
             except (ValueError, AttributeError):
                 continue
             if found is not None and (not elements_seen or found != elements_seen[-1]):

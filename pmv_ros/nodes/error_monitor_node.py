@@ -184,7 +184,7 @@ class ErrorMonitorNode(PmvNode):
         self._pub_statistics.publish(shim.write_error_statistics(self._out_statistics, statistics))
         for name, field in STATISTICS_VECTORS.items():
             publisher, message = self._pub_numbers[name]
-            publisher.publish(shim.write_statistics_vector(message, stamp_s, shim.SENSOR_FRAME, *(
+            publisher.publish(shim.write_statistics_vector(message, stamp_s, self._frames.sensor, *(
                 getattr(statistics.channel(channel), field) for channel in CHANNELS)))
         self._last_statistics = statistics
         return statistics

@@ -6,7 +6,8 @@ profile (published on ``/attitude/truth``) or follows the user's
 ``/attitude/truth``, runs the four chords through the instrument model and
 publishes crossings, roll/pitch (REP-103, corrected and uncorrected), the
 same as an orientation with covariance for estimators (``pmv/attitude_imu``,
-:mod:`pmv_ros.runtime.estimator_output`), odometry and health. The work in :mod:`pmv_ros.runtime` and :mod:`pmv_ros.physics`, message layout in
+:mod:`pmv_ros.runtime.estimator_output`), odometry and health. The work
+in :mod:`pmv_ros.runtime` and :mod:`pmv_ros.physics`, message layout in
 :mod:`pmv_msgs_shim`, health in :mod:`pmv_ros.runtime.sensor_health`.
 
 A chord without a horizon, without a crossing, or with the Sun or the Moon
@@ -55,22 +56,19 @@ from sensor_msgs.msg import Imu
 
 import pmv_msgs_shim as shim
 from .base import PmvNode
-from ..runtime.assembly import SENSOR_PARAMS as PARAMS, build_models, read_correction
+from ..runtime.assembly import SENSOR_PARAMS as PARAMS, build_models, orbit_bounds, read_correction
 from ..runtime.sample_stream import SampleGrid, SampleStream, SensorSample, fast_time_block
 from ..runtime.estimator_output import estimator_orientation, variance_from_rms_arcmin
 from ..runtime.sensor_health import SensorHealth, truth_source_warnings
 from ..runtime.truth_buffer import PendingSamples, TruthAt, TruthBuffer
 from ..runtime.frames import Frames, Mounting
-from ..runtime.validation import (InputBounds, Jump, JumpDetector, Rejection, StampCheck, check_frame,
-                                  check_orbit_state, check_quaternion_sample)
+from ..runtime.validation import (Jump, JumpDetector, Rejection, StampCheck, check_frame, check_orbit_state,
+                                  check_quaternion_sample)
 from ..physics.tle_orbit import OrbitPropagationError
-from ..runtime.orbit_buffer import OrbitAt
+from ..runtime.orbit_buffer import FollowedOrbit, OrbitAt
 from .launch import run_node
 from .params import ParameterError, declare, install_validation
 from .tf import NO_TF2_MSGS, SensorTransforms, tf_message_type
-
-#: orbit.source follow: what a state of the user's odometry must be (a bound Earth orbit, validation.py's bounds).
-ORBIT_BOUNDS = InputBounds()
 
 
 
@@ -112,7 +110,8 @@ class SensorNode(PmvNode):
         self._pub_diagnostics = self.publisher(DiagnosticArray, "/diagnostics")
         self.watch_clock(self._pub_diagnostics)
         self._pub_truth = self._pub_clock = None
-        self._health = SensorHealth()
+        self._health = SensorHealth(self.resolve_topic_name("attitude/truth"),
+                                    self.resolve_topic_name("orbit/odometry"))
         self._truth_state = None  # follow mode: where the last tick's attitude came from
         self._stale_logged = False  # follow mode: the stale truth was logged and has not come back since
         self._orbit_error = None  # an element set's orbit that SGP4 could not propagate: no output from then on
@@ -162,6 +161,10 @@ class SensorNode(PmvNode):
 
     def _rebuild(self, values: dict) -> None:
         orbit, profile, model = build_models(values, clock_epoch_s=self._clock_epoch_s, correction=self._correction)
+        previous_orbit = self._stream.orbit if hasattr(self, "_stream") else None
+        if isinstance(orbit, FollowedOrbit) and isinstance(previous_orbit, FollowedOrbit):  # it keeps its states
+            orbit.buffer.take_states(previous_orbit.buffer)
+        self._orbit_bounds = orbit_bounds(values)
         self._stream = SampleStream(model, orbit, profile, shim.checked_lines_of_sight)
         self._imu_variances = (variance_from_rms_arcmin(values["imu.roll_error_rms_arcmin"]),
                                variance_from_rms_arcmin(values["imu.pitch_error_rms_arcmin"]))
@@ -246,7 +249,7 @@ class SensorNode(PmvNode):
             except ValueError:  # an orientation that is no rotation, or a bad stamp
                 rejection = Rejection.NON_FINITE
             else:
-                rejection = check_orbit_state(position, velocity, ORBIT_BOUNDS)
+                rejection = check_orbit_state(position, velocity, self._orbit_bounds)
         if rejection is None:
             rejection, jumped = self._odometry_stamps.check(stamp_s, self._now_s())
             if jumped:
@@ -455,7 +458,7 @@ class SensorNode(PmvNode):
             exclusion_deg=self._values["sensor.bright_body_exclusion_deg"],
             truth_age_s=float("nan") if newest is None else t_s - newest,
             warnings=warnings + source_errors,
-            **({"no_sample": "no orbit/odometry state at the sample time"} if self._orbit_problem else {}))
+            no_sample=f"no {self._health.odometry_topic} state at the sample time" if self._orbit_problem else None)
         if summary is not None:
             level = max(summary.level, shim.Level.ERROR if source_errors else shim.Level.OK)  # a second source
             report = shim.HealthReport(stamp_s=t_s, statuses=(shim.HealthStatus(

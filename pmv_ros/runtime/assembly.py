@@ -38,9 +38,8 @@ INPUT_PARAMS = (
 )
 
 #: Plausibility bounds of the monitor's inputs: what a horizon sensor on a bound Earth orbit can report.
-MONITOR_INPUT_PARAMS = (
-    ParamSpec("input.max_abs_angle_deg", 30.0, "a /pmv/attitude roll or pitch beyond this is not a measurement "
-              "(the PMV sees no horizon there) and is dropped", 0.1, 180.0, unit="deg", read_only=True),
+#: What a state on orbit/odometry must be to be read (the monitor's, and the sensor's with orbit.source follow).
+ORBIT_BOUND_PARAMS = (
     ParamSpec("input.min_orbit_radius_km", 6471.0, "smallest geocentric radius on /orbit/odometry", 6371.0, 1e6,
               unit="km", read_only=True),
     ParamSpec("input.max_orbit_radius_km", 50000.0, "largest geocentric radius on /orbit/odometry", 6371.0, 1e6,
@@ -51,6 +50,19 @@ MONITOR_INPUT_PARAMS = (
               "is refused whatever the speed)", 0.0, 100.0, unit="km/s", read_only=True),
 )
 
+MONITOR_INPUT_PARAMS = (
+    ParamSpec("input.max_abs_angle_deg", 30.0, "a /pmv/attitude roll or pitch beyond this is not a measurement "
+              "(the PMV sees no horizon there) and is dropped", 0.1, 180.0, unit="deg", read_only=True),
+) + ORBIT_BOUND_PARAMS
+
+
+def orbit_bounds(values: dict, **others) -> InputBounds:
+    """The input bounds of ``values``' orbit/odometry parameters (:data:`ORBIT_BOUND_PARAMS`), and ``others``."""
+    return InputBounds(min_orbit_radius_m=values["input.min_orbit_radius_km"] * 1e3,
+                       max_orbit_radius_m=values["input.max_orbit_radius_km"] * 1e3,
+                       min_orbit_speed_m_s=values["input.min_orbit_speed_km_s"] * 1e3,
+                       max_orbit_speed_m_s=values["input.max_orbit_speed_km_s"] * 1e3, **others)
+
 
 #: The orbit's altitude and inclination: one range and default; each node says what it takes them for.
 ORBIT_ALTITUDE = ParamSpec("orbit.altitude_km", 500.0, "circular orbit altitude above the 6371 km mean radius",
@@ -58,7 +70,7 @@ ORBIT_ALTITUDE = ParamSpec("orbit.altitude_km", 500.0, "circular orbit altitude 
 ORBIT_INCLINATION = ParamSpec("orbit.inclination_deg", 74.5, "orbit inclination", 0.0, 180.0, unit="deg",
                               read_only=True)
 
-#: Where the sensor's orbit comes from (interfaces.md "Orbit sources"); follow is not built yet.
+#: Where the sensor's orbit comes from (interfaces.md "Orbit sources").
 ORBIT_SOURCES = ("circular", "tle", "follow")
 
 #: Roll and pitch error RMS of the Kondor preset (the defaults fly its orbit), arcmin: the defaults of
@@ -66,7 +78,7 @@ ORBIT_SOURCES = ("circular", "tle", "follow")
 IMU_DEFAULT_RMS_ARCMIN = (6.38, 9.12)
 
 #: Parameters of sensor_node (units in the names; YAML speaks km, deg, arcmin).
-SENSOR_PARAMS = INPUT_PARAMS + FRAME_PARAMS + MOUNTING_PARAMS + (
+SENSOR_PARAMS = INPUT_PARAMS + FRAME_PARAMS + MOUNTING_PARAMS + ORBIT_BOUND_PARAMS + (
     ORBIT_ALTITUDE,
     ORBIT_INCLINATION,
     ParamSpec("orbit.raan_deg", 0.0, "right ascension of the ascending node at epoch", -360.0, 360.0, unit="deg",
@@ -252,12 +264,7 @@ def build_monitor(values: dict) -> ErrorMonitor:
         roll_offset_rad=values["roll_offset_arcmin"] * ARCMIN_RAD,
         pitch_offset_rad=values["pitch_offset_arcmin"] * ARCMIN_RAD,
         min_interval_s=1.0 / values["input.max_rate_hz"],
-        bounds=InputBounds(
-            max_abs_angle_rad=math.radians(values["input.max_abs_angle_deg"]),
-            min_orbit_radius_m=values["input.min_orbit_radius_km"] * 1e3,
-            max_orbit_radius_m=values["input.max_orbit_radius_km"] * 1e3,
-            min_orbit_speed_m_s=values["input.min_orbit_speed_km_s"] * 1e3,
-            max_orbit_speed_m_s=values["input.max_orbit_speed_km_s"] * 1e3),
+        bounds=orbit_bounds(values, max_abs_angle_rad=math.radians(values["input.max_abs_angle_deg"])),
     ))
 
 

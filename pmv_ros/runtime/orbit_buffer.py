@@ -109,6 +109,11 @@ class OrbitBuffer:
         self._stamps.clear()
         self._states.clear()
 
+    def take_states(self, other: "OrbitBuffer") -> None:
+        """Keep the states of ``other`` (a buffer rebuilt while the odometry keeps coming)."""
+        self._stamps.extend(other._stamps)
+        self._states.extend(other._states)
+
     def add(self, t_s: float, position_m, velocity_m_s) -> None:
         """Keep one state: stamp (s), position (m) and velocity (m/s). A stamp not after the newest starts over."""
         if self._stamps and t_s <= self._stamps[-1]:

@@ -56,7 +56,9 @@ class SensorHealth:
     memory stays bounded however long the node runs.
     """
 
-    def __init__(self):
+    def __init__(self, truth_topic: str = "/attitude/truth", odometry_topic: str = "/orbit/odometry"):
+        """``truth_topic``, ``odometry_topic``: the node's resolved input names (in a namespace, its own)."""
+        self.truth_topic, self.odometry_topic = truth_topic, odometry_topic
         self.samples_published = 0
         self._chord_counts = [[0] * 4 for _ in ChordStatus]  # [status][chord]
         self._counters = {}  # reason → count
@@ -81,7 +83,7 @@ class SensorHealth:
 
     def report(self, t_s: float, period_s: float, *, status=None, blinding=None, truth: TruthAt | None = None,
                exclusion_deg: float = 0.0, truth_age_s: float = math.nan, warnings=(),
-               no_sample: str = "no /attitude/truth at the sample time") -> HealthSummary | None:
+               no_sample: str | None = None) -> HealthSummary | None:
         """The status to publish at sample time ``t_s``, or None when none is due.
 
         Args:
@@ -89,8 +91,7 @@ class SensorHealth:
             truth: in follow mode, where the attitude of this tick came from.
             truth_age_s: in follow mode, how old the newest truth is at ``t_s``.
             warnings: further problems the node found (two publishers of /attitude/truth, ...).
-            no_sample: why there is no sample (status None): in follow mode the truth's absence, with a
-                followed orbit (orbit.source follow) the orbit's.
+            no_sample: why there is no sample (status None); None: no truth at the sample time (follow mode).
         """
         stale = truth is TruthAt.STALE
         condition = (() if status is None else (tuple(status), tuple(blinding)), stale, tuple(warnings))
@@ -114,18 +115,18 @@ class SensorHealth:
             if math.isfinite(truth_age_s):
                 values["truth_age_s"] = f"{truth_age_s:.3f}"
         fresh = []
-        for stream, topic in (("truth", "/attitude/truth"), ("odometry", "orbit/odometry")):
+        for stream, topic in (("truth", self.truth_topic), ("odometry", self.odometry_topic)):
             rejected = sum(n for reason, n in self._counters.items() if reason.startswith(f"rejected_{stream}_"))
             if rejected > self._rejected_reported[stream]:
                 fresh.append(f"rejected {topic} messages")
             self._rejected_reported[stream] = rejected
         level = Level.OK
         if stale:
-            problems.append(f"stale /attitude/truth: the newest is {truth_age_s:.3f} s old, beyond the "
+            problems.append(f"stale {self.truth_topic}: the newest is {truth_age_s:.3f} s old, beyond the "
                             "extrapolation horizon; no angles are published")
             level = Level.ERROR
         elif status is None:
-            problems.append(f"no sample: {no_sample}"
+            problems.append(f"no sample: {no_sample or f'no {self.truth_topic} at the sample time'}"
                             + ("" if truth is None else f" ({truth.value.replace('_', ' ')})"))
         problems.extend(fresh)
         problems.extend(warnings)

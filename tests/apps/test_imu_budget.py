@@ -64,3 +64,12 @@ def test_documented_imu_variances_match_a_short_campaign_of_the_preset(preset, r
         stated = documented[f"{name}_error_rms_arcmin"]
         print(f"{preset} {name}: documented {stated:.2f}′, short campaign {measured[name]:.2f}′")
         assert abs(measured[name] - stated) <= TOLERANCE[preset] * stated, (preset, name, measured[name], stated)
+
+
+def test_the_code_defaults_are_the_default_presets():
+    # A node started without a params file measures as the default preset (Kondor, the launch file's): the
+    # Imu variances' code defaults are kondor.yaml's documented figures, one value in two places kept equal.
+    from pmv_ros.runtime.assembly import IMU_DEFAULT_RMS_ARCMIN
+
+    section = yaml.safe_load((CONFIG / "kondor.yaml").read_text())["sensor_node"]["ros__parameters"]["imu"]
+    assert IMU_DEFAULT_RMS_ARCMIN == (section["roll_error_rms_arcmin"], section["pitch_error_rms_arcmin"])

@@ -14,10 +14,10 @@ from pathlib import Path
 import numpy as np
 import yaml
 from geometry_msgs.msg import Vector3Stamped
-from rclpy.node import Node
 from sensor_msgs.msg import Imu
 
 import pmv_msgs_shim as shim
+from node_harness import probe
 from pmv_ros.nodes.pipeline import Pipeline
 from pmv_ros.physics.constants import ARCMIN_RAD
 from pmv_ros.runtime.estimator_output import UNOBSERVED_VARIANCE_RAD2, estimator_orientation
@@ -40,17 +40,6 @@ def fuse(prior_mean, prior_covariance, measurement, measurement_covariance):
     return prior_mean + gain @ (measurement - prior_mean)
 
 
-def record(pipeline, topics: dict) -> dict:
-    probe = Node("probe", context=pipeline.context)
-    got = {}
-    for topic, kind in topics.items():
-        got[topic] = []
-        probe.create_subscription(kind, topic, got[topic].append, 100)
-    pipeline.executor.add_node(probe)
-    pipeline.nodes.append(probe)
-    return got
-
-
 def test_the_imu_output_is_the_measured_attitude_with_the_presets_variances_and_a_lost_axis_is_ignored():
     # Kondor's preset with a ±5° roll swing (period 200 s, 1 Hz): past ≈ 2.9° a ±Y chord finds no
     # horizon and roll is lost (tests/nodes/test_faults.py shows the chain side); pitch stays.
@@ -58,7 +47,7 @@ def test_the_imu_output_is_the_measured_attitude_with_the_presets_variances_and_
     overrides = {"attitude.roll_amplitude_arcmin": 300.0, "attitude.oscillation_period_s": 200.0,
                  "sensor.rate_hz": 1.0}
     with Pipeline(KONDOR, overrides, collect=False) as pipeline:
-        got = record(pipeline, {"/pmv/attitude": Vector3Stamped, "/pmv/attitude_imu": Imu})
+        got = probe(pipeline, {"/pmv/attitude": Vector3Stamped, "/pmv/attitude_imu": Imu})
         pipeline.step(100)
     attitude, imu = got["/pmv/attitude"], got["/pmv/attitude_imu"]
     assert len(attitude) == len(imu) == 100

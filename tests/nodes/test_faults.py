@@ -24,10 +24,10 @@ import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PolygonStamped, QuaternionStamped, Vector3Stamped
-from rclpy.node import Node
 from rosgraph_msgs.msg import Clock
 
 import pmv_msgs_shim as shim
+from node_harness import probe
 from pmv_ros.nodes.error_monitor_node import ErrorMonitorNode
 from pmv_ros.nodes.pipeline import Pipeline
 from pmv_ros.nodes.sensor_node import PARAMS as SENSOR_PARAMS
@@ -51,18 +51,6 @@ SUNRISE = {"sim.epoch_utc": "2024-03-20T03:06:00Z", "orbit.raan_deg": 0.0, "orbi
 
 
 # ------------------------------------------------------------------------------------------------ helpers
-
-def probe(pipeline: Pipeline, topics: dict) -> dict:
-    """Record ``{topic: message type}`` of a pipeline into lists; returns ``{topic: list}``."""
-    node = Node("probe", context=pipeline.context)
-    got = {}
-    for topic, kind in topics.items():
-        got[topic] = []
-        node.create_subscription(kind, topic, got[topic].append, 100)
-    pipeline.executor.add_node(node)
-    pipeline.nodes.append(node)
-    return got
-
 
 def health(messages, name_prefix: str) -> list:
     """(stamp_s, HealthStatus) of every /diagnostics status whose name starts with ``name_prefix``."""

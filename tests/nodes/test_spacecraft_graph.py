@@ -78,7 +78,8 @@ def test_two_spacecraft_in_namespaces_share_only_clock_diagnostics_and_tf(capfd)
         for topic, kind in (("/sat1/pmv/attitude", Vector3Stamped), ("/sat1/orbit/odometry", Odometry),
                             ("/sat1/pmv/residual", Vector3Stamped), ("/sat2/pmv/residual", Vector3Stamped),
                             ("/sat2/attitude/truth", QuaternionStamped), ("/diagnostics", DiagnosticArray),
-                            ("/sat1/pmv/error_statistics", DiagnosticArray)):
+                            ("/sat1/pmv/error_statistics", DiagnosticArray),
+                            ("/sat1/pmv/residual_sigma", Vector3Stamped), ("/sat2/pmv/residual_mean", Vector3Stamped)):
             got[topic] = []
             tester.create_subscription(kind, topic, got[topic].append, 1000)
         drain(executor)
@@ -102,6 +103,10 @@ def test_two_spacecraft_in_namespaces_share_only_clock_diagnostics_and_tf(capfd)
     assert {m.header.frame_id for m in got["/sat1/pmv/attitude"]} == {"sat1/pmv_sensor"}
     assert {(m.header.frame_id, m.child_frame_id) for m in got["/sat1/orbit/odometry"]} == {("eci", "sat1/orbital")}
     assert {m.header.frame_id for m in got["/sat2/attitude/truth"]} == {"sat2/orbital"}
+    for namespace, topic in (("sat1", "pmv/residual"), ("sat2", "pmv/residual"), ("sat1", "pmv/residual_sigma"),
+                             ("sat2", "pmv/residual_mean")):
+        frames = {m.header.frame_id for m in got[f"/{namespace}/{topic}"]}
+        assert frames == {f"{namespace}/pmv_sensor"}, (namespace, topic, frames)
     # Each monitor measured its own spacecraft: the body roll cancels (sensor and star tracker both see it).
     for namespace in ("sat1", "sat2"):
         residual = np.array([m.vector.x for m in got[f"/{namespace}/pmv/residual"]]) / ARCMIN_RAD

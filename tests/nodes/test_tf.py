@@ -1,7 +1,7 @@
 """Without tf2_msgs (not on the package registries), the sensor says so once at start-up and runs as before.
 
 The transforms themselves, with the vendored tf2_msgs, are checked in
-tests/system/test_tf.py (a venv copy that has it).
+tests/system/test_tf_vendored.py (a venv copy that has it).
 """
 
 from __future__ import annotations

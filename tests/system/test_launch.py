@@ -192,16 +192,18 @@ def test_launch_follow_starts_no_attitude_source(colcon_install, ros_tools, grap
 #: Launch arguments that cannot be used, and a word the refusal must name.
 BAD_ARGUMENTS = (("preset:=kondr", "preset"), ("follow:=yes", "follow"), ("rate_hz:=-1", "sensor.rate_hz"),
                  ("rate_hz:=fast", "rate_hz"), ("seed:=1e9", "seed"), ("log_level:=loud", "log_level"),
-                 ("star_tracker:=maybe", "star_tracker"))
+                 ("star_tracker:=maybe", "star_tracker"), ("fast_time:=true", "time_scale:=-1", "sim.time_scale"),
+                 ("namespace:=sat 1", "namespace"))
 
 
 def test_an_unusable_launch_argument_ends_the_launch_non_zero_with_one_line(colcon_install, ros_tools, tmp_path):
     started = []
-    for k, (argument, _) in enumerate(BAD_ARGUMENTS):  # all at once: each refusal comes before any node starts
+    for k, (*arguments, _) in enumerate(BAD_ARGUMENTS):  # all at once: each refusal comes before any node starts
         (tmp_path / str(k)).mkdir()
-        started.append(Launched(colcon_install, ros_tools, tmp_path / str(k), argument))
+        started.append(Launched(colcon_install, ros_tools, tmp_path / str(k), *arguments))
     try:
-        for launched, (argument, word) in zip(started, BAD_ARGUMENTS):
+        for launched, (*arguments, word) in zip(started, BAD_ARGUMENTS):
+            argument = " ".join(arguments)
             launched.process.wait(timeout=FIRST_MESSAGE_TIMEOUT_S)
             log = launched.log()
             errors = [line for line in log.splitlines() if "ERROR" in line]
