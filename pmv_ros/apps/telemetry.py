@@ -41,7 +41,8 @@ from ..physics.constants import ARCMIN_RAD
 from ..physics.conventions import PAPER, ROS, convert
 from ..physics.ground_error import ground_error
 from ..physics.orbit import CircularOrbit
-from ..analysis.statistics import ORBIT_HARMONICS, correct_reference_drift, flight_test_statistics
+from ..analysis.flight_test import correct_reference_drift, flight_test_statistics
+from ..analysis.statistics import ORBIT_HARMONICS
 
 ORBIT_LAYOUT = ("orbit", "u_deg", "roll_arcmin", "pitch_arcmin")
 TIME_LAYOUT = ("t_s", "roll_rad", "pitch_rad")

@@ -7,13 +7,11 @@ import math
 import numpy as np
 import pytest
 
+from pmv_ros.analysis.flight_test import average_over_orbits, correct_reference_drift, flight_test_statistics
 from pmv_ros.analysis.statistics import (
     ORBIT_HARMONICS,
     OrbitRing,
     RunningStatistics,
-    average_over_orbits,
-    correct_reference_drift,
-    flight_test_statistics,
     harmonic_amplitudes,
 )
 
