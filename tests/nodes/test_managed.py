@@ -5,13 +5,16 @@ from __future__ import annotations
 
 import time
 
+import pytest
 from geometry_msgs.msg import Vector3Stamped
 from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState, GetState
 from rcl_interfaces.msg import Log
 
 from pmv_ros.nodes.managed import ManagedNode, managed_requested
+from pmv_ros.nodes.error_monitor_node import ErrorMonitorNode
 from pmv_ros.nodes.sensor_node import SensorNode
+from pmv_ros.nodes.star_tracker_node import StarTrackerNode
 
 
 def managed_sensor(**arguments):
@@ -19,12 +22,12 @@ def managed_sensor(**arguments):
 
 
 class Lifecycle:
-    """The lifecycle services of /sensor_node, called from the harness's tester node."""
+    """The lifecycle services of a node (/sensor_node), called from the harness's tester node."""
 
-    def __init__(self, h):
+    def __init__(self, h, name: str = "sensor_node"):
         self.h = h
-        self.change = h.tester.create_client(ChangeState, "/sensor_node/change_state")
-        self.get = h.tester.create_client(GetState, "/sensor_node/get_state")
+        self.change = h.tester.create_client(ChangeState, f"/{name}/change_state")
+        self.get = h.tester.create_client(GetState, f"/{name}/get_state")
         assert self.change.wait_for_service(timeout_sec=5.0) and self.get.wait_for_service(timeout_sec=5.0)
 
     def _call(self, client, request):
@@ -110,3 +113,17 @@ def test_the_managed_switch_is_read_before_the_ros_arguments_only():
     assert managed_requested(["--managed", "--ros-args", "-p", "sensor.rate_hz:=5.0"])
     assert not managed_requested([])
     assert not managed_requested(["--ros-args", "-r", "__node:=--managed"])
+
+
+@pytest.mark.parametrize("node_class, name", [(StarTrackerNode, "star_tracker_node"),
+                                              (ErrorMonitorNode, "error_monitor_node")])
+def test_the_other_nodes_go_through_the_lifecycle_too(harness, node_class, name):
+    h = harness(lambda **arguments: ManagedNode(node_class, name, **arguments), {})
+    lifecycle = Lifecycle(h, name)
+    for transition, state in ((Transition.TRANSITION_CONFIGURE, "inactive"), (Transition.TRANSITION_ACTIVATE, "active"),
+                              (Transition.TRANSITION_DEACTIVATE, "inactive"),
+                              (Transition.TRANSITION_CLEANUP, "unconfigured")):
+        assert lifecycle.transition(transition) and lifecycle.state() == state
+        assert isinstance(h.node.inner, node_class) == (state != "unconfigured")
+        lifecycle.spin(0.05)
+    assert lifecycle.transition(Transition.TRANSITION_UNCONFIGURED_SHUTDOWN) and lifecycle.state() == "finalized"
