@@ -428,3 +428,41 @@ def test_two_spacecraft_share_only_clock_diagnostics_and_tf_and_fly_as_alone(col
         print(f"{name} ({preset}) in the fleet and alone, statistics at {stamp[0] + stamp[1] * 1e-9:.1f} s: "
               f"N = {roll.count}, roll mean {roll.mean_rad / ARCMIN_RAD:+.4f}′, σ {roll.sigma_rad / ARCMIN_RAD:.4f}′ "
               f"(equal to 1e-9′); {common} residuals bit-identical")
+
+
+def test_launch_managed_configures_and_activates_and_a_deactivated_node_stays_quiet(colcon_install, ros_tools,
+                                                                                    graph, tmp_path):
+    from lifecycle_msgs.msg import Transition
+    from lifecycle_msgs.srv import ChangeState, GetState
+
+    node, executor = graph
+    statistics, attitude = [], []
+    node.create_subscription(DiagnosticArray, "/pmv/error_statistics", statistics.append, 10)
+    node.create_subscription(Vector3Stamped, "/pmv/attitude", attitude.append, 100)
+    change = node.create_client(ChangeState, "/sensor_node/change_state")
+    get = node.create_client(GetState, "/sensor_node/get_state")
+    launched = Launched(colcon_install, ros_tools, tmp_path, "managed:=true")
+
+    def call(client, request):
+        future = client.call_async(request)
+        _spin_until(executor, launched, future.done, 10.0, f"no answer from {client.srv_name}")
+        return future.result()
+
+    try:  # the whole chain publishing: all three configured and activated by the launch
+        _spin_until(executor, launched, lambda: len(statistics) >= 2, FIRST_MESSAGE_TIMEOUT_S,
+                    "no /pmv/error_statistics")
+        assert call(get, GetState.Request()).current_state.label == "active"
+        assert call(change, ChangeState.Request(transition=Transition(id=Transition.TRANSITION_DEACTIVATE))).success
+        deadline = time.monotonic() + 1.0
+        while time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.1)
+        count = len(attitude)
+        deadline = time.monotonic() + 2.0
+        while time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.1)
+        assert len(attitude) == count > 0  # deactivated: silent, and the launch does not activate it again
+        assert call(get, GetState.Request()).current_state.label == "inactive"
+        launched.interrupt()
+    finally:
+        launched.kill()
+    _assert_clean_exit(launched)
