@@ -193,7 +193,7 @@ def test_launch_follow_starts_no_attitude_source(colcon_install, ros_tools, grap
 BAD_ARGUMENTS = (("preset:=kondr", "preset"), ("follow:=yes", "follow"), ("rate_hz:=-1", "sensor.rate_hz"),
                  ("rate_hz:=fast", "rate_hz"), ("seed:=1e9", "seed"), ("log_level:=loud", "log_level"),
                  ("star_tracker:=maybe", "star_tracker"), ("fast_time:=true", "time_scale:=-1", "sim.time_scale"),
-                 ("namespace:=sat 1", "namespace"))
+                 ("namespace:=sat 1", "namespace"), ("managed:=maybe", "managed"))
 
 
 def test_an_unusable_launch_argument_ends_the_launch_non_zero_with_one_line(colcon_install, ros_tools, tmp_path):
