@@ -87,6 +87,9 @@ class ManagedNode(LifecycleNode):
         return TransitionCallbackReturn.SUCCESS
 
     def on_activate(self, state: State) -> TransitionCallbackReturn:
+        if self.executor is None:  # a transition triggered in-process on a node nothing spins
+            self.get_logger().error("activate failed: the node is not in an executor")
+            return TransitionCallbackReturn.FAILURE
         self._discard_pending()
         self.executor.add_node(self.inner)
         return TransitionCallbackReturn.SUCCESS
