@@ -25,7 +25,11 @@ Arguments (``ros2 launch pmv_ros pmv.launch.py --show-args`` lists them):
 * ``log_level`` — debug, info (default), warn, error or fatal, for the three nodes;
 * ``respawn`` — true: a node that dies is started again after 2 s;
 * ``star_tracker``, ``monitor`` — false: leave that node out (your stack has its
-  own star tracker or monitor; they talk on the same topics).
+  own star tracker or monitor; they talk on the same topics);
+* ``managed`` — true: the nodes start as managed (lifecycle) nodes (``--managed``,
+  see the README) and the launch configures them when their process starts
+  and activates each once that configure succeeded; a failed configure leaves
+  the node unconfigured, with the reason in its log.
 
 ``rate_hz`` and ``seed`` reach the nodes in a params file of node sections
 passed after the preset's: a node section beats a ``-p``, so a plain override
@@ -63,6 +67,7 @@ ARGUMENTS = (
     ("respawn", "false", "true: a node that dies is started again after 2 s"),
     ("star_tracker", "true", "false: no star_tracker_node (your stack publishes star_tracker/attitude)"),
     ("monitor", "true", "false: no error_monitor_node"),
+    ("managed", "false", "true: lifecycle nodes, configured and activated by the launch"),
 )
 LOG_LEVELS = ("debug", "info", "warn", "error", "fatal")
 RESPAWN_DELAY_S = 2.0
@@ -166,10 +171,40 @@ def _nodes(context):
         chosen["sensor_node"]["seed"] = chosen["star_tracker_node"]["seed"] = seed
     if any(chosen.values()):
         files.append(_node_sections(chosen, namespace))
+    if _flag(context, "managed"):
+        return [entity for name in NODES if wanted[name] for entity in _managed(
+            name=name, namespace=namespace, parameters=[*files, sensor if name == "sensor_node" else others],
+            log_level=log_level, respawn=respawn)]
     return [Node(package=PACKAGE, executable=name, name=name, namespace=namespace, output="screen",
                  parameters=[*files, sensor if name == "sensor_node" else others],
                  ros_arguments=["--log-level", log_level], respawn=respawn, respawn_delay=RESPAWN_DELAY_S)
             for name in NODES if wanted[name]]
+
+
+def _managed(*, name: str, namespace: str, parameters: list, log_level: str, respawn: bool) -> list:
+    """A node started with ``--managed``; configure when its process starts (each respawn too), activate after a
+    configure that succeeded (not after a deactivate: a node a user deactivated stays inactive)."""
+    from launch.actions import EmitEvent, RegisterEventHandler
+    from launch.event_handlers import OnProcessStart
+    from launch.events import matches_action
+    from launch_ros.actions import LifecycleNode
+    from launch_ros.event_handlers import OnStateTransition
+    from launch_ros.events.lifecycle import ChangeState
+    from lifecycle_msgs.msg import Transition
+
+    node = LifecycleNode(package=PACKAGE, executable=name, name=name, namespace=namespace, output="screen",
+                         arguments=["--managed"], parameters=parameters, ros_arguments=["--log-level", log_level],
+                         respawn=respawn, respawn_delay=RESPAWN_DELAY_S)
+
+    def change(transition: int) -> EmitEvent:
+        return EmitEvent(event=ChangeState(lifecycle_node_matcher=matches_action(node), transition_id=transition))
+
+    return [RegisterEventHandler(OnProcessStart(target_action=node,
+                                                on_start=[change(Transition.TRANSITION_CONFIGURE)])),
+            RegisterEventHandler(OnStateTransition(target_lifecycle_node=node, start_state="configuring",
+                                                   goal_state="inactive",
+                                                   entities=[change(Transition.TRANSITION_ACTIVATE)])),
+            node]
 
 
 def generate_launch_description() -> LaunchDescription:

@@ -47,6 +47,7 @@ from ..runtime.monitor_records import SENSOR_REJECTIONS, Status
 from ..runtime.validation import Rejection, check_frame
 from ..analysis.statistics import CHANNELS
 from .launch import run_node
+from .managed import managed_factory, managed_requested
 from .params import ParameterError, declare, install_validation
 
 
@@ -249,7 +250,9 @@ class ErrorMonitorNode(PmvNode):
 
 
 def main(args=None) -> int:
-    """Console script / ``ros2 run pmv_ros error_monitor_node``."""
+    """Console script / ``ros2 run pmv_ros error_monitor_node [--managed]``."""
+    if managed_requested(args):  # --managed: a lifecycle node (pmv_ros/nodes/managed.py)
+        return run_node(managed_factory(ErrorMonitorNode, "error_monitor_node"), "error_monitor_node", args)
     return run_node(ErrorMonitorNode, "error_monitor_node", args)
 
 

@@ -67,6 +67,7 @@ from ..runtime.validation import (Jump, JumpDetector, Rejection, StampCheck, che
 from ..physics.tle_orbit import OrbitPropagationError
 from ..runtime.orbit_buffer import FollowedOrbit, OrbitAt
 from .launch import run_node
+from .managed import managed_factory, managed_requested
 from .params import ParameterError, declare, install_validation
 from .tf import NO_TF2_MSGS, SensorTransforms, tf_message_type
 
@@ -477,7 +478,9 @@ class SensorNode(PmvNode):
 
 
 def main(args=None) -> int:
-    """Console script / ``ros2 run pmv_ros sensor_node``."""
+    """Console script / ``ros2 run pmv_ros sensor_node [--managed]``."""
+    if managed_requested(args):  # --managed: a lifecycle node (pmv_ros/nodes/managed.py)
+        return run_node(managed_factory(SensorNode, "sensor_node"), "sensor_node", args)
     return run_node(SensorNode, "sensor_node", args)
 
 

@@ -49,6 +49,7 @@ from ..runtime.tracker import TrackerRuntime
 from ..runtime.frames import Frames
 from ..runtime.validation import TRUTH_REJECTIONS, Rejection, StampCheck, check_frame, check_quaternion_sample
 from .launch import run_node
+from .managed import managed_factory, managed_requested
 from .params import ParameterError, declare, install_validation
 
 
@@ -188,7 +189,9 @@ class StarTrackerNode(PmvNode):
 
 
 def main(args=None) -> int:
-    """Console script / ``ros2 run pmv_ros star_tracker_node``."""
+    """Console script / ``ros2 run pmv_ros star_tracker_node [--managed]``."""
+    if managed_requested(args):  # --managed: a lifecycle node (pmv_ros/nodes/managed.py)
+        return run_node(managed_factory(StarTrackerNode, "star_tracker_node"), "star_tracker_node", args)
     return run_node(StarTrackerNode, "star_tracker_node", args)
 
 

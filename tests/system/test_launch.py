@@ -193,7 +193,7 @@ def test_launch_follow_starts_no_attitude_source(colcon_install, ros_tools, grap
 BAD_ARGUMENTS = (("preset:=kondr", "preset"), ("follow:=yes", "follow"), ("rate_hz:=-1", "sensor.rate_hz"),
                  ("rate_hz:=fast", "rate_hz"), ("seed:=1e9", "seed"), ("log_level:=loud", "log_level"),
                  ("star_tracker:=maybe", "star_tracker"), ("fast_time:=true", "time_scale:=-1", "sim.time_scale"),
-                 ("namespace:=sat 1", "namespace"))
+                 ("namespace:=sat 1", "namespace"), ("managed:=maybe", "managed"))
 
 
 def test_an_unusable_launch_argument_ends_the_launch_non_zero_with_one_line(colcon_install, ros_tools, tmp_path):
@@ -428,3 +428,41 @@ def test_two_spacecraft_share_only_clock_diagnostics_and_tf_and_fly_as_alone(col
         print(f"{name} ({preset}) in the fleet and alone, statistics at {stamp[0] + stamp[1] * 1e-9:.1f} s: "
               f"N = {roll.count}, roll mean {roll.mean_rad / ARCMIN_RAD:+.4f}′, σ {roll.sigma_rad / ARCMIN_RAD:.4f}′ "
               f"(equal to 1e-9′); {common} residuals bit-identical")
+
+
+def test_launch_managed_configures_and_activates_and_a_deactivated_node_stays_quiet(colcon_install, ros_tools,
+                                                                                    graph, tmp_path):
+    from lifecycle_msgs.msg import Transition
+    from lifecycle_msgs.srv import ChangeState, GetState
+
+    node, executor = graph
+    statistics, attitude = [], []
+    node.create_subscription(DiagnosticArray, "/pmv/error_statistics", statistics.append, 10)
+    node.create_subscription(Vector3Stamped, "/pmv/attitude", attitude.append, 100)
+    change = node.create_client(ChangeState, "/sensor_node/change_state")
+    get = node.create_client(GetState, "/sensor_node/get_state")
+    launched = Launched(colcon_install, ros_tools, tmp_path, "managed:=true")
+
+    def call(client, request):
+        future = client.call_async(request)
+        _spin_until(executor, launched, future.done, 10.0, f"no answer from {client.srv_name}")
+        return future.result()
+
+    try:  # the whole chain publishing: all three configured and activated by the launch
+        _spin_until(executor, launched, lambda: len(statistics) >= 2, FIRST_MESSAGE_TIMEOUT_S,
+                    "no /pmv/error_statistics")
+        assert call(get, GetState.Request()).current_state.label == "active"
+        assert call(change, ChangeState.Request(transition=Transition(id=Transition.TRANSITION_DEACTIVATE))).success
+        deadline = time.monotonic() + 1.0
+        while time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.1)
+        count = len(attitude)
+        deadline = time.monotonic() + 2.0
+        while time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.1)
+        assert len(attitude) == count > 0  # deactivated: silent, and the launch does not activate it again
+        assert call(get, GetState.Request()).current_state.label == "inactive"
+        launched.interrupt()
+    finally:
+        launched.kill()
+    _assert_clean_exit(launched)
