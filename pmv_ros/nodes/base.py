@@ -125,7 +125,8 @@ class PmvNode(Node):
             kwargs.setdefault("start_parameter_services", False)
             kwargs.setdefault("enable_rosout", False)  # logs still reach the console and the log file
         self.parameter_specs = {}  # name → ParamSpec, filled by install_validation
-        super().__init__(name, **kwargs)
+        if not getattr(self, "configuring", False):  # a managed node (nodes/managed.py) is a node already
+            super().__init__(name, **kwargs)
         self._lean = lean
         self.source_locks = {}  # input topic (resolved name) → SourceLock (see input_subscription)
         self._input_names = {}  # input topic (resolved name) → the name the node gave (for counter keys)

@@ -1,32 +1,35 @@
 """Managed (lifecycle) variants of the pmv_ros nodes: ``--managed`` on the command line, ``managed:=true`` in the launch.
 
-A :class:`ManagedNode` is a ``rclpy.lifecycle.LifecycleNode`` of the node's
-own name with the standard lifecycle services (``<node>/change_state``,
-``<node>/get_state``, …) and no parameter services of its own. It hosts the
-plain node, unchanged:
+:func:`managed` makes one class of a node class and ``rclpy.lifecycle.LifecycleNode``:
+one node of the node's own name in the graph, with the standard lifecycle
+services (``<node>/change_state``, ``<node>/get_state``, …) and, once
+configured, the node's parameters on its own parameter services.
 
-* configure — builds the plain node (reads the files, builds the models,
-  declares and checks the parameters). A failure (a bad ``sensor.correction``
-  file, a value out of range) leaves it unconfigured and logs the reason (also
-  on /rosout);
-* activate — the plain node joins the executor: its timers and subscriptions
-  run, it publishes;
-* deactivate — it leaves the executor: no callback runs, nothing is published
-  (its publishers and subscriptions stay; messages that arrive meanwhile are
-  dropped at activation, not processed late);
-* cleanup, shutdown — the plain node is destroyed with everything it made.
-
-While configured, the hosted node is a second node of the same name in the
-graph (it carries the parameters and the parameter services); the host only
-carries the lifecycle services.
+* construction — only the node itself and its lifecycle services: no file is
+  read, no parameter declared, nothing published or subscribed;
+* configure — the node's own constructor runs on it: it declares and checks the
+  parameters, reads the files, builds the models and makes its publishers,
+  subscriptions and timers, all held still. A failure (a bad ``sensor.correction``
+  file, a value out of range) leaves it unconfigured, with what was made released
+  and the reason logged (also on /rosout) and kept in :attr:`configure_error`;
+* activate — its timers run and its subscriptions deliver; it publishes;
+* deactivate — its timers stop; a message that arrives meanwhile is dropped, not
+  processed late; nothing is published (a latched, transient-local message made
+  while inactive goes out at the next activation);
+* cleanup, shutdown — everything configure made is destroyed. Declared parameters
+  stay declared with their values (rclpy has no public way to undeclare a
+  read-only one); a new configure checks them again and builds anew.
 """
 
 from __future__ import annotations
 
+import inspect
 import sys
 
 from rclpy.impl.implementation_singleton import rclpy_implementation
 from rclpy.lifecycle import LifecycleNode, State, TransitionCallbackReturn
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy
 
 from .params import ParameterError
 
@@ -34,6 +37,15 @@ RCLError = rclpy_implementation.RCLError
 
 #: The command-line switch (before ``--ros-args``) that starts a node as a managed node.
 MANAGED_FLAG = "--managed"
+
+#: The keyword arguments that make the rclpy node itself (given at construction); the others are the
+#: node class's own (``lean``, ``external_drive``, …) and reach its constructor at configure.
+_NODE_KEYWORDS = frozenset(inspect.signature(Node.__init__).parameters) - {"self", "node_name"}
+
+#: What configure makes, by kind, and how each kind is released at cleanup.
+_ENTITY_KINDS = (("publishers", "destroy_publisher"), ("subscriptions", "destroy_subscription"),
+                 ("timers", "destroy_timer"), ("clients", "destroy_client"), ("services", "destroy_service"),
+                 ("guards", "destroy_guard_condition"))
 
 
 def managed_requested(args=None) -> bool:
@@ -44,20 +56,22 @@ def managed_requested(args=None) -> bool:
     return MANAGED_FLAG in argv
 
 
-class ManagedNode(LifecycleNode):
-    """A lifecycle node hosting a plain pmv_ros node, built at configure and destroyed at cleanup.
+class _Managed:
+    """The lifecycle half of a managed node class (see :func:`managed`); comes first in its MRO."""
 
-    Args:
-        factory: makes the plain node (``SensorNode``, …); called with ``context`` and ``node_arguments``.
-        name: the node's name (the plain node's own).
-        node_arguments: further keyword arguments for ``factory`` (``parameter_overrides`` in tests).
-    """
+    node_name = ""  # set by managed()
 
-    def __init__(self, factory, name: str, *, context=None, **node_arguments):
-        super().__init__(name, context=context, start_parameter_services=False)
-        self._factory, self._context, self._arguments = factory, context, node_arguments
-        self.inner = None
+    def __init__(self, **arguments):
+        node_arguments = {key: value for key, value in arguments.items() if key in _NODE_KEYWORDS}
+        self._own_arguments = {key: value for key, value in arguments.items() if key not in _NODE_KEYWORDS}
+        self.configuring = False  # PmvNode.__init__ then builds on this node instead of making one
+        self.configured = self.active = False
         self.configure_error = None  # why the last configure failed
+        self._made = {}  # kind → entities configure made
+        self._parameter_callbacks = []  # (remove method name, callback) added by configure
+        self._resume = []  # timers to start again at activation
+        self._held = {}  # transient-local publisher → its last message made while inactive
+        LifecycleNode.__init__(self, self.node_name, **node_arguments)
         # rclpy raises out of the change_state service for a transition the current state does not have (and so
         # ends the spin): refused here with success = false and a warning, like a transition that failed.
         service = self._service_change_state
@@ -74,28 +88,38 @@ class ManagedNode(LifecycleNode):
 
         service.callback = guarded_change_state
 
+    # -- transitions ----------------------------------------------------------------------------
+
     def on_configure(self, state: State) -> TransitionCallbackReturn:
+        before = {kind: set(getattr(self, kind)) for kind, _ in _ENTITY_KINDS}
+        self.configuring = True
         try:
-            # Its logs reach /rosout through the host's publisher (same logger name); a /rosout publisher of its
-            # own would be unregistered with it at cleanup, and the host's logs would go silent.
-            self.inner = self._factory(context=self._context, enable_rosout=False, **self._arguments)
+            super().__init__(**self._own_arguments)  # the node class's constructor, on this node
         except (ParameterError, ValueError, OSError) as error:
             self.configure_error = str(error)
+            self._take_made(before)
+            self._release()
             self.get_logger().error(f"configure failed, still unconfigured: {error}")
             return TransitionCallbackReturn.FAILURE
-        self.configure_error = None
+        finally:
+            self.configuring = False
+        self._take_made(before)
+        self._hold_still()
+        self.configure_error, self.configured = None, True
         return TransitionCallbackReturn.SUCCESS
 
     def on_activate(self, state: State) -> TransitionCallbackReturn:
-        if self.executor is None:  # a transition triggered in-process on a node nothing spins
-            self.get_logger().error("activate failed: the node is not in an executor")
-            return TransitionCallbackReturn.FAILURE
-        self._discard_pending()
-        self.executor.add_node(self.inner)
+        self.active = True
+        for publisher, message in list(self._held.items()):
+            publisher.publish(message)
+        self._held.clear()
+        for timer in self._resume:
+            timer.reset()
+        self._resume = []
         return TransitionCallbackReturn.SUCCESS
 
     def on_deactivate(self, state: State) -> TransitionCallbackReturn:
-        self._leave_executor()
+        self._stop()
         return TransitionCallbackReturn.SUCCESS
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
@@ -110,33 +134,111 @@ class ManagedNode(LifecycleNode):
         self._release()
         return TransitionCallbackReturn.SUCCESS
 
-    def destroy_node(self):
-        self._release()
-        return super().destroy_node()
+    # -- what configure makes is gated from the start: silent until activation ---------------------
 
-    def _discard_pending(self) -> None:
-        """Drop what the inactive node's subscriptions received meanwhile: an activated node starts fresh."""
-        for subscription in self.inner.subscriptions:
-            while True:
-                try:
-                    if subscription.handle.take_message(subscription.msg_type, subscription.raw) is None:
-                        break
-                except Exception:  # nothing to take, or a message that cannot be taken: stop draining
-                    break
+    def create_publisher(self, *args, **kwargs):
+        publisher = super().create_publisher(*args, **kwargs)
+        if self.configuring:
+            publisher.publish = self._gated_publish(publisher)
+        return publisher
 
-    def _leave_executor(self) -> None:
-        executor = self.executor
-        if self.inner is not None and executor is not None and self.inner in executor.get_nodes():
-            executor.remove_node(self.inner)
+    def create_subscription(self, *args, **kwargs):
+        subscription = super().create_subscription(*args, **kwargs)
+        if self.configuring:
+            subscription.callback = self._gated(subscription)
+        return subscription
+
+    # -- parameter callbacks added while configuring are removed at cleanup ---------------------
+
+    def add_on_set_parameters_callback(self, callback):
+        self._note_parameter_callback("remove_on_set_parameters_callback", callback)
+        return super().add_on_set_parameters_callback(callback)
+
+    def add_pre_set_parameters_callback(self, callback):
+        self._note_parameter_callback("remove_pre_set_parameters_callback", callback)
+        return super().add_pre_set_parameters_callback(callback)
+
+    def add_post_set_parameters_callback(self, callback):
+        self._note_parameter_callback("remove_post_set_parameters_callback", callback)
+        return super().add_post_set_parameters_callback(callback)
+
+    def _note_parameter_callback(self, remover: str, callback) -> None:
+        if self.configuring:
+            self._parameter_callbacks.append((remover, callback))
+
+    # -- what configure made ----------------------------------------------------------------------
+
+    def _take_made(self, before: dict) -> None:
+        self._made = {kind: [entity for entity in getattr(self, kind) if entity not in before[kind]]
+                      for kind, _ in _ENTITY_KINDS}
+
+    def _hold_still(self) -> None:
+        """Configured, inactive: timers stopped (subscriptions and publishers are gated as they are made)."""
+        self.active = False
+        self._resume = []
+        for timer in self._made["timers"]:
+            if not timer.is_canceled():
+                timer.cancel()
+                self._resume.append(timer)
+
+    def _gated(self, subscription):
+        """The subscription's callback, run only while active (with the same arguments: message [, info])."""
+        callback, with_info = subscription.callback, subscription._callback_type.name == "WithMessageInfo"
+        if with_info:
+            def gated(message, info):
+                if self.active:
+                    callback(message, info)
+        else:
+            def gated(message):
+                if self.active:
+                    callback(message)
+        return gated
+
+    def _gated_publish(self, publisher):
+        publish = publisher.publish
+        latched = publisher.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
+
+        def gated(message) -> None:
+            if self.active:
+                publish(message)
+            elif latched:
+                self._held[publisher] = message
+
+        return gated
+
+    def _stop(self) -> None:
+        self.active = False
+        self._resume = [timer for timer in self._made.get("timers", ()) if not timer.is_canceled()]
+        for timer in self._resume:
+            timer.cancel()
 
     def _release(self) -> None:
-        if self.inner is None:
-            return
-        self._leave_executor()
-        inner, self.inner = self.inner, None
-        inner.destroy_node()
+        """Destroy what configure made and remove its parameter callbacks: back to unconfigured."""
+        self._stop()
+        self._resume, self._held = [], {}
+        for kind, destroy in _ENTITY_KINDS:
+            for entity in self._made.get(kind, ()):
+                getattr(self, destroy)(entity)
+        self._made = {}
+        for remover, callback in self._parameter_callbacks:
+            try:
+                getattr(self, remover)(callback)
+            except ValueError:  # already removed
+                pass
+        self._parameter_callbacks = []
+        self.configured = False
 
 
-def managed_factory(factory, name: str):
-    """``factory`` as a managed node for :func:`pmv_ros.nodes.launch.run_node` (the global context)."""
-    return lambda: ManagedNode(factory, name)
+def managed(node_class, name: str):
+    """``node_class`` (a :class:`pmv_ros.nodes.base.PmvNode`) as a lifecycle node class named ``name``.
+
+    Construct it with the node class's keyword arguments; those of ``rclpy.node.Node`` (``context``,
+    ``parameter_overrides``, …) make the node, the others reach the node class's constructor at configure.
+    """
+    return type(f"Managed{node_class.__name__}", (_Managed, node_class, LifecycleNode),
+                {"node_name": name, "__doc__": f"{node_class.__name__} as a managed (lifecycle) node."})
+
+
+def managed_factory(node_class, name: str):
+    """``node_class`` as a managed node for :func:`pmv_ros.nodes.launch.run_node` (the global context)."""
+    return managed(node_class, name)

@@ -90,10 +90,13 @@ def declare(node, specs: Sequence[ParamSpec]) -> dict:
             if problem:
                 raise ParameterError(problem)
             overrides[spec.name] = Parameter(spec.name, value=value)
-        try:
-            parameter = node.declare_parameter(spec.name, spec.default, descriptor(spec))
-        except ParameterException as error:
-            raise ParameterError(_explain(spec, error)) from None
+        if node.has_parameter(spec.name):  # a managed node configured again: declared at the first configure
+            parameter = node.get_parameter(spec.name)
+        else:
+            try:
+                parameter = node.declare_parameter(spec.name, spec.default, descriptor(spec))
+            except ParameterException as error:
+                raise ParameterError(_explain(spec, error)) from None
         value = parameter.value
         problem = spec.check(value)
         if problem:

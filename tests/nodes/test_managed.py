@@ -9,16 +9,31 @@ import pytest
 from geometry_msgs.msg import Vector3Stamped
 from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState, GetState
+from rclpy.qos import DurabilityPolicy, QoSProfile
+from std_msgs.msg import String
 from rcl_interfaces.msg import Log
+from rcl_interfaces.srv import GetParameters
+from rclpy.parameter import parameter_value_to_python as parameter_value_from
 
-from pmv_ros.nodes.managed import ManagedNode, managed_requested
+from pmv_ros.nodes.base import PmvNode
+from pmv_ros.nodes.managed import managed, managed_requested
 from pmv_ros.nodes.error_monitor_node import ErrorMonitorNode
 from pmv_ros.nodes.sensor_node import SensorNode
 from pmv_ros.nodes.star_tracker_node import StarTrackerNode
 
 
 def managed_sensor(**arguments):
-    return ManagedNode(SensorNode, "sensor_node", **arguments)
+    return managed(SensorNode, "sensor_node")(**arguments)
+
+
+def remote_parameter(h, node: str, name: str):
+    """A parameter's value read through the node's own parameter service, as ``ros2 param get`` reads it."""
+    client = h.tester.create_client(GetParameters, f"/{node}/get_parameters")
+    assert client.wait_for_service(timeout_sec=5.0)
+    future = client.call_async(GetParameters.Request(names=[name]))
+    h.executor.spin_until_future_complete(future, timeout_sec=5.0)
+    assert future.done()
+    return parameter_value_from(future.result().values[0])
 
 
 class Lifecycle:
@@ -52,13 +67,19 @@ def test_each_lifecycle_state_publishes_what_it_should(harness):
     h = harness(managed_sensor, {"sensor.rate_hz": 20.0})
     attitude = h.record(Vector3Stamped, "/pmv/attitude")
     lifecycle = Lifecycle(h)
-    assert lifecycle.state() == "unconfigured" and h.node.inner is None
+    assert lifecycle.state() == "unconfigured" and not h.node.configured
+    assert not h.node.has_parameter("sensor.rate_hz")  # nothing declared, no file read before configure
     lifecycle.spin(0.4)
     assert attitude == []  # unconfigured: no models, no publishers
 
     assert lifecycle.transition(Transition.TRANSITION_CONFIGURE)
-    assert lifecycle.state() == "inactive" and isinstance(h.node.inner, SensorNode)
-    assert h.node.inner.get_parameter("sensor.rate_hz").value == 20.0  # the overrides reached the plain node
+    assert lifecycle.state() == "inactive" and h.node.configured and isinstance(h.node, SensorNode)
+    assert h.node.get_parameter("sensor.rate_hz").value == 20.0  # the overrides reached the node
+    # One node of the name in the graph, with the lifecycle services and the parameters on its own services.
+    assert h.tester.get_node_names().count("sensor_node") == 1
+    services = dict(h.tester.get_service_names_and_types_by_node("sensor_node", "/"))
+    assert "/sensor_node/change_state" in services and "/sensor_node/get_parameters" in services
+    assert remote_parameter(h, "sensor_node", "sensor.rate_hz") == 20.0
     lifecycle.spin(0.5)
     assert attitude == []  # configured: models built, nothing published
 
@@ -80,7 +101,10 @@ def test_each_lifecycle_state_publishes_what_it_should(harness):
     assert lifecycle.transition(Transition.TRANSITION_DEACTIVATE)
 
     assert lifecycle.transition(Transition.TRANSITION_CLEANUP)
-    assert lifecycle.state() == "unconfigured" and h.node.inner is None  # the plain node is gone
+    assert lifecycle.state() == "unconfigured" and not h.node.configured  # what configure made is gone
+    assert not h.tester.get_publisher_names_and_types_by_node("sensor_node", "/") or all(
+        topic in ("/rosout", "/parameter_events", "/sensor_node/transition_event")
+        for topic, _ in h.tester.get_publisher_names_and_types_by_node("sensor_node", "/"))
     lifecycle.spin(0.2)
     count = len(attitude)
     lifecycle.spin(0.4)
@@ -97,7 +121,7 @@ def test_a_bad_correction_file_leaves_the_node_unconfigured_with_the_reason(harn
     attitude = h.record(Vector3Stamped, "/pmv/attitude")
     lifecycle = Lifecycle(h)
     assert not lifecycle.transition(Transition.TRANSITION_CONFIGURE)
-    assert lifecycle.state() == "unconfigured" and h.node.inner is None
+    assert lifecycle.state() == "unconfigured" and not h.node.configured
     assert "sensor.correction" in h.node.configure_error
     lifecycle.spin(0.3)
     reasons = [log.msg for log in logs if log.name == "sensor_node" and log.level == Log.ERROR]
@@ -118,12 +142,39 @@ def test_the_managed_switch_is_read_before_the_ros_arguments_only():
 @pytest.mark.parametrize("node_class, name", [(StarTrackerNode, "star_tracker_node"),
                                               (ErrorMonitorNode, "error_monitor_node")])
 def test_the_other_nodes_go_through_the_lifecycle_too(harness, node_class, name):
-    h = harness(lambda **arguments: ManagedNode(node_class, name, **arguments), {})
+    h = harness(managed(node_class, name), {})
     lifecycle = Lifecycle(h, name)
     for transition, state in ((Transition.TRANSITION_CONFIGURE, "inactive"), (Transition.TRANSITION_ACTIVATE, "active"),
                               (Transition.TRANSITION_DEACTIVATE, "inactive"),
                               (Transition.TRANSITION_CLEANUP, "unconfigured")):
         assert lifecycle.transition(transition) and lifecycle.state() == state
-        assert isinstance(h.node.inner, node_class) == (state != "unconfigured")
+        assert isinstance(h.node, node_class) and h.node.configured == (state != "unconfigured")
+        assert h.tester.get_node_names().count(name) == 1
         lifecycle.spin(0.05)
     assert lifecycle.transition(Transition.TRANSITION_UNCONFIGURED_SHUTDOWN) and lifecycle.state() == "finalized"
+
+
+class _Announcer(PmvNode):
+    """A node that publishes at construction: once latched (transient local, as /tf_static) and once volatile."""
+
+    def __init__(self, **kwargs):
+        super().__init__("announcer", **kwargs)
+        latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+        self.create_publisher(String, "latched", latched).publish(String(data="mounting"))
+        self.publisher(String, "volatile").publish(String(data="early"))
+
+
+def test_what_configure_publishes_waits_for_activation_and_a_latched_message_is_kept(harness):
+    h = harness(managed(_Announcer, "announcer"), {})
+    latched = []
+    h.tester.create_subscription(String, "/latched", latched.append,
+                                 QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL))
+    volatile = h.record(String, "/volatile")
+    lifecycle = Lifecycle(h, "announcer")
+    assert lifecycle.transition(Transition.TRANSITION_CONFIGURE)
+    lifecycle.spin(0.3)
+    assert latched == [] and volatile == []  # inactive: nothing goes out
+    assert lifecycle.transition(Transition.TRANSITION_ACTIVATE)
+    lifecycle.spin(0.3)
+    assert [m.data for m in latched] == ["mounting"]  # the latched message, at activation, once
+    assert volatile == []  # a volatile one made while inactive is dropped
