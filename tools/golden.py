@@ -13,6 +13,14 @@ Numbers must agree to ``TOLERANCE_ARCMIN`` (1e-9′): the outputs are in
 arcminutes, metres and counts, and a move that only reorders floating-point
 sums may change the last bits but not the ninth decimal. Fields that measure
 the machine (wall time, rates) or name a temporary folder are left out.
+
+The machine itself must not move a figure either: numpy and OpenBLAS choose
+their kernels by CPU, and on an AVX-512 machine the transcendental functions
+and matrix products differ from the AVX2 ones in their last bits, which the
+sensitive parts of a run (the random fields, the weather) carry to ≈ 1e-7′ in
+the outputs. So on x86-64 both commands run in a child process with the
+kernels pinned at the AVX2 level (:data:`PINNED_NUMERICS`), the level the
+capture was made at; production runs with whatever the CPU offers.
 """
 
 from __future__ import annotations
@@ -23,6 +31,8 @@ import io
 import json
 import math
 import os
+import platform
+import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -35,6 +45,9 @@ TOLERANCE_ARCMIN = 1e-9
 
 #: Keys whose values describe the machine or the temporary folder, not the physics.
 VOLATILE_KEYS = frozenset({"wall_s", "task_compute_s", "samples_per_s_per_worker", "file", "out", "scheduler"})
+
+#: numpy's and OpenBLAS's kernels for the golden runs on x86-64: the AVX2 level (x86-64-v3), on every such CPU.
+PINNED_NUMERICS = {"OPENBLAS_CORETYPE": "Haswell", "NPY_DISABLE_CPU_FEATURES": "X86_V4 AVX512_ICL AVX512_SPR"}
 
 SEED = 7
 SIMULATE_ORBITS = "0.02"
@@ -114,11 +127,21 @@ def differences(expected, actual, path: str = "") -> list[str]:
     return [] if expected == actual else [f"{path}: {expected!r}, now {actual!r}"]
 
 
+def numerics_pinned() -> bool:
+    """True where this process computes with :data:`PINNED_NUMERICS` (or where they do not apply: not x86-64)."""
+    if platform.machine().lower() not in ("x86_64", "amd64"):
+        return True
+    return all(os.environ.get(name) == value for name, value in PINNED_NUMERICS.items())
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("action", choices=("capture", "compare"))
     parser.add_argument("--golden", type=Path, default=GOLDEN_PATH)
     args = parser.parse_args(argv)
+    if not numerics_pinned():  # numpy has chosen its kernels at import: run again in a child that pins them
+        child = [sys.executable, str(Path(__file__).resolve()), *(sys.argv[1:] if argv is None else argv)]
+        return subprocess.run(child, env={**os.environ, **PINNED_NUMERICS}).returncode
     with tempfile.TemporaryDirectory(prefix="pmv_golden_") as tmp:
         outputs = run_all(Path(tmp))
     if args.action == "capture":
