@@ -99,18 +99,21 @@ def _checked(context, name: str, spec):
     return value
 
 
-def _node_sections(values: dict, namespace: str) -> str:
-    """A params file with one section per node (``values``: node → parameters), full names when namespaced."""
+def _node_sections(values: dict, namespace: str, made: list) -> str:
+    """A params file with one section per node (``values``: node → parameters), full names when namespaced;
+    its path is added to ``made`` (removed when the launch ends)."""
     prefix = "/" + namespace.strip("/") if namespace else ""
     document = {(f"{prefix}/{node}" if prefix else node): {"ros__parameters": parameters}
                 for node, parameters in values.items() if parameters}
     with tempfile.NamedTemporaryFile("w", prefix="pmv_launch_", suffix=".yaml", delete=False) as stream:
         yaml.safe_dump(document, stream)
+    made.append(stream.name)
     return stream.name
 
 
-def _namespaced(files: list[str], namespace: str) -> list[str]:
-    """The params files with their node sections renamed for nodes in ``namespace`` (rcl matches full names)."""
+def _namespaced(files: list[str], namespace: str, made: list) -> list[str]:
+    """The params files with their node sections renamed for nodes in ``namespace`` (rcl matches full names);
+    the renamed copies are added to ``made``."""
     if not namespace:
         return files
     prefix = "/" + namespace.strip("/")
@@ -121,6 +124,7 @@ def _namespaced(files: list[str], namespace: str) -> list[str]:
                     for key, value in document.items()}
         with tempfile.NamedTemporaryFile("w", prefix="pmv_launch_", suffix=".yaml", delete=False) as stream:
             yaml.safe_dump(document, stream)
+        made.append(stream.name)
         renamed.append(stream.name)
     return renamed
 
@@ -158,7 +162,8 @@ def _nodes(context):
     rate_hz = _checked(context, "rate_hz", spec("sensor_node", "sensor.rate_hz"))
     seed = _checked(context, "seed", spec("sensor_node", "seed"))
     files = [str(path)] + ([str(config / "follow.yaml")] if follow else [])
-    files = _namespaced(files, namespace)
+    made = []  # the params files generated here: kept while the launch runs (a respawned node reads them again)
+    files = _namespaced(files, namespace, made)
     frames = {"frames.prefix": prefix_for_namespace(namespace)}
     sensor = {"use_sim_time": use_sim_time and not fast_time, **frames}
     if fast_time:
@@ -170,15 +175,31 @@ def _nodes(context):
     if seed is not None:
         chosen["sensor_node"]["seed"] = chosen["star_tracker_node"]["seed"] = seed
     if any(chosen.values()):
-        files.append(_node_sections(chosen, namespace))
+        files.append(_node_sections(chosen, namespace, made))
     if _flag(context, "managed"):
-        return [entity for name in NODES if wanted[name] for entity in _managed(
+        nodes = [entity for name in NODES if wanted[name] for entity in _managed(
             name=name, namespace=namespace, parameters=[*files, sensor if name == "sensor_node" else others],
             log_level=log_level, respawn=respawn)]
-    return [Node(package=PACKAGE, executable=name, name=name, namespace=namespace, output="screen",
-                 parameters=[*files, sensor if name == "sensor_node" else others],
-                 ros_arguments=["--log-level", log_level], respawn=respawn, respawn_delay=RESPAWN_DELAY_S)
-            for name in NODES if wanted[name]]
+    else:
+        nodes = [Node(package=PACKAGE, executable=name, name=name, namespace=namespace, output="screen",
+                      parameters=[*files, sensor if name == "sensor_node" else others],
+                      ros_arguments=["--log-level", log_level], respawn=respawn, respawn_delay=RESPAWN_DELAY_S)
+                 for name in NODES if wanted[name]]
+    return nodes + _removed_at_shutdown(made)
+
+
+def _removed_at_shutdown(paths: list) -> list:
+    """An action that removes ``paths`` when the launch shuts down ([] when there are none)."""
+    if not paths:
+        return []
+    from launch.actions import RegisterEventHandler
+    from launch.event_handlers import OnShutdown
+
+    def remove(event, context) -> None:
+        for path in paths:
+            Path(path).unlink(missing_ok=True)
+
+    return [RegisterEventHandler(OnShutdown(on_shutdown=remove))]
 
 
 def _managed(*, name: str, namespace: str, parameters: list, log_level: str, respawn: bool) -> list:

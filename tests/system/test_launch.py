@@ -55,6 +55,8 @@ def _launch_env(install: Path, tools: Path, log_dir: Path) -> dict:
     env["PATH"] = os.pathsep.join([str(tools / "bin"), env.get("PATH", "")])
     env["AMENT_PREFIX_PATH"] = os.pathsep.join([env["AMENT_PREFIX_PATH"], str(tools)])
     env["PYTHONUNBUFFERED"] = "1"
+    env["TMPDIR"] = str(log_dir.parent / "tmp")  # where the launch writes its generated params files
+    Path(env["TMPDIR"]).mkdir(exist_ok=True)
     return env
 
 
@@ -227,10 +229,13 @@ def test_launch_arguments_reach_the_nodes(colcon_install, ros_tools, graph, tmp_
         _spin_until(executor, launched, lambda: len(attitude) >= 6, FIRST_MESSAGE_TIMEOUT_S, "no /pmv/attitude")
         names = set(node.get_node_names())
         parameters = _parameters(node, executor, launched, "/sensor_node", ["sensor.rate_hz", "seed"])
+        generated = list((tmp_path / "tmp").glob("pmv_launch_*.yaml"))
         launched.interrupt()
     finally:
         launched.kill()
     log = launched.log()
+    # The launch wrote the node sections of rate_hz and seed to a params file, and removed it when it ended.
+    assert generated and not list((tmp_path / "tmp").glob("pmv_launch_*.yaml")), generated
     assert parameters == [4.0, 3], parameters  # kondor.yaml's section says 10 Hz and seed 1
     stamps = [m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec for m in attitude]
     assert all(abs(b - a - 0.25) < 0.01 for a, b in zip(stamps, stamps[1:])), stamps  # 4 Hz (± timer jitter)
@@ -271,10 +276,12 @@ def test_launch_namespace_fast_time_keeps_the_preset_sections(colcon_install, ro
         assert node.get_publishers_info_by_topic("/sat1/attitude/truth") == []
         assert node.get_publishers_info_by_topic("/sat1/pmv/attitude")
         assert node.get_subscriptions_info_by_topic("/attitude/truth") == []
+        generated = list((tmp_path / "tmp").glob("pmv_launch_*.yaml"))  # the presets' sections renamed for sat1
         launched.interrupt()
     finally:
         launched.kill()
     _assert_clean_exit(launched)
+    assert len(generated) == 2 and not list((tmp_path / "tmp").glob("pmv_launch_*.yaml")), generated
     # follow.yaml's sensor_node section and kondor.yaml's reached /sat1/sensor_node; the sensor runs the clock.
     assert "attitude from follow" in launched.log() and "fast time" in launched.log(), launched.log()
     # The launch namespace prefixed the frames (the inertial frame is shared by every spacecraft).
@@ -452,6 +459,11 @@ def test_launch_managed_configures_and_activates_and_a_deactivated_node_stays_qu
         _spin_until(executor, launched, lambda: len(statistics) >= 2, FIRST_MESSAGE_TIMEOUT_S,
                     "no /pmv/error_statistics")
         assert call(get, GetState.Request()).current_state.label == "active"
+        # Each managed node is one node in the graph, as the real `ros2 node list` shows it.
+        listed = subprocess.run([str(ros_tools / "bin/ros2"), "node", "list", "--no-daemon"], capture_output=True,
+                                text=True, timeout=60, env=_launch_env(colcon_install, ros_tools, tmp_path / "ros_log"))
+        names = listed.stdout.split()
+        assert all(names.count(f"/{name}") == 1 for name in ("sensor_node", "star_tracker_node", "error_monitor_node")), listed.stdout + listed.stderr
         assert call(change, ChangeState.Request(transition=Transition(id=Transition.TRANSITION_DEACTIVATE))).success
         deadline = time.monotonic() + 1.0
         while time.monotonic() < deadline:
