@@ -46,6 +46,7 @@ from .conversions import (
 )
 from .orbit_elements import (
     ORBIT_STATUS_NAME,
+    orbit_status_name,
     WIRE_CONVENTION,
     OrbitElements,
     find_orbit_elements,
@@ -82,7 +83,7 @@ __all__ = [
     "write_attitude_angles", "write_attitude_quaternion", "write_clock", "write_error_statistics", "write_health",
     "write_horizon_crossings", "write_attitude_imu", "read_attitude_imu", "write_statistics_vector",
     "write_orbit_state", "write_stamp", "read_transform", "write_orbital_transform", "write_transform",
-    "PENDING", "ORBIT_STATUS_NAME", "WIRE_CONVENTION", "OrbitElements", "find_orbit_elements",
+    "PENDING", "ORBIT_STATUS_NAME", "orbit_status_name", "WIRE_CONVENTION", "OrbitElements", "find_orbit_elements",
     "orbit_elements_from_status",
     "orbit_elements_status",
 ]

@@ -40,6 +40,12 @@ from .records import HealthStatus, Level
 ORBIT_STATUS_NAME = "pmv_ros/sensor_node: orbit"
 _ORBIT_STATUS_PREFIX, _ORBIT_STATUS_SUFFIX = "pmv_ros/", ": orbit"
 
+
+def orbit_status_name(namespace: str = "") -> str:
+    """The orbit status's name for the sensor_node in ``namespace`` ('', 'sat1' or '/sat1')."""
+    inner = namespace.strip("/")
+    return f"{_ORBIT_STATUS_PREFIX}{inner}/sensor_node{_ORBIT_STATUS_SUFFIX}" if inner else ORBIT_STATUS_NAME
+
 #: Sign convention of roll and pitch on the sensor's topics: REP-103 (interfaces.md).
 WIRE_CONVENTION = "ros"
 

@@ -387,7 +387,7 @@ def _by_log_time(stream, first_topic: str):
 def analyze_recording(path: str, altitude_m: float, inclination_rad: float, *, convention: str | None = None,
                       truth_topic: str | None = None, phase: str = "auto", u_bin_rad: float | None = None,
                       remove_oblateness: bool = True, roll_drift_rad_per_orbit: float = 0.0,
-                      pitch_drift_rad_per_orbit: float = 0.0) -> dict:
+                      pitch_drift_rad_per_orbit: float = 0.0, namespace: str = "") -> dict:
     """The flight-test statistics of a rosbag2 recording of /pmv/attitude with truth; the report as a dict.
 
     The messages go, in the order they were logged, through the same
@@ -399,20 +399,25 @@ def analyze_recording(path: str, altitude_m: float, inclination_rad: float, *, c
     run; the rest is the flight-test procedure of physics.md §5 on the
     aligned residuals. The recording is read twice, message by message (the
     orbit first, then sensor and truth): memory holds plain numbers, not
-    messages. Raises ValueError (RecordingError) naming what is missing or wrong.
+    messages. ``namespace``: the spacecraft's topics are under it (``/sat1/pmv/attitude``; /diagnostics is
+    shared, the orbit status is the namespaced sensor's). Raises ValueError (RecordingError) naming what is
+    missing or wrong.
     """
     import pmv_msgs_shim as shim
     from ..runtime.assembly import MONITOR_PARAMS, build_monitor
     from ..runtime.parameters import preset_values
     from ..storage.recording import RecordingError, iter_recording, recorded_topics, recording_status
 
+    spacecraft = "/" + namespace.strip("/") if namespace.strip("/") else ""
+    sensor_topic, odometry_topic = spacecraft + SENSOR_TOPIC, spacecraft + ODOMETRY_TOPIC
+    orbit_status = shim.orbit_status_name(namespace)
     status = recording_status(path)  # bounds first; a cut MCAP file is read up to its last whole chunk
-    truth_topics = (truth_topic,) if truth_topic else TRUTH_TOPICS
-    wanted = {SENSOR_TOPIC: VECTOR3_STAMPED, ODOMETRY_TOPIC: ODOMETRY, DIAGNOSTICS_TOPIC: DIAGNOSTIC_ARRAY}
+    truth_topics = (truth_topic,) if truth_topic else tuple(spacecraft + topic for topic in TRUTH_TOPICS)
+    wanted = {sensor_topic: VECTOR3_STAMPED, odometry_topic: ODOMETRY, DIAGNOSTICS_TOPIC: DIAGNOSTIC_ARRAY}
     wanted.update({topic: QUATERNION_STAMPED for topic in truth_topics})
     present = recorded_topics(path, wanted)
-    if SENSOR_TOPIC not in present:
-        raise RecordingError(f"{path}: no topic {SENSOR_TOPIC} in the recording (the sensor's roll and pitch)")
+    if sensor_topic not in present:
+        raise RecordingError(f"{path}: no topic {sensor_topic} in the recording (the sensor's roll and pitch)")
     truth_topic = next((topic for topic in truth_topics if topic in present), None)
     if truth_topic is None:
         raise RecordingError(f"{path}: no truth in the recording: no topic " + " or ".join(truth_topics)
@@ -429,28 +434,28 @@ def analyze_recording(path: str, altitude_m: float, inclination_rad: float, *, c
     def orbit_stream(topics):
         for topic, recorded in iter_recording(path, {t: wanted[t] for t in topics}):
             counts[topic] += 1
-            if topic == ODOMETRY_TOPIC:
+            if topic == odometry_topic:
                 yield recorded
                 continue
             try:
-                # The sensor whose topics are read (the un-namespaced one), not another spacecraft's.
-                found = shim.find_orbit_elements(recorded.message, shim.ORBIT_STATUS_NAME)
+                # The sensor whose topics are read (of this namespace), not another spacecraft's.
+                found = shim.find_orbit_elements(recorded.message, orbit_status)
             except (ValueError, AttributeError):
                 continue
             if found is not None and (not elements_seen or found != elements_seen[-1]):
                 elements_seen.append(found)
 
-    use_odometry = phase in ("auto", "odometry") and ODOMETRY_TOPIC in present
-    orbit_topics = [t for t in (ODOMETRY_TOPIC, DIAGNOSTICS_TOPIC)
-                    if t in present and (t != ODOMETRY_TOPIC or use_odometry)]
+    use_odometry = phase in ("auto", "odometry") and odometry_topic in present
+    orbit_topics = [t for t in (odometry_topic, DIAGNOSTICS_TOPIC)
+                    if t in present and (t != odometry_topic or use_odometry)]
     phase_of = odometry_info = None
     if use_odometry:
         try:
             phase_of, odo_inclination, odo_altitude, odo_unreadable = phase_from_odometry(
                 orbit_stream(orbit_topics), monitor_values["odometry_timeout_s"])
-            odometry_info = {"messages": counts[ODOMETRY_TOPIC], "unreadable": odo_unreadable,
+            odometry_info = {"messages": counts[odometry_topic], "unreadable": odo_unreadable,
                              "inclination_deg": odo_inclination, "altitude_km": odo_altitude}
-            phase_source = ODOMETRY_TOPIC
+            phase_source = odometry_topic
         except RecordingError:
             raise
         except ValueError as error:
@@ -463,9 +468,9 @@ def analyze_recording(path: str, altitude_m: float, inclination_rad: float, *, c
     if phase_of is None and phase in ("auto", "elements") and elements is not None:
         phase_of, phase_source = elements.argument_of_latitude_rad, f"orbit elements on {DIAGNOSTICS_TOPIC}"
     if phase_of is None:
-        needed = {"odometry": f"no messages on {ODOMETRY_TOPIC}",
-                  "elements": f"no orbit elements on {DIAGNOSTICS_TOPIC} (status '{shim.ORBIT_STATUS_NAME}')",
-                  "auto": f"no messages on {ODOMETRY_TOPIC} and no orbit elements on {DIAGNOSTICS_TOPIC}"}[phase]
+        needed = {"odometry": f"no messages on {odometry_topic}",
+                  "elements": f"no orbit elements on {DIAGNOSTICS_TOPIC} (status '{orbit_status}')",
+                  "auto": f"no messages on {odometry_topic} and no orbit elements on {DIAGNOSTICS_TOPIC}"}[phase]
         raise RecordingError(f"{path}: nothing gives the orbital phase: {needed} — stamps alone do not say where "
                              "the orbit was")
     if convention is None:
@@ -479,7 +484,7 @@ def analyze_recording(path: str, altitude_m: float, inclination_rad: float, *, c
     def collect(outcomes):
         used.extend((o.stamp_s, o.residual_roll_rad, o.residual_pitch_rad) for o in outcomes if o.ok)
 
-    stream = iter_recording(path, {truth_topic: QUATERNION_STAMPED, SENSOR_TOPIC: VECTOR3_STAMPED})
+    stream = iter_recording(path, {truth_topic: QUATERNION_STAMPED, sensor_topic: VECTOR3_STAMPED})
     for topic, recorded in _by_log_time(stream, truth_topic):
         counts[topic] += 1
         try:
@@ -495,7 +500,7 @@ def analyze_recording(path: str, altitude_m: float, inclination_rad: float, *, c
         u_i = float(phase_of(stamp_s))
         collect(monitor.add_sensor(stamp_s, roll, pitch, u_rad=u_i if math.isfinite(u_i) else None,
                                    altitude_m=altitude_m, inclination_rad=inclination_rad))
-    for topic in (SENSOR_TOPIC, truth_topic):
+    for topic in (sensor_topic, truth_topic):
         if not counts[topic]:
             raise RecordingError(f"{path}: no messages on {topic} in the recording")
     if len(used) < 2:

@@ -24,6 +24,23 @@ from ..apps.telemetry import (
 from .common import add_json_flag, format_table, print_json, ranged_float
 
 
+def _namespace(text: str) -> str:
+    """A ROS namespace as ``--namespace`` takes it ('sat1' or '/sat1'), checked with rclpy's own rule."""
+    import argparse
+
+    from rclpy.exceptions import InvalidNamespaceException
+    from rclpy.validate_namespace import validate_namespace
+
+    if not text.strip("/"):
+        return ""
+    try:
+        validate_namespace("/" + text.strip("/"))
+    except InvalidNamespaceException as error:
+        reason = str(error).splitlines()[0].rstrip(":")
+        raise argparse.ArgumentTypeError(f"{text!r} is not a ROS namespace: {reason}") from None
+    return text.strip("/")
+
+
 def add_parser(subparsers) -> None:
     """Register ``pmv analyze``."""
     parser = subparsers.add_parser(
@@ -51,6 +68,9 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--truth", default=None, metavar="TOPIC",
                         help="recording: the truth topic (geometry_msgs/QuaternionStamped, body in the orbital "
                              f"frame); default {TRUTH_TOPICS[0]}, else {TRUTH_TOPICS[1]}")
+    parser.add_argument("--namespace", default="", type=_namespace, metavar="NS",
+                        help="recording: the spacecraft's namespace (its topics /NS/pmv/attitude, … and the "
+                             "orbit status of /NS/sensor_node on /diagnostics); default none")
     parser.add_argument("--phase", choices=PHASE_SOURCES, default="auto",
                         help="recording: where the orbital angle comes from — odometry (/orbit/odometry), "
                              "elements (the epoch and elements on the sensor's /diagnostics), auto (odometry, "
@@ -121,7 +141,8 @@ def run(args) -> int:
     if is_recording(args.file):
         # Errors of a recording name the file themselves.
         report = analyze_recording(args.file, args.altitude_km * 1e3, math.radians(args.inclination_deg),
-                                   convention=args.convention, truth_topic=args.truth, phase=args.phase, **options)
+                                   convention=args.convention, truth_topic=args.truth, phase=args.phase,
+                                   namespace=args.namespace, **options)
     else:
         telemetry = read_telemetry(args.file)
         try:

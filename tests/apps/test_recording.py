@@ -288,6 +288,37 @@ def _subset(source: Path, target: Path, topics, replace: dict | None = None) -> 
     return target
 
 
+def test_a_namespaced_recording_is_read_with_its_namespace(round_trip, tmp_path, capsys):
+    """A spacecraft under /sat1 (its topics /sat1/pmv/attitude, …; /diagnostics shared): --namespace sat1 reads
+    the same statistics as the un-namespaced recording of the same messages; without it, a one-line error."""
+    from mcap.reader import make_reader
+
+    path, live = round_trip
+    moved = tmp_path / "sat1.mcap"
+    with McapRecording(moved) as recording, open(path, "rb") as stream:
+        reader = make_reader(stream)
+        summary = reader.get_summary()
+        renamed = {channel.topic: channel.topic if channel.topic.startswith("/diagnostics") else "/sat1" + channel.topic
+                   for channel in summary.channels.values()}
+        for channel in summary.channels.values():
+            recording.add_topic(renamed[channel.topic], summary.schemas[channel.schema_id].name)
+        for _, channel, message in reader.iter_messages():
+            recording.write(renamed[channel.topic], message.log_time, message.data)
+    plain = _analyze(capsys, path)
+    report = _analyze(capsys, moved, "--namespace", "sat1")
+    assert report["truth_topic"] == "/sat1/star_tracker/attitude" and report["phase_source"] == "/sat1/orbit/odometry"
+    assert report["per_sample"] == plain["per_sample"] and report["channels"] == plain["channels"]
+    # The orbit status on /diagnostics is the un-namespaced sensor's here: not taken for sat1's.
+    assert plain["recording"]["orbit_elements"] is not None and report["recording"]["orbit_elements"] is None
+    assert "/pmv/attitude" in _one_line_error(capsys, moved)
+    assert shim.orbit_status_name("/sat1") == "pmv_ros/sat1/sensor_node: orbit"
+    assert shim.orbit_status_name("") == shim.ORBIT_STATUS_NAME
+    with pytest.raises(SystemExit) as refused:  # argparse refuses it
+        main(["analyze", str(moved), *ANALYZE_KONDOR, "--namespace", "sat 1"])
+    assert refused.value.code == 2
+    assert "not a ROS namespace" in capsys.readouterr().err
+
+
 def _one_line_error(capsys, path, *extra) -> str:
     status = main(["analyze", str(path), *ANALYZE_KONDOR, *extra])
     captured = capsys.readouterr()
