@@ -1,8 +1,9 @@
 """Plain functions between the domain records and the standard ROS 2 messages of interfaces.md.
 
 The one place that knows the wire layout. Every function is pure: no node, no
-``rclpy.init()``. Naming: ``<record>_to_msg(record)`` and
-``<record>_from_msg(msg)``; :func:`to_msg` dispatches on the record type.
+``rclpy.init()``. Naming: ``write_<record>(msg, …)`` fills a message,
+``<record>_from_msg(msg)`` builds a record from one and ``read_<record>(msg)``
+returns its plain values.
 
 Wire layouts
     /pmv/horizon_crossings  PolygonStamped: 4 points (float32) = lines of sight,
@@ -41,21 +42,21 @@ Wire layouts
                             builds: tf2_msgs may be absent): the child frame's pose in
                             the parent frame — translation (m) and rotation (x, y, z, w).
 
-Writers and readers for the hot paths
+Writers and readers
     ``write_<record>(msg, stamp_s, frame_id, …)`` fills a message in place
     from plain values and returns it, so a publisher at 10 Hz or in fast time
     can reuse one message per topic (rclpy serialises at ``publish``, so the
-    next write cannot touch what was sent). ``read_<record>(msg)`` returns the
-    plain values a ``*_from_msg`` record would hold, with the same stamp check,
-    without building the record. The ``*_to_msg`` record functions are built
-    on the writers, so both give the same wire layout.
+    next write cannot touch what was sent); a fresh message
+    (``write_clock(Clock(), t)``) is built the same way. The two diagnostics
+    writers take their record (:class:`ErrorStatistics`, :class:`HealthReport`).
+    ``read_<record>(msg)`` returns the plain values a ``*_from_msg`` record
+    would hold, with the same stamp check, without building the record.
 """
 
 from __future__ import annotations
 
 import math
 import re
-from functools import singledispatch
 
 import numpy as np
 from builtin_interfaces.msg import Time
@@ -104,14 +105,9 @@ def _split_stamp(stamp_s: float) -> tuple[int, int]:
     return int(seconds), int(nanoseconds)
 
 
-def time_to_msg(stamp_s: float) -> Time:
-    """builtin_interfaces/Time from seconds (rounded to the nanosecond); 0 ≤ stamp < 2³¹ s."""
-    seconds, nanoseconds = _split_stamp(stamp_s)
-    return Time(sec=seconds, nanosec=nanoseconds)
-
-
 def write_stamp(msg: Time, stamp_s: float) -> Time:
-    """Set a builtin_interfaces/Time in place from seconds (as :func:`time_to_msg`); returns it."""
+    """Set a builtin_interfaces/Time in place from seconds (rounded to the nanosecond; 0 ≤ stamp < 2³¹ s,
+    ValueError otherwise); returns it."""
     msg.sec, msg.nanosec = _split_stamp(stamp_s)
     return msg
 
@@ -121,13 +117,8 @@ def time_from_msg(msg: Time) -> float:
     return msg.sec + msg.nanosec * 1e-9
 
 
-def clock_to_msg(stamp_s: float) -> Clock:
-    """rosgraph_msgs/Clock for /clock (fast-time simulation), from seconds."""
-    return write_clock(Clock(), stamp_s)
-
-
 def write_clock(msg: Clock, stamp_s: float) -> Clock:
-    """Fill a rosgraph_msgs/Clock in place (see "Writers" above); returns it."""
+    """Fill a rosgraph_msgs/Clock for /clock (fast-time simulation) in place from seconds; returns it."""
     write_stamp(msg.clock, stamp_s)
     return msg
 
@@ -144,11 +135,6 @@ def _header(msg, stamp_s: float, frame_id: str) -> None:
 
 
 # --------------------------------------------------------------- horizon crossings
-
-def horizon_crossings_to_msg(record: HorizonCrossings) -> PolygonStamped:
-    """PolygonStamped of the 4 chord crossings; invalid chords as NaN points."""
-    return write_horizon_crossings(PolygonStamped(), record.stamp_s, record.frame_id, record.line_of_sight.tolist())
-
 
 def write_horizon_crossings(msg: PolygonStamped, stamp_s: float, frame_id: str, line_of_sight) -> PolygonStamped:
     """Fill a PolygonStamped in place (see "Writers" above); returns it.
@@ -181,15 +167,9 @@ def horizon_crossings_from_msg(msg: PolygonStamped) -> HorizonCrossings:
 
 # ----------------------------------------------------------------------- attitude
 
-def attitude_angles_to_msg(record: AttitudeAngles) -> Vector3Stamped:
-    """Vector3Stamped with x = roll, y = pitch (rad), z = 0 (yaw is not observable)."""
-    return write_attitude_angles(Vector3Stamped(), record.stamp_s, record.frame_id, record.roll_rad,
-                                 record.pitch_rad)
-
-
 def write_attitude_angles(msg: Vector3Stamped, stamp_s: float, frame_id: str, roll_rad: float,
                           pitch_rad: float) -> Vector3Stamped:
-    """Fill a Vector3Stamped in place (see "Writers" above); returns it."""
+    """Fill a Vector3Stamped in place, x = roll, y = pitch (rad), z = 0 (yaw is not observable); returns it."""
     _header(msg, stamp_s, frame_id)
     vector = msg.vector
     vector.x, vector.y, vector.z = float(roll_rad), float(pitch_rad), 0.0
@@ -207,13 +187,8 @@ def read_attitude_angles(msg: Vector3Stamped) -> tuple[float, float, float]:
     return check_stamp(time_from_msg(msg.header.stamp)), vector.x, vector.y
 
 
-def attitude_quaternion_to_msg(record: AttitudeQuaternion) -> QuaternionStamped:
-    """QuaternionStamped of the body orientation in ``record.frame_id``."""
-    return write_attitude_quaternion(QuaternionStamped(), record.stamp_s, record.frame_id, record.q_xyzw.tolist())
-
-
 def write_attitude_quaternion(msg: QuaternionStamped, stamp_s: float, frame_id: str, q_xyzw) -> QuaternionStamped:
-    """Fill a QuaternionStamped in place from (x, y, z, w) (see "Writers" above); returns it."""
+    """Fill a QuaternionStamped in place with the body orientation (x, y, z, w) in ``frame_id``; returns it."""
     _header(msg, stamp_s, frame_id)
     quaternion = msg.quaternion
     x, y, z, w = q_xyzw
@@ -289,12 +264,6 @@ def _rotate(q, v) -> tuple[float, float, float]:
     # t = 2 q_vec × v;  R v = v + w t + q_vec × t
     tx, ty, tz = 2.0 * (qy * vz - qz * vy), 2.0 * (qz * vx - qx * vz), 2.0 * (qx * vy - qy * vx)
     return (vx + qw * tx + qy * tz - qz * ty, vy + qw * ty + qz * tx - qx * tz, vz + qw * tz + qx * ty - qy * tx)
-
-
-def orbit_state_to_msg(record: OrbitState) -> Odometry:
-    """Odometry of an orbit state by nav_msgs' rules (see :func:`write_orbit_state`); covariances zero."""
-    return write_orbit_state(Odometry(), record.stamp_s, record.frame_id, record.child_frame_id,
-                             record.position_m.tolist(), record.velocity_m_s.tolist())
 
 
 def write_orbit_state(msg: Odometry, stamp_s: float, frame_id: str, child_frame_id: str, position_m,
@@ -473,13 +442,9 @@ def _channel_values(channel: ChannelStatistics, oblateness_removed: bool) -> lis
     return values
 
 
-def error_statistics_to_msg(record: ErrorStatistics) -> DiagnosticArray:
-    """DiagnosticArray for /pmv/error_statistics: a status per channel, then the counters (layout above)."""
-    return write_error_statistics(DiagnosticArray(), record)
-
-
 def write_error_statistics(msg: DiagnosticArray, record: ErrorStatistics) -> DiagnosticArray:
-    """Fill a DiagnosticArray in place for /pmv/error_statistics (see "Writers" above); returns it."""
+    """Fill a DiagnosticArray in place for /pmv/error_statistics: a status per channel, then the counters
+    (layout above); returns it."""
     statuses = [(STATISTICS_STATUS_PREFIX + c.channel, *_channel_level(c), record.hardware_id,
                  _channel_values(c, record.oblateness_removed)) for c in record.channels]
     counters = record.counters
@@ -524,11 +489,6 @@ def error_statistics_from_msg(msg: DiagnosticArray) -> ErrorStatistics:
     return ErrorStatistics(time_from_msg(msg.header.stamp), tuple(channels), counters, removed, hardware_id)
 
 
-def health_to_msg(record: HealthReport) -> DiagnosticArray:
-    """DiagnosticArray for /diagnostics."""
-    return write_health(DiagnosticArray(), record)
-
-
 def write_health(msg: DiagnosticArray, record: HealthReport) -> DiagnosticArray:
     """Fill a DiagnosticArray in place for /diagnostics (see "Writers" above); returns it."""
     return _write_statuses(msg, record.stamp_s, [(s.name, s.level, s.message, s.hardware_id, s.values)
@@ -541,18 +501,3 @@ def health_from_msg(msg: DiagnosticArray) -> HealthReport:
                                   tuple((kv.key, kv.value) for kv in s.values)) for s in msg.status)
     return HealthReport(time_from_msg(msg.header.stamp), statuses)
 
-
-# ----------------------------------------------------------------------- dispatch
-
-@singledispatch
-def to_msg(record):
-    """The message for any record of :mod:`.records`."""
-    raise TypeError(f"no message layout for {type(record).__name__}")
-
-
-to_msg.register(HorizonCrossings, horizon_crossings_to_msg)
-to_msg.register(AttitudeAngles, attitude_angles_to_msg)
-to_msg.register(AttitudeQuaternion, attitude_quaternion_to_msg)
-to_msg.register(OrbitState, orbit_state_to_msg)
-to_msg.register(ErrorStatistics, error_statistics_to_msg)
-to_msg.register(HealthReport, health_to_msg)

@@ -418,7 +418,8 @@ def test_orbit_status_round_trip_and_a_real_time_sensors_epoch(harness):
     from pmv_ros.nodes.sensor_node import SensorNode
 
     elements = shim.OrbitElements("2019-07-21T00:00:00Z", 1.7e9, 835.0, 98.8, 10.0, 45.0, 6090.0, 0.98, "ros")
-    message = shim.health_to_msg(shim.HealthReport(1.7e9, (shim.orbit_elements_status(elements),)))
+    message = shim.write_health(DiagnosticArray(),
+                                shim.HealthReport(1.7e9, (shim.orbit_elements_status(elements),)))
     assert shim.find_orbit_elements(message) == elements
     assert elements.argument_of_latitude_rad(1.7e9 + 6090.0 / 4) == pytest.approx(math.radians(45.0 + 90.0))
     message.status[0].values = [kv for kv in message.status[0].values if kv.key != "period_s"]

@@ -66,13 +66,13 @@ def values_of(status) -> dict:
 
 
 def angles_msg(t_s, roll_rad, pitch_rad):
-    return shim.attitude_angles_to_msg(shim.AttitudeAngles(t_s, shim.SENSOR_FRAME, roll_rad, pitch_rad))
+    return shim.write_attitude_angles(Vector3Stamped(), t_s, shim.SENSOR_FRAME, roll_rad, pitch_rad)
 
 
 def quaternion_msg(t_s, q):
     """A QuaternionStamped with exactly the components given (NaN, zero norm and all)."""
     message = QuaternionStamped()
-    message.header.stamp = shim.time_to_msg(t_s)
+    shim.write_stamp(message.header.stamp, t_s)
     message.header.frame_id = shim.ORBITAL_FRAME
     message.quaternion.x, message.quaternion.y, message.quaternion.z, message.quaternion.w = (float(c) for c in q)
     return message
@@ -275,7 +275,7 @@ def _run_monitor(harness, events):
     clock = h.publisher(Clock, "/clock")
     for kind, payload in events:
         if kind == "clock":
-            clock.publish(shim.clock_to_msg(payload))
+            clock.publish(shim.write_clock(Clock(), payload))
         elif kind == "truth":
             truth.publish(quaternion_msg(*payload))
         elif kind == "sensor":
@@ -376,7 +376,7 @@ def test_star_tracker_drops_bad_truth_and_publishes_the_frames_of_the_clean_stre
         truth, clock = h.publisher(QuaternionStamped, "/attitude/truth"), h.publisher(Clock, "/clock")
         for kind, payload in events:
             if kind == "clock":
-                clock.publish(shim.clock_to_msg(payload))
+                clock.publish(shim.write_clock(Clock(), payload))
             else:
                 truth.publish(quaternion_msg(*payload))
             h.drain()
@@ -516,7 +516,7 @@ def test_monitor_clock_jumps_reset_alignment_and_never_mix_timelines(harness):
     def run(first_s, seconds, truth_arcmin):
         for k in range(int(seconds * 10)):
             t = round(first_s + 0.1 * k, 10)
-            clock.publish(shim.clock_to_msg(t))
+            clock.publish(shim.write_clock(Clock(), t))
             h.drain()
             if k % 5 == 0:
                 truth.publish(quaternion_msg(t, quaternion_from_roll_pitch_yaw(truth_arcmin * ARCMIN_RAD, 0.0)))

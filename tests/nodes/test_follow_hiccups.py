@@ -58,7 +58,7 @@ def fly(harness, duration_s: float, overrides: dict, late_s: float = 0.1):
                                                          slow_turn(stamps[sent])))
             sent += 1
         h.drain()
-        clock.publish(shim.clock_to_msg(now_s))
+        clock.publish(shim.write_clock(Clock(), now_s))
         h.drain()
     samples = np.array([shim.time_from_msg(m.header.stamp) for m in attitude])
     statuses = [s for m in diagnostics for s in shim.health_from_msg(m).statuses
@@ -105,7 +105,7 @@ def test_on_a_clock_stepping_by_a_second_every_sample_waits_for_its_truth_and_no
     truth = h.tester.create_publisher(QuaternionStamped, "/attitude/truth", qos_profile_sensor_data)
     message = QuaternionStamped()
     for second in range(1, 21):
-        clock.publish(shim.clock_to_msg(float(second)))
+        clock.publish(shim.write_clock(Clock(), float(second)))
         h.drain()
         for k in range(1, int(TRUTH_HZ) + 1):
             t_s = second - 1 + k / TRUTH_HZ

@@ -40,11 +40,11 @@ def now_s(harness) -> float:
 
 
 def quaternion_msg(t_s, q):
-    return shim.attitude_quaternion_to_msg(shim.AttitudeQuaternion(t_s, shim.ORBITAL_FRAME, q))
+    return shim.write_attitude_quaternion(QuaternionStamped(), t_s, shim.ORBITAL_FRAME, q)
 
 
 def angles_msg(t_s, roll_rad, pitch_rad):
-    return shim.attitude_angles_to_msg(shim.AttitudeAngles(t_s, shim.SENSOR_FRAME, roll_rad, pitch_rad))
+    return shim.write_attitude_angles(Vector3Stamped(), t_s, shim.SENSOR_FRAME, roll_rad, pitch_rad)
 
 
 def statuses(messages, prefix):
@@ -311,7 +311,7 @@ def test_a_single_forged_truth_stamp_or_clock_leaves_the_tracker_output_of_the_c
         q = quaternion_from_roll_pitch_yaw(1e-3, -2e-3)
         for k in range(1, 301):
             t = 100.0 + 0.1 * k
-            clock.publish(shim.clock_to_msg(3700.0 if forged and k == 100 else t))
+            clock.publish(shim.write_clock(Clock(), 3700.0 if forged and k == 100 else t))
             h.drain()
             truth.publish(quaternion_msg(t, q))
             if forged and k == 200:
@@ -357,7 +357,7 @@ def test_a_following_sensor_skips_the_tick_of_a_single_forged_clock(harness):
         t = 100.0 + 0.25 * k
         truth.publish(quaternion_msg(t, q))
         h.drain()
-        clock.publish(shim.clock_to_msg(t + 3600.0 if k == 20 else t))
+        clock.publish(shim.write_clock(Clock(), t + 3600.0 if k == 20 else t))
         h.drain()
     stamps = [shim.time_from_msg(m.header.stamp) for m in attitude]
     assert stamps and max(stamps) < 111.0  # nothing at the forged hour

@@ -122,7 +122,7 @@ def test_star_tracker_node_alone(harness):
     releases = {}
     for k in range(1, 2001):  # 200 s of truth at 10 Hz
         t = 0.1 * k
-        truth.publish(shim.attitude_quaternion_to_msg(shim.AttitudeQuaternion(t, shim.ORBITAL_FRAME, q)))
+        truth.publish(shim.write_attitude_quaternion(QuaternionStamped(), t, shim.ORBITAL_FRAME, q))
         h.drain()
         for message in h.received["/star_tracker/attitude"][len(releases):]:
             releases[shim.time_from_msg(message.header.stamp)] = t
@@ -150,7 +150,7 @@ def test_star_tracker_frames_between_sparse_truth_take_the_draws_of_one_call(har
     truth = h.publisher(QuaternionStamped, "/attitude/truth")
     q = quaternion_from_roll_pitch_yaw(10 * ARCMIN_RAD, -4 * ARCMIN_RAD, 0.0)
     for k in range(1, 21):
-        truth.publish(shim.attitude_quaternion_to_msg(shim.AttitudeQuaternion(float(k), shim.ORBITAL_FRAME, q)))
+        truth.publish(shim.write_attitude_quaternion(QuaternionStamped(), float(k), shim.ORBITAL_FRAME, q))
         h.drain()
     model = StarTracker(StarTrackerParameters(random_failure_probability=0.2), seed=7)
     expected = []
@@ -172,7 +172,7 @@ def test_star_tracker_gives_nothing_above_its_rate_limit(harness):
     # a 0.5°/s roll (1800″/s) is far above the 300″/s limit
     for k in range(1, 101):
         q = quaternion_from_roll_pitch_yaw(math.radians(0.05 * k), 0.0, 0.0)
-        truth.publish(shim.attitude_quaternion_to_msg(shim.AttitudeQuaternion(0.1 * k, shim.ORBITAL_FRAME, q)))
+        truth.publish(shim.write_attitude_quaternion(QuaternionStamped(), 0.1 * k, shim.ORBITAL_FRAME, q))
         h.drain()
     assert h.received["/star_tracker/attitude"] == []
     report = shim.health_from_msg(h.received["/diagnostics"][-1])
@@ -189,13 +189,13 @@ def test_error_monitor_node_alone(harness):
     clock = h.publisher(Clock, "/clock")
     for k in range(1, 301):
         t = 0.1 * k
-        clock.publish(shim.clock_to_msg(t))
+        clock.publish(shim.write_clock(Clock(), t))
         if k % 5 == 0:  # truth at 2 Hz: roll 5′, pitch −2′
             q = quaternion_from_roll_pitch_yaw(5 * ARCMIN_RAD, -2 * ARCMIN_RAD, 0.0)
-            truth.publish(shim.attitude_quaternion_to_msg(shim.AttitudeQuaternion(t, shim.ORBITAL_FRAME, q)))
+            truth.publish(shim.write_attitude_quaternion(QuaternionStamped(), t, shim.ORBITAL_FRAME, q))
         # the sensor reads 1.5′ more roll and 0.5′ less pitch than the truth
-        sensor.publish(shim.attitude_angles_to_msg(shim.AttitudeAngles(t, shim.SENSOR_FRAME, 6.5 * ARCMIN_RAD,
-                                                                       -2.5 * ARCMIN_RAD)))
+        sensor.publish(shim.write_attitude_angles(Vector3Stamped(), t, shim.SENSOR_FRAME, 6.5 * ARCMIN_RAD,
+                                                  -2.5 * ARCMIN_RAD))
         h.drain()
     residuals = [shim.attitude_angles_from_msg(m) for m in h.received["/pmv/residual"]]
     assert len(residuals) >= 290
@@ -219,9 +219,9 @@ def test_monitor_warns_when_odometry_flies_another_orbit_than_its_parameters(har
         speed = math.sqrt(3.986004418e14 / radius)
         for k in range(1, 31):
             t = 10.0 * k + (0.0 if altitude_m == 500e3 else 400.0)
-            clock.publish(shim.clock_to_msg(t))
-            odometry.publish(shim.orbit_state_to_msg(shim.OrbitState(t, "eci", "orbital", [radius, 0.0, 0.0],
-                                                                     [0.0, speed, 0.0])))
+            clock.publish(shim.write_clock(Clock(), t))
+            odometry.publish(shim.write_orbit_state(Odometry(), t, "eci", "orbital", [radius, 0.0, 0.0],
+                                                    [0.0, speed, 0.0]))
             h.drain()
         messages.append([status.message for m in h.received["/diagnostics"] for status in m.status])
         h.received["/diagnostics"].clear()

@@ -50,7 +50,7 @@ def turned(axis, angle_rad) -> tuple:
 
 
 def truth_msg(t_s, q) -> QuaternionStamped:
-    return shim.attitude_quaternion_to_msg(shim.AttitudeQuaternion(t_s, shim.ORBITAL_FRAME, q))
+    return shim.write_attitude_quaternion(QuaternionStamped(), t_s, shim.ORBITAL_FRAME, q)
 
 
 def angles(messages) -> np.ndarray:
@@ -112,10 +112,10 @@ def test_residual_is_sensed_minus_true_in_rep_103(harness):
     for q, roll, pitch in cases:
         for _ in range(10):
             t += 0.5
-            clock.publish(shim.clock_to_msg(t))
+            clock.publish(shim.write_clock(Clock(), t))
             tracker.publish(truth_msg(t, q))
-            sensor.publish(shim.attitude_angles_to_msg(shim.AttitudeAngles(
-                t, shim.SENSOR_FRAME, roll * ARCMIN_RAD, pitch * ARCMIN_RAD)))
+            sensor.publish(shim.write_attitude_angles(
+                Vector3Stamped(), t, shim.SENSOR_FRAME, roll * ARCMIN_RAD, pitch * ARCMIN_RAD))
             h.drain()
     got = angles(residuals)
     first, second = got[got[:, 0] <= 5.0], got[got[:, 0] > 5.5]
@@ -284,7 +284,7 @@ def test_a_slew_under_simulation_time_is_measured_at_its_stamp(harness):
     truth = h.tester.create_publisher(QuaternionStamped, "/attitude/truth", qos_profile_sensor_data)
     for k in range(1, 301):  # 6 s
         t = 100.0 + k / TRUTH_HZ
-        clock.publish(shim.clock_to_msg(t))
+        clock.publish(shim.write_clock(Clock(), t))
         h.drain()
         truth.publish(truth_msg(t, slew(t - 100.0)))
         h.drain()
@@ -338,7 +338,7 @@ def test_stopped_truth_is_flagged_within_one_period_after_the_horizon_and_gives_
     stop_s, resume_s, horizon_s = 3.0, 5.0, DEFAULT_BRIDGE_S
     for k in range(1, 351):  # 7 s
         t = k / TRUTH_HZ
-        clock.publish(shim.clock_to_msg(t))
+        clock.publish(shim.write_clock(Clock(), t))
         h.drain()
         if t <= stop_s + 1e-9 or t >= resume_s - 1e-9:
             truth.publish(truth_msg(t, slew(t)))
@@ -475,8 +475,8 @@ def test_best_effort_publishers_feed_every_input(harness):
     odometry = m.tester.create_publisher(Odometry, "/orbit/odometry", qos_profile_sensor_data)
     clock = m.publisher(Clock, "/clock")
     for k in range(1, 6):
-        clock.publish(shim.clock_to_msg(float(k)))
-        odometry.publish(shim.orbit_state_to_msg(shim.OrbitState(float(k), "eci", "orbital", [6871e3, 0.0, 0.0],
-                                                                 [0.0, 7616.0, 0.0])))
+        clock.publish(shim.write_clock(Clock(), float(k)))
+        odometry.publish(shim.write_orbit_state(Odometry(), float(k), "eci", "orbital", [6871e3, 0.0, 0.0],
+                                                [0.0, 7616.0, 0.0]))
         m.drain()
     assert m.node.latest_orbit_stamp_s == 5.0

@@ -57,7 +57,7 @@ class SimClockGraph:
         return received
 
     def tick(self, t_s: float) -> None:
-        self.clock.publish(shim.clock_to_msg(t_s))
+        self.clock.publish(shim.write_clock(Clock(), t_s))
         drain(self.executor)
 
     def run_clock(self, first_s: float, step_s: float, last_s: float, rate_hz: float) -> float:

@@ -153,7 +153,7 @@ def test_an_inertial_quaternion_on_attitude_truth_is_refused_and_counted_by_the_
         q = quaternion_from_roll_pitch_yaw(1e-3, -2e-3)
         start = h.node.get_clock().now().nanoseconds * 1e-9 - 60.0
         for k in range(1, 201):
-            message = shim.attitude_quaternion_to_msg(shim.AttitudeQuaternion(start + 0.1 * k, shim.ORBITAL_FRAME, q))
+            message = shim.write_attitude_quaternion(QuaternionStamped(), start + 0.1 * k, shim.ORBITAL_FRAME, q)
             truth.publish(_inertial(message) if mistaken and k % 10 == 3 else message)
             h.drain()
         outputs.append(np.array([[m.quaternion.x, m.quaternion.y, m.quaternion.z, m.quaternion.w] for m in measured]))
@@ -181,14 +181,14 @@ def test_a_following_sensor_refuses_truth_in_another_frame(harness):
         q = quaternion_from_roll_pitch_yaw(10 * ARCMIN_RAD, -4 * ARCMIN_RAD, 0.0)
         for k in range(1, 41):
             t = 100.0 + 0.25 * k
-            message = shim.attitude_quaternion_to_msg(shim.AttitudeQuaternion(t, shim.ORBITAL_FRAME, q))
+            message = shim.write_attitude_quaternion(QuaternionStamped(), t, shim.ORBITAL_FRAME, q)
             truth.publish(message)
             if mistaken and k % 4 == 1:  # the inertial attitude 0.1 s later would be followed if taken
                 inertial = _inertial(message)
                 shim.write_stamp(inertial.header.stamp, t + 0.1)
                 truth.publish(inertial)
             h.drain()
-            clock.publish(shim.clock_to_msg(t))
+            clock.publish(shim.write_clock(Clock(), t))
             h.drain()
         outputs.append(np.array([[shim.time_from_msg(m.header.stamp), m.vector.x, m.vector.y] for m in attitude]))
     clean, refused = outputs
@@ -219,15 +219,15 @@ def test_the_monitor_refuses_odometry_truth_and_angles_in_other_frames(harness):
                                                         np.asarray(r) + 1e3, v))
                 odometry.publish(shim.write_orbit_state(Odometry(), t + 0.06, shim.ECI_FRAME, "orbital_2", r, v))
             if k % 5 == 0:
-                truth.publish(shim.attitude_quaternion_to_msg(shim.AttitudeQuaternion(t, shim.ORBITAL_FRAME, q)))
+                truth.publish(shim.write_attitude_quaternion(QuaternionStamped(), t, shim.ORBITAL_FRAME, q))
                 if mistaken:
-                    truth.publish(_inertial(shim.attitude_quaternion_to_msg(
-                        shim.AttitudeQuaternion(t + 0.05, shim.ORBITAL_FRAME, q))))
-            sensor.publish(shim.attitude_angles_to_msg(shim.AttitudeAngles(
-                t, shim.SENSOR_FRAME, (2 + 0.3 * rng.standard_normal()) * ARCMIN_RAD,
-                (-1 + 0.3 * rng.standard_normal()) * ARCMIN_RAD)))
+                    truth.publish(_inertial(shim.write_attitude_quaternion(
+                        QuaternionStamped(), t + 0.05, shim.ORBITAL_FRAME, q)))
+            sensor.publish(shim.write_attitude_angles(
+                Vector3Stamped(), t, shim.SENSOR_FRAME, (2 + 0.3 * rng.standard_normal()) * ARCMIN_RAD,
+                (-1 + 0.3 * rng.standard_normal()) * ARCMIN_RAD))
             if mistaken and k % 50 == 0:  # angles of some other instrument's frame
-                sensor.publish(shim.attitude_angles_to_msg(shim.AttitudeAngles(t + 0.05, "base_link", 0.1, 0.1)))
+                sensor.publish(shim.write_attitude_angles(Vector3Stamped(), t + 0.05, "base_link", 0.1, 0.1))
             h.drain()
         statistics = h.node.publish_statistics(start + 31.0)
         diagnostics.clear()  # a report from its 1 Hz timer after the whole stream (one may have come mid-stream)

@@ -30,8 +30,10 @@ import os
 import time
 
 import pytest
+from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
 from neighbour import Neighbour, monitor_status, rss_mb, running_stack
 from nav_msgs.msg import Odometry
+from rosgraph_msgs.msg import Clock
 
 import pmv_msgs_shim as shim
 from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
@@ -58,21 +60,21 @@ def test_a_hostile_neighbour_changes_nothing_it_should_not(stack, tmp_path):
         end = time.monotonic() + 3.0
         while time.monotonic() < end:
             t = neighbour.sim_now_s
-            neighbour.pub["attitude"].publish(shim.attitude_angles_to_msg(
-                shim.AttitudeAngles(t, shim.SENSOR_FRAME, 1e308, 1e308)))
-            neighbour.pub["attitude"].publish(shim.attitude_angles_to_msg(
-                shim.AttitudeAngles(t + 0.01, shim.SENSOR_FRAME, 20 * ARCMIN_RAD, 20 * ARCMIN_RAD)))
+            neighbour.pub["attitude"].publish(shim.write_attitude_angles(
+                Vector3Stamped(), t, shim.SENSOR_FRAME, 1e308, 1e308))
+            neighbour.pub["attitude"].publish(shim.write_attitude_angles(
+                Vector3Stamped(), t + 0.01, shim.SENSOR_FRAME, 20 * ARCMIN_RAD, 20 * ARCMIN_RAD))
             neighbour.pub["odometry"].publish(shim.write_orbit_state(Odometry(), t, shim.ECI_FRAME,
                                                                       shim.ORBITAL_FRAME, (1e3, 0.0, 0.0),
                                                                       (0.0, 7.6e3, 0.0)))
             for k in range(50):
-                neighbour.pub["tracker"].publish(shim.attitude_quaternion_to_msg(
-                    shim.AttitudeQuaternion(t + 1e-4 * k, shim.ORBITAL_FRAME, far)))
+                neighbour.pub["tracker"].publish(shim.write_attitude_quaternion(
+                    QuaternionStamped(), t + 1e-4 * k, shim.ORBITAL_FRAME, far))
             flood_sent += 50
             neighbour.spin(0.05)
 
         # 2. One forged /clock an hour ahead.
-        neighbour.pub["clock"].publish(shim.clock_to_msg(neighbour.sim_now_s + 3600.0))
+        neighbour.pub["clock"].publish(shim.write_clock(Clock(), neighbour.sim_now_s + 3600.0))
         neighbour.spin(0.5)
 
         # 3. Parameter requests that would read a file, or fill memory.

@@ -46,7 +46,7 @@ def _forged(kind: int, now_s: float) -> Clock:
     elif kind == 1:
         message.clock.sec, message.clock.nanosec = int(now_s), 1_500_000_000
     else:
-        message = shim.clock_to_msg(now_s + 3600.0 if kind == 2 else now_s - 90.0)  # the stack starts at 100 s
+        message = shim.write_clock(Clock(), now_s + 3600.0 if kind == 2 else now_s - 90.0)  # the stack starts at 100 s
     return message
 
 
