@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from cli_runner import pmv
 from flights import fly_one_orbit, preset_values
 
 from pmv_ros.apps.report import flight_record, harmonic_spectrum
@@ -17,9 +16,8 @@ from pmv_ros.physics.constants import ARCMIN_RAD
 REPO = Path(__file__).resolve().parents[2]
 
 
-def simulate(*arguments, timeout=300):
-    return subprocess.run([sys.executable, "-m", "pmv_ros.cli", "simulate", *arguments], capture_output=True,
-                          text=True, timeout=timeout, cwd=REPO)
+def simulate(*arguments):
+    return pmv("simulate", *arguments)
 
 
 @pytest.fixture(scope="module")
@@ -64,7 +62,7 @@ def test_the_spectrum_png_carries_the_flight_record(meteor_orbit):
     (["--epoch", "yesterday"], "ISO 8601"),
 ])
 def test_bad_seed_or_epoch_is_a_one_line_error(arguments, words):
-    result = simulate("--config", str(REPO / "config" / "meteor_m2.yaml"), *arguments, timeout=120)
+    result = simulate("--config", str(REPO / "config" / "meteor_m2.yaml"), *arguments)
     assert result.returncode == 2
     assert words in result.stderr and "Traceback" not in result.stderr
     assert len(result.stderr.strip().splitlines()) == 1
