@@ -1,4 +1,5 @@
-"""Records the runtime hands to the nodes and the shim lays out: the one home of the diagnostic level.
+"""Records the runtime hands to the nodes and the shim lays out: the one home of the diagnostic level
+and of a runtime's health status.
 
 The channel names and the channel-statistics record are the analysis layer's
 (:data:`pmv_ros.analysis.statistics.CHANNELS`,
@@ -8,6 +9,7 @@ physics' (:data:`pmv_ros.physics.geometry.CHORD_NAMES`).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from enum import IntEnum
 
 
@@ -18,3 +20,12 @@ class Level(IntEnum):
     WARN = 1
     ERROR = 2
     STALE = 3
+
+
+@dataclass(frozen=True)
+class HealthSummary:
+    """One /diagnostics status as a runtime reports it: level, message, key/values (the node names it)."""
+
+    level: Level
+    message: str
+    values: dict

@@ -9,21 +9,12 @@ condition changes (a chord lost or regained, truth going stale). Levels are
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 from ..physics.ephemeris import BODY_NAMES
 from ..physics.geometry import CHORD_NAMES
 from ..physics.sensor import ChordStatus
-from .records import Level
+from .records import HealthSummary, Level
 from .truth_buffer import TruthAt
-
-@dataclass(frozen=True)
-class HealthSummary:
-    """One /diagnostics status of the sensor: level, message, key/values."""
-
-    level: Level
-    message: str
-    values: dict
 
 
 def chord_problems(status, blinding, exclusion_deg: float) -> list[str]:
