@@ -113,6 +113,14 @@ class PmvNode(Node):
         """``hardware_id`` of this node's /diagnostics statuses: the device and the node's fully qualified name."""
         return f"{device}:{self.get_fully_qualified_name()}"
 
+    def health_report(self, stamp_s: float, health, part: str = "", device: str = "pmv",
+                      others: tuple = ()) -> shim.HealthReport:
+        """A /diagnostics report of a runtime's status (:class:`pmv_ros.runtime.records.HealthSummary`) named
+        after this node (:meth:`status_name` of ``part``, :meth:`hardware_id` of ``device``), ``others`` after it."""
+        return shim.HealthReport(stamp_s=stamp_s, statuses=(shim.HealthStatus(
+            name=self.status_name(part), level=health.level, message=health.message,
+            hardware_id=self.hardware_id(device), values=health.values), *others))
+
     def clock_name(self) -> str:
         """The clock this node runs on, for its start-up line: simulation time from /clock or the wall clock."""
         if self.get_parameter("use_sim_time").value:

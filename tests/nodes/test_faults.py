@@ -31,7 +31,8 @@ from node_harness import probe
 from pmv_ros.nodes.error_monitor_node import ErrorMonitorNode
 from pmv_ros.nodes.pipeline import Pipeline
 from pmv_ros.nodes.sensor_node import PARAMS as SENSOR_PARAMS
-from pmv_ros.nodes.sensor_node import SensorNode, build_models
+from pmv_ros.nodes.sensor_node import SensorNode
+from pmv_ros.runtime.assembly import build_models
 from pmv_ros.nodes.star_tracker_node import StarTrackerNode
 from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
 from pmv_ros.physics.constants import ARCMIN_RAD, EARTH_MEAN_RADIUS_M

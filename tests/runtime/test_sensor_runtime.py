@@ -1,0 +1,107 @@
+"""sensor_node's runtime without ROS: the samples and health it hands the node, and the campaign's agreement."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import yaml
+
+from flights import REPO, preset_values
+from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
+from pmv_ros.physics.constants import ARCMIN_RAD
+from pmv_ros.runtime.assembly import read_correction
+from pmv_ros.runtime.flight import flight_values, fly
+from pmv_ros.runtime.records import Level
+from pmv_ros.runtime.sample_stream import FAST_TIME_BLOCK
+from pmv_ros.runtime.sensor_runtime import HealthAt, SamplePublication, SensorRuntime
+
+
+def runtime_of(values: dict, **options) -> SensorRuntime:
+    options.setdefault("clock_epoch_s", 0.0)
+    options.setdefault("stepped", True)
+    return SensorRuntime(values, correction=read_correction(values), **options)
+
+
+def test_stepped_samples_are_the_campaign_flights_samples_bit_for_bit():
+    # The campaign's flight senses what the stepped node senses: the same stamps, blocks and numbers
+    # (more than one block, so the block boundary is crossed).
+    document = yaml.safe_load((REPO / "config" / "kondor.yaml").read_text())
+    values = flight_values(document, {"sensor.rate_hz": 10.0})
+    count = FAST_TIME_BLOCK + 40
+    runtime = runtime_of(values.sensor)
+    samples = [sample for _ in range(count) for sample in runtime.step().samples]
+    flight = fly(values, count)
+    assert len(samples) == count
+    assert np.array_equal([s.t_s for s in samples], flight.t_s)
+    assert np.array_equal([s.roll_rad for s in samples], flight.sensed_roll_rad, equal_nan=True)
+    assert np.array_equal([s.pitch_rad for s in samples], flight.sensed_pitch_rad, equal_nan=True)
+    assert runtime.health.samples_published == count
+
+
+def test_each_sample_counts_and_health_comes_every_period_with_the_nodes_graph_in_it():
+    values = preset_values("kondor", sensor__rate_hz=10.0, diagnostics_period_s=1.0)
+    problems = [(0, ())]
+    runtime = runtime_of(values, graph_problems=lambda: problems[-1],
+                         source_counters=lambda: {"other_source_attitude_truth": 3})
+    published, health = 0, []
+    for _ in range(35):
+        for item in runtime.step().published:
+            if isinstance(item, SamplePublication):
+                published += 1
+                assert item.sample.t_s == pytest.approx(runtime.sim_time_s)
+                assert np.isclose(np.linalg.norm(item.imu.q_xyzw), 1.0) or np.isnan(item.sample.roll_rad)
+            else:
+                assert isinstance(item, HealthAt)
+                assert int(item.health.values["samples_published"]) == published  # the sample just before
+                assert item.health.values["other_source_attitude_truth"] == 3
+                health.append(item)
+    assert published == 35
+    stamps = np.array([h.stamp_s for h in health])
+    assert len(stamps) >= 3 and np.all(np.diff(stamps) <= 1.0 + 1e-9)
+    # A second source the node's graph reports is an ERROR (asked again once a period has passed).
+    problems.append((0, ("2 publishers of /attitude/truth",)))
+    later = [item for _ in range(12) for item in runtime.step().health]
+    assert later and later[-1].health.level is Level.ERROR
+    assert "2 publishers of /attitude/truth" in later[-1].health.message
+    # Someone else publishing the truth the own attitude model publishes: a warning that names follow mode.
+    problems.append((1, ()))
+    warned = [item for _ in range(12) for item in runtime.step().health][-1].health
+    assert warned.level is Level.WARN and "Follow mode" in warned.message
+
+
+def test_following_truth_is_checked_then_measured_at_the_sample_time():
+    values = preset_values("kondor", attitude__source="follow", sensor__rate_hz=10.0, sensor__detector="ideal")
+    runtime = runtime_of(values)
+    orbital = runtime.frames.orbital
+    q = np.array(quaternion_from_roll_pitch_yaw(10 * ARCMIN_RAD, -4 * ARCMIN_RAD, 0.0))
+    assert runtime.add_truth("eci", runtime.sim_time_s, q, 0.0).published == []
+    assert runtime.add_truth(orbital, None, q, 0.0).published == []
+    counters = runtime.health.counters
+    assert counters["rejected_truth_wrong_frame"] == 1 and counters["rejected_truth_zero_stamp"] == 1
+    # No truth yet: a step publishes health only, and says why.
+    nothing = runtime.step()
+    assert nothing.samples == [] and "no sample" in nothing.health[-1].health.message
+    angles = []
+    for _ in range(20):
+        runtime.add_truth(orbital, runtime.sim_time_s + 0.1, q, 0.0)
+        angles += [(s.roll_rad, s.pitch_rad) for s in runtime.step().samples]
+    assert len(angles) == 20
+    np.testing.assert_allclose(angles, [[10 * ARCMIN_RAD, -4 * ARCMIN_RAD]] * 20, atol=0.05 * ARCMIN_RAD)
+    # The truth stops: after the horizon the runtime goes stale, says so once on the log, and publishes nothing.
+    outputs = [runtime.step() for _ in range(30)]
+    stale_lines = [line for out in outputs for line in out.log if line.level == "error"]
+    assert len(stale_lines) == 1 and "stale" in stale_lines[0].text
+    assert outputs[-1].samples == []
+    assert any(report.health.level is Level.ERROR and "stale" in report.health.message
+               for out in outputs for report in out.health)
+
+
+def test_real_time_ticks_give_every_grid_time_due_once_in_order():
+    values = preset_values("kondor", sim__fast_time=False, sensor__rate_hz=10.0)
+    runtime = runtime_of(values, clock_epoch_s=1000.0, stepped=False)
+    first = runtime.tick(1000.35).samples
+    assert [s.t_s for s in first] == pytest.approx([1000.3])  # the first tick: the latest grid time only
+    later = runtime.tick(1000.62).samples
+    assert [s.t_s for s in later] == pytest.approx([1000.4, 1000.5, 1000.6])
+    assert runtime.tick(1000.64).samples == []  # nothing new is due
+    assert runtime.health.samples_published == 4
