@@ -1,0 +1,94 @@
+"""The star tracker's runtime without ROS: the truth it takes, the frames it releases, what it reports."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import yaml
+
+from flights import REPO
+from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
+from pmv_ros.physics.constants import ARCMIN_RAD
+from pmv_ros.runtime.flight import flight_values
+from pmv_ros.runtime.records import Level
+from pmv_ros.runtime.tracker import TrackerRuntime, track_stream
+
+
+def values_of(overrides: dict | None = None):
+    document = yaml.safe_load((REPO / "config" / "kondor.yaml").read_text())
+    return flight_values(document, overrides)
+
+
+def truth_stream(start_s: float, seconds: float, rate_hz: float = 10.0):
+    t = start_s + np.arange(int(seconds * rate_hz)) / rate_hz
+    q = np.array(quaternion_from_roll_pitch_yaw(5 * ARCMIN_RAD * np.sin(t / 50.0), np.full_like(t, -2 * ARCMIN_RAD),
+                                                np.zeros_like(t)))
+    return t, q
+
+
+def test_checked_truth_gives_the_frames_of_the_frame_loop_and_bad_truth_changes_nothing():
+    values = values_of({"random_failure_probability": 0.0}).star_tracker
+    t, q = truth_stream(10.0, 6.0)
+    reference = track_stream(TrackerRuntime(values, 0.0), t, q)  # the campaign's path, a clean stream
+    runtime = TrackerRuntime(values, 0.0)
+    orbital = runtime.frames.orbital
+    released, reports = [], []
+    for k, (t_s, q_k) in enumerate(zip(t.tolist(), q.T)):
+        if k % 7 == 3:  # bad messages between the good ones: counted, not seen by the frame loop
+            assert runtime.receive_truth("eci", t_s, q_k, t_s).released == []
+            assert runtime.receive_truth(orbital, None, q_k, t_s).released == []
+            assert runtime.receive_truth(orbital, t_s, [np.nan, 0.0, 0.0, 1.0], t_s).released == []
+        output = runtime.receive_truth(orbital, t_s, q_k, t_s)
+        released += output.released
+        if output.health is not None:
+            reports.append((t_s, output.health))
+    published = np.flatnonzero(reference.released_at >= 0)
+    assert [frame_s for frame_s, _ in released] == reference.frame_s[published].tolist()
+    # The node's check normalises a near-unit quaternion on the way in; the clean stream is taken as it is:
+    # the two may part in the last bit, no more.
+    np.testing.assert_allclose(np.array([q_m for _, q_m in released]).T, reference.q_measured[:, published],
+                               rtol=0.0, atol=1e-15)
+    bad = len(range(3, t.size, 7))
+    counters = runtime.counters
+    assert counters["rejected_truth_wrong_frame"] == bad and counters["rejected_truth_zero_stamp"] == bad
+    assert sum(v for k, v in counters.items() if k.startswith("rejected_truth_")) == 3 * bad
+    # Health at most once per second of truth time; the first report after new rejections says so.
+    stamps = [stamp for stamp, _ in reports]
+    assert len(stamps) >= 5 and min(np.diff(stamps)) >= 1.0 - 1e-9
+    assert any("rejected /attitude/truth messages" in h.message for _, h in reports)
+    assert all(h.values["release_queue"] <= math.ceil(values["latency_s"] * values["rate_hz"]) + 1
+               for _, h in reports)
+
+
+def test_a_confirmed_jump_back_is_a_new_timeline_and_silence_is_a_stale_input():
+    values = values_of().star_tracker
+    problems = []
+    runtime = TrackerRuntime(values, 100.0, source_problems=lambda: list(problems),
+                             source_counters=lambda: {"other_source_attitude_truth": 2})
+    orbital = runtime.frames.orbital
+    assert runtime.stale_health(None) is None  # no clock yet: nothing to say
+    assert runtime.stale_health(100.0 + values["max_truth_gap_s"] / 2) is None
+    stale = runtime.stale_health(100.0 + values["max_truth_gap_s"] + 1.0)
+    assert stale.level is Level.WARN and "no /attitude/truth received" in stale.message
+    assert stale.values["other_source_attitude_truth"] == 2
+    t, q = truth_stream(200.0, 3.0)
+    for t_s, q_k in zip(t.tolist(), q.T):
+        runtime.receive_truth(orbital, t_s, q_k, t_s)
+    back = 200.0 - 10 * values["clock_jump_s"]
+    runtime.receive_truth(orbital, back, q[:, 0], back)
+    assert runtime.counters["clock_jumps"] == 0  # one stamp back: not believed yet
+    runtime.receive_truth(orbital, back + 0.1, q[:, 1], back + 0.1)
+    assert runtime.counters["clock_jumps"] == 1
+    problems.append("2 publishers of /attitude/truth")
+    assert runtime.health([]).level is Level.ERROR
+
+
+def test_a_refused_reconfiguration_leaves_the_tracker_as_it_was():
+    values = values_of().star_tracker
+    runtime = TrackerRuntime(values, 0.0)
+    tracker, stamps = runtime.tracker, runtime.stamps
+    with pytest.raises(ValueError):
+        runtime.reconfigure({**values, "rate_hz": 5.0, "clock_jump_s": 1e-6})
+    assert runtime.tracker is tracker and runtime.stamps is stamps and runtime.grid.period_s == 1.0 / values["rate_hz"]
