@@ -38,6 +38,7 @@ import numpy as np
 
 from ..physics.orbit import geocentric_latitude_longitude
 from .assembly import MONITOR_PARAMS, NODE_PARAMS, SENSOR_PARAMS, STAR_TRACKER_PARAMS, build_models, build_monitor
+from .monitor_runtime import oblateness_override
 from .monitor_records import BATCH_STATUSES, PENDING_CODE, MonitorSummary
 from .parameters import ParameterError, preset_values, unknown_parameter_problem
 from .sample_stream import fast_time_block, stepped_times
@@ -160,11 +161,10 @@ def fly(values: FlightValues, samples: int) -> Flight:
     monitor_values = values.monitor
     monitor = build_monitor(monitor_values)
     # As error_monitor_node: the model from the odometry, or none left when the sensor removes it on board.
-    model = dict(oblateness_roll_rad=0.0, oblateness_pitch_rad=0.0) \
-        if monitor_values["sensor.oblateness_compensation"] else {}
     batch = monitor.add_batch(t, roll, pitch, frames.frame_s[published], frames.q_measured[:, published],
                               frames.released_at[published], now_s=t, odometry=(position, velocity),
-                              odometry_max_age_s=monitor_values["odometry_timeout_s"], **model)
+                              odometry_max_age_s=monitor_values["odometry_timeout_s"],
+                              **oblateness_override(monitor_values))
     u = orbit.argument_of_latitude(t)
     latitude, _ = geocentric_latitude_longitude(position)
     return Flight(t, u, latitude, roll, pitch, batch.status, batch.roll_rad, batch.pitch_rad, batch.meridional_rad,

@@ -1,0 +1,225 @@
+"""error_monitor_node's work without ROS: inputs fed to the monitor, the statistics schedule, the health status.
+
+:class:`MonitorRuntime` puts the node's input side in front of
+:class:`~pmv_ros.runtime.monitor.ErrorMonitor`: the sensor's samples take the
+orbit of the odometry (or no oblateness model left when the sensor removes
+it on board, :func:`oblateness_override`, as the campaign's flight does);
+the statistics come every ``1/statistics_rate_hz`` seconds of sample time
+(:class:`MonitorStatistics`, with the numbers the ``pmv/residual_<name>``
+vectors carry); :meth:`MonitorRuntime.health` is the ``/diagnostics``
+status. Each input returns a :class:`MonitorOutput`.
+
+Bad input is dropped before it touches any state and counted per reason
+(``rejected_<stream>_<reason>``: the checks of :mod:`pmv_ros.runtime.validation`,
+with the ``input.*`` plausibility bounds), messages the shim cannot read as
+``rejected_<stream>_unreadable``, messages stamped in another frame than their
+stream's (``frames.*``: angles in the sensor frame, truth in the orbital one,
+odometry from ``eci`` to the orbital frame) as
+``rejected_<stream>_wrong_frame``; only accepted sensor samples drive the
+statistics schedule. The node uses only the first publisher heard on each
+input; a second one is an ERROR on ``/diagnostics`` with the publishers'
+count and its messages are dropped (``other_source_<topic>``). Outages, restarts and clock
+jumps: README "Truth outages and discontinuities" and the core monitor's
+docstring — in short, nothing is interpolated across a gap, a confirmed jump
+back resets the alignment once, a single forged jump is an outlier, a
+parameter change starts the statistics over.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+from ..analysis.statistics import CHANNELS
+from .assembly import build_monitor
+from .frames import Frames
+from .monitor_records import SENSOR_REJECTIONS, MonitorSummary, Status
+from .records import HealthSummary, Level
+from .validation import Rejection, check_frame
+
+#: The numeric statistics topics (``pmv/residual_<name>``) and the channel statistic each carries, rad;
+#: "limit" is the half-width 3σ of the bound mean ± 3σ (``three_sigma_arcmin`` on /pmv/error_statistics).
+STATISTICS_VECTORS = {"mean": "mean_rad", "sigma": "sigma_rad", "limit": "three_sigma_rad"}
+
+#: Relative difference between the orbital period of /orbit/odometry and the configured one
+#: above which /diagnostics warns: the harmonics are fitted on the configured period.
+PERIOD_MISMATCH = 0.01
+
+#: Counters the health status shows when not zero, besides the skipped and rejected ones.
+_SHOWN_COUNTERS = ("truth_quaternions_normalised", "clock_jumps", "clock_outliers", "alignment_resets")
+
+
+def oblateness_override(values: dict) -> dict:
+    """The oblateness model to give the monitor with each sensor sample, beside the odometry's.
+
+    ``sensor.oblateness_compensation``: removed on board already, the model left in the sensor's output is
+    zero; otherwise nothing (the monitor takes the model from the orbit).
+    """
+    if values["sensor.oblateness_compensation"]:
+        return {"oblateness_roll_rad": 0.0, "oblateness_pitch_rad": 0.0}
+    return {}
+
+
+@dataclass(frozen=True)
+class MonitorStatistics:
+    """The statistics at sample time ``stamp_s``: the monitor's summary and, per :data:`STATISTICS_VECTORS`
+    name, the (roll, pitch, meridional) values in rad (NaN while pending)."""
+
+    stamp_s: float
+    summary: MonitorSummary
+    vectors: dict
+
+
+@dataclass
+class MonitorOutput:
+    """What one input makes the monitor publish: residuals (OK outcomes, in order), maybe statistics."""
+
+    residuals: list = field(default_factory=list)  #: :class:`~pmv_ros.runtime.monitor_records.Outcome` items
+    statistics: MonitorStatistics | None = None
+
+
+class MonitorRuntime:
+    """The error monitor fed from the node's three inputs, with its statistics schedule and health.
+
+    Args:
+        values: error_monitor_node parameter values.
+        source_problems: ``() -> list`` of phrases about second sources of an input (the node's graph):
+            an ERROR on /diagnostics.
+        source_counters: ``() -> dict`` of the node's input-source counters, for /diagnostics.
+
+    Raises ValueError for a combination of values the parameter ranges cannot check.
+    """
+
+    def __init__(self, values: dict, *, source_problems: Callable[[], list] = list,
+                 source_counters: Callable[[], dict] = dict) -> None:
+        self.frames = Frames.from_values(values)
+        self.monitor = build_monitor(values)
+        self.values = values
+        self._source_problems, self._source_counters = source_problems, source_counters
+        # What is refused before the monitor sees it (fixed keys: memory stays bounded).
+        self.rejected_messages = {f"rejected_{stream}_{reason}": 0 for stream in ("sensor", "truth", "odometry")
+                                  for reason in ("unreadable", Rejection.WRONG_FRAME.value)}
+        self._next_statistics_s = None
+        self._rejected_reported = 0
+
+    def reconfigure(self, values: dict) -> None:
+        """New parameter values: new statistics (mixing two configurations would mean nothing)."""
+        self.monitor = build_monitor(values)
+        self._next_statistics_s = None
+        self.values = values
+
+    # -- inputs ------------------------------------------------------------------------------------
+
+    def _in_frame(self, stream: str, frame_id: str, expected: str) -> bool:
+        """Whether a message of ``stream`` is stamped in ``expected``; counts it as rejected when not."""
+        rejection = check_frame(frame_id, expected)
+        if rejection is not None:
+            self.rejected_messages[f"rejected_{stream}_{rejection.value}"] += 1
+        return rejection is None
+
+    def _unreadable(self, stream: str) -> MonitorOutput:
+        self.rejected_messages[f"rejected_{stream}_unreadable"] += 1
+        return MonitorOutput()
+
+    def add_odometry(self, frame_id: str, child_frame_id: str, state, now_s: float | None) -> MonitorOutput:
+        """One /orbit/odometry message: ``state`` (stamp s, position m, velocity m/s in ECI), None if unreadable.
+
+        nav_msgs: the pose in ``frame_id`` (ECI), the twist in ``child_frame_id`` (orbital).
+        """
+        if not (self._in_frame("odometry", frame_id, self.frames.eci)
+                and self._in_frame("odometry", child_frame_id, self.frames.orbital)):
+            return MonitorOutput()
+        if state is None:
+            return self._unreadable("odometry")
+        # Validated (a bound Earth orbit, sane stamps) and kept in the monitor; a confirmed clock jump resets there.
+        self.monitor.add_odometry(*state, now_s=now_s)
+        return self._residuals(self.monitor.take_settled())
+
+    def add_truth(self, frame_id: str, stamp_s: float | None, q_xyzw, now_s: float | None) -> MonitorOutput:
+        """One star-tracker attitude (orbital → body, x, y, z, w) at ``stamp_s`` (None: unreadable)."""
+        if not self._in_frame("truth", frame_id, self.frames.orbital):
+            return MonitorOutput()
+        if stamp_s is None:
+            return self._unreadable("truth")
+        return self._residuals(self.monitor.add_truth_quaternion(stamp_s, q_xyzw, now_s=now_s))
+
+    def add_sensor(self, frame_id: str, stamp_s: float | None, roll_rad: float, pitch_rad: float,
+                   now_s: float | None) -> MonitorOutput:
+        """One sensor sample (roll, pitch, rad) at ``stamp_s`` (None: unreadable); the statistics when due."""
+        if not self._in_frame("sensor", frame_id, self.frames.sensor):
+            return MonitorOutput()
+        if stamp_s is None:
+            return self._unreadable("sensor")
+        orbit = self.monitor.orbit_at(stamp_s, self.values["odometry_timeout_s"])
+        orbit.update(oblateness_override(self.values))
+        outcomes = self.monitor.add_sensor(stamp_s, roll_rad, pitch_rad, now_s=now_s, **orbit)
+        output = self._residuals(outcomes)
+        # A rejected sample (a zero or future stamp, say) must not move the statistics schedule.
+        if not any(outcome.status in SENSOR_REJECTIONS for outcome in outcomes):
+            output.statistics = self._statistics_when_due(stamp_s)
+        return output
+
+    def poll(self, now_s: float | None) -> MonitorOutput:
+        """The node clock's tick: samples that waited too long for truth are settled."""
+        return self._residuals(self.monitor.poll(now_s))
+
+    @staticmethod
+    def _residuals(outcomes) -> MonitorOutput:
+        return MonitorOutput(residuals=[outcome for outcome in outcomes if outcome.status is Status.OK])
+
+    # -- outputs -----------------------------------------------------------------------------------
+
+    def _statistics_when_due(self, stamp_s: float) -> MonitorStatistics | None:
+        period = 1.0 / self.values["statistics_rate_hz"]
+        if self._next_statistics_s is None or stamp_s < self._next_statistics_s - period:
+            self._next_statistics_s = stamp_s  # first sample, or the clock went back
+        if stamp_s < self._next_statistics_s:
+            return None
+        self._next_statistics_s = stamp_s + period
+        return self.statistics(stamp_s)
+
+    def statistics(self, stamp_s: float) -> MonitorStatistics:
+        """The current statistics, stamped ``stamp_s`` (s)."""
+        summary = self.monitor.summary()
+        vectors = {name: tuple(getattr(summary.channel(channel), statistic) for channel in CHANNELS)
+                   for name, statistic in STATISTICS_VECTORS.items()}
+        return MonitorStatistics(stamp_s, summary, vectors)
+
+    def period_mismatch(self) -> str | None:
+        """A warning when /orbit/odometry flies another orbit than the parameters describe, else None."""
+        measured_s = self.monitor.odometry_period_s
+        if measured_s is None:
+            return None
+        configured_s = self.monitor.config.orbital_period_s
+        if abs(measured_s - configured_s) <= PERIOD_MISMATCH * configured_s:
+            return None
+        return (f"/orbit/odometry gives an orbital period of {measured_s:.0f} s, the parameters "
+                f"{configured_s:.0f} s: harmonics are fitted on the parameters' period (set orbit.altitude_km)")
+
+    def health(self, now_s: float | None) -> HealthSummary:
+        """The /diagnostics status at node clock ``now_s`` (None: unknown): what was skipped and rejected,
+        the truth's age, second sources (an ERROR) and a period the odometry contradicts."""
+        counters = self.monitor.counters
+        skipped = {k: v for k, v in counters.items() if k.startswith("skipped_") and v}
+        rejected = {k: v for k, v in counters.items() if k.startswith("rejected_") and v}
+        rejected.update({k: v for k, v in self.rejected_messages.items() if v})
+        problems = self._source_problems()  # a second publisher on an input: ERROR
+        source_error = bool(problems)
+        latest_truth = self.monitor.latest_truth_stamp_s
+        if counters["truth_received"] == 0:
+            problems.append("no star-tracker truth received yet")
+        elif now_s is not None and latest_truth is not None and now_s - latest_truth > self.values["max_truth_wait_s"]:
+            problems.append(f"no star-tracker truth for {now_s - latest_truth:.0f} s")
+        # Samples waiting for truth are normal (the star tracker's latency); an outage shows as truth age above.
+        mismatch = self.period_mismatch()
+        if mismatch is not None:
+            problems.append(mismatch)
+        rejected_total = sum(rejected.values())
+        if rejected_total > self._rejected_reported:
+            problems.append("rejected input messages")
+        self._rejected_reported = rejected_total
+        level = Level.ERROR if source_error else Level.WARN if problems else Level.OK
+        values = {"used": counters["used"], **skipped, **rejected, **self._source_counters(),
+                  **{k: counters[k] for k in _SHOWN_COUNTERS if counters[k]},
+                  "pending": self.monitor.pending_count, "truth_buffer": self.monitor.truth_buffer_length}
+        return HealthSummary(level, "; ".join(problems) if problems else "aligned with truth", values)
