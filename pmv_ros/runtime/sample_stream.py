@@ -61,8 +61,9 @@ def stepped_times(start_s: float, period_s: float, samples: int, block: int) -> 
     """The stamps of the first ``samples`` samples of a sensor stepped in fast time, s — exactly as it stamps them.
 
     The node's clock starts at ``start_s`` and advances by ``period_s`` per
-    step, one float addition at a time (``SensorNode.step``); a block starts
-    at the clock of its first step and runs on :func:`block_times`. The
+    step, one float addition at a time
+    (:meth:`pmv_ros.runtime.sensor_runtime.SensorRuntime.step`); a block
+    starts at the clock of its first step and runs on :func:`block_times`. The
     sensor model's fields are evaluated on grids of these very times, so a
     flight that means to sense what the node senses uses them.
     """
@@ -91,7 +92,8 @@ class SampleGrid:
     less than a jump gives nothing until it passes the last sample again.
 
     Sample k is the k-th step of a fast-time run that started at ``epoch_s``
-    (``SensorNode.step``): the same instants, and computed in the same blocks
+    (:meth:`pmv_ros.runtime.sensor_runtime.SensorRuntime.step`): the same
+    instants, and computed in the same blocks
     (:meth:`SampleStream.grid_profile_samples`).
 
     Args:
