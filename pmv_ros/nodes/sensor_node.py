@@ -111,8 +111,6 @@ class SensorNode(PmvNode):
             self.hardware_id("pmv"))
 
     def _rebuild_live(self, values: dict) -> None:
-        if values["sim.fast_time"]:
-            values = dict(values, **{"sim.start_time_s": self._values["sim.start_time_s"]})
         self._runtime.reconfigure(values)
         for lock in self.source_locks.values():
             lock.timeout_s = values["input.source_timeout_s"]

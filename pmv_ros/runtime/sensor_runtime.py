@@ -154,7 +154,12 @@ class SensorRuntime:
     # -- parameters ---------------------------------------------------------------------------
 
     def reconfigure(self, values: dict) -> None:
-        """Build the models, the stream and the input buffers from ``values`` (the inputs so far are kept)."""
+        """Build the models, the stream and the input buffers from ``values`` (the inputs so far are kept).
+
+        In fast time the orbit's epoch stays the start of the clock already running.
+        """
+        if values["sim.fast_time"]:
+            values = dict(values, **{"sim.start_time_s": self.values["sim.start_time_s"]})
         orbit, profile, model = build_models(values, clock_epoch_s=self.clock_epoch_s, correction=self._correction)
         previous_orbit = self.stream.orbit if self.stream is not None else None
         if isinstance(orbit, FollowedOrbit) and isinstance(previous_orbit, FollowedOrbit):  # it keeps its states
