@@ -116,15 +116,17 @@ def test_each_lifecycle_state_publishes_what_it_should(harness):
 def test_a_bad_correction_file_leaves_the_node_unconfigured_with_the_reason(harness, tmp_path):
     table = tmp_path / "table.csv"
     table.write_text("del_arcmin;pop_arcmin\nsixty;one\n")
-    h = harness(managed_sensor, {"sensor.correction": str(table)})
+    # A name of its own: rcl keeps one /rosout publisher per logger name for the whole process, and a sensor_node
+    # of an earlier test in this process can still hold that name's entry (the logs then go nowhere).
+    h = harness(managed(SensorNode, "bad_correction_sensor"), {"sensor.correction": str(table)})
     logs = h.record(Log, "/rosout")
     attitude = h.record(Vector3Stamped, "/pmv/attitude")
-    lifecycle = Lifecycle(h)
+    lifecycle = Lifecycle(h, "bad_correction_sensor")
     assert not lifecycle.transition(Transition.TRANSITION_CONFIGURE)
     assert lifecycle.state() == "unconfigured" and not h.node.configured
     assert "sensor.correction" in h.node.configure_error
     lifecycle.spin(0.3)
-    reasons = [log.msg for log in logs if log.name == "sensor_node" and log.level == Log.ERROR]
+    reasons = [log.msg for log in logs if log.name == "bad_correction_sensor" and log.level == Log.ERROR]
     assert len(reasons) == 1 and "configure failed" in reasons[0] and "sensor.correction" in reasons[0]
     assert not lifecycle.transition(Transition.TRANSITION_ACTIVATE)  # no activation from unconfigured: refused
     assert not lifecycle.transition(Transition.TRANSITION_DEACTIVATE)  # and the node keeps serving
