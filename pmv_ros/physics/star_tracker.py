@@ -141,16 +141,21 @@ class StarTracker:
         p = self.parameters
         # Draw every frame's noise and failure dice, used or not, so that one
         # frame's fate does not shift the random stream of the frames after it.
-        noise = np.empty((3, t.size))
-        dice = np.empty(t.size)
-        lo = 0
+        sizes = np.asarray(group_sizes, np.int64)
+        if int(sizes.sum()) != t.size:
+            raise ValueError(f"group sizes add up to {int(sizes.sum())}, not to the {t.size} frames")
+        # Group by group, straight into buffers: 3 × n normals (a (3, n) block, row by row), then n uniforms.
+        normals, dice = np.empty(3 * t.size), np.empty(t.size)
         normal, uniform = self._rng.standard_normal, self._rng.random
-        for size in np.asarray(group_sizes, np.int64).tolist():
-            noise[:, lo:lo + size] = normal((3, size))
-            dice[lo:lo + size] = uniform(size)
+        lo = 0
+        for size in sizes.tolist():
+            normal(out=normals[3 * lo:3 * (lo + size)])
+            uniform(out=dice[lo:lo + size])
             lo += size
-        if lo != t.size:
-            raise ValueError(f"group sizes add up to {lo}, not to the {t.size} frames")
+        # Frame j, k-th of a group of n starting at frame lo: its row r is normal 3·lo + r·n + k.
+        first = np.repeat(np.cumsum(sizes) - sizes, sizes)
+        within = np.arange(t.size) - first
+        noise = normals[3 * first + within + np.arange(3)[:, None] * np.repeat(sizes, sizes)]
         noise *= np.array([p.noise_cross_rad, p.noise_cross_rad, p.noise_boresight_rad])[:, None]
 
         norm = np.linalg.norm(q_true, axis=0)
@@ -190,6 +195,20 @@ def inertial_rate_of_nadir_pointing(mean_motion_rad_s: float, relative_rate_rad_
     # dZ/dt = n·X = ω × Z with ω = n·Y (Y = Z × X, the orbit normal).
     w[1] = w[1] + mean_motion_rad_s
     return np.linalg.norm(w, axis=0)
+
+
+def _grid_times(start: float, stop: float, step: float) -> list:
+    """``np.arange(start, stop, step).tolist()`` in plain floats, value for value (numpy's length and fill
+    rules: start, start + step, then start + i·((start + step) − start)); a frame grid calls it once per
+    truth sample, where a numpy call would cost more than the arithmetic."""
+    count = math.ceil((stop - start) / step)
+    if count <= 0:
+        return []
+    if count == 1:
+        return [start]
+    second = start + step
+    delta = second - start
+    return [start, second] + [start + i * delta for i in range(2, count)]
 
 
 @dataclass(frozen=True)
@@ -267,19 +286,19 @@ class FrameGrid:
                 continue
             if next_frame > stamp + 1e-12:
                 continue
-            frames = np.arange(next_frame, stamp + 1e-12, period)
-            if not frames.size:
+            frames = _grid_times(next_frame, stamp + 1e-12, period)
+            if not frames:
                 continue
-            times.append(frames)
-            completed_by.append(np.full(frames.size, k))
-            next_frame = float(frames[-1]) + period
+            times += frames
+            completed_by += [k] * len(frames)
+            next_frame = frames[-1] + period
         earlier_t = np.r_[np.nan if self.previous is None else self.previous[0], t[:-1]]
         earlier_q = np.c_[np.full((4, 1), np.nan) if self.previous is None else np.reshape(self.previous[1], (4, 1)),
                           q[:, :-1]]
         self.previous, self._next_frame_s = (float(t[-1]), tuple(q[:, -1].tolist())), next_frame
         if not times:
             return GridFrames(np.empty(0), np.empty((4, 0)), np.empty((3, 0)), np.empty(0, np.int64))
-        frame_s, index = np.concatenate(times), np.concatenate(completed_by)
+        frame_s, index = np.array(times), np.array(completed_by, np.int64)
         attitude, rate = slerp(earlier_t[index], earlier_q[:, index], t[index], q[:, index], frame_s)
         return GridFrames(frame_s, attitude, rate, index)
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
-from pmv_ros.physics.star_tracker import LatencyQueue, Outcome
+from pmv_ros.physics.star_tracker import LatencyQueue, Outcome, _grid_times
 from pmv_ros.runtime.assembly import STAR_TRACKER_PARAMS
 from pmv_ros.runtime.parameters import preset_values
 from pmv_ros.runtime.tracker import TrackerRuntime, track_stream
@@ -40,6 +40,7 @@ def one_by_one(values: dict, t, q):
     ({"outage_start_s": [20.0, 100.0], "outage_duration_s": [30.0, 5.0], "latency_s": 1.3}, 0.9),
     ({"max_rate_arcsec_s": 50.0}, 0.25),  # the rate limit refuses some frames
     ({}, 0.1),  # the campaign's 10 Hz: a frame every fifth sample
+    ({"rate_hz": 4.0, "random_failure_probability": 0.3}, 0.9),  # three or four frames per sample
 ])
 def test_a_stream_in_one_batch_is_the_stream_message_by_message(overrides, step_s):
     values = {**DEFAULTS, **overrides}
@@ -86,3 +87,12 @@ def test_the_latency_queue_releases_in_frame_order_and_never_before_a_frame_exis
     assert [s for s, _ in queue.release(2.3)] == []
     assert [s for s, _ in queue.release(2.5)] == [2.0, 2.1]
     assert queue.clear() == 0 and Outcome.OK == 0
+
+
+def test_frame_times_are_numpys_arange_value_for_value():
+    rng = np.random.default_rng(5)
+    for period in (0.5, 0.25, 1 / 3, 0.1, 1 / 7):
+        for _ in range(2000):
+            start = np.ceil(rng.uniform(0.0, 1e5) / period) * period
+            stop = start + rng.uniform(-1e-12, 4.5) * period * rng.choice([1.0, 1e-13]) + 1e-12
+            assert _grid_times(start, stop, period) == np.arange(start, stop, period).tolist()
