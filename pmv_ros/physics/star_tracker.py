@@ -230,9 +230,11 @@ class GridFrames:
     @property
     def group_sizes(self) -> np.ndarray:
         """Frames completed by each truth sample that completed any, in order."""
-        starts = np.flatnonzero(np.r_[True, np.diff(self.truth_index) != 0]) if self.truth_index.size else \
-            np.empty(0, np.int64)
-        return np.diff(np.r_[starts, self.truth_index.size])
+        index = self.truth_index
+        if not index.size or index[0] == index[-1]:  # none, or one group
+            return np.array([index.size] if index.size else [], np.int64)
+        ends = np.flatnonzero(index[1:] != index[:-1]) + 1
+        return np.diff(np.concatenate([[0], ends, [index.size]]))
 
 
 class FrameGrid:
@@ -292,12 +294,14 @@ class FrameGrid:
             times += frames
             completed_by += [k] * len(frames)
             next_frame = frames[-1] + period
-        earlier_t = np.r_[np.nan if self.previous is None else self.previous[0], t[:-1]]
-        earlier_q = np.c_[np.full((4, 1), np.nan) if self.previous is None else np.reshape(self.previous[1], (4, 1)),
-                          q[:, :-1]]
-        self.previous, self._next_frame_s = (float(t[-1]), tuple(q[:, -1].tolist())), next_frame
+        previous, self.previous = self.previous, (float(t[-1]), tuple(q[:, -1].tolist()))
+        self._next_frame_s = next_frame
         if not times:
             return GridFrames(np.empty(0), np.empty((4, 0)), np.empty((3, 0)), np.empty(0, np.int64))
+        # Each frame on the turn from the truth sample before the one that completed it.
+        earlier_t = np.concatenate([[np.nan if previous is None else previous[0]], t[:-1]])
+        earlier_q = np.concatenate([np.full((4, 1), np.nan) if previous is None else np.reshape(previous[1], (4, 1)),
+                                    q[:, :-1]], axis=1)
         frame_s, index = np.array(times), np.array(completed_by, np.int64)
         attitude, rate = slerp(earlier_t[index], earlier_q[:, index], t[index], q[:, index], frame_s)
         return GridFrames(frame_s, attitude, rate, index)
@@ -333,10 +337,10 @@ class LatencyQueue:
         (the truth sample that completed it; default 0)."""
         frame_s = np.asarray(frame_s, float).ravel()
         ready = np.zeros(frame_s.size, np.int64) if not_before is None else np.asarray(not_before, np.int64)
-        self._release_s = np.r_[self._release_s, frame_s + self.latency_s]
-        self._frame_s = np.r_[self._frame_s, frame_s]
-        self._q = np.c_[self._q, np.asarray(q_xyzw, float).reshape(4, frame_s.size)]
-        self._ready = np.r_[self._ready, ready]
+        self._release_s = np.concatenate([self._release_s, frame_s + self.latency_s])
+        self._frame_s = np.concatenate([self._frame_s, frame_s])
+        self._q = np.concatenate([self._q, np.asarray(q_xyzw, float).reshape(4, frame_s.size)], axis=1)
+        self._ready = np.concatenate([self._ready, ready])
 
     def release(self, t_s: float) -> list:
         """The frames due at truth stamp ``t_s``: ``[(frame_s, q_xyzw), ...]``."""
@@ -352,6 +356,8 @@ class LatencyQueue:
         stamp each is released at ``(R,)``); the frames not due stay queued.
         """
         stamps = np.asarray(stamps_s, float).ravel()
+        if not self._release_s.size:
+            return self._frame_s, self._q, self._ready
         due = np.searchsorted(stamps + RELEASE_TOLERANCE_S, self._release_s, side="left")
         due = np.maximum.accumulate(np.maximum(due, self._ready)) if due.size else due
         count = int(np.searchsorted(due, stamps.size, side="left"))

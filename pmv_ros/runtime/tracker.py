@@ -75,8 +75,9 @@ class TrackerRuntime:
             return MeasuredFrames(grid.frame_s, grid.attitude, np.empty(0, np.int8), grid.truth_index)
         rate = inertial_rate_of_nadir_pointing(self.mean_motion_rad_s, grid.turn_rate_rad_s)
         measured, outcome = self.tracker.measure_groups(grid.frame_s, grid.attitude, rate, grid.group_sizes)
-        for code, count in enumerate(np.bincount(outcome, minlength=len(Outcome)).tolist()):
-            self.outcomes[Outcome(code)] += count
+        for code, count in enumerate(np.bincount(outcome).tolist()):
+            if count:
+                self.outcomes[Outcome(code)] += count
         self.last_outcome = Outcome(int(outcome[-1]))
         ok = outcome == Outcome.OK
         self.queue.push_many(grid.frame_s[ok], measured[:, ok], grid.truth_index[ok])
