@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import enum
 import math
-from collections import deque
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -89,7 +88,6 @@ class StarTracker:
         self.parameters = parameters or StarTrackerParameters()
         self._rng = np.random.default_rng(seed)
         self._tracker_axes = _frame_about(self.parameters.boresight_body)
-        self._tracker_axes_rows = self._tracker_axes.tolist()  # for the one-frame path in floats
 
     def in_outage(self, t_s):
         """True where ``t_s`` lies inside a scheduled outage window."""
@@ -100,7 +98,7 @@ class StarTracker:
         return inside
 
     def measure(self, t_s, q_orbital_to_body, inertial_rate_rad_s):
-        """Measured attitude for frames at ``t_s``.
+        """Measured attitude for frames at ``t_s``, measured together (one draw of noise and failures).
 
         Args:
             t_s: frame times, s, ``(N,)`` or scalar.
@@ -109,82 +107,75 @@ class StarTracker:
 
         Returns:
             (q_measured, outcome): quaternions ``(4[, N])`` (NaN where there is no
-            output) and :class:`Outcome` codes shaped like ``t_s``.
+            output) and :class:`Outcome` codes shaped like ``t_s`` (an :class:`Outcome` for a scalar).
         """
-        if np.ndim(t_s) == 0:
-            return self._measure_one(float(t_s), q_orbital_to_body, float(inertial_rate_rad_s))
+        one = np.ndim(t_s) == 0
         t = np.atleast_1d(np.asarray(t_s, float))
-        q_true = np.asarray(q_orbital_to_body, float).reshape(4, -1)
-        q_true = np.broadcast_to(q_true, (4, t.size))
+        q_true = np.broadcast_to(np.asarray(q_orbital_to_body, float).reshape(4, -1), (4, t.size))
         rate = np.broadcast_to(np.atleast_1d(np.asarray(inertial_rate_rad_s, float)), t.shape)
+        measured, outcome = self.measure_groups(t, q_true, rate, (t.size,))
+        if one:
+            return measured[:, 0], Outcome(int(outcome[0]))
+        return measured, outcome
+
+    def measure_groups(self, t_s, q_orbital_to_body, inertial_rate_rad_s, group_sizes):
+        """Frames measured in consecutive groups, as one :meth:`measure` call per group would measure them.
+
+        Each group draws its noise and failure dice as one :meth:`measure` call
+        does (3 × n normals, then n uniforms), in group order, so the random
+        stream is the one of the calls made one after the other; the rest is
+        computed on the whole stream at once.
+
+        Args:
+            t_s: ``(M,)`` frame times, s.
+            q_orbital_to_body: ``(4, M)`` true attitudes (x, y, z, w).
+            inertial_rate_rad_s: ``(M,)`` inertial rate magnitudes, rad/s.
+            group_sizes: frames per call, in order (they sum to M).
+
+        Returns:
+            (q_measured ``(4, M)``, NaN where there is no output; outcome ``(M,)`` int8 :class:`Outcome` codes).
+        """
+        t = np.asarray(t_s, float)
+        q_true = np.asarray(q_orbital_to_body, float)
+        rate = np.asarray(inertial_rate_rad_s, float)
         p = self.parameters
+        # Draw every frame's noise and failure dice, used or not, so that one
+        # frame's fate does not shift the random stream of the frames after it.
+        sizes = np.asarray(group_sizes, np.int64)
+        if int(sizes.sum()) != t.size:
+            raise ValueError(f"group sizes add up to {int(sizes.sum())}, not to the {t.size} frames")
+        # Group by group, straight into buffers: 3 × n normals (a (3, n) block, row by row), then n uniforms.
+        normals, dice = np.empty(3 * t.size), np.empty(t.size)
+        normal, uniform = self._rng.standard_normal, self._rng.random
+        lo = 0
+        for size in sizes.tolist():
+            normal(out=normals[3 * lo:3 * (lo + size)])
+            uniform(out=dice[lo:lo + size])
+            lo += size
+        # Frame j, k-th of a group of n starting at frame lo: its row r is normal 3·lo + r·n + k.
+        first = np.repeat(np.cumsum(sizes) - sizes, sizes)
+        within = np.arange(t.size) - first
+        noise = normals[3 * first + within + np.arange(3)[:, None] * np.repeat(sizes, sizes)]
+        noise *= np.array([p.noise_cross_rad, p.noise_cross_rad, p.noise_boresight_rad])[:, None]
 
         norm = np.linalg.norm(q_true, axis=0)
         finite = np.all(np.isfinite(q_true), axis=0) & (norm > 0.5)
-        # Draw every frame's noise and failure dice, used or not, so that one
-        # frame's fate does not shift the random stream of the frames after it.
-        noise = self._rng.standard_normal((3, t.size)) * np.array(
-            [p.noise_cross_rad, p.noise_cross_rad, p.noise_boresight_rad])[:, None]
-        failed = self._rng.random(t.size) < p.random_failure_probability
-
         outcome = np.full(t.shape, Outcome.OK, dtype=np.int8)
-        outcome[failed] = Outcome.RANDOM_FAILURE
+        outcome[dice < p.random_failure_probability] = Outcome.RANDOM_FAILURE
         outcome[rate > p.max_rate_rad_s] = Outcome.RATE_TOO_HIGH
         outcome[self.in_outage(t)] = Outcome.SCHEDULED_OUTAGE
         outcome[~finite] = Outcome.INVALID_TRUTH
 
         q_safe = np.where(finite, q_true / np.where(finite, norm, 1.0), np.array([[0.0], [0.0], [0.0], [1.0]]))
-        # Noise is a small rotation in the tracker frame, applied on the body side.
-        error_body = quaternion_from_rotation_vector(self._tracker_axes @ noise)
-        measured = quaternion_product(q_safe, error_body)
+        # Noise is a small rotation in the tracker frame, applied on the body side (the tracker's axes
+        # in the body, column by column: the same sums, in the same order, for any number of frames).
+        axes = self._tracker_axes
+        error_tracker = axes[:, 0:1] * noise[0] + axes[:, 1:2] * noise[1] + axes[:, 2:3] * noise[2]
+        measured = quaternion_product(q_safe, quaternion_from_rotation_vector(error_tracker))
         # Keep the sign of the true quaternion (q and −q are the same attitude).
         measured *= np.where(np.sum(measured * q_safe, axis=0) < 0.0, -1.0, 1.0)
         measured[:, outcome != Outcome.OK] = np.nan
         return measured, outcome
-
-    def measure_frames(self, frames_s: list, attitudes: list, rate_rad_s: float) -> list:
-        """Measure the frames one truth sample completes (:meth:`FrameGrid.add`), as star_tracker_node does.
-
-        One frame (the usual case) in plain floats, several in one array call:
-        the same random draws, in the same order, for any grouping.
-
-        Returns:
-            ``[(q_measured (4,) array, Outcome), ...]``, one per frame.
-        """
-        if len(frames_s) == 1:
-            return [self.measure(frames_s[0], attitudes[0], rate_rad_s)]
-        measured, outcomes = self.measure(np.array(frames_s), np.array(attitudes).T, np.full(len(frames_s), rate_rad_s))
-        return [(measured[:, k], Outcome(int(code))) for k, code in enumerate(outcomes)]
-
-    def _measure_one(self, t_s: float, q_orbital_to_body, rate_rad_s: float):
-        """:meth:`measure` for one frame in plain floats (the node measures one 2 Hz frame at a time).
-
-        The same random draws, in the same order, as the array path for one frame.
-        """
-        p = self.parameters
-        noise = self._rng.standard_normal((3, 1))[:, 0].tolist()
-        failed = bool(self._rng.random(1)[0] < p.random_failure_probability)
-        q = [float(c) for c in np.asarray(q_orbital_to_body, float).ravel()]
-        norm = math.sqrt(sum(c * c for c in q))
-        finite = all(math.isfinite(c) for c in q) and norm > 0.5
-        if not finite:
-            outcome = Outcome.INVALID_TRUTH
-        elif any(start <= t_s < end for start, end in p.outages):
-            outcome = Outcome.SCHEDULED_OUTAGE
-        elif rate_rad_s > p.max_rate_rad_s:
-            outcome = Outcome.RATE_TOO_HIGH
-        else:
-            outcome = Outcome.RANDOM_FAILURE if failed else Outcome.OK
-        if outcome is not Outcome.OK:
-            return np.full(4, np.nan), outcome
-        sigma = (p.noise_cross_rad, p.noise_cross_rad, p.noise_boresight_rad)
-        scaled = [n * s for n, s in zip(noise, sigma)]
-        error_tracker = tuple(sum(a * n for a, n in zip(row, scaled)) for row in self._tracker_axes_rows)
-        q_true = tuple(c / norm for c in q)
-        measured = quaternion_product(q_true, quaternion_from_rotation_vector(error_tracker))
-        if sum(m * c for m, c in zip(measured, q_true)) < 0.0:
-            measured = tuple(-m for m in measured)
-        return np.array(measured), outcome
 
 
 def inertial_rate_of_nadir_pointing(mean_motion_rad_s: float, relative_rate_rad_s=None):
@@ -204,6 +195,46 @@ def inertial_rate_of_nadir_pointing(mean_motion_rad_s: float, relative_rate_rad_
     # dZ/dt = n·X = ω × Z with ω = n·Y (Y = Z × X, the orbit normal).
     w[1] = w[1] + mean_motion_rad_s
     return np.linalg.norm(w, axis=0)
+
+
+def _grid_times(start: float, stop: float, step: float) -> list:
+    """``np.arange(start, stop, step).tolist()`` in plain floats, value for value (numpy's length and fill
+    rules: start, start + step, then start + i·((start + step) − start)); a frame grid calls it once per
+    truth sample, where a numpy call would cost more than the arithmetic."""
+    count = math.ceil((stop - start) / step)
+    if count <= 0:
+        return []
+    if count == 1:
+        return [start]
+    second = start + step
+    delta = second - start
+    return [start, second] + [start + i * delta for i in range(2, count)]
+
+
+@dataclass(frozen=True)
+class GridFrames:
+    """Frames that a stretch of truth completes (:meth:`FrameGrid.add_many`), in time order.
+
+    ``frame_s`` (M,) frame times, s; ``attitude`` (4, M) the true attitude
+    slerped to each; ``turn_rate_rad_s`` (3, M) the rate of the turn it was
+    slerped on (orbital components); ``truth_index`` (M,) the truth sample
+    that completed it (non-decreasing: the frames one sample completes are
+    consecutive).
+    """
+
+    frame_s: np.ndarray
+    attitude: np.ndarray
+    turn_rate_rad_s: np.ndarray
+    truth_index: np.ndarray
+
+    @property
+    def group_sizes(self) -> np.ndarray:
+        """Frames completed by each truth sample that completed any, in order."""
+        index = self.truth_index
+        if not index.size or index[0] == index[-1]:  # none, or one group
+            return np.array([index.size] if index.size else [], np.int64)
+        ends = np.flatnonzero(index[1:] != index[:-1]) + 1
+        return np.diff(np.concatenate([[0], ends, [index.size]]))
 
 
 class FrameGrid:
@@ -233,20 +264,47 @@ class FrameGrid:
             (frame times, true attitudes as (x, y, z, w) tuples, rate of the turn
             (3-tuple rad/s, orbital components; zeros when no frame)).
         """
-        q = tuple(float(c) for c in q_xyzw)
-        previous, self.previous = self.previous, (t_s, q)
-        period = self.period_s
-        if previous is None or self._next_frame_s is None or t_s - previous[0] > self.max_gap_s:
-            self._next_frame_s = math.ceil(t_s / period) * period
+        frames = self.add_many(np.array([float(t_s)]), np.asarray(q_xyzw, float).reshape(4, 1))
+        if not frames.frame_s.size:
             return [], [], (0.0, 0.0, 0.0)
-        if self._next_frame_s > t_s + 1e-12:
-            return [], [], (0.0, 0.0, 0.0)
-        frames = np.arange(self._next_frame_s, t_s + 1e-12, period).tolist()
-        if not frames:
-            return [], [], (0.0, 0.0, 0.0)
-        attitudes, rate = slerp(previous[0], previous[1], t_s, q, frames)
-        self._next_frame_s = frames[-1] + period
-        return frames, attitudes, rate
+        return (frames.frame_s.tolist(), [tuple(q) for q in frames.attitude.T.tolist()],
+                tuple(frames.turn_rate_rad_s[:, 0].tolist()))
+
+    def add_many(self, t_s, q_xyzw) -> GridFrames:
+        """Take truth samples in arrival order (stamps ``(N,)`` s, unit quaternions ``(4, N)``): the frames
+        they complete, as :meth:`add` called sample by sample gives them."""
+        t = np.asarray(t_s, float).ravel()
+        q = np.asarray(q_xyzw, float).reshape(4, t.size)
+        if not t.size:
+            return GridFrames(np.empty(0), np.empty((4, 0)), np.empty((3, 0)), np.empty(0, np.int64))
+        # The grid itself, sample by sample in floats (a frame time is the previous one plus the period).
+        period, max_gap, next_frame = self.period_s, self.max_gap_s, self._next_frame_s
+        previous_s = None if self.previous is None else self.previous[0]
+        times, completed_by = [], []
+        for k, stamp in enumerate(t.tolist()):
+            before, previous_s = previous_s, stamp
+            if before is None or next_frame is None or stamp - before > max_gap:
+                next_frame = math.ceil(stamp / period) * period
+                continue
+            if next_frame > stamp + 1e-12:
+                continue
+            frames = _grid_times(next_frame, stamp + 1e-12, period)
+            if not frames:
+                continue
+            times += frames
+            completed_by += [k] * len(frames)
+            next_frame = frames[-1] + period
+        previous, self.previous = self.previous, (float(t[-1]), tuple(q[:, -1].tolist()))
+        self._next_frame_s = next_frame
+        if not times:
+            return GridFrames(np.empty(0), np.empty((4, 0)), np.empty((3, 0)), np.empty(0, np.int64))
+        # Each frame on the turn from the truth sample before the one that completed it.
+        earlier_t = np.concatenate([[np.nan if previous is None else previous[0]], t[:-1]])
+        earlier_q = np.concatenate([np.full((4, 1), np.nan) if previous is None else np.reshape(previous[1], (4, 1)),
+                                    q[:, :-1]], axis=1)
+        frame_s, index = np.array(times), np.array(completed_by, np.int64)
+        attitude, rate = slerp(earlier_t[index], earlier_q[:, index], t[index], q[:, index], frame_s)
+        return GridFrames(frame_s, attitude, rate, index)
 
 
 #: A frame whose release time is within this of a truth stamp is released with it, s (stamp rounding).
@@ -263,25 +321,54 @@ class LatencyQueue:
 
     def __init__(self, latency_s: float):
         self.latency_s = float(latency_s)
-        self._queue = deque()  # (release_s, frame_s, q_xyzw)
+        self._release_s, self._frame_s = np.empty(0), np.empty(0)  # per frame, in frame order
+        self._q, self._ready = np.empty((4, 0)), np.empty(0, np.int64)
 
     def __len__(self) -> int:
-        return len(self._queue)
+        return int(self._release_s.size)
 
     def push(self, frame_s: float, q_xyzw) -> None:
         """Queue a measured frame (stamp s, quaternion (x, y, z, w))."""
-        self._queue.append((frame_s + self.latency_s, frame_s, q_xyzw))
+        self.push_many(np.array([float(frame_s)]), np.asarray(q_xyzw, float).reshape(4, 1))
+
+    def push_many(self, frame_s, q_xyzw, not_before=None) -> None:
+        """Queue measured frames in frame order (stamps ``(K,)`` s, quaternions ``(4, K)``); ``not_before``
+        ``(K,)``: the index of the first stamp of the next :meth:`release_many` that may release each
+        (the truth sample that completed it; default 0)."""
+        frame_s = np.asarray(frame_s, float).ravel()
+        ready = np.zeros(frame_s.size, np.int64) if not_before is None else np.asarray(not_before, np.int64)
+        self._release_s = np.concatenate([self._release_s, frame_s + self.latency_s])
+        self._frame_s = np.concatenate([self._frame_s, frame_s])
+        self._q = np.concatenate([self._q, np.asarray(q_xyzw, float).reshape(4, frame_s.size)], axis=1)
+        self._ready = np.concatenate([self._ready, ready])
 
     def release(self, t_s: float) -> list:
         """The frames due at truth stamp ``t_s``: ``[(frame_s, q_xyzw), ...]``."""
-        queue, released = self._queue, []
-        while queue and queue[0][0] <= t_s + RELEASE_TOLERANCE_S:
-            _, frame_s, q_xyzw = queue.popleft()
-            released.append((frame_s, q_xyzw))
+        frame_s, q, _ = self.release_many(np.array([float(t_s)]))
+        return list(zip(frame_s.tolist(), q.T))
+
+    def release_many(self, stamps_s) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The frames due at each of increasing truth stamps, as :meth:`release` called stamp by stamp.
+
+        A frame is due at the first stamp it is no later than (within
+        :data:`RELEASE_TOLERANCE_S`) and never before the one of a frame ahead of
+        it. Returns (frame times ``(R,)``, quaternions ``(4, R)``, the index of the
+        stamp each is released at ``(R,)``); the frames not due stay queued.
+        """
+        stamps = np.asarray(stamps_s, float).ravel()
+        if not self._release_s.size:
+            return self._frame_s, self._q, self._ready
+        due = np.searchsorted(stamps + RELEASE_TOLERANCE_S, self._release_s, side="left")
+        due = np.maximum.accumulate(np.maximum(due, self._ready)) if due.size else due
+        count = int(np.searchsorted(due, stamps.size, side="left"))
+        released = self._frame_s[:count], self._q[:, :count], due[:count]
+        self._release_s, self._frame_s, self._q = self._release_s[count:], self._frame_s[count:], self._q[:, count:]
+        self._ready = np.zeros(self._release_s.size, np.int64)
         return released
 
     def clear(self) -> int:
         """Drop every waiting frame (a new timeline); returns how many."""
-        dropped = len(self._queue)
-        self._queue.clear()
+        dropped = len(self)
+        self._release_s, self._frame_s = self._release_s[:0], self._frame_s[:0]
+        self._q, self._ready = self._q[:, :0], self._ready[:0]
         return dropped

@@ -17,9 +17,10 @@ What each node does, and what runs it here:
   environment's fields are evaluated on time grids spanning each block, so
   another grouping — even a shorter last block — moves roll by ≈ 2e-4′.
 * star_tracker_node: the node's own runtime,
-  :class:`~pmv_ros.runtime.tracker.TrackerRuntime`, fed truth sample by truth
-  sample (:func:`tracker_frames`): the same frames, draws and releases.
-  Frames not released when the flight ends are never seen by the monitor.
+  :class:`~pmv_ros.runtime.tracker.TrackerRuntime`, fed the whole truth stream
+  as one batch (:func:`tracker_frames`; the node feeds it one message at a
+  time): the same frames, draws and releases, bit for bit. Frames not
+  released when the flight ends are never seen by the monitor.
 * error_monitor_node: :meth:`~pmv_ros.runtime.monitor.ErrorMonitor.add_batch` —
   the monitor's validation, alignment and statistics, the released frames
   arriving just before the sensor sample of their tick, the node clock at
@@ -94,7 +95,7 @@ def sense_block(sensor_values: dict) -> int:
 
 
 def tracker_frames(truth_s: np.ndarray, q_truth: np.ndarray, values: dict, start_s: float = 0.0) -> TrackerFrames:
-    """What star_tracker_node makes of a clean truth stream: its runtime fed sample by sample.
+    """What star_tracker_node makes of a clean truth stream: its runtime fed the stream as one batch.
 
     Args:
         truth_s: ``(N,)`` increasing truth stamps, s, no gap longer than ``max_truth_gap_s``.

@@ -37,6 +37,11 @@ from .validation import (
 from .monitor_records import BATCH_STATUSES, COUNTER_NAMES, PENDING_CODE, BatchOutcome, PendingSample, Status
 
 
+#: ``math.hypot`` of four arrays, element by element: the norm check_quaternion takes (numpy's hypot has two
+#: arguments and rounds otherwise).
+_HYPOT_4 = np.frompyfunc(math.hypot, 4, 1)
+
+
 def _element(value, index: int):
     """Element ``index`` of a per-sample argument (an array, a scalar for all, or None) as a float or None."""
     if value is None:
@@ -224,7 +229,7 @@ class BatchFeeding:
         # Truth: the quaternion check on each (exactly as check_quaternion), then the stamps of the good ones.
         q = inputs["q"]
         q_finite = np.all(np.isfinite(q), axis=0)
-        norms = np.array([math.hypot(*c) if ok else math.nan for c, ok in zip(q.T.tolist(), q_finite.tolist())])
+        norms = np.where(q_finite, _HYPOT_4(*q).astype(float), math.nan) if m else np.empty(0)
         truth_ok = q_finite & (np.abs(norms - 1.0) <= QUATERNION_NORM_TOLERANCE)
         counters["truth_received"] = m
         counters[f"rejected_truth_{Rejection.NON_FINITE.value}"] = int(m - np.count_nonzero(q_finite))

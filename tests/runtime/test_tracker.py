@@ -1,0 +1,98 @@
+"""The star tracker's runtime: a truth stream fed as one batch is the stream fed message by message."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
+from pmv_ros.physics.star_tracker import LatencyQueue, Outcome, _grid_times
+from pmv_ros.runtime.assembly import STAR_TRACKER_PARAMS
+from pmv_ros.runtime.parameters import preset_values
+from pmv_ros.runtime.tracker import TrackerRuntime, track_stream
+
+DEFAULTS = preset_values({}, "star_tracker_node", STAR_TRACKER_PARAMS)
+
+
+def truth_stream(step_s: float, n: int = 400, seed: int = 3):
+    """Stamps every ``step_s`` (jittered) with a 3 s gap in the middle (the grid restarts), and a wandering
+    attitude."""
+    rng = np.random.default_rng(seed)
+    t = 5.0 + step_s * np.arange(n) + rng.uniform(0.0, 0.05, n)
+    t[n // 2:] += 3.0
+    angles = np.cumsum(rng.normal(0.0, 2e-4, (3, n)), axis=1)
+    return t, np.array([quaternion_from_roll_pitch_yaw(*a) for a in angles.T]).T
+
+
+def one_by_one(values: dict, t, q):
+    """What the node does: add_truth, then release, per message."""
+    runtime = TrackerRuntime(values, 0.0)
+    frames, released = [], []
+    for k in range(t.size):
+        frames += [(s, m, int(o)) for s, m, o in runtime.add_truth(float(t[k]), tuple(q[:, k].tolist()))]
+        released += [(k, s, m) for s, m in runtime.release(float(t[k]))]
+    return runtime, frames, released
+
+
+@pytest.mark.parametrize("overrides, step_s", [
+    ({"random_failure_probability": 0.2, "latency_s": 0.0}, 0.3),  # frames between sparse truth, no latency
+    ({"random_failure_probability": 0.05, "latency_s": 0.6, "rate_hz": 4.0}, 0.37),  # several frames per sample
+    ({"outage_start_s": [20.0, 100.0], "outage_duration_s": [30.0, 5.0], "latency_s": 1.3}, 0.9),
+    ({"max_rate_arcsec_s": 50.0}, 0.25),  # the rate limit refuses some frames
+    ({}, 0.1),  # the campaign's 10 Hz: a frame every fifth sample
+    ({"rate_hz": 4.0, "random_failure_probability": 0.3}, 0.9),  # three or four frames per sample
+])
+def test_a_stream_in_one_batch_is_the_stream_message_by_message(overrides, step_s):
+    values = {**DEFAULTS, **overrides}
+    t, q = truth_stream(step_s)
+    runtime, frames, released = one_by_one(values, t, q)
+    batch_runtime = TrackerRuntime(values, 0.0)
+    stream = track_stream(batch_runtime, t, q)
+    assert stream.frame_s.tolist() == [s for s, _, _ in frames]  # the same frames, bit for bit
+    assert stream.outcome.tolist() == [o for _, _, o in frames]
+    np.testing.assert_array_equal(stream.q_measured, np.array([m for _, m, _ in frames]).T)
+    published = np.flatnonzero(stream.released_at >= 0)
+    assert stream.released_at[published].tolist() == [k for k, _, _ in released]
+    assert stream.frame_s[published].tolist() == [s for _, s, _ in released]
+    assert batch_runtime.outcomes == runtime.outcomes and batch_runtime.last_outcome == runtime.last_outcome
+    assert len(batch_runtime.queue) == len(runtime.queue)
+    assert len(set(stream.outcome.tolist())) > 1 or not overrides  # the case exercises what it names
+
+
+def test_a_stream_split_into_batches_carries_the_grid_and_the_queue_across():
+    values = {**DEFAULTS, "random_failure_probability": 0.1, "latency_s": 0.8, "rate_hz": 4.0}
+    t, q = truth_stream(0.37)
+    whole = TrackerRuntime(values, 0.0)
+    expected = whole.add_truth_batch(t, q)
+    _, _, expected_at = whole.release_batch(t)
+    parts = TrackerRuntime(values, 0.0)
+    got, got_at = [], []
+    for lo, hi in ((0, 1), (1, 150), (150, 151), (151, 400)):
+        got.append(parts.add_truth_batch(t[lo:hi], q[:, lo:hi]))
+        got_at.append(parts.release_batch(t[lo:hi])[2] + lo)
+    assert np.concatenate([g.frame_s for g in got]).tolist() == expected.frame_s.tolist()
+    np.testing.assert_array_equal(np.concatenate([g.q_measured for g in got], axis=1), expected.q_measured)
+    assert np.concatenate(got_at).tolist() == expected_at.tolist()
+    assert parts.outcomes == whole.outcomes and len(parts.queue) == len(whole.queue)
+
+
+def test_the_latency_queue_releases_in_frame_order_and_never_before_a_frame_exists():
+    queue = LatencyQueue(0.5)
+    queue.push_many(np.array([1.0, 1.5, 2.0]), np.zeros((4, 3)), not_before=np.array([0, 2, 2]))
+    frame_s, _, at = queue.release_many(np.array([1.2, 1.6, 2.0, 2.4]))
+    # 1.0 is due at 1.6; 1.5 at 2.0; 2.0 (due at 2.5) waits
+    assert frame_s.tolist() == [1.0, 1.5] and at.tolist() == [1, 2] and len(queue) == 1
+    queue.latency_s = 0.0
+    queue.push(2.1, np.zeros(4))  # due at once, but behind 2.0 (due at 2.5)
+    assert [s for s, _ in queue.release(2.3)] == []
+    assert [s for s, _ in queue.release(2.5)] == [2.0, 2.1]
+    assert queue.clear() == 0 and Outcome.OK == 0
+
+
+def test_frame_times_are_numpys_arange_value_for_value():
+    rng = np.random.default_rng(5)
+    for period in (0.5, 0.25, 1 / 3, 0.1, 1 / 7):
+        for _ in range(2000):
+            start = np.ceil(rng.uniform(0.0, 1e5) / period) * period
+            stop = start + rng.uniform(-1e-12, 4.5) * period * rng.choice([1.0, 1e-13]) + 1e-12
+            assert _grid_times(start, stop, period) == np.arange(start, stop, period).tolist()
