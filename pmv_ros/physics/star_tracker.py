@@ -237,6 +237,16 @@ class GridFrames:
         return np.diff(np.concatenate([[0], ends, [index.size]]))
 
 
+def _read_only(array: np.ndarray) -> np.ndarray:
+    array.flags.writeable = False
+    return array
+
+
+#: What a batch that completes no frame gives (shared: its arrays are empty and read-only).
+_NO_FRAMES = GridFrames(_read_only(np.empty(0)), _read_only(np.empty((4, 0))), _read_only(np.empty((3, 0))),
+                        _read_only(np.empty(0, np.int64)))
+
+
 class FrameGrid:
     """Star-tracker frame times on a regular grid, and the true attitude at each, from a stream of truth.
 
@@ -276,7 +286,7 @@ class FrameGrid:
         t = np.asarray(t_s, float).ravel()
         q = np.asarray(q_xyzw, float).reshape(4, t.size)
         if not t.size:
-            return GridFrames(np.empty(0), np.empty((4, 0)), np.empty((3, 0)), np.empty(0, np.int64))
+            return _NO_FRAMES
         # The grid itself, sample by sample in floats (a frame time is the previous one plus the period).
         period, max_gap, next_frame = self.period_s, self.max_gap_s, self._next_frame_s
         previous_s = None if self.previous is None else self.previous[0]
@@ -296,8 +306,8 @@ class FrameGrid:
             next_frame = frames[-1] + period
         previous, self.previous = self.previous, (float(t[-1]), tuple(q[:, -1].tolist()))
         self._next_frame_s = next_frame
-        if not times:
-            return GridFrames(np.empty(0), np.empty((4, 0)), np.empty((3, 0)), np.empty(0, np.int64))
+        if not times:  # most truth samples of a node (truth faster than frames): nothing to build
+            return _NO_FRAMES
         # Each frame on the turn from the truth sample before the one that completed it.
         earlier_t = np.concatenate([[np.nan if previous is None else previous[0]], t[:-1]])
         earlier_q = np.concatenate([np.full((4, 1), np.nan) if previous is None else np.reshape(previous[1], (4, 1)),
@@ -344,6 +354,8 @@ class LatencyQueue:
 
     def release(self, t_s: float) -> list:
         """The frames due at truth stamp ``t_s``: ``[(frame_s, q_xyzw), ...]``."""
+        if not self._release_s.size:
+            return []
         frame_s, q, _ = self.release_many(np.array([float(t_s)]))
         return list(zip(frame_s.tolist(), q.T))
 

@@ -199,7 +199,7 @@ class TrackerRuntime:
             counts[f"rejected_truth_{sample.rejection.value}"] += 1
             return TrackerOutput()
         counts["truth_quaternions_normalised"] += sample.normalised
-        self.add_truth(stamp_s, sample.q_xyzw)
+        self.add_truth_batch(np.array([stamp_s]), np.reshape(sample.q_xyzw, (4, 1)))
         output = TrackerOutput(released=self.release(stamp_s))
         if stamp_s - self._last_health_s >= 1.0:
             self._last_health_s = stamp_s
