@@ -462,9 +462,11 @@ def test_launch_managed_configures_and_activates_and_a_deactivated_node_stays_qu
         # Each managed node is one node in the graph, as the real `ros2 node list` shows it.
         # --spin-time: its default 0.5 s of discovery missed nodes under load.
         listed = subprocess.run([str(ros_tools / "bin/ros2"), "node", "list", "--no-daemon", "--spin-time", "5"],
-                                capture_output=True, text=True, timeout=60, env=_launch_env(colcon_install, ros_tools, tmp_path / "ros_log"))
+                                capture_output=True, text=True, timeout=60,
+                                env=_launch_env(colcon_install, ros_tools, tmp_path / "ros_log"))
         names = listed.stdout.split()
-        assert all(names.count(f"/{name}") == 1 for name in ("sensor_node", "star_tracker_node", "error_monitor_node")), listed.stdout + listed.stderr
+        assert all(names.count(f"/{name}") == 1 for name in ("sensor_node", "star_tracker_node", "error_monitor_node")), \
+            listed.stdout + listed.stderr
         assert call(change, ChangeState.Request(transition=Transition(id=Transition.TRANSITION_DEACTIVATE))).success
         deadline = time.monotonic() + 1.0
         while time.monotonic() < deadline:
