@@ -255,6 +255,13 @@ class PmvNode(Node):
                                          event_callbacks=PublisherEventCallbacks(use_default_callbacks=False))
         return self.create_publisher(message_type, topic, QOS)
 
+    def listened(self, publisher) -> bool:
+        """Whether a message on ``publisher`` can reach anyone: False only for a lean node's publisher that has
+        no subscription (the in-process pipeline's graph is private, so nothing else can join it unseen; a
+        recorder or a probe in the process subscribes, and then the topic is published). The main job skips
+        building and publishing what nobody reads (its /clock, raw angles, crossings and Imu output)."""
+        return not self._lean or publisher.get_subscription_count() > 0
+
     def subscription(self, message_type, topic: str, callback, qos: QoSProfile = QOS):
         """A subscription with the project QoS."""
         if self._lean:

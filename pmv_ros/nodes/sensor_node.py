@@ -152,7 +152,8 @@ class SensorNode(PmvNode):
     def step(self) -> None:
         """Fast time: advance the simulation clock by one sensor period and publish that sample."""
         out = self._runtime.step()
-        self._pub_clock.publish(shim.write_clock(self._out["clock"], self._runtime.sim_time_s))
+        if self.listened(self._pub_clock):
+            self._pub_clock.publish(shim.write_clock(self._out["clock"], self._runtime.sim_time_s))
         self._publish(out)
 
     def _on_real_time_tick(self) -> None:
@@ -199,6 +200,9 @@ class SensorNode(PmvNode):
             else:
                 self.get_logger().info(line.text)
         out, frames = self._out, self._runtime.frames
+        listened = self.listened
+        crossings, raw, imu_output = listened(self._pub_crossings), listened(self._pub_attitude_raw), \
+            listened(self._pub_imu)
         for item in output.published:
             if type(item) is not SamplePublication:  # a /diagnostics report, HealthAt
                 self._pub_diagnostics.publish(shim.write_health(out["diagnostics"], self.health_report(
@@ -214,14 +218,18 @@ class SensorNode(PmvNode):
                 self._pub_odometry.publish(odometry)
             if self._transforms is not None:
                 self._transforms.publish(odometry, t_s, sample.q_xyzw)
-            self._pub_crossings.publish(shim.write_horizon_crossings(out["crossings"], t_s, frames.sensor,
-                                                                     sample.line_of_sight))
+            if crossings:
+                self._pub_crossings.publish(shim.write_horizon_crossings(out["crossings"], t_s, frames.sensor,
+                                                                         sample.line_of_sight))
             self._pub_attitude.publish(shim.write_attitude_angles(out["attitude"], t_s, frames.sensor,
                                                                   sample.roll_rad, sample.pitch_rad))
-            self._pub_attitude_raw.publish(shim.write_attitude_angles(
-                out["attitude_raw"], t_s, frames.sensor, sample.roll_uncorrected_rad, sample.pitch_uncorrected_rad))
-            self._pub_imu.publish(shim.write_attitude_imu(out["imu"], t_s, frames.sensor, imu.q_xyzw,
-                                                          imu.variances_rad2))
+            if raw:
+                self._pub_attitude_raw.publish(shim.write_attitude_angles(
+                    out["attitude_raw"], t_s, frames.sensor, sample.roll_uncorrected_rad,
+                    sample.pitch_uncorrected_rad))
+            if imu_output:
+                self._pub_imu.publish(shim.write_attitude_imu(out["imu"], t_s, frames.sensor, imu.q_xyzw,
+                                                              imu.variances_rad2))
 
 
 def main(args=None) -> int:
