@@ -129,8 +129,10 @@ EARLY_USERS = {
 }
 #: Where the early work runs (set by the process that starts it; the xdist workers inherit it).
 EARLY_ENV = "PMV_ROS_TEST_EARLY_DIR"
-#: ``nice`` increment of the early work: the tests running meanwhile keep their share of the cores.
+#: ``nice`` increment of the early work, and ``ionice`` idle class where there is one (the tool install copies the
+#: venv): the tests running meanwhile keep their share of the cores and the disk.
 EARLY_NICE = 10
+EARLY_PRIORITY = ["nice", "-n", str(EARLY_NICE), *(["ionice", "-c", "3"] if shutil.which("ionice") else [])]
 
 
 def _early_commands(name: str, work: Path) -> tuple[list, dict, Path, int] | None:
@@ -205,8 +207,8 @@ def _start_early(config, nodeids) -> None:
                   "with open(os.path.join(work, 'status.part'), 'w') as done:\n"
                   "    done.write(status)\n"
                   "os.replace(os.path.join(work, 'status.part'), os.path.join(work, 'status'))\n")
-        process = subprocess.Popen(["nice", "-n", str(EARLY_NICE), sys.executable, "-c", runner, str(work),
-                                    str(timeout), *map(str, command)],
+        process = subprocess.Popen([*EARLY_PRIORITY, sys.executable, "-c", runner, str(work), str(timeout),
+                                    *map(str, command)],
                                    env=env, cwd=cwd, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                                    stderr=subprocess.DEVNULL, start_new_session=True)
         config._pmv_early_processes.append(process)
