@@ -248,24 +248,27 @@ def _run_session_command(name: str, tmp_path_factory) -> tuple[Path, subprocess.
     return work, result, before
 
 
+@pytest.hookimpl(trylast=True)  # after the tmp_path plugin's
 def pytest_configure(config):
-    """The process that hands out the tests gets a folder for early work; xdist workers inherit it."""
+    """The process that hands out the tests gets a folder for early work in the run's base temporary folder
+    (kept and cleaned up as ``tmp_path_factory`` keeps its own); xdist workers inherit it."""
     config._pmv_early_processes = []
     if hasattr(config, "workerinput") or os.environ.get(EARLY_ENV):
         return
-    config._pmv_early_dir = tempfile.mkdtemp(prefix="pmv_ros_early_")
+    directory = config._tmp_path_factory.getbasetemp() / "early"
+    directory.mkdir()
+    config._pmv_early_dir = str(directory)
     os.environ[EARLY_ENV] = config._pmv_early_dir
 
 
 def pytest_unconfigure(config):
-    """Early work still running when the run ends (tests deselected or failed) is stopped; its folder goes."""
-    for process in config._pmv_early_processes:
+    """Early work still running when the run ends (its tests deselected or failed) is stopped."""
+    for process in getattr(config, "_pmv_early_processes", ()):
         if process.poll() is None:
             os.killpg(process.pid, signal.SIGKILL)
             process.wait()
     if getattr(config, "_pmv_early_dir", None):
         os.environ.pop(EARLY_ENV, None)
-        shutil.rmtree(config._pmv_early_dir, ignore_errors=True)
 
 
 @pytest.hookimpl(optionalhook=True)
