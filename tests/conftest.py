@@ -18,9 +18,12 @@ from __future__ import annotations
 
 import importlib.util
 import os
+import shutil
+import signal
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 import pytest
@@ -60,10 +63,40 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(pytest.mark.serial)
 
 
+#: What a group costs on one worker of ``make test`` (2 cores, the rest of the suite beside it), s, measured
+#: with ``--durations``; the longest groups start first, so that the two workers finish together. A group not
+#: listed counts a quarter second a test. The early work below is not in these figures.
+GROUP_COST_S = {
+    "colcon_install": 100.0,  # the colcon test, ros2 launch (seven launches), tf with the vendored tf2_msgs
+    "tests/system/test_campaign_dask.py": 90.0,
+    "tests/apps/test_campaign_trust.py": 85.0,
+    "tests/system/test_recording_survives.py": 65.0,
+    "kondor_orbit_run": 60.0,  # the recording and main-job tests beside the shared orbit
+    "tests/nodes/test_faults.py": 37.0,
+    "tests/system/test_shutdown.py": 35.0,
+    "tests/system/test_golden.py": 32.0,
+    "tests/runtime/test_flight_environment.py": 31.0,
+    "tests/physics/test_environment.py": 28.0,
+    "tests/physics/test_flight_records.py": 24.0,
+    "tests/runtime/test_validation.py": 24.0,
+    "tests/runtime/test_parameters.py": 23.0,
+    "tests/system/test_hostile_files.py": 22.0,
+    "tests/nodes/test_follow_hiccups.py": 21.0,
+    "tests/nodes/test_statistics_topics.py": 19.0,
+    "tests/apps/test_simulate_flight.py": 17.0,
+    "tests/apps/test_campaign.py": 17.0,
+    "tests/nodes/test_input_guards.py": 15.0,
+    "tests/nodes/test_sim_clock.py": 12.0,
+    "tests/system/test_tle_flight.py": 12.0,
+    "tests/nodes/test_follow_orbit.py": 11.0,
+}
+
+
 @pytest.hookimpl(optionalhook=True)  # an xdist hook: unknown when the suite runs without it (-p no:xdist)
 def pytest_xdist_make_scheduler(config, log):
     """Under ``pytest -n 2`` (``make test``): a test module runs whole on one worker (its module fixtures
-    once), and modules that share a session fixture on the same one."""
+    once), and modules that share a session fixture on the same one. The longest groups go first; a group
+    whose session fixture is still being prepared early (below) waits while other groups are left."""
     from xdist.scheduler import LoadScopeScheduling
 
     class ModuleGroups(LoadScopeScheduling):
@@ -71,7 +104,183 @@ def pytest_xdist_make_scheduler(config, log):
             module = nodeid.split("::", 1)[0]
             return SHARED_FIXTURE_GROUPS.get(module, module)
 
+        def _assign_work_unit(self, node) -> None:
+            units = sorted(self.workqueue.items(), key=lambda unit: (
+                not _early_ready(config, unit[0]), -GROUP_COST_S.get(unit[0], 0.25 * len(unit[1]))))
+            self.workqueue.clear()
+            self.workqueue.update(units)
+            super()._assign_work_unit(node)
+
     return ModuleGroups(config, log)
+
+
+# ------------------------------------------------------------------------------------------- early work
+# Three session fixtures are a child process each (the vendored ROS tools' install, the colcon build, the
+# Kondor orbit of the main job). The process that hands out the tests (the xdist controller, or the only
+# process without xdist) starts them in the background, at a lower priority, as soon as the collection
+# shows a test that needs them; the fixture then waits for the result instead of starting the same command
+# itself. The commands, their environments and every check on their output are the fixtures' own.
+
+#: Each early fixture: the test modules that use it.
+EARLY_USERS = {
+    "ros_tools": ("tests/system/test_launch.py", "tests/system/test_tf_vendored.py"),
+    "colcon_install": ("tests/system/test_colcon.py", "tests/system/test_launch.py"),
+    "kondor_orbit_run": ("tests/apps/test_recording.py", "tests/system/test_main_job.py"),
+}
+#: Where the early work runs (set by the process that starts it; the xdist workers inherit it).
+EARLY_ENV = "PMV_ROS_TEST_EARLY_DIR"
+#: ``nice`` increment of the early work, and ``ionice`` idle class where there is one (the tool install copies the
+#: venv): the tests running meanwhile keep their share of the cores and the disk.
+EARLY_NICE = 10
+EARLY_PRIORITY = ["nice", "-n", str(EARLY_NICE), *(["ionice", "-c", "3"] if shutil.which("ionice") else [])]
+
+
+def _early_commands(name: str, work: Path) -> tuple[list, dict, Path, int] | None:
+    """(command, environment, working directory, timeout s) of early fixture ``name`` in folder ``work``,
+    or None when the fixture would skip."""
+    if name == "ros_tools":
+        from children import VENDOR_INSTALLER
+
+        if not VENDOR_INSTALLER.is_file():
+            return None
+        base = Path(sys.executable).parent.parent
+        return ["bash", str(VENDOR_INSTALLER), str(base), str(work)], dict(os.environ), work, 600
+    if name == "colcon_install":
+        if _colcon_missing():
+            return None
+        env = {name: value for name, value in os.environ.items() if name != "COLCON_DEFAULTS_FILE"}
+        env["COLCON_HOME"] = str(work / "colcon_home")  # no user defaults or mixins
+        command = [sys.executable, "-c", "import sys; from colcon_core.command import main; sys.exit(main())",
+                   "--log-base", str(work / "log"),
+                   "build", "--base-paths", str(REPO), "--packages-select", "pmv_ros",
+                   "--build-base", str(work / "build"), "--install-base", str(work / "install")]
+        return command, env, work, 300
+    if name == "kondor_orbit_run":
+        command = [sys.executable, "-m", "pmv_ros.cli", "simulate", "--config", str(REPO / "config" / "kondor.yaml"),
+                   "--orbits", "1", "--rate-hz", "1", "--record", str(work / "run.mcap"), "--report",
+                   str(work / "report"), "--json", "--quiet"]
+        return command, dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="OFF"), REPO, 600
+    raise KeyError(name)
+
+
+def _early_dir(config) -> Path | None:
+    directory = getattr(config, "_pmv_early_dir", None) or os.environ.get(EARLY_ENV)
+    return Path(directory) if directory else None
+
+
+def _early_ready(config, scope: str) -> bool:
+    """False while early work that the tests of group ``scope`` need is still running (the controller's view)."""
+    directory = _early_dir(config)
+    if directory is None:
+        return True
+    modules = [module for module, group in SHARED_FIXTURE_GROUPS.items() if group == scope] or [scope]
+    return all((directory / name / "status").exists() or not (directory / name).exists()
+               for name, users in EARLY_USERS.items() if set(users) & set(modules))
+
+
+def _start_early(config, nodeids) -> None:
+    """Start the early fixtures that the collected tests ``nodeids`` use (once a run)."""
+    directory = _early_dir(config)
+    if directory is None or getattr(config, "_pmv_early_started", False):
+        return
+    config._pmv_early_started = True
+    modules = {nodeid.split("::", 1)[0] for nodeid in nodeids}
+    for name, users in EARLY_USERS.items():
+        if not modules & set(users):
+            continue
+        work = directory / name
+        (work / "out").mkdir(parents=True)
+        planned = _early_commands(name, work / "out")
+        if planned is None:
+            (work / "out").rmdir()  # the fixture skips, as without early work
+            continue
+        command, env, cwd, timeout = planned
+        (work / "repo_before").write_text("\n".join(sorted(path.name for path in REPO.iterdir())))
+        # The status file appears, whole, when the command has ended: its exit status, or "timeout".
+        runner = ("import subprocess, sys, os\n"
+                  "work, timeout, command = sys.argv[1], float(sys.argv[2]), sys.argv[3:]\n"
+                  "with open(os.path.join(work, 'stdout'), 'w') as out, open(os.path.join(work, 'stderr'), 'w') as err:\n"
+                  "    try:\n"
+                  "        status = str(subprocess.run(command, stdout=out, stderr=err, timeout=timeout).returncode)\n"
+                  "    except subprocess.TimeoutExpired:\n"
+                  "        status = 'timeout'\n"
+                  "with open(os.path.join(work, 'status.part'), 'w') as done:\n"
+                  "    done.write(status)\n"
+                  "os.replace(os.path.join(work, 'status.part'), os.path.join(work, 'status'))\n")
+        process = subprocess.Popen([*EARLY_PRIORITY, sys.executable, "-c", runner, str(work), str(timeout),
+                                    *map(str, command)],
+                                   env=env, cwd=cwd, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                                   stderr=subprocess.DEVNULL, start_new_session=True)
+        config._pmv_early_processes.append(process)
+
+
+def _early_result(name: str, timeout_s: float) -> tuple[Path, subprocess.CompletedProcess, set] | None:
+    """In a fixture: (the output folder, the finished command's status and output, the repository's top-level
+    names when it started) of early work ``name``, once it has ended; None when it was not started early
+    (the fixture runs the command itself)."""
+    directory = os.environ.get(EARLY_ENV)
+    work = Path(directory) / name if directory else None
+    if work is None or not (work / "out").is_dir():
+        return None
+    deadline = time.monotonic() + timeout_s
+    while not (work / "status").exists():
+        if time.monotonic() > deadline:
+            pytest.fail(f"the early {name} did not end within {timeout_s:g} s")
+        time.sleep(0.2)
+    status = (work / "status").read_text()
+    if status == "timeout":
+        pytest.fail(f"the early {name} timed out")
+    return (work / "out",
+            subprocess.CompletedProcess(name, int(status), (work / "stdout").read_text(errors="replace"),
+                                        (work / "stderr").read_text(errors="replace")),
+            set((work / "repo_before").read_text().split("\n")))
+
+
+def _run_session_command(name: str, tmp_path_factory) -> tuple[Path, subprocess.CompletedProcess, set]:
+    """Early fixture ``name``'s command: its early run's result, or run here now; as ``_early_result``."""
+    early = _early_result(name, 900.0)
+    if early is not None:
+        return early
+    work = tmp_path_factory.mktemp(name)
+    command, env, cwd, timeout = _early_commands(name, work)
+    before = {path.name for path in REPO.iterdir()}
+    result = subprocess.run(command, env=env, cwd=cwd, capture_output=True, text=True, timeout=timeout)
+    return work, result, before
+
+
+@pytest.hookimpl(trylast=True)  # after the tmp_path plugin's
+def pytest_configure(config):
+    """The process that hands out the tests gets a folder for early work in the run's base temporary folder
+    (kept and cleaned up as ``tmp_path_factory`` keeps its own); xdist workers inherit it."""
+    config._pmv_early_processes = []
+    if hasattr(config, "workerinput") or os.environ.get(EARLY_ENV):
+        return
+    directory = config._tmp_path_factory.getbasetemp() / "early"
+    directory.mkdir()
+    config._pmv_early_dir = str(directory)
+    os.environ[EARLY_ENV] = config._pmv_early_dir
+
+
+def pytest_unconfigure(config):
+    """Early work still running when the run ends (its tests deselected or failed) is stopped."""
+    for process in getattr(config, "_pmv_early_processes", ()):
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
+    if getattr(config, "_pmv_early_dir", None):
+        os.environ.pop(EARLY_ENV, None)
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_node_collection_finished(node, ids):
+    """The xdist controller: a worker has collected; start what its tests need early."""
+    _start_early(node.config, ids)
+
+
+def pytest_collection_finish(session):
+    """Without xdist: start the early work once the tests are known (the first ones run meanwhile)."""
+    if not hasattr(session.config, "workerinput") and getattr(session.config, "_pmv_early_dir", None):
+        _start_early(session.config, [item.nodeid for item in session.items])
 
 
 def pytest_addoption(parser):
@@ -90,19 +299,13 @@ def kondor_orbit_run(tmp_path_factory):
     """The main job as a user runs it, once per test run, shared by the main-job and recording tests:
     ``pmv simulate --config config/kondor.yaml --orbits 1 --rate-hz 1 --record run.mcap --report report
     --json`` in a child process (one full orbit at 1 Hz: the 10 Hz of the preset takes ≈ 10× longer; the
-    physics is the same). (simulate's JSON, the MCAP file, the report folder)."""
+    physics is the same), started early (above). (simulate's JSON, the MCAP file, the report folder)."""
     import json
     from types import SimpleNamespace
 
-    work = tmp_path_factory.mktemp("kondor_orbit")
-    mcap, report = work / "run.mcap", work / "report"
-    result = subprocess.run(
-        [sys.executable, "-m", "pmv_ros.cli", "simulate", "--config", str(REPO / "config" / "kondor.yaml"),
-         "--orbits", "1", "--rate-hz", "1", "--record", str(mcap), "--report", str(report), "--json", "--quiet"],
-        capture_output=True, text=True, timeout=600, cwd=REPO,
-        env=dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="OFF"))
+    work, result, _ = _run_session_command("kondor_orbit_run", tmp_path_factory)
     assert result.returncode == 0, result.stderr
-    return SimpleNamespace(summary=json.loads(result.stdout), mcap=mcap, report=report)
+    return SimpleNamespace(summary=json.loads(result.stdout), mcap=work / "run.mcap", report=work / "report")
 
 
 @pytest.fixture
@@ -123,7 +326,8 @@ def harness():
 
 @pytest.fixture(scope="session")
 def ros_tools(tmp_path_factory) -> Path:
-    """A venv copy with ros2cli, launch, launch_ros and tf2_msgs (../shared/vendor/install-ros-tools.sh), once per run.
+    """A venv copy with ros2cli, launch, launch_ros and tf2_msgs (../shared/vendor/install-ros-tools.sh), once per
+    run, started early (above).
 
     Skips when the vendored snapshots are not there (users without them still get a green run).
     """
@@ -131,10 +335,7 @@ def ros_tools(tmp_path_factory) -> Path:
 
     if not VENDOR_INSTALLER.is_file():
         pytest.skip(f"no {VENDOR} (vendored ROS 2 tool snapshots): not tested")
-    work = tmp_path_factory.mktemp("ros_tools")
-    base = Path(sys.executable).parent.parent
-    result = subprocess.run(["bash", str(VENDOR_INSTALLER), str(base), str(work)], capture_output=True, text=True,
-                            timeout=600)
+    work, result, _ = _run_session_command("ros_tools", tmp_path_factory)
     assert result.returncode == 0, f"install-ros-tools failed:\n{result.stdout}\n{result.stderr}"
     assert (work / "venv/bin/ros2").is_file()
     return work / "venv"
@@ -150,20 +351,13 @@ def _colcon_missing() -> str | None:
 
 @pytest.fixture(scope="session")
 def colcon_install(tmp_path_factory) -> Path:
-    """``colcon build`` of this repository into a temporary workspace, once per run; the install base."""
+    """``colcon build`` of this repository into a temporary workspace, once per run, started early (above);
+    the install base."""
     reason = _colcon_missing()
     if reason:
         pytest.skip(reason)
-    workspace = tmp_path_factory.mktemp("colcon_ws")
     leftovers = ("build", "install", "log", "pmv_ros.egg-info")
-    present_before = {name for name in leftovers if (REPO / name).exists()}
-    env = {name: value for name, value in os.environ.items() if name != "COLCON_DEFAULTS_FILE"}
-    env["COLCON_HOME"] = str(workspace / "colcon_home")  # no user defaults or mixins
-    command = [sys.executable, "-c", "import sys; from colcon_core.command import main; sys.exit(main())",
-               "--log-base", str(workspace / "log"),
-               "build", "--base-paths", str(REPO), "--packages-select", "pmv_ros",
-               "--build-base", str(workspace / "build"), "--install-base", str(workspace / "install")]
-    result = subprocess.run(command, cwd=workspace, env=env, capture_output=True, text=True, timeout=300)
+    workspace, result, present_before = _run_session_command("colcon_install", tmp_path_factory)
     assert result.returncode == 0, f"colcon build failed:\n{result.stdout}\n{result.stderr}"
     assert "1 package finished" in result.stdout, result.stdout
     left = {name for name in leftovers if (REPO / name).exists()} - present_before
