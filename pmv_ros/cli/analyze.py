@@ -26,13 +26,13 @@ from .common import add_json_flag, format_table, print_json, ranged_float
 
 def _namespace(text: str) -> str:
     """A ROS namespace as ``--namespace`` takes it ('sat1' or '/sat1'), checked with rclpy's own rule."""
+    if not text.strip("/"):  # the default: no rclpy needed (analyzing a CSV needs no ROS at all)
+        return ""
     import argparse
 
     from rclpy.exceptions import InvalidNamespaceException
     from rclpy.validate_namespace import validate_namespace
 
-    if not text.strip("/"):
-        return ""
     try:
         validate_namespace("/" + text.strip("/"))
     except InvalidNamespaceException as error:

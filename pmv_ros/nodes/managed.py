@@ -71,9 +71,13 @@ class _Managed:
         self._parameter_callbacks = []  # (remove method name, callback) added by configure
         self._resume = []  # timers to start again at activation
         self._held = {}  # transient-local publisher → its last message made while inactive
+        # What PmvNode.__init__ sets before anything can call it, for the time before the first configure: the
+        # parameter services (the type gate) and destroy_node work on an unconfigured node too.
+        self.parameter_specs, self._detached = {}, []
         LifecycleNode.__init__(self, self.node_name, **node_arguments)
         # rclpy raises out of the change_state service for a transition the current state does not have (and so
         # ends the spin): refused here with success = false and a warning, like a transition that failed.
+        # (LifecycleNode has no public accessor for the service: its attribute is used.)
         service = self._service_change_state
         change_state = service.callback
 
@@ -95,11 +99,12 @@ class _Managed:
         self.configuring = True
         try:
             super().__init__(**self._own_arguments)  # the node class's constructor, on this node
-        except (ParameterError, ValueError, OSError) as error:
-            self.configure_error = str(error)
+        except Exception as error:  # a bad value or file; anything else too: what was made is released
+            expected = isinstance(error, (ParameterError, ValueError, OSError))
+            self.configure_error = str(error) if expected else f"{type(error).__name__}: {error}"
             self._take_made(before)
             self._release()
-            self.get_logger().error(f"configure failed, still unconfigured: {error}")
+            self.get_logger().error(f"configure failed, still unconfigured: {self.configure_error}")
             return TransitionCallbackReturn.FAILURE
         finally:
             self.configuring = False
@@ -136,17 +141,56 @@ class _Managed:
 
     # -- what configure makes is gated from the start: silent until activation ---------------------
 
+    # (Also what the node makes after configure, say a timer rebuilt for a new rate: it joins what cleanup
+    # destroys, and is held still while the node is inactive.)
+
     def create_publisher(self, *args, **kwargs):
         publisher = super().create_publisher(*args, **kwargs)
-        if self.configuring:
+        if self.configuring or self.configured:
             publisher.publish = self._gated_publish(publisher)
+            self._note_made("publishers", publisher)
         return publisher
 
     def create_subscription(self, *args, **kwargs):
         subscription = super().create_subscription(*args, **kwargs)
-        if self.configuring:
-            subscription.callback = self._gated(subscription)
+        if self.configuring or self.configured:
+            subscription.callback = self._gated(subscription.callback)
+            self._note_made("subscriptions", subscription)
         return subscription
+
+    def create_timer(self, *args, **kwargs):
+        timer = super().create_timer(*args, **kwargs)
+        if self.configured and not self.configuring:
+            self._note_made("timers", timer)
+            if not self.active:
+                timer.cancel()
+                self._resume.append(timer)
+        return timer
+
+    def destroy_timer(self, timer) -> bool:
+        self._forget("timers", timer)
+        if timer in self._resume:
+            self._resume.remove(timer)
+        return super().destroy_timer(timer)
+
+    def destroy_publisher(self, publisher) -> bool:
+        self._forget("publishers", publisher)
+        self._held.pop(publisher, None)
+        return super().destroy_publisher(publisher)
+
+    def destroy_subscription(self, subscription) -> bool:
+        self._forget("subscriptions", subscription)
+        return super().destroy_subscription(subscription)
+
+    def _note_made(self, kind: str, entity) -> None:
+        """After configure (not during it: configure's own are listed when it ends), into what cleanup destroys."""
+        if self.configured and not self.configuring:
+            self._made.setdefault(kind, []).append(entity)
+
+    def _forget(self, kind: str, entity) -> None:
+        made = self._made.get(kind, [])
+        if entity in made:
+            made.remove(entity)
 
     # -- parameter callbacks added while configuring are removed at cleanup ---------------------
 
@@ -181,9 +225,14 @@ class _Managed:
                 timer.cancel()
                 self._resume.append(timer)
 
-    def _gated(self, subscription):
-        """The subscription's callback, run only while active (with the same arguments: message [, info])."""
-        callback, with_info = subscription.callback, subscription._callback_type.name == "WithMessageInfo"
+    def _gated(self, callback):
+        """``callback`` run only while active, with the same arguments (message [, info]: rclpy passes the info
+        to a callback that cannot be called with the message alone, and so to this one)."""
+        try:
+            inspect.signature(callback).bind(object())
+            with_info = False
+        except TypeError:
+            with_info = True
         if with_info:
             def gated(message, info):
                 if self.active:
@@ -216,10 +265,10 @@ class _Managed:
         """Destroy what configure made and remove its parameter callbacks: back to unconfigured."""
         self._stop()
         self._resume, self._held = [], {}
+        made, self._made = self._made, {}
         for kind, destroy in _ENTITY_KINDS:
-            for entity in self._made.get(kind, ()):
+            for entity in made.get(kind, ()):
                 getattr(self, destroy)(entity)
-        self._made = {}
         for remover, callback in self._parameter_callbacks:
             try:
                 getattr(self, remover)(callback)

@@ -12,7 +12,8 @@ from lifecycle_msgs.srv import ChangeState, GetState
 from rclpy.qos import DurabilityPolicy, QoSProfile
 from std_msgs.msg import String
 from rcl_interfaces.msg import Log
-from rcl_interfaces.srv import GetParameters
+from rcl_interfaces.srv import GetParameters, SetParameters
+from rclpy.parameter import Parameter
 from rclpy.parameter import parameter_value_to_python as parameter_value_from
 
 from pmv_ros.nodes.base import PmvNode
@@ -180,3 +181,57 @@ def test_what_configure_publishes_waits_for_activation_and_a_latched_message_is_
     lifecycle.spin(0.3)
     assert [m.data for m in latched] == ["mounting"]  # the latched message, at activation, once
     assert volatile == []  # a volatile one made while inactive is dropped
+
+
+def test_a_rate_change_rebuilds_a_timer_the_lifecycle_still_holds(harness):
+    """sensor.rate_hz changed on a managed node makes a new timer: it runs while active, stops at deactivate,
+    waits while inactive, and cleanup destroys it with the rest."""
+    h = harness(managed_sensor, {"sensor.rate_hz": 20.0})
+    attitude = h.record(Vector3Stamped, "/pmv/attitude")
+    lifecycle = Lifecycle(h)
+    timers_unconfigured = len(list(h.node.timers))
+    assert lifecycle.transition(Transition.TRANSITION_CONFIGURE)
+    assert lifecycle.transition(Transition.TRANSITION_ACTIVATE)
+    assert h.node.set_parameters([Parameter("sensor.rate_hz", value=40.0)])[0].successful
+    lifecycle.spin(0.5)
+    assert len(attitude) >= 12  # 40 Hz for 0.5 s (20 Hz would give ≤ 10)
+    assert lifecycle.transition(Transition.TRANSITION_DEACTIVATE)
+    assert h.node.set_parameters([Parameter("sensor.rate_hz", value=10.0)])[0].successful  # while inactive
+    lifecycle.spin(0.1)
+    count = len(attitude)
+    lifecycle.spin(0.5)
+    assert len(attitude) == count  # the timer made while inactive waits
+    assert lifecycle.transition(Transition.TRANSITION_ACTIVATE)
+    lifecycle.spin(0.6)
+    assert len(attitude) >= count + 4  # 10 Hz
+    assert lifecycle.transition(Transition.TRANSITION_DEACTIVATE)
+    assert lifecycle.transition(Transition.TRANSITION_CLEANUP)
+    assert len(list(h.node.timers)) == timers_unconfigured  # every timer configure and the rate changes made
+    assert lifecycle.transition(Transition.TRANSITION_CONFIGURE)
+    assert lifecycle.transition(Transition.TRANSITION_ACTIVATE)
+    lifecycle.spin(0.5)
+    assert len(attitude) > count + 4
+
+
+def test_an_unconfigured_node_answers_its_parameter_services_and_stops_cleanly(harness):
+    h = harness(managed_sensor, {})
+    client = h.tester.create_client(SetParameters, "/sensor_node/set_parameters")
+    assert client.wait_for_service(timeout_sec=5.0)
+    future = client.call_async(SetParameters.Request(parameters=[
+        Parameter("sensor.rate_hz", value=5.0).to_parameter_msg()]))
+    h.executor.spin_until_future_complete(future, timeout_sec=5.0)
+    assert future.done() and not future.result().results[0].successful  # not declared before configure
+    assert Lifecycle(h).state() == "unconfigured"  # the node kept serving (the harness destroys it after)
+
+
+def test_an_unexpected_error_in_configure_releases_what_it_made(harness, monkeypatch):
+    def broken(self, *args, **kwargs):
+        raise TypeError("a defect")
+
+    monkeypatch.setattr(SensorNode, "_start_timer", broken)  # fails after the publishers and subscriptions exist
+    h = harness(managed_sensor, {})
+    lifecycle = Lifecycle(h)
+    before = {kind: len(list(getattr(h.node, kind))) for kind in ("publishers", "subscriptions", "timers")}
+    assert not lifecycle.transition(Transition.TRANSITION_CONFIGURE)
+    assert lifecycle.state() == "unconfigured" and h.node.configure_error == "TypeError: a defect"
+    assert {kind: len(list(getattr(h.node, kind))) for kind in before} == before
