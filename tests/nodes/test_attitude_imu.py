@@ -95,3 +95,18 @@ def test_estimator_orientation_is_finite_for_every_lost_combination():
                 assert abs(back - angle) < 1e-15 and variance == given
             else:
                 assert back == 0.0 and variance == UNOBSERVED_VARIANCE_RAD2
+
+
+def test_the_main_job_builds_no_imu_message_nobody_reads_and_a_probe_gets_every_one(monkeypatch):
+    """The in-process pipeline's graph is private: with no subscriber of /pmv/attitude_imu the sensor builds and
+    publishes none (PmvNode.listened); once one subscribes, every sample's message comes."""
+    built = []
+    write = shim.write_attitude_imu
+    monkeypatch.setattr(shim, "write_attitude_imu", lambda *args: built.append(args[1]) or write(*args))
+    with Pipeline(KONDOR, {"sensor.rate_hz": 1.0}, collect=False) as pipeline:
+        attitude = probe(pipeline, {"/pmv/attitude": Vector3Stamped})["/pmv/attitude"]
+        pipeline.step(20)
+        assert len(attitude) == 20 and built == []
+        imu = probe(pipeline, {"/pmv/attitude_imu": Imu})["/pmv/attitude_imu"]
+        pipeline.step(20)
+    assert len(imu) == len(built) == 20
