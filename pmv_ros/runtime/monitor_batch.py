@@ -229,7 +229,8 @@ class BatchFeeding:
         # Truth: the quaternion check on each (exactly as check_quaternion), then the stamps of the good ones.
         q = inputs["q"]
         q_finite = np.all(np.isfinite(q), axis=0)
-        norms = np.where(q_finite, _HYPOT_4(*q).astype(float), math.nan) if m else np.empty(0)
+        with np.errstate(invalid="ignore"):  # non-finite components: their norm is replaced by NaN just below
+            norms = np.where(q_finite, _HYPOT_4(*q).astype(float), math.nan) if m else np.empty(0)
         truth_ok = q_finite & (np.abs(norms - 1.0) <= QUATERNION_NORM_TOLERANCE)
         counters["truth_received"] = m
         counters[f"rejected_truth_{Rejection.NON_FINITE.value}"] = int(m - np.count_nonzero(q_finite))
