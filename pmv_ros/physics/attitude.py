@@ -171,29 +171,30 @@ def rotation_vector_from_quaternion(q):
     return q[:3] * scale
 
 
-def slerp(t0_s, q0, t1_s, q1, times_s):
+def slerp(t0_s: float, q0, t1_s: float, q1, times_s):
     """Attitudes at ``times_s`` on the constant-rate turn from (t0, q0) to (t1, q1), and that turn's rate.
 
     The turn is taken in the orbital frame (q(t) = exp(ω (t − t0)) ⊗ q0), which
     is spherical linear interpolation. Plain floats: ``q0``, ``q1`` are
-    (x, y, z, w) tuples of unit quaternions, ``times_s`` a list of floats.
-    Arrays, one turn per time: ``t0_s``, ``t1_s``, ``times_s`` ``(N,)`` and
-    ``q0``, ``q1`` ``(4, N)`` — the same operations, element by element.
+    (x, y, z, w) tuples of unit quaternions, ``times_s`` a list of floats
+    (:func:`slerp_each` does the same on arrays, one turn per time).
 
     Returns:
-        floats: (list of (x, y, z, w) tuples, rate (3-tuple, rad/s, orbital components));
-        arrays: (attitudes ``(4, N)``, rates ``(3, N)``).
+        (list of (x, y, z, w) tuples, rate (3-tuple, rad/s, orbital components)).
     """
-    if not isinstance(q0, tuple):
-        t0 = np.asarray(t0_s, float)
-        turn = rotation_vector_from_quaternion(quaternion_product(np.asarray(q1, float),
-                                                                  quaternion_conjugate(np.asarray(q0, float))))
-        rate = turn / (np.asarray(t1_s, float) - t0)
-        frames = quaternion_product(quaternion_from_rotation_vector((np.asarray(times_s, float) - t0) * rate), q0)
-        return frames, rate
     dt = t1_s - t0_s
     turn = rotation_vector_from_quaternion(quaternion_product(q1, quaternion_conjugate(q0)))
     rate = tuple(w / dt for w in turn)
     frames = [quaternion_product(quaternion_from_rotation_vector(tuple((t - t0_s) * w for w in rate)), q0)
               for t in times_s]
     return frames, rate
+
+
+def slerp_each(t0_s, q0, t1_s, q1, times_s):
+    """:func:`slerp` on arrays, one turn per time: ``t0_s``, ``t1_s``, ``times_s`` ``(N,)``, ``q0``, ``q1``
+    ``(4, N)``; the same operations, element by element. Returns (attitudes ``(4, N)``, rates ``(3, N)``)."""
+    t0 = np.asarray(t0_s, float)
+    q0 = np.asarray(q0, float)
+    turn = rotation_vector_from_quaternion(quaternion_product(np.asarray(q1, float), quaternion_conjugate(q0)))
+    rate = turn / (np.asarray(t1_s, float) - t0)
+    return quaternion_product(quaternion_from_rotation_vector((np.asarray(times_s, float) - t0) * rate), q0), rate

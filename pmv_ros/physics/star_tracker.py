@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .attitude import quaternion_from_rotation_vector, quaternion_product, slerp
+from .attitude import quaternion_from_rotation_vector, quaternion_product, slerp_each
 from .constants import ARCSEC_RAD
 
 
@@ -313,7 +313,7 @@ class FrameGrid:
         earlier_q = np.concatenate([np.full((4, 1), np.nan) if previous is None else np.reshape(previous[1], (4, 1)),
                                     q[:, :-1]], axis=1)
         frame_s, index = np.array(times), np.array(completed_by, np.int64)
-        attitude, rate = slerp(earlier_t[index], earlier_q[:, index], t[index], q[:, index], frame_s)
+        attitude, rate = slerp_each(earlier_t[index], earlier_q[:, index], t[index], q[:, index], frame_s)
         return GridFrames(frame_s, attitude, rate, index)
 
 
