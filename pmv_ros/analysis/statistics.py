@@ -40,6 +40,10 @@ DEFAULT_MAX_CONDITION = 10.0
 TWO_PI = 2.0 * math.pi
 
 
+#: Up to this many samples, :meth:`OrbitRing.add_many` adds them one by one (cheaper than the arrays).
+_FEW = 16
+
+
 class RunningStatistics:
     """Running count, mean, sample σ (N − 1), 3σ and max |e| of a stream of values, O(1) memory.
 
@@ -81,17 +85,19 @@ class RunningStatistics:
             self.add(float(data[0]))
             return
         batch_mean = float(data.mean())
-        batch_m2 = float(((data - batch_mean) ** 2).sum())
-        batch_max = float(np.abs(data).max())
+        self.merge(n_new, batch_mean, float(((data - batch_mean) ** 2).sum()), float(np.abs(data).max()))
+
+    def merge(self, count: int, mean: float, m2: float, max_abs: float) -> None:
+        """Take a batch of ``count`` finite values given by its mean, Σ(e − mean)² and max |e| (Chan's merge)."""
         if self.count == 0:
-            self.count, self.mean, self._m2, self.max_abs = n_new, batch_mean, batch_m2, batch_max
+            self.count, self.mean, self._m2, self.max_abs = count, mean, m2, max_abs
             return
-        total = self.count + n_new
-        delta = batch_mean - self.mean
-        self.mean += delta * n_new / total
-        self._m2 += batch_m2 + delta * delta * self.count * n_new / total
+        total = self.count + count
+        delta = mean - self.mean
+        self.mean += delta * count / total
+        self._m2 += m2 + delta * delta * self.count * count / total
         self.count = total
-        self.max_abs = max(self.max_abs, batch_max)
+        self.max_abs = max(self.max_abs, max_abs)
 
     def add(self, value: float) -> None:
         """Welford's update with one finite float — the live monitor's per-sample path: no checks, no arrays."""
@@ -130,6 +136,26 @@ class RunningStatistics:
     def limit_high(self) -> float:
         """mean + 3σ."""
         return self.mean + self.three_sigma
+
+
+def update_rows(statistics, values) -> None:
+    """Each :class:`RunningStatistics` of ``statistics`` takes the finite values of its row of ``values``
+    ``(len(statistics), N)``: the rows' batch moments on the whole matrix at once, then Chan's merge per row
+    (as :meth:`RunningStatistics.update` merges an array)."""
+    values = np.asarray(values, float)
+    finite = np.isfinite(values)
+    counts = finite.sum(axis=1)
+    if not counts.any():
+        return
+    with np.errstate(invalid="ignore", divide="ignore"):
+        means = np.where(finite, values, 0.0).sum(axis=1) / counts
+        deviations = np.where(finite, values - means[:, None], 0.0)
+    m2s = (deviations * deviations).sum(axis=1)
+    largest = np.where(finite, np.abs(values), -np.inf).max(axis=1)
+    for stats, count, mean, m2, magnitude in zip(statistics, counts.tolist(), means.tolist(), m2s.tolist(),
+                                                 largest.tolist()):
+        if count:
+            stats.merge(count, mean, m2, magnitude)
 
 
 def harmonic_amplitudes(phase_rad, values, harmonics=ORBIT_HARMONICS, *,
@@ -326,8 +352,12 @@ class OrbitRing:
         data = np.asarray(values, float).reshape(t.size, self.n_channels)
         if t.size == 0:
             return
-        if np.any(np.diff(t) < 0.0):
+        if (t[1:] < t[:-1]).any():
             raise ValueError("add_many needs increasing stamps")
+        if t.size <= _FEW:  # a few: one by one into the open bin (cheaper than the arrays)
+            for stamp, row in zip(t.tolist(), data.tolist()):
+                self.add(stamp, row)
+            return
         self._flush()
         if self._time_origin_s is None:
             self._time_origin_s = float(t[0])

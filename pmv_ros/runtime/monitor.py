@@ -53,26 +53,45 @@ Statistics
     whatever the run length: fixed counters, fixed ring, truth buffer and
     pending queue capped.
 
-Batches
-    :meth:`ErrorMonitor.add_batch` takes a whole stretch of sensor, truth and
-    odometry samples in arrival order (``pmv campaign`` flies a task through
-    it): every input passes the same checks one by one, then the alignment
-    and statistics run on arrays; a batch the array form cannot follow
-    exactly (a clock jump, samples already pending, …) is fed sample by
-    sample. Either way the outcome is the per-sample one.
+One path
+    Every input is a batch: one message is a batch of one event
+    (:meth:`add_sensor`, :meth:`add_truth_quaternion`, :meth:`add_odometry`,
+    :meth:`poll`), a campaign's flight a batch of an orbit
+    (:meth:`add_batch`). The inputs are validated in arrival order (on arrays
+    when a batch is clean: :mod:`pmv_ros.runtime.monitor_scan`), the stretch
+    between two clock jumps is aligned on arrays
+    (:mod:`pmv_ros.runtime.monitor_alignment`) and its residuals enter the
+    statistics at once. How the same events are cut into batches changes
+    nothing but the order in which sums are taken (≈ 1e-15 relative).
 
 Not thread-safe: call it from one executor thread.
 """
 
 from __future__ import annotations
 
-import bisect
 import math
-from collections import deque
 
+import numpy as np
 
+from ..analysis.statistics import CHANNELS, DEFAULT_MAX_CONDITION, ChannelStatistics, OrbitRing, update_rows
 from ..physics.attitude import true_roll_pitch
-from ..physics.oblateness import closed_form_oblateness
+from .monitor_alignment import SAMPLE_ROWS, Alignment, Segment, Settled, oblateness_model
+from .monitor_records import (
+    BATCH_STATUSES,
+    COUNTER_NAMES,
+    PENDING_CODE,
+    SKIP_REASONS,
+    BatchOutcome,
+    Feed,
+    MonitorConfig,
+    MonitorSummary,
+    Outcome,
+    StatisticsSet,
+    Status,
+    ground_components,
+    orbit_record,
+)
+from .monitor_scan import MIN_ARRAY_SAMPLES, scan_clean
 from .validation import (
     Jump,
     JumpDetector,
@@ -82,80 +101,117 @@ from .validation import (
     check_orbit_state,
     check_quaternion,
 )
-from ..analysis.statistics import (
-    CHANNELS,
-    ChannelStatistics,
-    DEFAULT_MAX_CONDITION,
-    OrbitRing,
-)
+
+_SKIP_CODES = {BATCH_STATUSES.index(status): f"skipped_{status.value}" for status in SKIP_REASONS}
+_OK = BATCH_STATUSES.index(Status.OK)
+_TRUTH, _ODOMETRY, _SENSOR, _POLL = range(4)
+_FIRST = (0,)  # the arrival of the one truth or odometry sample of a one-event input
+
+#: The open segment is settled at this many events whatever they are (memory stays bounded).
+OPEN_EVENTS = 256
+#: Used samples kept for the statistics before they go in whether or not anyone reads them (memory bound).
+UNACCOUNTED_ROWS = 4096
 
 
-from .monitor_batch import BatchFeeding
-from .monitor_records import (
-    COUNTER_NAMES,
-    MonitorConfig,
-    MonitorSummary,
-    Outcome,
-    PendingSample,
-    StatisticsSet,
-    Status,
-    ground_components,
-    orbit_record,
-)
+def _column(value, n: int, default=math.nan) -> np.ndarray:
+    """A per-sample argument (an array, one value for all, None for ``default``) as ``(n,)`` floats."""
+    return np.broadcast_to(np.asarray(default if value is None else value, float), (n,))
 
 
-class ErrorMonitor(BatchFeeding):
+def _one(value) -> list:
+    """One value of a one-event input (None: NaN)."""
+    return [math.nan if value is None else float(value)]
+
+
+class _Open:
+    """The open segment: events scanned since the last settle, not settled yet (nothing in them had to be).
+
+    An event settles nothing unless truth arrives (it may cover waiting samples; it goes into the buffer), a
+    sample is covered on arrival, a wait runs out, the queue overflows, or a sample is refused or has no
+    angle; the scan flags those (``due``) and the segment is settled at the end of that input. So a 10 Hz
+    sensor with 2 Hz truth costs the arrays twice a second, and between inputs the open segment holds only
+    sensor samples that wait.
+    """
+
+    def __init__(self) -> None:
+        self.sensor: list = []      # per sample: _SAMPLE_COLUMNS
+        self.truth: list = []       # (stamp, roll, pitch, event)
+        self.expiry: list = []      # per event: what times waiting samples out
+        self.due = False
+        self.waiting = 0            # samples in it that may wait for truth
+        self.oldest_s = math.inf    # the oldest of them
+
+
+#: A gathered sensor sample: the input it came with and its place there, its verdict and event, its values,
+#: its oblateness model (NaN: none) and altitude (for the ground error).
+_SAMPLE_COLUMNS = ("serial", "index", "code", "event", "t_s", "roll_rad", "pitch_rad", "model_roll_rad",
+                   "model_pitch_rad", "altitude_m")
+_SAMPLE_ROWS = [_SAMPLE_COLUMNS.index(name) for name in SAMPLE_ROWS]
+
+
+class ErrorMonitor:
     """Align sensor roll/pitch with star-tracker truth and keep live error statistics (physics.md §5, §5.1, §6, §7).
 
-    Feed it with :meth:`add_truth` (or :meth:`add_truth_quaternion`) and
-    :meth:`add_sensor` in arrival order; each returns the outcomes of the
-    sensor samples it settled (possibly none, possibly several). Call
-    :meth:`poll` from a timer so that pending samples time out even when no
-    message arrives, and :meth:`summary` to publish.
+    Feed it with :meth:`add_truth` (or :meth:`add_truth_quaternion`), :meth:`add_odometry` and
+    :meth:`add_sensor` in arrival order, or with a whole stretch at once (:meth:`add_batch`); each returns
+    the outcomes of the sensor samples it settled (possibly none, possibly several). Call :meth:`poll`
+    from a timer so that pending samples time out even when no message arrives, and :meth:`summary` to
+    publish.
     """
 
     def __init__(self, config: MonitorConfig) -> None:
         self.config = config
         self._counters = dict.fromkeys(COUNTER_NAMES, 0)
-        self._truth_t: list[float] = []
-        self._truth_roll: list[float] = []
-        self._truth_pitch: list[float] = []
-        self._pending: deque[PendingSample] = deque()
         self._sets = {True: StatisticsSet(), False: StatisticsSet()}
         # Ring columns: roll, pitch, meridional with the oblateness model removed, then kept.
         self._ring = OrbitRing(config.orbital_period_s, 2 * len(CHANNELS), config.harmonic_bins)
-        self._settled: list[Outcome] = []
+        self._alignment = Alignment(config)
         self._stamps = {stream: StampCheck(config.clock_jump_s, config.future_tolerance_s, config.min_interval_s)
                         for stream in ("sensor", "truth", "odometry")}
         # Forward, the clock may leap as far as a sample may wait for truth before anyone need doubt it.
         self._clock = JumpDetector(config.clock_jump_s, forward_threshold_s=config.max_truth_wait_s)
-        self._reset_alignment_state()
+        self._orbit = None  # orbit_record of the latest accepted odometry since the last reset
+        self._later: list[Settled] = []  # settled by an odometry message: handed out by take_settled / poll
+        self._odometry_rejection = None
+        self._open = _Open()
+        self._serial = 0  # inputs so far: a sample's index means something in its own input only
+        self._parts: list[Settled] = []  # what the current input settled so far
+        self._unaccounted: list = []  # used samples not in the statistics yet: (stamps, angles (6, n), altitude)
+        self._unaccounted_count = 0
 
     # ----------------------------------------------------------------- state
 
     def _reset_alignment_state(self) -> None:
-        self._truth_t.clear()
-        self._truth_roll.clear()
-        self._truth_pitch.clear()
-        self._truth_pruned = False
+        self._account_statistics()  # the ring is cleared below: what it has not had yet goes in first
+        self._alignment.clear()
         for check in self._stamps.values():
             check.reset()
         self._clock.reset()
-        self._orbit = None  # (stamp_s, u_rad, inclination_rad, altitude_m, mean_motion_rad_s) from odometry
+        self._orbit = None
         self._ring.clear()
+
+    def _reset(self) -> None:
+        """A new time axis: what came before is settled, then the samples still waiting settle as RESET;
+        truth, the ring and the timelines are dropped."""
+        self._settle_open()
+        self._parts.append(self._account(self._alignment.take_pending()))
+        self._reset_alignment_state()
+        self._open = _Open()
+        self._counters["alignment_resets"] += 1
 
     def reset_alignment(self) -> list[Outcome]:
         """Start a new time axis: drop truth, pending samples (as RESET) and the harmonic ring; keep statistics."""
-        outcomes = [self._skip(entry.stamp_s, Status.RESET) for entry in self._pending]
-        self._pending.clear()
-        self._reset_alignment_state()
-        self._counters["alignment_resets"] += 1
-        return outcomes
+        self._parts = []
+        self._reset()
+        parts, self._parts = self._parts, []
+        return self._outcomes(Settled.concatenate(parts))
 
     def reset(self) -> None:
         """Forget everything: alignment, statistics and counters."""
-        self._pending.clear()
-        self._settled.clear()
+        self._alignment.clear()
+        self._later.clear()
+        self._open = _Open()
+        self._unaccounted, self._unaccounted_count = [], 0
         self._reset_alignment_state()
         for statistics in self._sets.values():
             statistics.reset()
@@ -169,7 +225,7 @@ class ErrorMonitor(BatchFeeding):
     @property
     def truth_buffer_length(self) -> int:
         """Truth samples held (≤ truth_capacity)."""
-        return len(self._truth_t)
+        return self._alignment.truth.shape[1]
 
     @property
     def latest_truth_stamp_s(self) -> float | None:
@@ -179,140 +235,12 @@ class ErrorMonitor(BatchFeeding):
     @property
     def pending_count(self) -> int:
         """Sensor samples waiting for truth (≤ max_pending)."""
-        return len(self._pending)
+        return self._alignment.pending_count + self._open.waiting
 
     @property
     def ring_nbytes(self) -> int:
         """Memory of the harmonic ring, bytes (fixed)."""
         return self._ring.nbytes
-
-    # ------------------------------------------------------------ validation
-
-    def _observe_now(self, now_s) -> tuple[list[Outcome], float | None]:
-        """Watch the node clock for jumps: (outcomes of a reset, the clock that times out waiting samples).
-
-        While a jump of the clock is unconfirmed, waiting samples are timed
-        by the old clock (a forged /clock a year ahead must not expire them);
-        the future-stamp check takes the clock as it reads.
-        """
-        if now_s is None or not math.isfinite(now_s):
-            return [], None
-        now_s = float(now_s)
-        verdict = self._clock.observe(now_s)
-        outcomes = []
-        if verdict is Jump.CONFIRMED_BACK:
-            self._counters["clock_jumps"] += 1
-            outcomes = self.reset_alignment()
-            self._clock.observe(now_s)
-        elif verdict is Jump.OUTLIER:
-            self._counters["clock_outliers"] += 1
-        return outcomes, self._clock.latest_s
-
-    def _check_stamp(self, stream: str, t_s: float, now_s) -> tuple[Rejection | None, list[Outcome]]:
-        """Check the stamp of a sample of ``stream`` whose values passed; a confirmed jump resets the alignment once."""
-        check = self._stamps[stream]
-        outliers = check.outliers
-        rejection, jumped = check.check(t_s, now_s)
-        self._counters["clock_outliers"] += check.outliers - outliers
-        if not jumped:
-            return rejection, []
-        self._counters["clock_jumps"] += 1
-        outcomes = self.reset_alignment()
-        check.check(t_s, now_s)  # the first stamp of the new timeline
-        return None, outcomes
-
-    # ------------------------------------------------------------------ truth
-
-    def add_truth(self, t_s: float, roll_rad: float, pitch_rad: float, *, now_s: float | None = None) -> list[Outcome]:
-        """Add a truth sample (star-tracker roll, pitch in rad at stamp ``t_s`` in s).
-
-        Args:
-            now_s: the node clock now, s — enables the future-stamp check and
-                clock-jump detection; None to skip both.
-
-        Returns:
-            Outcomes of the pending sensor samples this settled.
-        """
-        self._counters["truth_received"] += 1
-        outcomes, clock_s = self._observe_now(now_s)
-        t_s, roll_rad, pitch_rad = float(t_s), float(roll_rad), float(pitch_rad)
-        if math.isfinite(roll_rad) and math.isfinite(pitch_rad):  # truth is complete, or it is no truth
-            rejection, reset = self._check_stamp("truth", t_s, now_s)
-            outcomes += reset
-        else:
-            rejection = Rejection.NON_FINITE
-        if rejection is not None:
-            self._counters[f"rejected_truth_{rejection.value}"] += 1
-            return outcomes + self._expire(clock_s)
-        self._truth_t.append(t_s)
-        self._truth_roll.append(roll_rad)
-        self._truth_pitch.append(pitch_rad)
-        while self._pending and self._pending[0].stamp_s <= t_s:
-            outcomes.append(self._align(self._pending.popleft()))
-        outcomes += self._expire(clock_s)
-        self._prune_truth()
-        return outcomes
-
-    def add_truth_quaternion(self, t_s: float, q_orbital_to_body, *, now_s: float | None = None) -> list[Outcome]:
-        """Add a star-tracker quaternion (x, y, z, w), body in the orbital frame; validated, then as roll/pitch.
-
-        The quaternion becomes the roll and pitch an ideal horizon sensor would
-        read (:func:`pmv_ros.physics.attitude.true_roll_pitch`), so yaw cannot
-        leak into the comparison.
-        """
-        q, rejection, normalised = check_quaternion(q_orbital_to_body)
-        if rejection is not None:
-            self._counters["truth_received"] += 1
-            self._counters[f"rejected_truth_{rejection.value}"] += 1
-            outcomes, clock_s = self._observe_now(now_s)
-            return outcomes + self._expire(clock_s)
-        if normalised:
-            self._counters["truth_quaternions_normalised"] += 1
-        roll, pitch = true_roll_pitch(q)
-        return self.add_truth(t_s, float(roll), float(pitch), now_s=now_s)
-
-    def _prune_truth(self) -> None:
-        cutoff = self._truth_t[-1] - self.config.truth_history_s
-        if self._pending:
-            cutoff = min(cutoff, self._pending[0].stamp_s)
-        # Keep the last sample at or before the cutoff: it brackets what comes after.
-        drop = bisect.bisect_right(self._truth_t, cutoff) - 1
-        drop = max(drop, len(self._truth_t) - self.config.truth_capacity)
-        if drop > 0:
-            del self._truth_t[:drop], self._truth_roll[:drop], self._truth_pitch[:drop]
-            self._truth_pruned = True
-
-    # ---------------------------------------------------------------- orbit
-
-    def add_odometry(self, t_s: float, position_eci_m, velocity_eci_m_s, *,
-                     now_s: float | None = None) -> Rejection | None:
-        """Take the spacecraft's ECI state (m, m/s) at ``t_s`` for the oblateness model; the rejection, if any.
-
-        A state that is not a bound Earth orbit within the bounds (|r| = 1 km,
-        1e12 m, an escape speed) is rejected and counted, never used: the
-        oblateness model and the ground error would be meaningless.
-        """
-        self._counters["odometry_received"] += 1
-        outcomes, clock_s = self._observe_now(now_s)
-        self._settled.extend(outcomes)
-        rejection = check_orbit_state(position_eci_m, velocity_eci_m_s, self.config.bounds)
-        if rejection is None:
-            rejection, reset = self._check_stamp("odometry", float(t_s), now_s)
-            self._settled.extend(reset)
-        if rejection is not None:
-            self._counters[f"rejected_odometry_{rejection.value}"] += 1
-            return rejection
-        self._orbit = orbit_record(float(t_s), position_eci_m, velocity_eci_m_s)
-        return None
-
-    def orbit_at(self, t_s: float, max_age_s: float) -> dict:
-        """``add_sensor`` keywords (u_rad, inclination_rad, altitude_m) at ``t_s`` from the latest accepted
-        odometry no further than ``max_age_s`` from it (u advanced at the mean motion); {} if there is none."""
-        orbit = self._orbit
-        if orbit is None or not abs(t_s - orbit[0]) <= max_age_s:
-            return {}
-        stamp, u, inclination, altitude, rate = orbit
-        return dict(u_rad=u + rate * (t_s - stamp), inclination_rad=inclination, altitude_m=altitude)
 
     @property
     def latest_orbit_stamp_s(self) -> float | None:
@@ -324,26 +252,86 @@ class ErrorMonitor(BatchFeeding):
         """The orbital period the latest accepted odometry flies (2π / mean motion), s; None without odometry."""
         return None if self._orbit is None else 2.0 * math.pi / self._orbit[4]
 
+    def orbit_at(self, t_s: float, max_age_s: float) -> dict:
+        """``add_sensor`` keywords (u_rad, inclination_rad, altitude_m) at ``t_s`` from the latest accepted
+        odometry no further than ``max_age_s`` from it (u advanced at the mean motion); {} if there is none."""
+        orbit = self._orbit
+        if orbit is None or not abs(t_s - orbit[0]) <= max_age_s:
+            return {}
+        stamp, u, inclination, altitude, rate = orbit
+        return dict(u_rad=u + rate * (t_s - stamp), inclination_rad=inclination, altitude_m=altitude)
+
+    # ------------------------------------------------------------------ inputs
+
+    def add_truth(self, t_s: float, roll_rad: float, pitch_rad: float, *, now_s: float | None = None) -> list[Outcome]:
+        """Add a truth sample (star-tracker roll, pitch in rad at stamp ``t_s`` in s).
+
+        Args:
+            now_s: the node clock now, s — enables the future-stamp check and
+                clock-jump detection; None to skip both.
+
+        Returns:
+            Outcomes of the pending sensor samples this settled.
+        """
+        return self._truth_input(t_s, np.array([[float(roll_rad)], [float(pitch_rad)]]), now_s)
+
+    def add_truth_quaternion(self, t_s: float, q_orbital_to_body, *, now_s: float | None = None) -> list[Outcome]:
+        """Add a star-tracker quaternion (x, y, z, w), body in the orbital frame; validated, then as roll/pitch.
+
+        The quaternion becomes the roll and pitch an ideal horizon sensor would
+        read (:func:`pmv_ros.physics.attitude.true_roll_pitch`), so yaw cannot
+        leak into the comparison.
+        """
+        try:
+            q = np.asarray(q_orbital_to_body, float).reshape(4, 1)
+        except (TypeError, ValueError):
+            q = np.full((4, 1), math.nan)  # not four numbers: rejected as non-finite
+        return self._truth_input(t_s, q, now_s)
+
+    def _truth_input(self, t_s, truth: np.ndarray, now_s) -> list[Outcome]:
+        feed = Feed((), (), (), truth_t_s=_one(t_s), truth=truth, truth_arrival=_FIRST,
+                    truth_now_s=None if now_s is None else _one(now_s))
+        return self._outcomes(self._feed(feed))
+
+    def add_odometry(self, t_s: float, position_eci_m, velocity_eci_m_s, *,
+                     now_s: float | None = None) -> Rejection | None:
+        """Take the spacecraft's ECI state (m, m/s) at ``t_s`` for the oblateness model; the rejection, if any.
+
+        A state that is not a bound Earth orbit within the bounds (|r| = 1 km,
+        1e12 m, an escape speed) is rejected and counted, never used: the
+        oblateness model and the ground error would be meaningless. Samples it
+        settles (a clock jump's reset) come from :meth:`take_settled`.
+        """
+        try:
+            position = np.asarray(position_eci_m, float).reshape(3, 1)
+            velocity = np.asarray(velocity_eci_m_s, float).reshape(3, 1)
+        except (TypeError, ValueError):
+            position = velocity = np.full((3, 1), math.nan)  # not a state: rejected as implausible
+        feed = Feed((), (), (), odometry_t_s=_one(t_s), odometry_position_m=position,
+                    odometry_velocity_m_s=velocity, odometry_arrival=_FIRST,
+                    odometry_now_s=None if now_s is None else _one(now_s))
+        self._later.append(self._feed(feed))
+        return self._odometry_rejection
+
     def take_settled(self) -> list[Outcome]:
         """Outcomes settled by a call that returns no outcomes (an odometry message that reset the alignment)."""
-        outcomes, self._settled = self._settled, []
-        return outcomes
-
-    # ----------------------------------------------------------------- sensor
+        later, self._later = self._later, []
+        return self._outcomes(Settled.concatenate(later))
 
     def add_sensor(self, t_s: float, roll_rad: float, pitch_rad: float, *, u_rad: float | None = None,
                    altitude_m: float | None = None, inclination_rad: float | None = None,
                    oblateness_roll_rad: float | None = None, oblateness_pitch_rad: float | None = None,
-                   now_s: float | None = None) -> list[Outcome]:
+                   odometry_max_age_s: float | None = None, now_s: float | None = None) -> list[Outcome]:
         """Add a sensor sample (roll, pitch in rad at stamp ``t_s`` in s).
 
         The oblateness model for this sample comes from, in order: the values
         passed (``oblateness_roll_rad``/``oblateness_pitch_rad``, e.g. what the
         sensor's on-board compensation used); or the published closed form
-        (physics.md §2.1) at ``u_rad`` with ``altitude_m``/``inclination_rad``
-        (per sample or from the configuration). Without either, the sample
-        enters only the oblateness-kept statistics (counted in
-        ``used_without_oblateness_model``).
+        (physics.md §2.1) at the orbit — that of the latest odometry no further
+        than ``odometry_max_age_s`` from the stamp when that is given, else
+        ``u_rad`` with ``altitude_m``/``inclination_rad`` (per sample or from
+        the configuration). Without either, the sample enters only the
+        oblateness-kept statistics (counted in ``used_without_oblateness_model``).
 
         Args:
             u_rad: argument of latitude at ``t_s``, rad (see :func:`orbit_angles_from_state`).
@@ -355,120 +343,361 @@ class ErrorMonitor(BatchFeeding):
             Outcomes settled by this call: this sample's if it was rejected or
             could be aligned at once, and any pending samples that timed out.
         """
-        self._counters["sensor_received"] += 1
-        outcomes, clock_s = self._observe_now(now_s)
-        t_s, roll_rad, pitch_rad = float(t_s), float(roll_rad), float(pitch_rad)
-        rejection = check_angles(roll_rad, pitch_rad, self.config.bounds.max_abs_angle_rad, allow_nan=True)
-        if rejection is None:
-            rejection, reset = self._check_stamp("sensor", t_s, now_s)
-            outcomes += reset
-        if rejection is not None:
-            self._counters[f"rejected_sensor_{rejection.value}"] += 1
-            return outcomes + [Outcome(t_s, rejection)] + self._expire(clock_s)
-        if math.isnan(roll_rad) and math.isnan(pitch_rad):
-            return outcomes + [self._skip(t_s, Status.NO_VALID_ANGLE)] + self._expire(clock_s)
-        altitude = self.config.altitude_m if altitude_m is None else float(altitude_m)
-        model_roll, model_pitch = self._oblateness(u_rad, altitude, inclination_rad,
-                                                   oblateness_roll_rad, oblateness_pitch_rad)
-        entry = PendingSample(t_s, roll_rad, pitch_rad, model_roll, model_pitch,
-                         math.nan if altitude is None else altitude)
-        if self._truth_t and self._truth_t[-1] >= t_s and not self._pending:
-            outcomes.append(self._align(entry))
-        else:
-            self._pending.append(entry)
-            if len(self._pending) > self.config.max_pending:
-                outcomes.append(self._skip(self._pending.popleft().stamp_s, Status.PENDING_OVERFLOW))
-        return outcomes + self._expire(clock_s)
-
-    def _oblateness(self, u_rad, altitude, inclination_rad, model_roll, model_pitch) -> tuple[float, float]:
-        if model_roll is not None and model_pitch is not None:
-            return float(model_roll), float(model_pitch)
-        inclination = self.config.inclination_rad if inclination_rad is None else float(inclination_rad)
-        if u_rad is None or altitude is None or inclination is None:
-            return math.nan, math.nan
-        _, roll, pitch = closed_form_oblateness(float(u_rad), altitude, inclination)
-        return float(roll), float(pitch)
+        config = self.config
+        given = oblateness_roll_rad is not None and oblateness_pitch_rad is not None
+        feed = Feed(_one(t_s), _one(roll_rad), _one(pitch_rad), None if now_s is None else _one(now_s),
+                    odometry_max_age_s=odometry_max_age_s, u_rad=_one(u_rad),
+                    inclination_rad=_one(config.inclination_rad if inclination_rad is None else inclination_rad),
+                    altitude_m=_one(config.altitude_m if altitude_m is None else altitude_m),
+                    model_roll_rad=_one(oblateness_roll_rad) if given else None,
+                    model_pitch_rad=_one(oblateness_pitch_rad) if given else None)
+        return self._outcomes(self._feed(feed))
 
     def poll(self, now_s: float | None = None) -> list[Outcome]:
         """Time out pending samples by the clock (call from a timer); returns their outcomes."""
-        outcomes, clock_s = self._observe_now(now_s)
-        return self.take_settled() + outcomes + self._expire(clock_s)
+        later = self.take_settled()
+        return later + self._outcomes(self._feed(Feed((), (), (), poll_now_s=math.nan if now_s is None
+                                                      else float(now_s))))
 
-    def _expire(self, now_s) -> list[Outcome]:
-        """Give up pending samples that have waited longer than max_truth_wait_s."""
-        latest = self._stamps["sensor"].latest_s
-        if now_s is not None and math.isfinite(now_s):
-            latest = now_s if latest is None else max(latest, now_s)
-        outcomes = []
-        while self._pending and latest is not None and latest - self._pending[0].stamp_s > self.config.max_truth_wait_s:
-            outcomes.append(self._skip(self._pending.popleft().stamp_s, Status.STALE_TRUTH))
-        return outcomes
+    def add_batch(self, sensor_t_s, sensor_roll_rad, sensor_pitch_rad, truth_t_s, q_truth, truth_arrival, *,
+                  now_s=None, odometry=None, odometry_max_age_s: float = math.inf, u_rad=None,
+                  altitude_m: float | None = None, inclination_rad: float | None = None,
+                  oblateness_roll_rad=None, oblateness_pitch_rad=None) -> BatchOutcome:
+        """Many samples at once: what :meth:`add_truth_quaternion`, :meth:`add_odometry` and :meth:`add_sensor`,
+        called in arrival order, would do — the same code, on arrays.
 
-    # -------------------------------------------------------------- alignment
+        Arrival order, per sensor sample i: the truth samples with ``truth_arrival == i``, then the
+        odometry at the sample's stamp (if given), then the sample.
 
-    def _skip(self, t_s: float, status: Status) -> Outcome:
-        self._counters[f"skipped_{status.value}"] += 1
-        return Outcome(t_s, status)
+        Args:
+            sensor_t_s, sensor_roll_rad, sensor_pitch_rad: ``(N,)`` sensor samples (s, rad), in arrival order.
+            truth_t_s: ``(M,)`` truth stamps, s, in arrival order; ``q_truth``: ``(4, M)`` quaternions (x, y, z, w).
+            truth_arrival: ``(M,)`` non-decreasing ints: truth j arrives just before sensor sample
+                ``truth_arrival[j]`` (N: after the last one).
+            now_s: ``(N,)`` node clock when each sensor sample arrives (a truth arriving before sample i
+                sees ``now_s[i]``; after the last, ``now_s[-1]``), s; None: no clock (see :meth:`add_truth`).
+            odometry: ``(position_eci_m, velocity_eci_m_s)``, each ``(3, N)``: the spacecraft's state at each
+                sensor stamp (what /orbit/odometry carries), for the oblateness model and the ground error
+                as the node takes them (the latest no further than ``odometry_max_age_s``); None: the
+                ``u_rad``/``altitude_m``/``inclination_rad`` of :meth:`add_sensor` instead
+                (``u_rad`` ``(N,)``, the others scalars).
+            oblateness_roll_rad, oblateness_pitch_rad: the model itself, ``(N,)`` or scalars, as in
+                :meth:`add_sensor` (e.g. zeros when the sensor removes it on board).
 
-    def _align(self, entry: PendingSample) -> Outcome:
-        """Interpolate truth at the sample's stamp and account the residual, or say why not."""
-        times = self._truth_t
-        t = entry.stamp_s
-        after = bisect.bisect_left(times, t)
-        if after < len(times) and times[after] == t:
-            truth_roll, truth_pitch = self._truth_roll[after], self._truth_pitch[after]
-        elif after == 0:
-            return self._skip(t, Status.TOO_OLD if self._truth_pruned else Status.NO_TRUTH)
-        else:
-            before = after - 1
-            span = times[after] - times[before]
-            if span > self.config.max_truth_gap_s:
-                return self._skip(t, Status.TRUTH_GAP)
-            weight = (t - times[before]) / span
-            truth_roll = self._truth_roll[before] + weight * (self._truth_roll[after] - self._truth_roll[before])
-            truth_pitch = self._truth_pitch[before] + weight * (self._truth_pitch[after] - self._truth_pitch[before])
-        return self._account(entry, entry.roll_rad - truth_roll, entry.pitch_rad - truth_pitch)
-
-    def _account(self, entry: PendingSample, residual_roll: float, residual_pitch: float) -> Outcome:
-        """Update both statistics sets and the ring with one residual; return the outcome.
-
-        Runs once per sensor sample: plain floats, straight-line code.
+        Returns:
+            :class:`BatchOutcome`: per sensor sample, the status code and the residuals; samples of earlier
+            inputs settled by this one in ``earlier``.
         """
-        counters = self._counters
-        counters["used"] += 1
-        if math.isnan(residual_roll) or math.isnan(residual_pitch):
-            # One chord pair lost: the other angle counts; the meridional value does not exist.
-            counters["used_one_angle"] += 1
-        roll_kept = residual_roll - self.config.roll_offset_rad
-        pitch_kept = residual_pitch - self.config.pitch_offset_rad
-        kept = (roll_kept, pitch_kept, math.hypot(roll_kept, pitch_kept))
-        has_model = math.isfinite(entry.oblateness_roll_rad) and math.isfinite(entry.oblateness_pitch_rad)
-        if has_model:
-            roll_removed = roll_kept - entry.oblateness_roll_rad
-            pitch_removed = pitch_kept - entry.oblateness_pitch_rad
-            removed = (roll_removed, pitch_removed, math.hypot(roll_removed, pitch_removed))
+        feed = self._batch_feed(sensor_t_s, sensor_roll_rad, sensor_pitch_rad, truth_t_s, q_truth, truth_arrival,
+                                now_s=now_s, odometry=odometry, odometry_max_age_s=odometry_max_age_s, u_rad=u_rad,
+                                altitude_m=altitude_m, inclination_rad=inclination_rad,
+                                oblateness_roll_rad=oblateness_roll_rad, oblateness_pitch_rad=oblateness_pitch_rad)
+        n = len(feed.t_s)
+        settled = self._feed(feed)
+        result = BatchOutcome.empty(n)
+        index = settled.index
+        mine = index >= 0
+        rows = index[mine]
+        result.status[rows] = settled.code[mine]
+        for name in ("residual_roll_rad", "residual_pitch_rad", "roll_rad", "pitch_rad", "meridional_rad"):
+            getattr(result, name)[rows] = settled.row(name)[mine]
+        result.earlier = self._outcomes(settled.take(~mine))
+        return result
+
+    def _batch_feed(self, sensor_t_s, sensor_roll_rad, sensor_pitch_rad, truth_t_s, q_truth, truth_arrival, *,
+                    now_s=None, odometry=None, odometry_max_age_s: float = math.inf, u_rad=None,
+                    altitude_m: float | None = None, inclination_rad: float | None = None,
+                    oblateness_roll_rad=None, oblateness_pitch_rad=None) -> Feed:
+        """The :class:`Feed` of an :meth:`add_batch` call (ValueError for arrivals out of order)."""
+        t = np.asarray(sensor_t_s, float).ravel()
+        n = t.size
+        truth_t = np.asarray(truth_t_s, float).ravel()
+        arrival = np.asarray(truth_arrival, np.int64).ravel()
+        if arrival.size != truth_t.size or (arrival.size and (np.any(np.diff(arrival) < 0) or arrival[0] < 0
+                                                              or arrival[-1] > n)):
+            raise ValueError("truth_arrival must give, for each truth sample, a non-decreasing sensor index 0 … N")
+        now = None if now_s is None else _column(now_s, n)
+        given = oblateness_roll_rad is not None and oblateness_pitch_rad is not None
+        config = self.config
+        feed = Feed(t, _column(sensor_roll_rad, n), _column(sensor_pitch_rad, n), now, truth_t_s=truth_t,
+                    truth=np.asarray(q_truth, float).reshape(4, truth_t.size), truth_arrival=arrival,
+                    truth_now_s=None if now is None or not n else now[np.minimum(arrival, n - 1)],
+                    model_roll_rad=_column(oblateness_roll_rad, n) if given else None,
+                    model_pitch_rad=_column(oblateness_pitch_rad, n) if given else None)
+        if odometry is not None:
+            feed.odometry_t_s, feed.odometry_arrival, feed.odometry_now_s = t, np.arange(n), now
+            feed.odometry_position_m, feed.odometry_velocity_m_s = (np.asarray(part, float).reshape(3, n)
+                                                                    for part in odometry)
+            feed.odometry_max_age_s = float(odometry_max_age_s)
         else:
-            counters["used_without_oblateness_model"] += 1
-            removed = (math.nan, math.nan, math.nan)
-        with_ground = math.isfinite(entry.altitude_m) and entry.altitude_m > 0.0
-        grounds = {}
-        for key, row in ((False, kept), (True, removed)):
-            if key and not has_model:
-                continue
-            target = self._sets[key]
-            for stats, value in zip(target.angles, row):
-                if math.isfinite(value):
-                    stats.add(value)
-            if with_ground:
-                ground = grounds[key] = ground_components(row, entry.altitude_m)
-                for stats, value in zip(target.ground, ground):
-                    if math.isfinite(value):
-                        stats.add(value)
-        self._ring.add(entry.stamp_s, removed + kept)
-        primary = self.config.remove_oblateness
-        cross, along, circular = grounds.get(primary, (math.nan, math.nan, math.nan))
-        return Outcome(entry.stamp_s, Status.OK, residual_roll, residual_pitch, *(removed if primary else kept),
-                       along_track_m=along, cross_track_m=cross, circular_m=circular)
+            feed.u_rad = _column(u_rad, n)
+            feed.inclination_rad = _column(config.inclination_rad if inclination_rad is None else inclination_rad, n)
+            feed.altitude_m = _column(config.altitude_m if altitude_m is None else altitude_m, n)
+        return feed
+
+    # ------------------------------------------------------------ the one path
+
+    def _feed(self, feed: Feed) -> Settled:
+        """Validate, align and account one input; what it settled, in order (``index`` −1: earlier inputs)."""
+        self._serial += 1
+        self._parts = []
+        segment = None
+        if len(feed.t_s) >= MIN_ARRAY_SAMPLES:
+            self._settle_open()  # what came before goes first
+            segment = scan_clean(self, feed)
+        if segment is not None:
+            self._parts.append(self._settle(segment))
+        else:
+            self._scan_events(feed)
+            if self._open.due:
+                self._settle_open()
+        self._alignment.forget_indices()
+        parts, self._parts = self._parts, []
+        return Settled.concatenate(parts)
+
+    def _settle_open(self) -> None:
+        """Settle the open segment (its results go with the current input) and open a new one."""
+        if self._open.expiry:
+            self._parts.append(self._settle(self._segment(self._open)))
+        elif self._open.truth or self._open.sensor:
+            raise RuntimeError("monitor: samples gathered without an event")
+        self._open = _Open()
+
+    def _settle(self, segment: Segment) -> Settled:
+        return self._account(self._alignment.settle(segment))
+
+    def _segment(self, gathered: _Open) -> Segment:
+        """The open segment's events as a :class:`Segment`, with each sample's oblateness model and altitude."""
+        rows = np.array(gathered.sensor, float).reshape(-1, len(_SAMPLE_COLUMNS)).T
+        rows[1] = np.where(rows[0] == self._serial, rows[1], -1.0)  # a place in an earlier input means nothing
+        truth = np.array(gathered.truth, float).reshape(-1, 4).T
+        return Segment(rows[_SAMPLE_ROWS], rows[2].astype(np.int64), rows[3].astype(np.int64), truth[:3],
+                       truth[3].astype(np.int64), np.array(gathered.expiry, float))
+
+    # -- the event-by-event scan: any input, clock jumps included
+
+    def _scan_events(self, feed: Feed) -> None:
+        """Validate ``feed`` event by event into the open segment; a confirmed clock jump settles what came
+        before it and resets."""
+        n, m, k = len(feed.t_s), len(feed.truth_t_s), len(feed.odometry_t_s)
+        if n + m + k == 1:
+            order = [(_SENSOR, 0)] if n else [(_TRUTH, 0)] if m else [(_ODOMETRY, 0)]
+        else:
+            truth_at = np.searchsorted(feed.truth_arrival, np.arange(n + 2), side="left").tolist()
+            odometry_at = np.searchsorted(feed.odometry_arrival, np.arange(n + 2), side="left").tolist()
+            order = []
+            for i in range(n + 1):
+                order += [(_TRUTH, j) for j in range(truth_at[i], truth_at[i + 1])]
+                order += [(_ODOMETRY, j) for j in range(odometry_at[i], odometry_at[i + 1])]
+                if i < n:
+                    order.append((_SENSOR, i))
+        if feed.poll_now_s is not None:
+            order.append((_POLL, 0))
+        handlers = (self._truth_event, self._odometry_event, self._sensor_event, self._poll_event)
+        for kind, k in order:
+            handlers[kind](feed, k)
+
+    def _restart(self) -> None:
+        """A confirmed jump mid-input: settle the events before it, then reset (a new segment)."""
+        self._reset()
+
+    def _observe(self, now_s) -> float | None:
+        """Watch the node clock for jumps; the clock that times out waiting samples (None: no clock).
+
+        While a jump of the clock is unconfirmed, waiting samples are timed by the old clock (a forged
+        /clock a year ahead must not expire them); the future-stamp check takes the clock as it reads.
+        """
+        if now_s is None or not math.isfinite(now_s):
+            return None
+        verdict = self._clock.observe(now_s)
+        if verdict is Jump.CONFIRMED_BACK:
+            self._counters["clock_jumps"] += 1
+            self._restart()
+            self._clock.observe(now_s)
+        elif verdict is Jump.OUTLIER:
+            self._counters["clock_outliers"] += 1
+        return self._clock.latest_s
+
+    def _check_stamp(self, stream: str, t_s: float, now_s) -> Rejection | None:
+        """Check the stamp of a sample whose values passed; a confirmed jump resets the alignment once."""
+        check = self._stamps[stream]
+        outliers = check.outliers
+        rejection, jumped = check.check(t_s, now_s)
+        self._counters["clock_outliers"] += check.outliers - outliers
+        if not jumped:
+            return rejection
+        self._counters["clock_jumps"] += 1
+        self._restart()
+        check.check(t_s, now_s)  # the first stamp of the new timeline
+        return None
+
+    def _close_event(self, clock_s) -> None:
+        """End an event of the open segment: its timeout clock, and whether a wait runs out at it."""
+        latest = self._stamps["sensor"].latest_s
+        if clock_s is not None:
+            latest = clock_s if latest is None else max(latest, clock_s)
+        expiry = -math.inf if latest is None else latest
+        gathered = self._open
+        gathered.expiry.append(expiry)
+        oldest = self._alignment.pending[1, 0] if self._alignment.pending_count else gathered.oldest_s
+        if expiry - oldest > self.config.max_truth_wait_s or len(gathered.expiry) >= OPEN_EVENTS:
+            gathered.due = True
+
+    @staticmethod
+    def _now(column, k: int):
+        return None if column is None else float(column[k])
+
+    def _truth_event(self, feed: Feed, j: int) -> None:
+        self._counters["truth_received"] += 1
+        now_s = self._now(feed.truth_now_s, j)
+        clock_s = self._observe(now_s)
+        t_s = float(feed.truth_t_s[j])
+        if feed.truth.shape[0] == 4:
+            unit, rejection, normalised = check_quaternion(feed.truth[:, j])
+            if rejection is None:
+                self._counters["truth_quaternions_normalised"] += normalised
+                roll, pitch = true_roll_pitch(unit)
+        else:
+            roll, pitch = float(feed.truth[0, j]), float(feed.truth[1, j])
+            # Truth is complete, or it is no truth.
+            rejection = None if math.isfinite(roll) and math.isfinite(pitch) else Rejection.NON_FINITE
+        if rejection is None:
+            rejection = self._check_stamp("truth", t_s, now_s)
+        gathered = self._open
+        if rejection is not None:
+            self._counters[f"rejected_truth_{rejection.value}"] += 1
+        else:
+            gathered.truth.append((t_s, float(roll), float(pitch), len(gathered.expiry)))
+            gathered.due = True  # truth goes into the buffer with the input that brought it
+        self._close_event(clock_s)
+
+    def _odometry_event(self, feed: Feed, k: int) -> None:
+        self._counters["odometry_received"] += 1
+        now_s = self._now(feed.odometry_now_s, k)
+        self._observe(now_s)
+        t_s = float(feed.odometry_t_s[k])
+        position, velocity = feed.odometry_position_m[:, k], feed.odometry_velocity_m_s[:, k]
+        rejection = check_orbit_state(position, velocity, self.config.bounds)
+        if rejection is None:
+            rejection = self._check_stamp("odometry", t_s, now_s)
+        self._odometry_rejection = rejection
+        if rejection is not None:
+            self._counters[f"rejected_odometry_{rejection.value}"] += 1
+            return
+        self._orbit = orbit_record(t_s, position, velocity)
+
+    def _sensor_event(self, feed: Feed, i: int) -> None:
+        self._counters["sensor_received"] += 1
+        now_s = self._now(feed.sensor_now_s, i)
+        clock_s = self._observe(now_s)
+        t_s, roll, pitch = float(feed.t_s[i]), float(feed.roll_rad[i]), float(feed.pitch_rad[i])
+        rejection = check_angles(roll, pitch, self.config.bounds.max_abs_angle_rad, allow_nan=True)
+        if rejection is None:
+            rejection = self._check_stamp("sensor", t_s, now_s)
+        gathered = self._open
+        code = PENDING_CODE
+        if rejection is not None:
+            self._counters[f"rejected_sensor_{rejection.value}"] += 1
+            code = BATCH_STATUSES.index(rejection)
+            gathered.due = True
+        elif math.isnan(roll) and math.isnan(pitch):
+            gathered.due = True
+        elif (self._stamps["truth"].latest_s or -math.inf) >= t_s:
+            gathered.due = True  # covered on arrival
+        else:
+            gathered.waiting += 1
+            gathered.oldest_s = min(gathered.oldest_s, t_s)
+            if gathered.waiting + self._alignment.pending_count > self.config.max_pending:
+                gathered.due = True
+        gathered.sensor.append((self._serial, i, code, len(gathered.expiry), t_s, roll, pitch)
+                               + self._model(feed, i, t_s))
+        self._close_event(clock_s)
+
+    def _model(self, feed: Feed, i: int, t_s: float) -> tuple:
+        """(model roll, model pitch, altitude) of sensor sample ``i`` of ``feed``: the model given with it, or
+        the closed form at its orbit (the odometry's, or the orbit columns); NaN where unknown."""
+        if feed.odometry_max_age_s is not None:
+            orbit = self.orbit_at(t_s, feed.odometry_max_age_s)
+            config = self.config
+            u = orbit.get("u_rad", math.nan)
+            inclination = orbit.get("inclination_rad", math.nan if config.inclination_rad is None
+                                    else config.inclination_rad)
+            altitude = orbit.get("altitude_m", math.nan if config.altitude_m is None else config.altitude_m)
+        else:
+            u, inclination, altitude = float(feed.u_rad[i]), float(feed.inclination_rad[i]), float(feed.altitude_m[i])
+        if feed.model_roll_rad is not None:
+            return float(feed.model_roll_rad[i]), float(feed.model_pitch_rad[i]), altitude
+        return oblateness_model(u, altitude, inclination) + (altitude,)
+
+    def _poll_event(self, feed: Feed, _: int) -> None:
+        self._close_event(self._observe(feed.poll_now_s))
+
+    # -------------------------------------------------------------- statistics
+
+    def _account(self, settled: Settled) -> Settled:
+        """Count what settled; give the used samples their reported values and keep them for the statistics."""
+        if not settled.size:
+            return settled
+        counters = self._counters
+        code = settled.code
+        for status, count in enumerate(np.bincount(code, minlength=len(BATCH_STATUSES)).tolist()):
+            if count and status in _SKIP_CODES:
+                counters[_SKIP_CODES[status]] += count
+        rows = np.flatnonzero(code == _OK)
+        if not rows.size:
+            return settled
+        config = self.config
+        _, t, _, residual_roll, residual_pitch, model_roll, model_pitch, altitude = settled.values[:, rows]
+        counters["used"] += int(rows.size)
+        counters["used_one_angle"] += int(np.count_nonzero(np.isnan(residual_roll) | np.isnan(residual_pitch)))
+        has_model = np.isfinite(model_roll) & np.isfinite(model_pitch)
+        counters["used_without_oblateness_model"] += int(rows.size - np.count_nonzero(has_model))
+        # Rows: roll, pitch, meridional with the oblateness model kept, then removed (NaN without a model).
+        angles = np.empty((6, rows.size))
+        angles[0] = residual_roll - config.roll_offset_rad
+        angles[1] = residual_pitch - config.pitch_offset_rad
+        angles[3] = np.where(has_model, angles[0] - model_roll, np.nan)
+        angles[4] = np.where(has_model, angles[1] - model_pitch, np.nan)
+        angles[2], angles[5] = np.hypot(angles[0], angles[1]), np.hypot(angles[3], angles[4])
+        first = 3 if config.remove_oblateness else 0
+        settled.report()[:, rows] = angles[first:first + 3]
+        self._unaccounted.append((t, angles, altitude))
+        self._unaccounted_count += rows.size
+        if self._unaccounted_count >= UNACCOUNTED_ROWS:
+            self._account_statistics()
+        return settled
+
+    def _account_statistics(self) -> None:
+        """Put the used samples kept so far into both statistics sets (angles and ground error) and the ring.
+
+        The statistics are read at the publication rate, not per sample: a few samples at a time go in one by
+        one, many as a batch (the sums differ only by rounding), and the ground error is computed once for all.
+        """
+        if not self._unaccounted:
+            return
+        parts, self._unaccounted, self._unaccounted_count = self._unaccounted, [], 0
+        t = np.concatenate([part[0] for part in parts])
+        angles = np.concatenate([part[1] for part in parts], axis=1)
+        altitude = np.concatenate([part[2] for part in parts])
+        n = t.size
+        ground = np.vstack(ground_components((np.concatenate((angles[0], angles[3])),
+                                              np.concatenate((angles[1], angles[4])),
+                                              np.concatenate((angles[2], angles[5]))),
+                                             np.concatenate((altitude, altitude))))
+        kept_set, removed_set = self._sets[False], self._sets[True]
+        update_rows(kept_set.angles + removed_set.angles + kept_set.ground + removed_set.ground,
+                    np.vstack((angles, ground[:, :n], ground[:, n:])))
+        self._ring.add_many(t, np.vstack((angles[3:], angles[:3])).T)  # ring columns: removed, then kept
+
+    @staticmethod
+    def _outcomes(settled: Settled) -> list[Outcome]:
+        """The settled samples as :class:`Outcome` items, in order."""
+        if not settled.size:
+            return []
+        return [Outcome(t, BATCH_STATUSES[int(code)], residual_roll, residual_pitch, roll, pitch, meridional,
+                        altitude)
+                for (_, t, code, residual_roll, residual_pitch, _, _, altitude), (roll, pitch, meridional)
+                in zip(settled.values.T.tolist(), settled.report().T.tolist())]
 
     # ---------------------------------------------------------------- summary
 
@@ -478,6 +707,7 @@ class ErrorMonitor(BatchFeeding):
         Harmonic amplitudes are fitted here (a few ms for the default ring),
         so call it at the publication rate, not per sample.
         """
+        self._account_statistics()
         removed = self.config.remove_oblateness if oblateness_removed is None else bool(oblateness_removed)
         amplitudes = self._ring.amplitudes(self.config.harmonics,
                                            max_gap_fraction=self.config.max_harmonic_gap_fraction,
@@ -491,3 +721,4 @@ class ErrorMonitor(BatchFeeding):
             channels.append(ChannelStatistics(name, angle.count, angle.mean, angle.sigma, angle.max_abs, harmonics,
                                                ground.mean, ground.sigma, ground.max_abs))
         return MonitorSummary(removed, tuple(channels), self.counters, self._ring.full_orbit)
+

@@ -1,15 +1,14 @@
 """The error monitor's records and configuration: statuses, counters, outcomes, summaries, batch outcomes.
 
 What :class:`pmv_ros.runtime.monitor.ErrorMonitor` takes and gives, in one
-place for the monitor, its batch path (:mod:`pmv_ros.runtime.monitor_batch`),
-its node and the campaign.
+place for the monitor, its scan and alignment, its node and the campaign.
 """
 
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import Enum
 
 import numpy as np
@@ -56,6 +55,13 @@ SKIP_REASONS = (Status.NO_VALID_ANGLE, Status.NO_TRUTH, Status.TOO_OLD, Status.T
 #: Reasons an incoming sample is rejected, per stream.
 SENSOR_REJECTIONS = STAMP_REJECTIONS + (Rejection.IMPLAUSIBLE_ANGLE,)
 ODOMETRY_REJECTIONS = STAMP_REJECTIONS + (Rejection.IMPLAUSIBLE_ORBIT,)
+
+
+def _empty(*shape, dtype=float):
+    """A field that defaults to one shared, read-only empty array."""
+    array = np.empty(shape, dtype)
+    array.flags.writeable = False
+    return field(default_factory=lambda: array)
 
 
 def _counter_names() -> tuple[str, ...]:
@@ -168,7 +174,8 @@ class Outcome:
     ``residual_*`` is sensor − truth, as published on /pmv/residual.
     ``roll_rad``/``pitch_rad``/``meridional_rad`` are the residuals that went
     into the reported statistics (offsets removed, oblateness model removed
-    when configured). All NaN unless ``status`` is OK.
+    when configured); ``altitude_m`` the altitude they are seen from (NaN:
+    unknown, no ground error). All NaN unless ``status`` is OK.
     """
 
     stamp_s: float
@@ -178,14 +185,30 @@ class Outcome:
     roll_rad: float = math.nan
     pitch_rad: float = math.nan
     meridional_rad: float = math.nan
-    along_track_m: float = math.nan
-    cross_track_m: float = math.nan
-    circular_m: float = math.nan
+    altitude_m: float = math.nan
 
     @property
     def ok(self) -> bool:
         """True when the sample was aligned and used."""
         return self.status is Status.OK
+
+    @property
+    def ground_m(self) -> tuple[float, float, float]:
+        """(cross-track, along-track, circular) ground error of a nadir imager, m (physics.md §7)."""
+        return tuple(float(value) for value in
+                     ground_components((self.roll_rad, self.pitch_rad, self.meridional_rad), self.altitude_m))
+
+    @property
+    def cross_track_m(self) -> float:
+        return self.ground_m[0]
+
+    @property
+    def along_track_m(self) -> float:
+        return self.ground_m[1]
+
+    @property
+    def circular_m(self) -> float:
+        return self.ground_m[2]
 
 
 @dataclass(frozen=True)
@@ -206,13 +229,35 @@ class MonitorSummary:
 
 
 @dataclass
-class PendingSample:
-    stamp_s: float
-    roll_rad: float
-    pitch_rad: float
-    oblateness_roll_rad: float
-    oblateness_pitch_rad: float
-    altitude_m: float
+class Feed:
+    """One input of :class:`ErrorMonitor`, in arrival order: sensor samples, truth, odometry, a poll.
+
+    Before sensor sample i arrive the truth samples with ``truth_arrival == i``, then the odometry with
+    ``odometry_arrival == i``; index N means after the last sample, and a poll (``poll_now_s``) comes last.
+    Times s, angles rad, ECI states m and m/s; ``*_now_s`` is the node clock at each arrival (None: none).
+    """
+
+    t_s: np.ndarray
+    roll_rad: np.ndarray
+    pitch_rad: np.ndarray
+    sensor_now_s: np.ndarray | None = None
+    truth_t_s: np.ndarray = _empty(0)
+    truth: np.ndarray = _empty(4, 0)               #: (4, M) quaternions x, y, z, w, or (2, M) roll and pitch
+    truth_arrival: np.ndarray = _empty(0, dtype=np.int64)
+    truth_now_s: np.ndarray | None = None
+    odometry_t_s: np.ndarray = _empty(0)
+    odometry_position_m: np.ndarray = _empty(3, 0)
+    odometry_velocity_m_s: np.ndarray = _empty(3, 0)
+    odometry_arrival: np.ndarray = _empty(0, dtype=np.int64)
+    odometry_now_s: np.ndarray | None = None
+    #: The sensor's orbit: from the odometry no older than this (s), or (None) from the columns below.
+    odometry_max_age_s: float | None = None
+    u_rad: np.ndarray | None = None           #: (N,) argument of latitude, NaN: unknown
+    inclination_rad: np.ndarray | None = None
+    altitude_m: np.ndarray | None = None
+    model_roll_rad: np.ndarray | None = None  #: (N,) the oblateness model itself (None: from the orbit)
+    model_pitch_rad: np.ndarray | None = None
+    poll_now_s: float | None = None
 
 
 class StatisticsSet:
@@ -227,18 +272,22 @@ class StatisticsSet:
             stats.reset()
 
 
-def ground_components(row, altitude_m: float) -> tuple[float, float, float]:
-    """(cross-track, along-track, circular) ground error, m, of a (roll, pitch, meridional) residual row.
+def ground_components(row, altitude_m):
+    """(cross-track, along-track, circular) ground error, m, of (roll, pitch, meridional) residuals (rad) seen
+    from ``altitude_m`` — floats or arrays.
 
     Cross-track goes with roll, along-track with pitch, circular with
     meridional; a lost angle gives NaN in its own component (and in the
-    circular one) only.
+    circular one) only; an unknown altitude (NaN, not positive) NaN in all.
     """
-    roll, pitch, meridional = row
-    error = nadir_ground_error(0.0 if math.isnan(roll) else roll, 0.0 if math.isnan(pitch) else pitch, altitude_m)
-    return (math.nan if math.isnan(roll) else error.cross_track_m,
-            math.nan if math.isnan(pitch) else error.along_track_m,
-            math.nan if math.isnan(meridional) else error.circular_m)
+    roll, pitch, meridional = (np.asarray(value, float) for value in row)
+    altitude = np.asarray(altitude_m, float)
+    lost_roll, lost_pitch = np.isnan(roll), np.isnan(pitch)
+    with np.errstate(invalid="ignore"):
+        altitude = np.where(np.isfinite(altitude) & (altitude > 0.0), altitude, np.nan)
+        error = nadir_ground_error(np.where(lost_roll, 0.0, roll), np.where(lost_pitch, 0.0, pitch), altitude)
+    return (np.where(lost_roll, np.nan, error.cross_track_m), np.where(lost_pitch, np.nan, error.along_track_m),
+            np.where(np.isnan(meridional), np.nan, error.circular_m))
 
 
 #: Status codes of :meth:`ErrorMonitor.add_batch`: a sample's code is its index here; PENDING_CODE while it waits.
@@ -262,23 +311,12 @@ class BatchOutcome:
     roll_rad: np.ndarray
     pitch_rad: np.ndarray
     meridional_rad: np.ndarray
+    earlier: list = field(default_factory=list)  #: :class:`Outcome` of samples of earlier inputs it settled
 
     @classmethod
     def empty(cls, n: int) -> "BatchOutcome":
         """N samples, all pending."""
         return cls(np.full(n, PENDING_CODE, np.int8), *(np.full(n, np.nan) for _ in range(5)))
-
-    def take(self, outcomes, index_of_stamp: dict) -> None:
-        """Record per-sample outcomes by their stamps (the per-sample path of add_batch)."""
-        for outcome in outcomes:
-            i = index_of_stamp.get(outcome.stamp_s)
-            if i is None:
-                continue
-            self.status[i] = BATCH_STATUSES.index(outcome.status)
-            if outcome.ok:
-                self.residual_roll_rad[i], self.residual_pitch_rad[i] = outcome.residual_roll_rad, outcome.residual_pitch_rad
-                self.roll_rad[i], self.pitch_rad[i] = outcome.roll_rad, outcome.pitch_rad
-                self.meridional_rad[i] = outcome.meridional_rad
 
 
 def orbit_record(t_s: float, position_eci_m, velocity_eci_m_s) -> tuple:
@@ -287,4 +325,4 @@ def orbit_record(t_s: float, position_eci_m, velocity_eci_m_s) -> tuple:
     u, inclination, altitude = orbit_angles_from_state(position_eci_m, velocity_eci_m_s)
     radius = math.hypot(*(float(c) for c in position_eci_m))
     speed = math.hypot(*(float(c) for c in velocity_eci_m_s))
-    return (t_s, u, inclination, altitude, speed / radius)
+    return (t_s, float(u), float(inclination), float(altitude), speed / radius)

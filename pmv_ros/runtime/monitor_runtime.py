@@ -150,9 +150,9 @@ class MonitorRuntime:
             return MonitorOutput()
         if stamp_s is None:
             return self._unreadable("sensor")
-        orbit = self.monitor.orbit_at(stamp_s, self.values["odometry_timeout_s"])
-        orbit.update(oblateness_override(self.values))
-        outcomes = self.monitor.add_sensor(stamp_s, roll_rad, pitch_rad, now_s=now_s, **orbit)
+        outcomes = self.monitor.add_sensor(stamp_s, roll_rad, pitch_rad, now_s=now_s,
+                                           odometry_max_age_s=self.values["odometry_timeout_s"],
+                                           **oblateness_override(self.values))
         output = self._residuals(outcomes)
         # A rejected sample (a zero or future stamp, say) must not move the statistics schedule.
         if not any(outcome.status in SENSOR_REJECTIONS for outcome in outcomes):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import math
 
 import numpy as np
@@ -332,20 +333,19 @@ def _hostile_batch(jump: bool):
     return t, roll, pitch, frames, q, arrival, clock, (position, velocity)
 
 
-@pytest.mark.parametrize("jump", [False, True], ids=["array-form", "clock-jump-per-sample"])
-def test_batch_equals_the_per_sample_monitor_with_bad_input(jump, monkeypatch):
-    """ErrorMonitor.add_batch gives the per-sample monitor's outcomes, counters and statistics, bad input included.
+@pytest.mark.parametrize("jump", [False, True], ids=["one-timeline", "clock-jump"])
+def test_one_batch_equals_the_same_input_message_by_message_with_bad_input(jump):
+    """ErrorMonitor.add_batch on a whole stretch gives what one message at a time gives: outcomes, counters,
+    statistics, the queue and the truth buffer — bad input included, and across a clock jump (two segments).
 
-    Without a clock jump the array form runs (the per-sample fallback is made to fail); with one, the batch is
-    fed sample by sample. 1e-9 arcmin: the same residuals summed in another order.
+    Both go through the one path; what differs is where the input is cut (a batch of one event per message,
+    one batch of 12,000 samples). 1e-9 arcmin: the same residuals summed in another order.
     """
     from pmv_ros.runtime.monitor_records import BATCH_STATUSES, PENDING_CODE
 
     t, roll, pitch, frames, q, arrival, now, (position, velocity) = _hostile_batch(jump)
     config = small_config(min_interval_s=0.002)
     live, batch = ErrorMonitor(config), ErrorMonitor(config)
-    if not jump:
-        monkeypatch.setattr(ErrorMonitor, "_add_batch_per_sample", lambda *a: pytest.fail("array form not used"))
     result = batch.add_batch(t, roll, pitch, frames, q, arrival, now_s=now, odometry=(position, velocity),
                              odometry_max_age_s=5.0)
     status = {}
@@ -385,20 +385,37 @@ def test_batch_equals_the_per_sample_monitor_with_bad_input(jump, monkeypatch):
             assert y.harmonics_rad[k] == pytest.approx(x.harmonics_rad[k], abs=1e-9 * ARCMIN_RAD, nan_ok=True)
 
 
-def _scan_inputs(t, roll, pitch, frames, q, arrival, now, odometry):
-    return dict(t=t, roll=roll, pitch=pitch, truth_t=frames, q=q, arrival=arrival, now=now, odometry=odometry)
+def _segments(monitor, feed):
+    """The segment of ``feed`` as the array scan and as the event-by-event scan make it, each on its own copy
+    of ``monitor`` (returned too)."""
+    from pmv_ros.runtime.monitor_scan import scan_clean
+
+    copies = []
+    for _ in range(2):
+        copied = copy.deepcopy(monitor)
+        copied._parts = []
+        copied._settle_open()  # what came before goes first, as in _feed
+        copied._serial += 1
+        copies.append(copied)
+    array, events = copies
+    segment = scan_clean(array, feed)
+    events._scan_events(feed)
+    return (array, segment), (events, events._segment(events._open))
 
 
-def test_the_array_scan_of_a_clean_batch_is_the_scalar_scan():
-    """ErrorMonitor._scan_clean_batch (the campaign's path) against _scan_batch, sample by sample, exactly.
+def test_the_array_scan_of_a_clean_batch_is_the_event_scan():
+    """monitor_scan.scan_clean (the campaign's path) against the event-by-event scan, sample by sample.
 
     A clean stream but for the input the clean path checks itself (angles of 1e3 rad, ±Inf, lost pairs;
-    far-from-unit, NaN and near-unit quaternions); a batch with a duplicate, a backward, a zero or a NaN
-    stamp, or a clock jump is left to the scalar scan (the clean path says None).
+    far-from-unit, NaN and near-unit quaternions): the same verdicts, event numbers, timeout clocks, truth and
+    state after it, exactly; the oblateness models within 1e-12 relative (the closed form on arrays against
+    one sample in floats). A batch with a duplicate, a backward, a zero or a NaN stamp, or a clock jump is
+    left to the event scan (the clean path says None), and so is a short one.
     """
+    from pmv_ros.runtime.monitor_scan import MIN_ARRAY_SAMPLES, scan_clean
+
     t, roll, pitch, frames, q, arrival, now, odometry = _hostile_batch(jump=False)
     clean_t = now.copy()  # stamps on the clock, every one on the timeline
-    q_clean = q.copy()
     frames_clean = frames.copy()  # frames as in the hostile batch, but no duplicate stamp
     frames_clean[20] = 0.5 * (frames_clean[19] + frames_clean[21])
     position, velocity = odometry
@@ -406,22 +423,34 @@ def test_the_array_scan_of_a_clean_batch_is_the_scalar_scan():
     position[:, 30] = position[:, 29]  # a plausible state
     config = small_config(min_interval_s=0.002)
     for monitor in (ErrorMonitor(config), _monitor_with_history(config)):
-        inputs = _scan_inputs(clean_t, roll, pitch, frames_clean, q_clean, arrival, now, (position, velocity))
-        fast, slow = monitor._scan_clean_batch(inputs), monitor._scan_batch(inputs)
-        assert fast is not None and slow is not None
-        assert fast["counters"] == slow["counters"]
-        assert fast["counters"]["rejected_sensor_implausible_angle"] and fast["counters"]["rejected_truth_non_finite"]
-        assert fast["counters"]["rejected_truth_bad_quaternion"] and fast["counters"]["truth_quaternions_normalised"]
-        for key in ("sensor_code", "sensor_event", "truth_event", "truth_t", "q_truth", "expiry_clock",
-                    "odometry_ok"):
-            assert np.array_equal(fast[key], slow[key], equal_nan=True), key
-        assert fast["clock"].latest_s == slow["clock"].latest_s
+        feed = monitor._batch_feed(clean_t, roll, pitch, frames_clean, q, arrival, now_s=now,
+                                   odometry=(position, velocity), odometry_max_age_s=5.0)
+        (fast, segment), (slow, reference) = _segments(monitor, feed)
+        assert segment is not None
+        assert fast.counters == slow.counters
+        counters = fast.counters
+        assert counters["rejected_sensor_implausible_angle"] and counters["rejected_truth_non_finite"]
+        assert counters["rejected_truth_bad_quaternion"] and counters["truth_quaternions_normalised"]
+        for name in ("sensor_code", "sensor_event", "truth_event", "expiry_clock_s"):
+            assert np.array_equal(getattr(segment, name), getattr(reference, name)), name
+        assert np.array_equal(segment.samples[:4], reference.samples[:4], equal_nan=True)
+        np.testing.assert_allclose(segment.samples[4:], reference.samples[4:], rtol=1e-12, atol=1e-15)
+        np.testing.assert_allclose(segment.truth, reference.truth, rtol=0.0, atol=1e-15)
+        assert fast._clock.latest_s == slow._clock.latest_s
         for stream in ("sensor", "truth", "odometry"):
-            assert fast["stamps"][stream].latest_s == slow["stamps"][stream].latest_s, stream
-    hostile = _scan_inputs(t, roll, pitch, frames, q, arrival, now, odometry)
-    assert ErrorMonitor(config)._scan_clean_batch(hostile) is None
-    jumped = _hostile_batch(jump=True)
-    assert ErrorMonitor(config)._scan_clean_batch(_scan_inputs(jumped[6], *jumped[1:])) is None
+            assert fast._stamps[stream].latest_s == slow._stamps[stream].latest_s, stream
+        assert np.allclose(fast._orbit, slow._orbit, rtol=1e-12, atol=0.0)
+    t, roll, pitch, frames, q, arrival, now, odometry = _hostile_batch(jump=False)  # bad stamps
+    monitor = ErrorMonitor(config)
+    assert scan_clean(monitor, monitor._batch_feed(t, roll, pitch, frames, q, arrival, now_s=now,
+                                                   odometry=odometry)) is None
+    t, roll, pitch, frames, q, arrival, now, odometry = _hostile_batch(jump=True)  # stamps on a jumping clock
+    assert scan_clean(monitor, monitor._batch_feed(now, roll, pitch, frames, q, arrival, now_s=now,
+                                                   odometry=odometry)) is None
+    assert monitor.counters == ErrorMonitor(config).counters  # a refused batch leaves nothing behind
+    short = ErrorMonitor(config)._batch_feed(clean_t[:MIN_ARRAY_SAMPLES - 1], roll[:MIN_ARRAY_SAMPLES - 1],
+                                             pitch[:MIN_ARRAY_SAMPLES - 1], [], np.empty((4, 0)), [])
+    assert scan_clean(ErrorMonitor(config), short) is None
 
 
 def _monitor_with_history(config):
@@ -430,3 +459,58 @@ def _monitor_with_history(config):
     monitor.add_truth_quaternion(99.0, [0.0, 0.0, 0.0, 1.0], now_s=99.0)
     monitor.add_sensor(99.5, 0.0, 0.0, now_s=99.5, u_rad=0.0, altitude_m=5e5, inclination_rad=1.3)
     return monitor
+
+
+@pytest.mark.parametrize("late_s", [0.0, 1.5], ids=["sensor-on-time", "sensor-late"])
+def test_where_the_input_is_cut_changes_nothing(late_s):
+    """The same events cut into batches of random sizes (1 … 300 samples: the event scan, the array scan, the
+    open segment and the queue carried from call to call) give the statuses, counters, statistics, queue and
+    truth buffer of one message at a time — with a short truth history, a small capacity and a small queue,
+    so that samples are also pushed out of the queue (the outage), reset at the jump, and — with the sensor
+    1.5 s late, truth then covering a sample on arrival — too old for the buffer. Statistics within 1e-9 arcmin (sums in another order).
+    """
+    from pmv_ros.runtime.monitor_records import BATCH_STATUSES, PENDING_CODE
+
+    t, roll, pitch, frames, q, arrival, now, (position, velocity) = _hostile_batch(jump=True)
+    t = t - late_s
+    config = small_config(min_interval_s=0.002, truth_history_s=1.0, truth_capacity=8, max_pending=20)
+    live, cut = ErrorMonitor(config), ErrorMonitor(config)
+    status = {}
+    j = 0
+    for i in range(t.size):
+        while j < frames.size and arrival[j] == i:
+            status.update((o.stamp_s, o.status) for o in live.add_truth_quaternion(frames[j], q[:, j], now_s=now[i]))
+            j += 1
+        live.add_odometry(t[i], position[:, i], velocity[:, i], now_s=now[i])
+        status.update((o.stamp_s, o.status) for o in live.take_settled())
+        for outcome in live.add_sensor(t[i], roll[i], pitch[i], now_s=now[i], odometry_max_age_s=5.0):
+            status[(i, "own") if isinstance(outcome.status, Rejection) else outcome.stamp_s] = outcome.status
+    rng = np.random.default_rng(11)
+    cut_status = {}
+    lo = 0
+    while lo < t.size:
+        hi = min(t.size, lo + int(rng.choice([1, 2, 5, 40, 300])))
+        mine = (arrival >= lo) & ((arrival < hi) | ((hi == t.size) & (arrival == t.size)))
+        result = cut.add_batch(t[lo:hi], roll[lo:hi], pitch[lo:hi], frames[mine], q[:, mine], arrival[mine] - lo,
+                               now_s=now[lo:hi], odometry=(position[:, lo:hi], velocity[:, lo:hi]),
+                               odometry_max_age_s=5.0)
+        cut_status.update((o.stamp_s, o.status) for o in result.earlier)
+        for k in range(hi - lo):
+            if result.status[k] != PENDING_CODE:
+                settled = BATCH_STATUSES[result.status[k]]
+                cut_status[(lo + k, "own") if isinstance(settled, Rejection) else float(t[lo + k])] = settled
+        lo = hi
+    values, counts = np.unique(t, return_counts=True)
+    once = set(values[counts == 1].tolist())  # after the jump back a stamp can come twice: not compared
+    compared = [key for key in status if not isinstance(key, float) or key in once]
+    assert len(compared) > 5000
+    assert {key: status[key] for key in compared} == {key: cut_status.get(key) for key in compared}
+    counters = {k: v for k, v in live.counters.items() if v}
+    assert counters == {k: v for k, v in cut.counters.items() if v}
+    assert counters["clock_jumps"] == 1 and counters["skipped_pending_overflow"] > 500
+    assert counters.get("skipped_too_old", 0) > 100 if late_s else counters["skipped_reset"]
+    assert live.pending_count == cut.pending_count and live.truth_buffer_length == cut.truth_buffer_length
+    for x, y in zip(live.summary().channels, cut.summary().channels):
+        assert x.count == y.count
+        for name in ("mean_rad", "sigma_rad", "max_abs_rad", "ground_sigma_m"):
+            assert getattr(y, name) == pytest.approx(getattr(x, name), abs=1e-9 * ARCMIN_RAD, rel=1e-9), name

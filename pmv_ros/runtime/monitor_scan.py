@@ -1,0 +1,195 @@
+"""The error monitor's validation of a clean batch on arrays: the campaign's flights, an orbit at a time.
+
+:func:`scan_clean` gives what :class:`~pmv_ros.runtime.monitor.ErrorMonitor`'s
+event-by-event scan gives — the same verdicts, counters, event numbers and
+timeout clocks, and the same stamp and clock state after it — for a batch in
+which no stamp and no clock reading needs the jump rule: every stamp on its
+stream's timeline, rising at no more than the rate limit and not in the
+future, the node clock steady. The checks that can refuse a clean stamp
+(angles, quaternions, orbit states) run on every sample. Any other batch,
+and a short one (where numpy's per-call cost is more than the loop's), gets
+``None`` and goes event by event.
+"""
+
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..physics.attitude import true_roll_pitch
+from ..physics.constants import GM_EARTH_M3_S2
+from ..physics.orbit import orbit_angles_from_state
+from .monitor_alignment import Segment, oblateness_model
+from .monitor_records import BATCH_STATUSES, PENDING_CODE, Feed
+from .validation import QUATERNION_NORM_TOLERANCE, UNIT_ROUNDING, Rejection
+
+#: Below this many sensor samples a batch goes event by event.
+MIN_ARRAY_SAMPLES = 32
+
+#: ``math.hypot`` of four arrays, element by element: the norm check_quaternion takes (numpy's hypot has two
+#: arguments and rounds otherwise).
+_HYPOT_4 = np.frompyfunc(math.hypot, 4, 1)
+
+
+def _orbit_records(t_s: np.ndarray, position_eci_m: np.ndarray, velocity_eci_m_s: np.ndarray) -> np.ndarray:
+    """:func:`~pmv_ros.runtime.monitor_records.orbit_record` of ``(N,)`` stamps and ``(3, N)`` states: ``(5, N)``."""
+    u, inclination, altitude = orbit_angles_from_state(position_eci_m, velocity_eci_m_s)
+    rate = np.linalg.norm(velocity_eci_m_s, axis=0) / np.linalg.norm(position_eci_m, axis=0)
+    return np.vstack([t_s, u, inclination, altitude, rate])
+
+
+def _stamps_clean(check, stamp: np.ndarray, clock_at) -> bool:
+    """Whether ``check`` accepts every one of the rising ``stamp`` as it stands, with no jump."""
+    if stamp.size == 0:
+        return True
+    if not np.all(np.isfinite(stamp)) or np.any(stamp <= 0.0):
+        return False
+    if clock_at is not None and np.any(stamp > clock_at + check.future_tolerance_s):
+        return False
+    steps = np.diff(stamp)
+    if np.any(steps <= 0.0) or np.any(steps < check.min_interval_s):
+        return False
+    latest = check.jumps.latest_s
+    return latest is None or (stamp[0] > latest and stamp[0] - latest >= check.min_interval_s)
+
+
+def _odometry_at_sensors(feed: Feed) -> bool:
+    """Whether the odometry is one state at each sensor stamp, just before it (:meth:`ErrorMonitor.add_batch`)."""
+    n = feed.t_s.size
+    return (feed.odometry_t_s.size == n and np.array_equal(feed.odometry_t_s, feed.t_s)
+            and np.array_equal(feed.odometry_arrival, np.arange(n))
+            and (feed.odometry_now_s is None) == (feed.sensor_now_s is None)
+            and (feed.sensor_now_s is None or np.array_equal(feed.odometry_now_s, feed.sensor_now_s)))
+
+
+def scan_clean(monitor, feed: Feed) -> Segment | None:
+    """The segment of a clean batch, with ``monitor``'s counters, timelines and orbit moved past it; or None
+    (nothing touched) for a batch that needs the event-by-event scan."""
+    t, truth_t, arrival, now = feed.t_s, feed.truth_t_s, feed.truth_arrival, feed.sensor_now_s
+    n, m = t.size, truth_t.size
+    if n < MIN_ARRAY_SAMPLES or feed.poll_now_s is not None or feed.truth.shape[0] != 4:
+        return None
+    with_odometry = feed.odometry_t_s.size > 0
+    if with_odometry and not _odometry_at_sensors(feed):
+        return None
+    if feed.truth_now_s is not None and (now is None or not np.array_equal(feed.truth_now_s,
+                                                                          now[np.minimum(arrival, n - 1)])):
+        return None
+    config, bounds = monitor.config, monitor.config.bounds
+    clock, stamps = monitor._clock, monitor._stamps
+    if clock.suspect_s is not None or any(check.jumps.suspect_s is not None for check in stamps.values()):
+        return None
+    counters = {}
+    # The node clock: every reading on the timeline (never back, never a forward jump), so each is "now".
+    if now is not None:
+        if not np.all(np.isfinite(now)) or np.any(np.diff(now) < 0.0):
+            return None
+        first = clock.latest_s
+        if first is not None and not (first - clock.threshold_s <= now[0] <= first + clock.forward_threshold_s):
+            return None
+        if np.any(np.diff(now) > clock.forward_threshold_s):
+            return None
+        clock_now = now if first is None else np.maximum(now, first)
+    truth_now = None if now is None else now[np.minimum(arrival, n - 1)]
+    # Truth: the quaternion check on each (exactly as check_quaternion), then the stamps of the good ones.
+    q = feed.truth
+    q_finite = np.all(np.isfinite(q), axis=0)
+    with np.errstate(invalid="ignore"):  # non-finite components: their norm is replaced by NaN just below
+        norms = np.where(q_finite, _HYPOT_4(*q).astype(float), math.nan) if m else np.empty(0)
+    truth_ok = q_finite & (np.abs(norms - 1.0) <= QUATERNION_NORM_TOLERANCE)
+    counters["truth_received"] = m
+    counters[f"rejected_truth_{Rejection.NON_FINITE.value}"] = int(m - np.count_nonzero(q_finite))
+    counters[f"rejected_truth_{Rejection.BAD_QUATERNION.value}"] = int(np.count_nonzero(q_finite & ~truth_ok))
+    counters["truth_quaternions_normalised"] = int(np.count_nonzero(truth_ok & (np.abs(norms - 1.0) > UNIT_ROUNDING)))
+    if not _stamps_clean(stamps["truth"], truth_t[truth_ok], None if now is None else truth_now[truth_ok]):
+        return None
+    # Odometry at each sensor stamp: plausible states (with a margin on every bound; a state near one goes
+    # event by event), then the stamps.
+    if with_odometry:
+        position, velocity = feed.odometry_position_m, feed.odometry_velocity_m_s
+        if not (np.all(np.isfinite(position)) and np.all(np.isfinite(velocity))):
+            return None
+        radius = np.sqrt(np.sum(position * position, axis=0))
+        speed = np.sqrt(np.sum(velocity * velocity, axis=0))
+        margin = 1.0 + 1e-9
+        with np.errstate(divide="ignore"):  # a state at the centre: infinite energy bound, refused below
+            plausible = ((bounds.min_orbit_radius_m * margin < radius)
+                         & (radius * margin < bounds.max_orbit_radius_m)
+                         & (bounds.min_orbit_speed_m_s * margin < speed)
+                         & (speed * margin < bounds.max_orbit_speed_m_s)
+                         & (0.5 * speed * speed * margin < GM_EARTH_M3_S2 / radius))
+        if not np.all(plausible) or not _stamps_clean(stamps["odometry"], t, now):
+            return None
+        counters["odometry_received"] = n
+    # Sensor: the angle check (NaN passes: a lost pair; check_angles looks at roll first), then the stamps.
+    roll, pitch = feed.roll_rad, feed.pitch_rad
+    limit = bounds.max_abs_angle_rad
+    roll_infinite, roll_large = np.isinf(roll), ~np.isinf(roll) & (np.abs(roll) > limit)
+    pitch_infinite, pitch_large = np.isinf(pitch), ~np.isinf(pitch) & (np.abs(pitch) > limit)
+    roll_fine = ~roll_infinite & ~roll_large
+    infinite = roll_infinite | (roll_fine & pitch_infinite)
+    too_large = roll_large | (roll_fine & pitch_large)
+    sensor_ok = ~infinite & ~too_large
+    if not _stamps_clean(stamps["sensor"], t[sensor_ok], None if now is None else now[sensor_ok]):
+        return None
+    # Clean: from here on the monitor's state moves.
+    sensor_code = np.full(n, PENDING_CODE, np.int64)
+    sensor_code[infinite] = BATCH_STATUSES.index(Rejection.NON_FINITE)
+    sensor_code[too_large] = BATCH_STATUSES.index(Rejection.IMPLAUSIBLE_ANGLE)
+    counters["sensor_received"] = n
+    counters[f"rejected_sensor_{Rejection.NON_FINITE.value}"] = int(np.count_nonzero(infinite))
+    counters[f"rejected_sensor_{Rejection.IMPLAUSIBLE_ANGLE.value}"] = int(np.count_nonzero(too_large))
+    for name, value in counters.items():
+        monitor._counters[name] += value
+    # Events in arrival order: before sensor sample i, the truth samples arriving at i.
+    sensor_event = np.arange(n) + np.searchsorted(arrival, np.arange(n), side="right")
+    truth_event = np.arange(m) + arrival
+    # What a timeout compares with after each event: the newest accepted sensor stamp or the clock.
+    newest = stamps["sensor"].latest_s
+    accepted = np.where(sensor_ok, t, -math.inf)
+    newest_after = np.maximum.accumulate(accepted)
+    if newest is not None:
+        newest_after = np.maximum(newest_after, newest)
+    before = np.concatenate([[-math.inf if newest is None else newest], newest_after])  # before sample i
+    expiry_clock = np.empty(n + m)
+    expiry_clock[sensor_event] = newest_after
+    expiry_clock[truth_event] = before[arrival]
+    if now is not None:
+        expiry_clock[sensor_event] = np.maximum(expiry_clock[sensor_event], clock_now)
+        expiry_clock[truth_event] = np.maximum(expiry_clock[truth_event], clock_now[np.minimum(arrival, n - 1)])
+    for stream, good in (("truth", truth_t[truth_ok]), ("sensor", t[sensor_ok]),
+                         ("odometry", t if with_odometry else t[:0])):
+        if good.size:
+            stamps[stream].jumps.latest_s = float(good[-1])
+    if now is not None:
+        clock.latest_s = float(clock_now[-1])
+    # The oblateness model of each sample: given, or at its orbit — its own odometry (just before it, so
+    # of age 0) or the orbit columns.
+    if with_odometry:
+        records = _orbit_records(t, feed.odometry_position_m, feed.odometry_velocity_m_s)
+        monitor._orbit = tuple(float(c) for c in records[:, -1])
+        u, inclination, altitude = records[1], records[2], records[3]
+    elif feed.odometry_max_age_s is not None:
+        u = np.full(n, math.nan)
+        inclination = np.full(n, math.nan if config.inclination_rad is None else config.inclination_rad)
+        altitude = np.full(n, math.nan if config.altitude_m is None else config.altitude_m)
+        if monitor._orbit is not None:
+            stamp, u0, inclination0, altitude0, rate = monitor._orbit
+            fresh = np.abs(t - stamp) <= feed.odometry_max_age_s
+            u = np.where(fresh, u0 + rate * (t - stamp), u)
+            inclination = np.where(fresh, inclination0, inclination)
+            altitude = np.where(fresh, altitude0, altitude)
+    else:
+        u, inclination, altitude = feed.u_rad, feed.inclination_rad, feed.altitude_m
+    if feed.model_roll_rad is not None:
+        model_roll, model_pitch = feed.model_roll_rad, feed.model_pitch_rad
+    else:
+        model_roll, model_pitch = oblateness_model(u, altitude, inclination)
+    truth_roll, truth_pitch = (true_roll_pitch(q[:, truth_ok] / norms[truth_ok]) if np.any(truth_ok)
+                               else (np.empty(0), np.empty(0)))
+    samples = np.vstack((np.arange(n, dtype=float), t, roll, pitch, np.broadcast_to(model_roll, (n,)),
+                         np.broadcast_to(model_pitch, (n,)), np.broadcast_to(altitude, (n,))))
+    truth = np.vstack((truth_t[truth_ok], np.atleast_1d(truth_roll), np.atleast_1d(truth_pitch)))
+    return Segment(samples, sensor_code, sensor_event, truth, truth_event[truth_ok], expiry_clock)
