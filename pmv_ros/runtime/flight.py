@@ -9,13 +9,13 @@ and seed. Used by ``pmv campaign``.
 
 What each node does, and what runs it here:
 
-* sensor_node (fast time, stepped): samples at the node's own stamps
-  (:func:`~pmv_ros.runtime.sample_stream.stepped_times`: its clock summed step
-  by step from ``sim.start_time_s``), the attitude from its profile, sensed
-  in the node's blocks (:func:`~pmv_ros.runtime.sample_stream.fast_time_block`,
-  stepped), whole blocks to the last (the node computes a block ahead). The
-  environment's fields are evaluated on time grids spanning each block, so
-  another grouping — even a shorter last block — moves roll by ≈ 2e-4′.
+* sensor_node (fast time, stepped): the node's own runtime,
+  :class:`~pmv_ros.runtime.sensor_runtime.SensorRuntime`, stepped a block at
+  a time (:meth:`~pmv_ros.runtime.sensor_runtime.SensorRuntime.step_block`:
+  its clock summed step by step from ``sim.start_time_s``, the block its
+  stream computes ahead at the block's first step), whole blocks to the last.
+  The environment's fields are evaluated on time grids spanning each block,
+  so another grouping — even a shorter last block — moves roll by ≈ 2e-4′.
 * star_tracker_node: the node's own runtime,
   :class:`~pmv_ros.runtime.tracker.TrackerRuntime`, fed the whole truth stream
   as one batch (:func:`tracker_frames`; the node feeds it one message at a
@@ -38,11 +38,19 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..physics.orbit import geocentric_latitude_longitude
-from .assembly import MONITOR_PARAMS, NODE_PARAMS, SENSOR_PARAMS, STAR_TRACKER_PARAMS, build_models, build_monitor
+from .assembly import (
+    MONITOR_PARAMS,
+    NODE_PARAMS,
+    READ_CORRECTION,
+    SENSOR_PARAMS,
+    STAR_TRACKER_PARAMS,
+    build_monitor,
+)
 from .monitor_runtime import oblateness_override
 from .monitor_records import BATCH_STATUSES, PENDING_CODE, MonitorSummary
 from .parameters import ParameterError, preset_values, unknown_parameter_problem
-from .sample_stream import fast_time_block, stepped_times
+from .sample_stream import fast_time_block
+from .sensor_runtime import SensorRuntime
 from .tracker import TrackerFrames, TrackerRuntime, track_stream
 
 #: Sample outcome codes in flight tables: the monitor's batch codes (0 is OK), PENDING_CODE still waiting at the end.
@@ -143,19 +151,15 @@ def fly(values: FlightValues, samples: int) -> Flight:
         raise ValueError("attitude.source = follow: a flight needs the sensor's own attitude profile")
     if samples < 2:
         raise ValueError(f"samples = {samples}: a flight needs at least 2")
-    orbit, profile, model = build_models(sensor)
-    block = sense_block(sensor)
-    # Whole blocks, as the node computes them (the last one too: the environment's time grid spans a block).
-    whole = -(-samples // block) * block
-    t = stepped_times(sensor["sim.start_time_s"], 1.0 / sensor["sensor.rate_hz"], whole, block)
-    q = profile.quaternion(t)
-    roll = np.empty(whole)
-    pitch = np.empty(whole)
-    for lo in range(0, whole, block):
-        reading = model.sense(t[lo:lo + block], q[:, lo:lo + block])
-        roll[lo:lo + block] = reading.sensed_roll_rad
-        pitch[lo:lo + block] = reading.sensed_pitch_rad
-    t, q, roll, pitch = t[:samples], q[:, :samples], roll[:samples], pitch[:samples]
+    # The sensor: its own runtime stepped in fast time, a block at a time, whole blocks to the last.
+    runtime = SensorRuntime(sensor, clock_epoch_s=0.0, correction=READ_CORRECTION, stepped=True)
+    blocks = []
+    for _ in range(-(-samples // runtime.fast_time_block)):
+        times, attitude, reading = runtime.step_block()  # only what the flight keeps of each block
+        blocks.append((times, attitude, reading.sensed_roll_rad, reading.sensed_pitch_rad))
+    t, roll, pitch = (np.concatenate([block[k] for block in blocks])[:samples] for k in (0, 2, 3))
+    q = np.concatenate([block[1] for block in blocks], axis=1)[:, :samples]
+    orbit = runtime.orbit
     frames = tracker_frames(t, q, values.star_tracker, start_s=0.0)
     published = np.flatnonzero(frames.released_at >= 0)  # in release order = frame order
     position, velocity = orbit.state_eci(t)  # what /orbit/odometry carries

@@ -57,22 +57,6 @@ def block_times(first_s: float, period_s: float, block: int) -> np.ndarray:
     return first_s + period_s * np.arange(block)
 
 
-def stepped_times(start_s: float, period_s: float, samples: int, block: int) -> np.ndarray:
-    """The stamps of the first ``samples`` samples of a sensor stepped in fast time, s — exactly as it stamps them.
-
-    The node's clock starts at ``start_s`` and advances by ``period_s`` per
-    step, one float addition at a time
-    (:meth:`pmv_ros.runtime.sensor_runtime.SensorRuntime.step`); a block
-    starts at the clock of its first step and runs on :func:`block_times`. The
-    sensor model's fields are evaluated on grids of these very times, so a
-    flight that means to sense what the node senses uses them.
-    """
-    clock = np.add.accumulate(np.r_[float(start_s), np.full(samples, float(period_s))])[1:]  # sequential sums
-    firsts = clock[::block]
-    times = np.concatenate([block_times(first, period_s, block) for first in firsts.tolist()])
-    return times[:samples]
-
-
 #: Grid times within this fraction of a period after the clock reading are due already: a clock
 #: stepping by whole periods lands on the grid up to rounding (1 s = 10 × 0.1 s in binary floats).
 GRID_TOLERANCE = 1e-6
@@ -163,11 +147,18 @@ class SampleStream:
         """Drop the precomputed samples (the models changed)."""
         self._pending.clear()
 
+    def profile_block(self, first_s: float, period_s: float, block: int):
+        """The own profile's block of ``block`` samples from ``first_s`` (:func:`block_times`): (stamps
+        ``(block,)`` s, attitude ``(4, block)``, the instrument's reading) — what a sensor in fast time computes
+        ahead at the first step of a block, sample by sample (:meth:`next_profile_sample`) or whole (a flight)."""
+        times = block_times(first_s, period_s, block)
+        q = self.profile.quaternion(times)
+        return times, q, self.model.sense(times, q)
+
     def next_profile_sample(self, t_s: float, period_s: float, block: int) -> SensorSample:
         """The own-profile sample at ``t_s``, from the pending block or a new one of ``block`` samples."""
         if not self._pending:
-            times = block_times(t_s, period_s, block)
-            self._pending = deque(self.rows(times, self.profile.quaternion(times)))
+            self._pending = deque(self.rows(*self.profile_block(t_s, period_s, block)))
         return self._pending.popleft()
 
     def grid_profile_samples(self, grid: SampleGrid, indices: range) -> list[SensorSample]:
@@ -196,9 +187,10 @@ class SampleStream:
         return [row for start in range(0, times.size, FAST_TIME_BLOCK)
                 for row in self.rows(times[start:start + FAST_TIME_BLOCK], q[start:start + FAST_TIME_BLOCK].T)]
 
-    def rows(self, times: np.ndarray, q: np.ndarray) -> list[SensorSample]:
-        """Run the instrument for ``(N,)`` times and ``(4, N)`` attitudes: N samples."""
-        reading = self.model.sense(times, q)
+    def rows(self, times: np.ndarray, q: np.ndarray, reading=None) -> list[SensorSample]:
+        """Run the instrument for ``(N,)`` times and ``(4, N)`` attitudes (or take its ``reading`` of them): N samples."""
+        if reading is None:
+            reading = self.model.sense(times, q)
         position, velocity = self.orbit.state_eci(times)
         status, blinding = reading.chord_status, reading.blinding_body
         line_of_sight = reading.line_of_sight_sensor.transpose(2, 1, 0)  # (N, 4, 3)

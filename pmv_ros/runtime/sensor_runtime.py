@@ -253,11 +253,27 @@ class SensorRuntime:
 
     # -- ticks ----------------------------------------------------------------------------------
 
+    def _advance(self) -> float:
+        """Fast time: the simulation clock one sensor period on (one float addition per step), s."""
+        self.sim_time_s += 1.0 / self.values["sensor.rate_hz"]
+        return self.sim_time_s
+
+    def step_block(self):
+        """Fast time, stepped, the own profile on its own orbit: a whole block of steps at once — what
+        :meth:`step` senses over the same steps, as arrays (a campaign's flight): (stamps ``(B,)`` s, attitude
+        ``(4, B)``, the instrument's reading). Only at a block's start, and with nothing counted or published."""
+        if self.following or self.orbit_following or not self.values["sim.fast_time"] or self.stream.pending:
+            raise ValueError("step_block: fast time with the own attitude profile and orbit, at a block's start")
+        block = self.fast_time_block
+        first_s = self._advance()
+        for _ in range(block - 1):
+            self._advance()
+        return self.stream.profile_block(first_s, 1.0 / self.values["sensor.rate_hz"], block)
+
     def step(self) -> SensorOutput:
         """Fast time: advance the simulation clock by one sensor period and sense that sample."""
         period = 1.0 / self.values["sensor.rate_hz"]
-        self.sim_time_s += period
-        t_s = self.sim_time_s
+        t_s = self._advance()
         if self.following:
             self._sense_following([(t_s, *self.truth.attitude_at(t_s))])
         elif self.orbit_following:

@@ -23,8 +23,9 @@ def runtime_of(values: dict, **options) -> SensorRuntime:
 
 
 def test_stepped_samples_are_the_campaign_flights_samples_bit_for_bit():
-    # The campaign's flight senses what the stepped node senses: the same stamps, blocks and numbers
-    # (more than one block, so the block boundary is crossed).
+    # The campaign's flight steps the node's runtime a block at a time (step_block, arrays); the node steps it
+    # sample by sample (step, rows): the same stamps, blocks and numbers (more than one block, so the block
+    # boundary is crossed, and a last block cut short).
     document = yaml.safe_load((REPO / "config" / "kondor.yaml").read_text())
     values = flight_values(document, {"sensor.rate_hz": 10.0})
     count = FAST_TIME_BLOCK + 40
