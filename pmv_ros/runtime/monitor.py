@@ -74,12 +74,10 @@ import math
 import numpy as np
 
 from ..analysis.statistics import CHANNELS, DEFAULT_MAX_CONDITION, ChannelStatistics, OrbitRing, update_rows
-from ..physics.attitude import true_roll_pitch
-from .monitor_alignment import SAMPLE_ROWS, Alignment, Segment, Settled, oblateness_model
+from .monitor_alignment import Alignment, Segment, Settled
 from .monitor_records import (
     BATCH_STATUSES,
     COUNTER_NAMES,
-    PENDING_CODE,
     SKIP_REASONS,
     BatchOutcome,
     Feed,
@@ -89,26 +87,14 @@ from .monitor_records import (
     StatisticsSet,
     Status,
     ground_components,
-    orbit_record,
 )
-from .monitor_scan import MIN_ARRAY_SAMPLES, scan_clean
-from .validation import (
-    Jump,
-    JumpDetector,
-    Rejection,
-    StampCheck,
-    check_angles,
-    check_orbit_state,
-    check_quaternion,
-)
+from .monitor_scan import MIN_ARRAY_SAMPLES, EventScan, OpenSegment, scan_clean
+from .validation import JumpDetector, Rejection, StampCheck
 
 _SKIP_CODES = {BATCH_STATUSES.index(status): f"skipped_{status.value}" for status in SKIP_REASONS}
 _OK = BATCH_STATUSES.index(Status.OK)
-_TRUTH, _ODOMETRY, _SENSOR, _POLL = range(4)
 _FIRST = (0,)  # the arrival of the one truth or odometry sample of a one-event input
 
-#: The open segment is settled at this many events whatever they are (memory stays bounded).
-OPEN_EVENTS = 256
 #: Used samples kept for the statistics before they go in whether or not anyone reads them (memory bound).
 UNACCOUNTED_ROWS = 4096
 
@@ -123,33 +109,7 @@ def _one(value) -> list:
     return [math.nan if value is None else float(value)]
 
 
-class _Open:
-    """The open segment: events scanned since the last settle, not settled yet (nothing in them had to be).
-
-    An event settles nothing unless truth arrives (it may cover waiting samples; it goes into the buffer), a
-    sample is covered on arrival, a wait runs out, the queue overflows, or a sample is refused or has no
-    angle; the scan flags those (``due``) and the segment is settled at the end of that input. So a 10 Hz
-    sensor with 2 Hz truth costs the arrays twice a second, and between inputs the open segment holds only
-    sensor samples that wait.
-    """
-
-    def __init__(self) -> None:
-        self.sensor: list = []      # per sample: _SAMPLE_COLUMNS
-        self.truth: list = []       # (stamp, roll, pitch, event)
-        self.expiry: list = []      # per event: what times waiting samples out
-        self.due = False
-        self.waiting = 0            # samples in it that may wait for truth
-        self.oldest_s = math.inf    # the oldest of them
-
-
-#: A gathered sensor sample: the input it came with and its place there, its verdict and event, its values,
-#: its oblateness model (NaN: none) and altitude (for the ground error).
-_SAMPLE_COLUMNS = ("serial", "index", "code", "event", "t_s", "roll_rad", "pitch_rad", "model_roll_rad",
-                   "model_pitch_rad", "altitude_m")
-_SAMPLE_ROWS = [_SAMPLE_COLUMNS.index(name) for name in SAMPLE_ROWS]
-
-
-class ErrorMonitor:
+class ErrorMonitor(EventScan):
     """Align sensor roll/pitch with star-tracker truth and keep live error statistics (physics.md §5, §5.1, §6, §7).
 
     Feed it with :meth:`add_truth` (or :meth:`add_truth_quaternion`), :meth:`add_odometry` and
@@ -173,7 +133,7 @@ class ErrorMonitor:
         self._orbit = None  # orbit_record of the latest accepted odometry since the last reset
         self._later: list[Settled] = []  # settled by an odometry message: handed out by take_settled / poll
         self._odometry_rejection = None
-        self._open = _Open()
+        self._open = OpenSegment()
         self._serial = 0  # inputs so far: a sample's index means something in its own input only
         self._parts: list[Settled] = []  # what the current input settled so far
         self._unaccounted: list = []  # used samples not in the statistics yet: (stamps, angles (6, n), altitude)
@@ -196,7 +156,7 @@ class ErrorMonitor:
         self._settle_open()
         self._parts.append(self._account(self._alignment.take_pending()))
         self._reset_alignment_state()
-        self._open = _Open()
+        self._open = OpenSegment()
         self._counters["alignment_resets"] += 1
 
     def reset_alignment(self) -> list[Outcome]:
@@ -210,7 +170,7 @@ class ErrorMonitor:
         """Forget everything: alignment, statistics and counters."""
         self._alignment.clear()
         self._later.clear()
-        self._open = _Open()
+        self._open = OpenSegment()
         self._unaccounted, self._unaccounted_count = [], 0
         self._reset_alignment_state()
         for statistics in self._sets.values():
@@ -461,176 +421,10 @@ class ErrorMonitor:
             self._parts.append(self._settle(self._segment(self._open)))
         elif self._open.truth or self._open.sensor:
             raise RuntimeError("monitor: samples gathered without an event")
-        self._open = _Open()
+        self._open = OpenSegment()
 
     def _settle(self, segment: Segment) -> Settled:
         return self._account(self._alignment.settle(segment))
-
-    def _segment(self, gathered: _Open) -> Segment:
-        """The open segment's events as a :class:`Segment`, with each sample's oblateness model and altitude."""
-        rows = np.array(gathered.sensor, float).reshape(-1, len(_SAMPLE_COLUMNS)).T
-        rows[1] = np.where(rows[0] == self._serial, rows[1], -1.0)  # a place in an earlier input means nothing
-        truth = np.array(gathered.truth, float).reshape(-1, 4).T
-        return Segment(rows[_SAMPLE_ROWS], rows[2].astype(np.int64), rows[3].astype(np.int64), truth[:3],
-                       truth[3].astype(np.int64), np.array(gathered.expiry, float))
-
-    # -- the event-by-event scan: any input, clock jumps included
-
-    def _scan_events(self, feed: Feed) -> None:
-        """Validate ``feed`` event by event into the open segment; a confirmed clock jump settles what came
-        before it and resets."""
-        n, m, k = len(feed.t_s), len(feed.truth_t_s), len(feed.odometry_t_s)
-        if n + m + k == 1:
-            order = [(_SENSOR, 0)] if n else [(_TRUTH, 0)] if m else [(_ODOMETRY, 0)]
-        else:
-            truth_at = np.searchsorted(feed.truth_arrival, np.arange(n + 2), side="left").tolist()
-            odometry_at = np.searchsorted(feed.odometry_arrival, np.arange(n + 2), side="left").tolist()
-            order = []
-            for i in range(n + 1):
-                order += [(_TRUTH, j) for j in range(truth_at[i], truth_at[i + 1])]
-                order += [(_ODOMETRY, j) for j in range(odometry_at[i], odometry_at[i + 1])]
-                if i < n:
-                    order.append((_SENSOR, i))
-        if feed.poll_now_s is not None:
-            order.append((_POLL, 0))
-        handlers = (self._truth_event, self._odometry_event, self._sensor_event, self._poll_event)
-        for kind, k in order:
-            handlers[kind](feed, k)
-
-    def _restart(self) -> None:
-        """A confirmed jump mid-input: settle the events before it, then reset (a new segment)."""
-        self._reset()
-
-    def _observe(self, now_s) -> float | None:
-        """Watch the node clock for jumps; the clock that times out waiting samples (None: no clock).
-
-        While a jump of the clock is unconfirmed, waiting samples are timed by the old clock (a forged
-        /clock a year ahead must not expire them); the future-stamp check takes the clock as it reads.
-        """
-        if now_s is None or not math.isfinite(now_s):
-            return None
-        verdict = self._clock.observe(now_s)
-        if verdict is Jump.CONFIRMED_BACK:
-            self._counters["clock_jumps"] += 1
-            self._restart()
-            self._clock.observe(now_s)
-        elif verdict is Jump.OUTLIER:
-            self._counters["clock_outliers"] += 1
-        return self._clock.latest_s
-
-    def _check_stamp(self, stream: str, t_s: float, now_s) -> Rejection | None:
-        """Check the stamp of a sample whose values passed; a confirmed jump resets the alignment once."""
-        check = self._stamps[stream]
-        outliers = check.outliers
-        rejection, jumped = check.check(t_s, now_s)
-        self._counters["clock_outliers"] += check.outliers - outliers
-        if not jumped:
-            return rejection
-        self._counters["clock_jumps"] += 1
-        self._restart()
-        check.check(t_s, now_s)  # the first stamp of the new timeline
-        return None
-
-    def _close_event(self, clock_s) -> None:
-        """End an event of the open segment: its timeout clock, and whether a wait runs out at it."""
-        latest = self._stamps["sensor"].latest_s
-        if clock_s is not None:
-            latest = clock_s if latest is None else max(latest, clock_s)
-        expiry = -math.inf if latest is None else latest
-        gathered = self._open
-        gathered.expiry.append(expiry)
-        oldest = self._alignment.pending[1, 0] if self._alignment.pending_count else gathered.oldest_s
-        if expiry - oldest > self.config.max_truth_wait_s or len(gathered.expiry) >= OPEN_EVENTS:
-            gathered.due = True
-
-    @staticmethod
-    def _now(column, k: int):
-        return None if column is None else float(column[k])
-
-    def _truth_event(self, feed: Feed, j: int) -> None:
-        self._counters["truth_received"] += 1
-        now_s = self._now(feed.truth_now_s, j)
-        clock_s = self._observe(now_s)
-        t_s = float(feed.truth_t_s[j])
-        if feed.truth.shape[0] == 4:
-            unit, rejection, normalised = check_quaternion(feed.truth[:, j])
-            if rejection is None:
-                self._counters["truth_quaternions_normalised"] += normalised
-                roll, pitch = true_roll_pitch(unit)
-        else:
-            roll, pitch = float(feed.truth[0, j]), float(feed.truth[1, j])
-            # Truth is complete, or it is no truth.
-            rejection = None if math.isfinite(roll) and math.isfinite(pitch) else Rejection.NON_FINITE
-        if rejection is None:
-            rejection = self._check_stamp("truth", t_s, now_s)
-        gathered = self._open
-        if rejection is not None:
-            self._counters[f"rejected_truth_{rejection.value}"] += 1
-        else:
-            gathered.truth.append((t_s, float(roll), float(pitch), len(gathered.expiry)))
-            gathered.due = True  # truth goes into the buffer with the input that brought it
-        self._close_event(clock_s)
-
-    def _odometry_event(self, feed: Feed, k: int) -> None:
-        self._counters["odometry_received"] += 1
-        now_s = self._now(feed.odometry_now_s, k)
-        self._observe(now_s)
-        t_s = float(feed.odometry_t_s[k])
-        position, velocity = feed.odometry_position_m[:, k], feed.odometry_velocity_m_s[:, k]
-        rejection = check_orbit_state(position, velocity, self.config.bounds)
-        if rejection is None:
-            rejection = self._check_stamp("odometry", t_s, now_s)
-        self._odometry_rejection = rejection
-        if rejection is not None:
-            self._counters[f"rejected_odometry_{rejection.value}"] += 1
-            return
-        self._orbit = orbit_record(t_s, position, velocity)
-
-    def _sensor_event(self, feed: Feed, i: int) -> None:
-        self._counters["sensor_received"] += 1
-        now_s = self._now(feed.sensor_now_s, i)
-        clock_s = self._observe(now_s)
-        t_s, roll, pitch = float(feed.t_s[i]), float(feed.roll_rad[i]), float(feed.pitch_rad[i])
-        rejection = check_angles(roll, pitch, self.config.bounds.max_abs_angle_rad, allow_nan=True)
-        if rejection is None:
-            rejection = self._check_stamp("sensor", t_s, now_s)
-        gathered = self._open
-        code = PENDING_CODE
-        if rejection is not None:
-            self._counters[f"rejected_sensor_{rejection.value}"] += 1
-            code = BATCH_STATUSES.index(rejection)
-            gathered.due = True
-        elif math.isnan(roll) and math.isnan(pitch):
-            gathered.due = True
-        elif (self._stamps["truth"].latest_s or -math.inf) >= t_s:
-            gathered.due = True  # covered on arrival
-        else:
-            gathered.waiting += 1
-            gathered.oldest_s = min(gathered.oldest_s, t_s)
-            if gathered.waiting + self._alignment.pending_count > self.config.max_pending:
-                gathered.due = True
-        gathered.sensor.append((self._serial, i, code, len(gathered.expiry), t_s, roll, pitch)
-                               + self._model(feed, i, t_s))
-        self._close_event(clock_s)
-
-    def _model(self, feed: Feed, i: int, t_s: float) -> tuple:
-        """(model roll, model pitch, altitude) of sensor sample ``i`` of ``feed``: the model given with it, or
-        the closed form at its orbit (the odometry's, or the orbit columns); NaN where unknown."""
-        if feed.odometry_max_age_s is not None:
-            orbit = self.orbit_at(t_s, feed.odometry_max_age_s)
-            config = self.config
-            u = orbit.get("u_rad", math.nan)
-            inclination = orbit.get("inclination_rad", math.nan if config.inclination_rad is None
-                                    else config.inclination_rad)
-            altitude = orbit.get("altitude_m", math.nan if config.altitude_m is None else config.altitude_m)
-        else:
-            u, inclination, altitude = float(feed.u_rad[i]), float(feed.inclination_rad[i]), float(feed.altitude_m[i])
-        if feed.model_roll_rad is not None:
-            return float(feed.model_roll_rad[i]), float(feed.model_pitch_rad[i]), altitude
-        return oblateness_model(u, altitude, inclination) + (altitude,)
-
-    def _poll_event(self, feed: Feed, _: int) -> None:
-        self._close_event(self._observe(feed.poll_now_s))
 
     # -------------------------------------------------------------- statistics
 
