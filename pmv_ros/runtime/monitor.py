@@ -57,12 +57,14 @@ One path
     Every input is a batch: one message is a batch of one event
     (:meth:`add_sensor`, :meth:`add_truth_quaternion`, :meth:`add_odometry`,
     :meth:`poll`), a campaign's flight a batch of an orbit
-    (:meth:`add_batch`). The inputs are validated in arrival order (on arrays
-    when a batch is clean: :mod:`pmv_ros.runtime.monitor_scan`), the stretch
-    between two clock jumps is aligned on arrays
-    (:mod:`pmv_ros.runtime.monitor_alignment`) and its residuals enter the
-    statistics at once. How the same events are cut into batches changes
-    nothing but the order in which sums are taken (≈ 1e-15 relative).
+    (:meth:`add_batch`). The inputs are validated in arrival order, into an
+    open segment (:mod:`pmv_ros.runtime.monitor_scan`; on arrays when a batch
+    is clean); a segment — never across a clock jump — is aligned on arrays
+    (:mod:`pmv_ros.runtime.monitor_alignment`) at the end of the input that
+    makes anything in it settle, and the used samples enter the statistics
+    when these are read (:meth:`summary`). How the same events are cut into
+    batches changes nothing but the order in which sums are taken (≈ 1e-15
+    relative).
 
 Not thread-safe: call it from one executor thread.
 """
