@@ -188,7 +188,8 @@ class SampleStream:
                 for row in self.rows(times[start:start + FAST_TIME_BLOCK], q[start:start + FAST_TIME_BLOCK].T)]
 
     def rows(self, times: np.ndarray, q: np.ndarray, reading=None) -> list[SensorSample]:
-        """Run the instrument for ``(N,)`` times and ``(4, N)`` attitudes (or take its ``reading`` of them): N samples."""
+        """Run the instrument for ``(N,)`` times and ``(4, N)`` attitudes (or take its ``reading`` of them):
+        N samples."""
         if reading is None:
             reading = self.model.sense(times, q)
         position, velocity = self.orbit.state_eci(times)

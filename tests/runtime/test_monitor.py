@@ -474,7 +474,8 @@ def test_where_the_input_is_cut_changes_nothing(late_s):
     open segment and the queue carried from call to call) give the statuses, counters, statistics, queue and
     truth buffer of one message at a time — with a short truth history, a small capacity and a small queue,
     so that samples are also pushed out of the queue (the outage), reset at the jump, and — with the sensor
-    1.5 s late, truth then covering a sample on arrival — too old for the buffer. Statistics within 1e-9 arcmin (sums in another order).
+    1.5 s late, truth then covering a sample on arrival — too old for the buffer. Statistics within 1e-9
+    arcmin (sums in another order).
     """
     from pmv_ros.runtime.monitor_records import BATCH_STATUSES, PENDING_CODE
 
