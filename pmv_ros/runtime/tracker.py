@@ -149,7 +149,7 @@ class TrackerRuntime:
             if count:
                 self.outcomes[Outcome(code)] += count
         self.last_outcome = Outcome(int(outcome[-1]))
-        ok = outcome == Outcome.OK
+        ok = outcome == Outcome.OK.value  # a plain int: numpy compares with an IntEnum member slowly
         self.queue.push_many(grid.frame_s[ok], measured[:, ok], grid.truth_index[ok])
         return MeasuredFrames(grid.frame_s, measured, outcome, grid.truth_index)
 
