@@ -294,9 +294,8 @@ class FrameGrid:
         if isinstance(t_s, float):
             # One sample (a node's message): kept in plain floats, as the grid loop takes them, and made an
             # array only if it completes a frame (most do not: truth comes faster than frames).
-            stamps, last_q, t, q = [float(t_s)], tuple(map(float, q_xyzw)), None, None
-            if len(last_q) != 4:
-                raise ValueError(f"a truth quaternion has 4 components (x, y, z, w), not {len(last_q)}")
+            stamps, t, q = [float(t_s)], None, None
+            last_q = tuple(np.asarray(q_xyzw, float).reshape(4).tolist())
         else:
             t = np.asarray(t_s, float).ravel()
             q = np.asarray(q_xyzw, float).reshape(4, t.size)
