@@ -165,7 +165,7 @@ class StarTracker:
         norm = np.linalg.norm(q_true, axis=0)
         finite = np.isfinite(q_true).all(axis=0) & (norm > 0.5)
         # The codes as plain ints (``.value``): numpy takes an IntEnum member several times more slowly,
-        # which is most of the cost of the one frame a node measures at a time.
+        # a good part of the cost of the one frame a node measures at a time.
         outcome = np.full(t.shape, Outcome.OK.value, dtype=np.int8)
         outcome[dice < p.random_failure_probability] = Outcome.RANDOM_FAILURE.value
         outcome[rate > p.max_rate_rad_s] = Outcome.RATE_TOO_HIGH.value
