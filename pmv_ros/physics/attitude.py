@@ -145,7 +145,7 @@ def quaternion_from_rotation_vector(rotation_vector):
                  else 0.5 - angle ** 2 / 48.0 + angle ** 4 / 3840.0)
         return (x * scale, y * scale, z * scale, math.cos(0.5 * angle))
     v = np.asarray(rotation_vector, float)
-    angle = np.sqrt(np.sum(v * v, axis=0))
+    angle = np.sqrt((v * v).sum(axis=0))
     small = angle <= _SMALL_ANGLE_RAD
     scale = np.where(small, 0.5 - angle ** 2 / 48.0 + angle ** 4 / 3840.0,
                      np.sin(0.5 * angle) / np.where(small, 1.0, angle))
@@ -164,7 +164,7 @@ def rotation_vector_from_quaternion(q):
         return (x * scale, y * scale, z * scale)
     q = np.asarray(q, float)
     q = np.where(q[3] < 0.0, -q, q)
-    angle = 2.0 * np.arctan2(np.sqrt(np.sum(q[:3] * q[:3], axis=0)), q[3])
+    angle = 2.0 * np.arctan2(np.sqrt((q[:3] * q[:3]).sum(axis=0)), q[3])
     small = angle <= _SMALL_ANGLE_RAD
     scale = np.where(small, 2.0 + angle ** 2 / 12.0 + 7.0 * angle ** 4 / 2880.0,
                      angle / np.sin(0.5 * np.where(small, 1.0, angle)))

@@ -152,19 +152,25 @@ class StarTracker:
             normal(out=normals[3 * lo:3 * (lo + size)])
             uniform(out=dice[lo:lo + size])
             lo += size
-        # Frame j, k-th of a group of n starting at frame lo: its row r is normal 3·lo + r·n + k.
-        first = np.repeat(np.cumsum(sizes) - sizes, sizes)
-        within = np.arange(t.size) - first
-        noise = normals[3 * first + within + np.arange(3)[:, None] * np.repeat(sizes, sizes)]
+        # Frame j, k-th of a group of n starting at frame lo: its row r is normal 3·lo + r·n + k
+        # (one group, a node's frames: normal r·n + k, the buffer read as (3, n)).
+        if sizes.size == 1:
+            noise = normals.reshape(3, t.size)
+        else:
+            first = np.repeat(np.cumsum(sizes) - sizes, sizes)
+            within = np.arange(t.size) - first
+            noise = normals[3 * first + within + np.arange(3)[:, None] * np.repeat(sizes, sizes)]
         noise *= np.array([p.noise_cross_rad, p.noise_cross_rad, p.noise_boresight_rad])[:, None]
 
         norm = np.linalg.norm(q_true, axis=0)
-        finite = np.all(np.isfinite(q_true), axis=0) & (norm > 0.5)
-        outcome = np.full(t.shape, Outcome.OK, dtype=np.int8)
-        outcome[dice < p.random_failure_probability] = Outcome.RANDOM_FAILURE
-        outcome[rate > p.max_rate_rad_s] = Outcome.RATE_TOO_HIGH
-        outcome[self.in_outage(t)] = Outcome.SCHEDULED_OUTAGE
-        outcome[~finite] = Outcome.INVALID_TRUTH
+        finite = np.isfinite(q_true).all(axis=0) & (norm > 0.5)
+        # The codes as plain ints (``.value``): numpy takes an IntEnum member several times more slowly,
+        # a good part of the cost of the one frame a node measures at a time.
+        outcome = np.full(t.shape, Outcome.OK.value, dtype=np.int8)
+        outcome[dice < p.random_failure_probability] = Outcome.RANDOM_FAILURE.value
+        outcome[rate > p.max_rate_rad_s] = Outcome.RATE_TOO_HIGH.value
+        outcome[self.in_outage(t)] = Outcome.SCHEDULED_OUTAGE.value
+        outcome[~finite] = Outcome.INVALID_TRUTH.value
 
         q_safe = np.where(finite, q_true / np.where(finite, norm, 1.0), np.array([[0.0], [0.0], [0.0], [1.0]]))
         # Noise is a small rotation in the tracker frame, applied on the body side (the tracker's axes
@@ -173,8 +179,8 @@ class StarTracker:
         error_tracker = axes[:, 0:1] * noise[0] + axes[:, 1:2] * noise[1] + axes[:, 2:3] * noise[2]
         measured = quaternion_product(q_safe, quaternion_from_rotation_vector(error_tracker))
         # Keep the sign of the true quaternion (q and −q are the same attitude).
-        measured *= np.where(np.sum(measured * q_safe, axis=0) < 0.0, -1.0, 1.0)
-        measured[:, outcome != Outcome.OK] = np.nan
+        measured *= np.where((measured * q_safe).sum(axis=0) < 0.0, -1.0, 1.0)
+        measured[:, outcome != Outcome.OK.value] = np.nan
         return measured, outcome
 
 
@@ -237,14 +243,15 @@ class GridFrames:
         return np.diff(np.concatenate([[0], ends, [index.size]]))
 
 
-def _read_only(array: np.ndarray) -> np.ndarray:
+def read_only(array: np.ndarray) -> np.ndarray:
+    """``array``, made read-only (an empty result shared by every call that has nothing to give)."""
     array.flags.writeable = False
     return array
 
 
 #: What a batch that completes no frame gives (shared: its arrays are empty and read-only).
-_NO_FRAMES = GridFrames(_read_only(np.empty(0)), _read_only(np.empty((4, 0))), _read_only(np.empty((3, 0))),
-                        _read_only(np.empty(0, np.int64)))
+_NO_FRAMES = GridFrames(read_only(np.empty(0)), read_only(np.empty((4, 0))), read_only(np.empty((3, 0))),
+                        read_only(np.empty(0, np.int64)))
 
 
 class FrameGrid:
@@ -274,24 +281,32 @@ class FrameGrid:
             (frame times, true attitudes as (x, y, z, w) tuples, rate of the turn
             (3-tuple rad/s, orbital components; zeros when no frame)).
         """
-        frames = self.add_many(np.array([float(t_s)]), np.asarray(q_xyzw, float).reshape(4, 1))
+        frames = self.add_many(float(t_s), q_xyzw)
         if not frames.frame_s.size:
             return [], [], (0.0, 0.0, 0.0)
         return (frames.frame_s.tolist(), [tuple(q) for q in frames.attitude.T.tolist()],
                 tuple(frames.turn_rate_rad_s[:, 0].tolist()))
 
     def add_many(self, t_s, q_xyzw) -> GridFrames:
-        """Take truth samples in arrival order (stamps ``(N,)`` s, unit quaternions ``(4, N)``): the frames
-        they complete, as :meth:`add` called sample by sample gives them."""
-        t = np.asarray(t_s, float).ravel()
-        q = np.asarray(q_xyzw, float).reshape(4, t.size)
-        if not t.size:
-            return _NO_FRAMES
+        """Take truth samples in arrival order (stamps ``(N,)`` s, unit quaternions ``(4, N)``; or one sample,
+        a float stamp and its (x, y, z, w)): the frames they complete, as :meth:`add` called sample by sample
+        gives them."""
+        if isinstance(t_s, float):
+            # One sample (a node's message): kept in plain floats, as the grid loop takes them, and made an
+            # array only if it completes a frame (most do not: truth comes faster than frames).
+            stamps, t, q = [float(t_s)], None, None
+            last_q = tuple(np.asarray(q_xyzw, float).reshape(4).tolist())
+        else:
+            t = np.asarray(t_s, float).ravel()
+            q = np.asarray(q_xyzw, float).reshape(4, t.size)
+            if not t.size:
+                return _NO_FRAMES
+            stamps, last_q = t.tolist(), tuple(q[:, -1].tolist())
         # The grid itself, sample by sample in floats (a frame time is the previous one plus the period).
         period, max_gap, next_frame = self.period_s, self.max_gap_s, self._next_frame_s
         previous_s = None if self.previous is None else self.previous[0]
         times, completed_by = [], []
-        for k, stamp in enumerate(t.tolist()):
+        for k, stamp in enumerate(stamps):
             before, previous_s = previous_s, stamp
             if before is None or next_frame is None or stamp - before > max_gap:
                 next_frame = math.ceil(stamp / period) * period
@@ -304,10 +319,12 @@ class FrameGrid:
             times += frames
             completed_by += [k] * len(frames)
             next_frame = frames[-1] + period
-        previous, self.previous = self.previous, (float(t[-1]), tuple(q[:, -1].tolist()))
+        previous, self.previous = self.previous, (stamps[-1], last_q)
         self._next_frame_s = next_frame
         if not times:  # most truth samples of a node (truth faster than frames): nothing to build
             return _NO_FRAMES
+        if t is None:
+            t, q = np.array(stamps), np.array(last_q).reshape(4, 1)
         # Each frame on the turn from the truth sample before the one that completed it.
         earlier_t = np.concatenate([[np.nan if previous is None else previous[0]], t[:-1]])
         earlier_q = np.concatenate([np.full((4, 1), np.nan) if previous is None else np.reshape(previous[1], (4, 1)),
@@ -333,6 +350,7 @@ class LatencyQueue:
         self.latency_s = float(latency_s)
         self._release_s, self._frame_s = np.empty(0), np.empty(0)  # per frame, in frame order
         self._q, self._ready = np.empty((4, 0)), np.empty(0, np.int64)
+        self._held_back = False  # some frame of ``_ready`` waits for a later stamp of the next release_many
 
     def __len__(self) -> int:
         return int(self._release_s.size)
@@ -351,10 +369,15 @@ class LatencyQueue:
         self._frame_s = np.concatenate([self._frame_s, frame_s])
         self._q = np.concatenate([self._q, np.asarray(q_xyzw, float).reshape(4, frame_s.size)], axis=1)
         self._ready = np.concatenate([self._ready, ready])
+        self._held_back = self._held_back or bool(ready.any())
 
     def release(self, t_s: float) -> list:
         """The frames due at truth stamp ``t_s``: ``[(frame_s, q_xyzw), ...]``."""
         if not self._release_s.size:
+            return []
+        # Frames go in frame order: while the first is not due, none is (most truth stamps of a node), and
+        # :meth:`release_many` would change nothing but the held-back marks, if any.
+        if self._release_s[0] > t_s + RELEASE_TOLERANCE_S and not self._held_back:
             return []
         frame_s, q, _ = self.release_many(np.array([float(t_s)]))
         return list(zip(frame_s.tolist(), q.T))
@@ -375,12 +398,12 @@ class LatencyQueue:
         count = int(np.searchsorted(due, stamps.size, side="left"))
         released = self._frame_s[:count], self._q[:, :count], due[:count]
         self._release_s, self._frame_s, self._q = self._release_s[count:], self._frame_s[count:], self._q[:, count:]
-        self._ready = np.zeros(self._release_s.size, np.int64)
+        self._ready, self._held_back = np.zeros(self._release_s.size, np.int64), False
         return released
 
     def clear(self) -> int:
         """Drop every waiting frame (a new timeline); returns how many."""
         dropped = len(self)
         self._release_s, self._frame_s = self._release_s[:0], self._frame_s[:0]
-        self._q, self._ready = self._q[:, :0], self._ready[:0]
+        self._q, self._ready, self._held_back = self._q[:, :0], self._ready[:0], False
         return dropped

@@ -43,7 +43,7 @@ from typing import Callable
 import numpy as np
 
 from ..physics.orbit import circular_mean_motion_rad_s
-from ..physics.star_tracker import FrameGrid, LatencyQueue, Outcome, inertial_rate_of_nadir_pointing
+from ..physics.star_tracker import FrameGrid, LatencyQueue, Outcome, inertial_rate_of_nadir_pointing, read_only
 from .assembly import build_tracker
 from .frames import Frames
 from .records import HealthSummary, Level
@@ -74,6 +74,11 @@ class MeasuredFrames:
     q_measured: np.ndarray
     outcome: np.ndarray
     truth_index: np.ndarray
+
+
+#: What a batch that completes no frame gives (shared: its arrays are empty and read-only).
+_NO_MEASURED_FRAMES = MeasuredFrames(read_only(np.empty(0)), read_only(np.empty((4, 0))),
+                                     read_only(np.empty(0, np.int8)), read_only(np.empty(0, np.int64)))
 
 
 class TrackerRuntime:
@@ -128,22 +133,23 @@ class TrackerRuntime:
         return self.queue.clear()
 
     def add_truth_batch(self, t_s, q_xyzw) -> MeasuredFrames:
-        """Truth samples in arrival order (stamps ``(N,)`` s, increasing; ``(4, N)`` (x, y, z, w)): the frames
-        they complete, measured — each sample's frames as one draw, as :meth:`add_truth` sample by sample.
+        """Truth samples in arrival order (stamps ``(N,)`` s, increasing; ``(4, N)`` (x, y, z, w); or one sample,
+        a float stamp and its quaternion): the frames they complete, measured — each sample's frames as one draw,
+        as :meth:`add_truth` sample by sample.
 
         The frames whose outcome is OK wait in the queue for :meth:`release` / :meth:`release_batch`,
         each from the truth sample that completed it on.
         """
         grid = self.grid.add_many(t_s, q_xyzw)
         if not grid.frame_s.size:
-            return MeasuredFrames(grid.frame_s, grid.attitude, np.empty(0, np.int8), grid.truth_index)
+            return _NO_MEASURED_FRAMES
         rate = inertial_rate_of_nadir_pointing(self.mean_motion_rad_s, grid.turn_rate_rad_s)
         measured, outcome = self.tracker.measure_groups(grid.frame_s, grid.attitude, rate, grid.group_sizes)
         for code, count in enumerate(np.bincount(outcome).tolist()):
             if count:
                 self.outcomes[Outcome(code)] += count
         self.last_outcome = Outcome(int(outcome[-1]))
-        ok = outcome == Outcome.OK
+        ok = outcome == Outcome.OK.value  # a plain int: numpy compares with an IntEnum member slowly
         self.queue.push_many(grid.frame_s[ok], measured[:, ok], grid.truth_index[ok])
         return MeasuredFrames(grid.frame_s, measured, outcome, grid.truth_index)
 
@@ -152,7 +158,7 @@ class TrackerRuntime:
 
         A frame whose outcome is OK waits in the queue for :meth:`release`.
         """
-        frames = self.add_truth_batch(np.array([float(t_s)]), np.asarray(q_xyzw, float).reshape(4, 1))
+        frames = self.add_truth_batch(float(t_s), q_xyzw)
         return [(frame_s, frames.q_measured[:, k], Outcome(code))
                 for k, (frame_s, code) in enumerate(zip(frames.frame_s.tolist(), frames.outcome.tolist()))]
 
@@ -199,7 +205,7 @@ class TrackerRuntime:
             counts[f"rejected_truth_{sample.rejection.value}"] += 1
             return TrackerOutput()
         counts["truth_quaternions_normalised"] += sample.normalised
-        self.add_truth_batch(np.array([stamp_s]), np.reshape(sample.q_xyzw, (4, 1)))
+        self.add_truth_batch(stamp_s, sample.q_xyzw)
         output = TrackerOutput(released=self.release(stamp_s))
         if stamp_s - self._last_health_s >= 1.0:
             self._last_health_s = stamp_s

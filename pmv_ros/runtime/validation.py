@@ -133,7 +133,7 @@ def check_quaternion(q_xyzw, tolerance: float = QUATERNION_NORM_TOLERANCE):
         components = [float(c) for c in q_xyzw]
     except (TypeError, ValueError):
         return None, Rejection.NON_FINITE, False
-    if len(components) != 4 or not all(math.isfinite(c) for c in components):
+    if len(components) != 4 or not all(map(math.isfinite, components)):
         return None, Rejection.NON_FINITE, False
     # hypot does not overflow for finite components: 1e308 gives a norm of 1e308, refused below.
     norm = math.hypot(*components)
