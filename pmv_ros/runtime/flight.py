@@ -21,8 +21,9 @@ What each node does, and what runs it here:
   as one batch (:func:`tracker_frames`; the node feeds it one message at a
   time): the same frames, draws and releases, bit for bit. Frames not
   released when the flight ends are never seen by the monitor.
-* error_monitor_node: :meth:`~pmv_ros.runtime.monitor.ErrorMonitor.add_batch` —
-  the monitor's validation, alignment and statistics, the released frames
+* error_monitor_node: the node's own runtime,
+  :meth:`~pmv_ros.runtime.monitor_runtime.MonitorRuntime.add_stream` (the
+  monitor's one path: validation, alignment and statistics), the released frames
   arriving just before the sensor sample of their tick, the node clock at
   each tick the sample's stamp, and the orbit's state at each stamp as the
   odometry the node validates and takes its oblateness model from.
@@ -38,15 +39,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..physics.orbit import geocentric_latitude_longitude
-from .assembly import (
-    MONITOR_PARAMS,
-    NODE_PARAMS,
-    READ_CORRECTION,
-    SENSOR_PARAMS,
-    STAR_TRACKER_PARAMS,
-    build_monitor,
-)
-from .monitor_runtime import oblateness_override
+from .assembly import MONITOR_PARAMS, NODE_PARAMS, READ_CORRECTION, SENSOR_PARAMS, STAR_TRACKER_PARAMS
+from .monitor_runtime import MonitorRuntime
 from .monitor_records import BATCH_STATUSES, PENDING_CODE, MonitorSummary
 from .parameters import ParameterError, preset_values, unknown_parameter_problem
 from .sample_stream import fast_time_block
@@ -163,14 +157,10 @@ def fly(values: FlightValues, samples: int) -> Flight:
     frames = tracker_frames(t, q, values.star_tracker, start_s=0.0)
     published = np.flatnonzero(frames.released_at >= 0)  # in release order = frame order
     position, velocity = orbit.state_eci(t)  # what /orbit/odometry carries
-    monitor_values = values.monitor
-    monitor = build_monitor(monitor_values)
-    # As error_monitor_node: the model from the odometry, or none left when the sensor removes it on board.
-    batch = monitor.add_batch(t, roll, pitch, frames.frame_s[published], frames.q_measured[:, published],
-                              frames.released_at[published], now_s=t, odometry=(position, velocity),
-                              odometry_max_age_s=monitor_values["odometry_timeout_s"],
-                              **oblateness_override(monitor_values))
+    monitor = MonitorRuntime(values.monitor)  # as error_monitor_node takes the stream, all at once
+    batch = monitor.add_stream(t, roll, pitch, frames.frame_s[published], frames.q_measured[:, published],
+                               frames.released_at[published], position, velocity)
     u = orbit.argument_of_latitude(t)
     latitude, _ = geocentric_latitude_longitude(position)
     return Flight(t, u, latitude, roll, pitch, batch.status, batch.roll_rad, batch.pitch_rad, batch.meridional_rad,
-                  summary=monitor.summary(), frames=frames, values=values)
+                  summary=monitor.monitor.summary(), frames=frames, values=values)

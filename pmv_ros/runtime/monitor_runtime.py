@@ -33,7 +33,7 @@ from typing import Callable
 from ..analysis.statistics import CHANNELS
 from .assembly import build_monitor
 from .frames import Frames
-from .monitor_records import SENSOR_REJECTIONS, MonitorSummary, Status
+from .monitor_records import SENSOR_REJECTIONS, BatchOutcome, MonitorSummary, Status
 from .records import HealthSummary, Level
 from .validation import Rejection, check_frame
 
@@ -150,14 +150,26 @@ class MonitorRuntime:
             return MonitorOutput()
         if stamp_s is None:
             return self._unreadable("sensor")
-        outcomes = self.monitor.add_sensor(stamp_s, roll_rad, pitch_rad, now_s=now_s,
-                                           odometry_max_age_s=self.values["odometry_timeout_s"],
-                                           **oblateness_override(self.values))
+        outcomes = self.monitor.add_sensor(stamp_s, roll_rad, pitch_rad, now_s=now_s, **self._sample_orbit())
         output = self._residuals(outcomes)
         # A rejected sample (a zero or future stamp, say) must not move the statistics schedule.
         if not any(outcome.status in SENSOR_REJECTIONS for outcome in outcomes):
             output.statistics = self._statistics_when_due(stamp_s)
         return output
+
+    def add_stream(self, t_s, roll_rad, pitch_rad, truth_t_s, q_truth, truth_arrival, position_eci_m,
+                   velocity_eci_m_s) -> BatchOutcome:
+        """A whole clean stream at once (a campaign's flight): what the three inputs would do message by message
+        — truth j arriving just before sensor sample ``truth_arrival[j]``, then the odometry at the sample's
+        stamp, then the sample, the node clock at the sample's stamp. Arrays as
+        :meth:`~pmv_ros.runtime.monitor.ErrorMonitor.add_batch` takes them; the statistics schedule is not run."""
+        return self.monitor.add_batch(t_s, roll_rad, pitch_rad, truth_t_s, q_truth, truth_arrival, now_s=t_s,
+                                      odometry=(position_eci_m, velocity_eci_m_s), **self._sample_orbit())
+
+    def _sample_orbit(self) -> dict:
+        """How a sensor sample gets its oblateness model: from the odometry no older than odometry_timeout_s, or
+        none left in it when the sensor removes it on board (:func:`oblateness_override`)."""
+        return dict(odometry_max_age_s=self.values["odometry_timeout_s"], **oblateness_override(self.values))
 
     def poll(self, now_s: float | None) -> MonitorOutput:
         """The node clock's tick: samples that waited too long for truth are settled."""
