@@ -272,7 +272,9 @@ class ErrorMonitor(EventScan):
         feed = Feed((), (), (), odometry_t_s=_one(t_s), odometry_position_m=position,
                     odometry_velocity_m_s=velocity, odometry_arrival=_FIRST,
                     odometry_now_s=None if now_s is None else _one(now_s))
-        self._later.append(self._feed(feed))
+        settled = self._feed(feed)
+        if settled.size:  # nothing is kept for take_settled unless something settled
+            self._later.append(settled)
         return self._odometry_rejection
 
     def take_settled(self) -> list[Outcome]:
