@@ -329,6 +329,11 @@ class PmvNode(Node):
         self._source_problems = problems
         return list(problems)
 
+    def set_source_timeout(self, timeout_s: float) -> None:
+        """A new ``input.source_timeout_s`` for every input's source lock (a parameter change)."""
+        for lock in self.source_locks.values():
+            lock.timeout_s = timeout_s
+
     def input_source_counters(self) -> dict:
         """``other_source_<topic>``: messages dropped per input because a second publisher sent them;
         ``rejected_clock_<reason>``: /clock messages that did not set the time (see :meth:`_guard_clock`)."""

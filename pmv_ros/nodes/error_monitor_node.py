@@ -35,8 +35,7 @@ from .base import PmvNode
 from ..runtime.assembly import MONITOR_PARAMS as PARAMS
 from ..runtime.monitor import ErrorMonitor
 from ..runtime.monitor_runtime import STATISTICS_VECTORS, MonitorOutput, MonitorRuntime
-from .launch import run_node
-from .managed import managed_factory, managed_requested
+from .launch import node_main
 from .params import ParameterError, declare, install_validation
 
 
@@ -74,8 +73,7 @@ class ErrorMonitorNode(PmvNode):
 
     def _rebuild(self, values: dict) -> None:
         self._runtime.reconfigure(values)  # a new configuration starts new statistics
-        for lock in self.source_locks.values():
-            lock.timeout_s = values["input.source_timeout_s"]
+        self.set_source_timeout(values["input.source_timeout_s"])
 
     def _now_s(self) -> float | None:
         now = self.get_clock().now().nanoseconds * 1e-9
@@ -147,9 +145,7 @@ class ErrorMonitorNode(PmvNode):
 
 def main(args=None) -> int:
     """Console script / ``ros2 run pmv_ros error_monitor_node [--managed]``."""
-    if managed_requested(args):  # --managed: a lifecycle node (pmv_ros/nodes/managed.py)
-        return run_node(managed_factory(ErrorMonitorNode, "error_monitor_node"), "error_monitor_node", args)
-    return run_node(ErrorMonitorNode, "error_monitor_node", args)
+    return node_main(ErrorMonitorNode, "error_monitor_node", args)
 
 
 if __name__ == "__main__":

@@ -11,6 +11,7 @@ from rclpy.impl.implementation_singleton import rclpy_implementation
 from rclpy.signals import SignalHandlerOptions
 
 from .base import hold_single_threaded_blas
+from .managed import managed, managed_requested
 from .params import ParameterError, check_params_files
 
 #: Longest wait of the executor between checks for a stop request, s.
@@ -54,6 +55,13 @@ class StopRequest:
             return
         for number, handler in self._previous.items():
             signal.signal(number, handler)
+
+
+def node_main(node_class, name: str, args=None) -> int:
+    """A node's console script (``ros2 run pmv_ros NAME [--managed]``): ``--managed`` among its own arguments
+    makes it a lifecycle node (:mod:`pmv_ros.nodes.managed`); then :func:`run_node`."""
+    factory = managed(node_class, name) if managed_requested(args) else node_class
+    return run_node(factory, name, args)
 
 
 def run_node(factory, name: str, args=None) -> int:

@@ -286,8 +286,3 @@ def managed(node_class, name: str):
     """
     return type(f"Managed{node_class.__name__}", (_Managed, node_class, LifecycleNode),
                 {"node_name": name, "__doc__": f"{node_class.__name__} as a managed (lifecycle) node."})
-
-
-def managed_factory(node_class, name: str):
-    """``node_class`` as a managed node for :func:`pmv_ros.nodes.launch.run_node` (the global context)."""
-    return managed(node_class, name)

@@ -31,8 +31,7 @@ from .base import PmvNode
 from ..runtime.assembly import SENSOR_PARAMS as PARAMS, read_correction
 from ..runtime.frames import Mounting
 from ..runtime.sensor_runtime import SamplePublication, SensorOutput, SensorRuntime
-from .launch import run_node
-from .managed import managed_factory, managed_requested
+from .launch import node_main
 from .params import ParameterError, declare, install_validation
 from .tf import NO_TF2_MSGS, SensorTransforms, tf_message_type
 
@@ -112,8 +111,7 @@ class SensorNode(PmvNode):
 
     def _rebuild_live(self, values: dict) -> None:
         self._runtime.reconfigure(values)
-        for lock in self.source_locks.values():
-            lock.timeout_s = values["input.source_timeout_s"]
+        self.set_source_timeout(values["input.source_timeout_s"])
         self._orbit_status = self._orbit_status_of(values)
         if self._timer is not None and any(values[k] != self._values[k] for k in ("sensor.rate_hz", "sim.time_scale")):
             self._timer.cancel()
@@ -234,9 +232,7 @@ class SensorNode(PmvNode):
 
 def main(args=None) -> int:
     """Console script / ``ros2 run pmv_ros sensor_node [--managed]``."""
-    if managed_requested(args):  # --managed: a lifecycle node (pmv_ros/nodes/managed.py)
-        return run_node(managed_factory(SensorNode, "sensor_node"), "sensor_node", args)
-    return run_node(SensorNode, "sensor_node", args)
+    return node_main(SensorNode, "sensor_node", args)
 
 
 if __name__ == "__main__":

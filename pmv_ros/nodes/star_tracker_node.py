@@ -28,8 +28,7 @@ from .base import PmvNode
 from ..runtime.assembly import STAR_TRACKER_PARAMS as PARAMS
 from ..runtime.records import HealthSummary
 from ..runtime.tracker import TrackerRuntime
-from .launch import run_node
-from .managed import managed_factory, managed_requested
+from .launch import node_main
 from .params import ParameterError, declare, install_validation
 
 
@@ -61,8 +60,7 @@ class StarTrackerNode(PmvNode):
 
     def _rebuild(self, values: dict) -> None:
         self._runtime.reconfigure(values)  # a combination it refuses (ValueError) changes nothing
-        for lock in self.source_locks.values():
-            lock.timeout_s = values["input.source_timeout_s"]
+        self.set_source_timeout(values["input.source_timeout_s"])
 
     def _now_s(self) -> float | None:
         now = self.get_clock().now().nanoseconds * 1e-9
@@ -104,9 +102,7 @@ class StarTrackerNode(PmvNode):
 
 def main(args=None) -> int:
     """Console script / ``ros2 run pmv_ros star_tracker_node [--managed]``."""
-    if managed_requested(args):  # --managed: a lifecycle node (pmv_ros/nodes/managed.py)
-        return run_node(managed_factory(StarTrackerNode, "star_tracker_node"), "star_tracker_node", args)
-    return run_node(StarTrackerNode, "star_tracker_node", args)
+    return node_main(StarTrackerNode, "star_tracker_node", args)
 
 
 if __name__ == "__main__":
