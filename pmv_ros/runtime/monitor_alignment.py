@@ -128,20 +128,29 @@ REPORTED_ROWS = ("roll_rad", "pitch_rad", "meridional_rad")
 _NOTHING = Settled(np.empty((len(SETTLED_ROWS), 0)), np.empty((len(REPORTED_ROWS), 0)))
 
 
-def first_expired(clocks: np.ndarray, stamp: np.ndarray, wait_s: float) -> np.ndarray:
-    """Per stamp, the first event whose clock is past it by more than ``wait_s`` (``clocks.size``: none).
+def first_expired(clocks: np.ndarray, stamp: np.ndarray, wait_s: float, start: np.ndarray) -> np.ndarray:
+    """Per stamp, the first event from ``start`` on whose clock is past it by more than ``wait_s``
+    (``clocks.size``: none).
 
     The test is ``clock − stamp > wait_s`` in floats, as a waiting sample is timed out (a search on
-    ``stamp + wait_s`` alone can be one event off by rounding). ``clocks`` may go back only after a reset
-    of the clock within an event; then each stamp is searched one by one.
+    ``stamp + wait_s`` alone can be one event off by rounding). ``clocks`` may go back only where a reset
+    of the clock within an event left the old reading on that event: each rising run is searched apart.
     """
     size = clocks.size
     # Float subtraction is monotone: if the latest clock is not past the oldest stamp, none is past any.
     if size == 0 or stamp.size == 0 or not clocks.max() - stamp.min() > wait_s:
         return np.full(stamp.shape, size, np.int64)
-    if (clocks[1:] < clocks[:-1]).any():
-        over = clocks[None, :] - stamp[:, None] > wait_s
-        return np.where(over.any(axis=1), over.argmax(axis=1), size)
+    bounds = [0, *(np.flatnonzero(clocks[1:] < clocks[:-1]) + 1).tolist(), size]
+    found = np.full(stamp.shape, size, np.int64)
+    for lo, hi in zip(bounds[:-1], bounds[1:]):  # within a rising run, a clock past a stamp stays past it
+        first = np.maximum(lo + _first_past(clocks[lo:hi], stamp, wait_s), start)
+        found = np.where(first < hi, np.minimum(found, first), found)
+    return found
+
+
+def _first_past(clocks: np.ndarray, stamp: np.ndarray, wait_s: float) -> np.ndarray:
+    """:func:`first_expired` in one rising run of clocks, from its start."""
+    size = clocks.size
     first = np.searchsorted(clocks, stamp + wait_s, side="right")
     before = np.maximum(first - 1, 0)
     back = (first > 0) & (clocks[before] - stamp > wait_s)
@@ -236,8 +245,7 @@ class Alignment:
         covered = hi < total
         cover = np.where(covered, truth_event[np.minimum(hi, total - 1)] if total else 0, events)
         at_once = covered & (cover < arrive)
-        expire = np.maximum(first_expired(segment.expiry_clock_s, stamp, config.max_truth_wait_s),
-                            np.maximum(arrive, 0))
+        expire = first_expired(segment.expiry_clock_s, stamp, config.max_truth_wait_s, np.maximum(arrive, 0))
         stale = ~at_once & (expire < cover)  # at a truth event, what it covers is aligned before the timeout
         settle = np.where(at_once, arrive, np.minimum(cover, expire))  # `events`: still waiting
         # The queue (candidates not aligned on arrival), FIFO: the sample max_pending places ahead of an

@@ -513,3 +513,14 @@ def test_where_the_input_is_cut_changes_nothing(late_s):
         assert x.count == y.count
         for name in ("mean_rad", "sigma_rad", "max_abs_rad", "ground_sigma_m"):
             assert getattr(y, name) == pytest.approx(getattr(x, name), abs=1e-9 * ARCMIN_RAD, rel=1e-9), name
+
+
+def test_a_wait_runs_out_only_at_an_event_whose_clock_is_past_it():
+    """monitor_alignment.first_expired: a clock that went back (the old reading left on the event of a reset)
+    is searched run by run, from each sample's arrival on — never a timeout read off an event before it."""
+    from pmv_ros.runtime.monitor_alignment import first_expired
+
+    clocks = np.array([5.0, 1.0, 2.0, 9.0])  # event 0 kept the clock of before the reset
+    stamps, arrivals = np.array([0.0, 0.0, 1.0, 8.0]), np.array([0, 1, 1, 1])
+    assert first_expired(clocks, stamps, 3.0, arrivals).tolist() == [0, 3, 3, 4]
+    assert first_expired(np.array([1.0, 2.0, 9.0]), np.array([0.0]), 3.0, np.array([0])).tolist() == [2]
