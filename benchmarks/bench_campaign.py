@@ -112,9 +112,9 @@ def instrument_rate(samples: int, rate_hz: float = RATE_HZ) -> tuple[float, floa
     in the node's blocks, on one BLAS thread (as a worker runs it)."""
     from threadpoolctl import threadpool_limits
 
-    from pmv_ros.runtime.assembly import SENSOR_PARAMS, build_models
+    from pmv_ros.runtime.common.assembly import SENSOR_PARAMS, build_models
     from pmv_ros.runtime.flight import sense_block
-    from pmv_ros.runtime.parameters import preset_values
+    from pmv_ros.runtime.common.parameters import preset_values
 
     values = preset_values(yaml.safe_load(PRESET.read_text()), "sensor_node", SENSOR_PARAMS,
                            {"sensor.rate_hz": rate_hz, "sim.fast_time": True})

@@ -39,7 +39,7 @@ from pmv_ros.physics.chain import (  # noqa: E402
     sense_horizon_chords,
     sphere_chord,
 )
-from pmv_ros.physics.correction import calibrated_correction_table  # noqa: E402
+from pmv_ros.physics.instrument.correction import calibrated_correction_table  # noqa: E402
 from reference_chain import reference_chord  # noqa: E402
 
 
@@ -93,8 +93,8 @@ def flight_environment():
     """The environment the presets fly (config/kondor.yaml's, calibrated by tools/calibrate_environment.py)."""
     import yaml
 
-    from pmv_ros.runtime import parameters
-    from pmv_ros.runtime.assembly import SENSOR_PARAMS, build_detector, build_models, parse_epoch
+    from pmv_ros.runtime.common import parameters
+    from pmv_ros.runtime.common.assembly import SENSOR_PARAMS, build_detector, build_models, parse_epoch
 
     document = yaml.safe_load((Path(__file__).resolve().parents[1] / "config" / "kondor.yaml").read_text())
     values = parameters.preset_values(document, "sensor_node", SENSOR_PARAMS,
@@ -115,8 +115,8 @@ def time_instrument(samples: int, repeats: int, sources=("uniform", "environment
     """
     import math
 
-    from pmv_ros.physics.orbit import CircularOrbit
-    from pmv_ros.physics.sensor import ChainDetector, RadianceConfig, SensorConfig, SensorModel
+    from pmv_ros.physics.orbit.two_body import CircularOrbit
+    from pmv_ros.physics.instrument.sensor import ChainDetector, RadianceConfig, SensorConfig, SensorModel
 
     orbit = CircularOrbit(500e3, math.radians(74.5))
     t = np.linspace(0.0, orbit.period_s, samples)

@@ -1,7 +1,7 @@
 """What the estimator output adds to each sensor tick: /pmv/attitude_imu against /pmv/attitude, in one run.
 
 Per tick the sensor now also builds the Imu orientation
-(:func:`pmv_ros.runtime.estimator_output.estimator_orientation`), fills one
+(:func:`pmv_ros.runtime.sensor.estimator_output.estimator_orientation`), fills one
 reused ``sensor_msgs/Imu`` (:func:`pmv_msgs_shim.write_attitude_imu`) and
 publishes it. Measured here on a lean node of the pipeline's kind with no
 subscriber (as in ``pmv simulate``, where nothing in the process takes it):
@@ -27,7 +27,7 @@ from sensor_msgs.msg import Imu
 
 import pmv_msgs_shim as shim
 from pmv_ros.nodes.base import PmvNode
-from pmv_ros.runtime.estimator_output import estimator_orientation, variance_from_rms_arcmin
+from pmv_ros.runtime.sensor.estimator_output import estimator_orientation, variance_from_rms_arcmin
 
 DEMO_TICKS = 56_681  # one Kondor orbit at 10 Hz
 

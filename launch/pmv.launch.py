@@ -152,8 +152,8 @@ def _nodes(context):
     respawn = _flag(context, "respawn")
     wanted = {"sensor_node": True, "star_tracker_node": _flag(context, "star_tracker"),
               "error_monitor_node": _flag(context, "monitor")}
-    from pmv_ros.runtime.assembly import NODE_PARAMS  # here: --show-args needs no numerics
-    from pmv_ros.runtime.frames import prefix_for_namespace
+    from pmv_ros.runtime.common.assembly import NODE_PARAMS  # here: --show-args needs no numerics
+    from pmv_ros.runtime.common.frames import prefix_for_namespace
 
     def spec(node: str, parameter: str):
         return next(s for s in NODE_PARAMS[node] if s.name == parameter)

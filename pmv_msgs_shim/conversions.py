@@ -68,7 +68,7 @@ from sensor_msgs.msg import Imu
 
 from pmv_ros.analysis.statistics import CHANNELS, ChannelStatistics
 from pmv_ros.physics.constants import ARCMIN_RAD
-from pmv_ros.physics.orbit import orbital_frame_from_state
+from pmv_ros.physics.orbit.two_body import orbital_frame_from_state
 
 from .records import (
     AttitudeAngles,
@@ -273,7 +273,7 @@ def write_orbit_state(msg: Odometry, stamp_s: float, frame_id: str, child_frame_
     nav_msgs/Odometry: the pose is in ``header.frame_id``, the twist in
     ``child_frame_id``. So: pose.position = the position in ``frame_id``
     (ECI); pose.orientation = the orbital frame's orientation in ``frame_id``
-    (:func:`pmv_ros.physics.orbit.orbital_frame_from_state`) — the child frame, ``orbital``; twist.linear = the
+    (:func:`pmv_ros.physics.orbit.two_body.orbital_frame_from_state`) — the child frame, ``orbital``; twist.linear = the
     velocity expressed in the orbital frame ((|v|, 0, 0) on a circular
     orbit); twist.angular = the orbital frame's rate relative to ECI in its
     own axes, (0, |r × v|/|r|², 0). ECI velocity = R(orientation)·twist.linear.

@@ -80,7 +80,7 @@ class OrbitElements:
 
     @classmethod
     def from_orbit(cls, orbit, epoch_utc: str) -> "OrbitElements":
-        """From a :class:`pmv_ros.physics.orbit.CircularOrbit` (read by attribute) and the UTC of its epoch."""
+        """From a :class:`pmv_ros.physics.orbit.two_body.CircularOrbit` (read by attribute) and the UTC of its epoch."""
         return cls(epoch_utc=str(epoch_utc), epoch_stamp_s=float(orbit.epoch_s),
                    altitude_km=orbit.altitude_m / 1e3, inclination_deg=math.degrees(orbit.inclination_rad),
                    raan_deg=math.degrees(orbit.raan_rad), arg_latitude_deg=math.degrees(orbit.arg_latitude_at_epoch_rad),

@@ -15,10 +15,10 @@ from typing import Mapping
 import numpy as np
 
 from pmv_ros.analysis.statistics import ChannelStatistics
-from pmv_ros.runtime.frames import DEFAULT_FRAMES
-from pmv_ros.runtime.records import Level
+from pmv_ros.runtime.common.frames import DEFAULT_FRAMES
+from pmv_ros.runtime.common.records import Level
 
-#: The default frame ids (interfaces.md "Frames"; their one home is :mod:`pmv_ros.runtime.frames`):
+#: The default frame ids (interfaces.md "Frames"; their one home is :mod:`pmv_ros.runtime.common.frames`):
 #: record defaults and a reader's expectations. A node stamps with its own ``frames.*`` parameters.
 SENSOR_FRAME = DEFAULT_FRAMES.sensor
 ORBITAL_FRAME = DEFAULT_FRAMES.orbital
@@ -189,7 +189,7 @@ class ErrorStatistics:
 
     @classmethod
     def from_summary(cls, summary, stamp_s: float, hardware_id: str = "pmv") -> "ErrorStatistics":
-        """Build from a monitor summary (:class:`pmv_ros.runtime.monitor.MonitorSummary`)."""
+        """Build from a monitor summary (:class:`pmv_ros.runtime.monitor.core.MonitorSummary`)."""
         return cls(stamp_s, summary.channels, summary.counters, summary.oblateness_removed, hardware_id)
 
 

@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from pmv_ros.runtime import parameters
-from pmv_ros.runtime.assembly import SENSOR_PARAMS, build_models
+from pmv_ros.runtime.common import parameters
+from pmv_ros.runtime.common.assembly import SENSOR_PARAMS, build_models
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -28,7 +28,7 @@ from pmv_ros.nodes.sensor_node import SensorNode
 from pmv_ros.nodes.tf import TF_QOS, TF_STATIC_QOS, tf_message_type
 from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
 from pmv_ros.physics.constants import ARCMIN_RAD
-from pmv_ros.physics.orbit import orbital_frame_from_state
+from pmv_ros.physics.orbit.two_body import orbital_frame_from_state
 
 TICKS = 60
 MOUNTING_ARCMIN = {"roll": 10.0, "pitch": -5.0, "yaw": 3.0}

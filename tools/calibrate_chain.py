@@ -44,10 +44,10 @@ from scipy.optimize import minimize, minimize_scalar
 
 from pmv_ros.physics.chain import DEFAULT_CHAIN_PARAMETERS, ChainParameters
 from pmv_ros.physics.constants import ARCMIN_RAD
-from pmv_ros.physics.correction import STORED_TABLE_ALTITUDES_KM, rig_correction_table, stored_table_name
+from pmv_ros.physics.instrument.correction import STORED_TABLE_ALTITUDES_KM, rig_correction_table, stored_table_name
 from pmv_ros.physics.radiance import RampShape
 from pmv_ros.physics.published import MODEL_A_TABLE as PUBLISHED_MODEL_A
-from pmv_ros.physics.scenarios import model_a, run_pair
+from pmv_ros.physics.instrument.scenarios import model_a, run_pair
 
 DATA_DIR = Path(__file__).resolve().parents[1] / "pmv_ros" / "data"
 
@@ -91,7 +91,7 @@ def fit_time_constant(exponent: float) -> tuple[float, float]:
 
 def _matches_shipped(record: dict, tables: dict) -> bool:
     """The shipped files agree with a fresh fit (to round-off: 1 ns in T_p, 1e-3′ in β, 1e-5′ in the tables)."""
-    from pmv_ros.physics.correction import CorrectionTable
+    from pmv_ros.physics.instrument.correction import CorrectionTable
 
     try:
         shipped = json.loads((DATA_DIR / "chain_calibration.json").read_text(encoding="utf-8"))

@@ -85,13 +85,13 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from pmv_ros.runtime import parameters
-from pmv_ros.runtime.assembly import SENSOR_PARAMS, build_models
+from pmv_ros.runtime.common import parameters
+from pmv_ros.runtime.common.assembly import SENSOR_PARAMS, build_models
 from pmv_ros.physics.constants import ARCMIN_RAD
-from pmv_ros.physics.correction import (METEOR_M2_2_TABLE, SCALE_BOUNDS, calibrated_correction_table,
+from pmv_ros.physics.instrument.correction import (METEOR_M2_2_TABLE, SCALE_BOUNDS, calibrated_correction_table,
                                      scaled_correction_table, table_comment_value)
-from pmv_ros.physics.oblateness import closed_form_oblateness
-from pmv_ros.physics.sensor import ChordStatus
+from pmv_ros.physics.instrument.oblateness import closed_form_oblateness
+from pmv_ros.physics.instrument.sensor import ChordStatus
 from pmv_ros.apps.report import harmonic_spectrum
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -28,8 +28,8 @@ import numpy as np
 import yaml
 
 from pmv_ros.physics.constants import EARTH_MEAN_RADIUS_M, GM_EARTH_M3_S2
-from pmv_ros.physics.ephemeris import Epoch
-from pmv_ros.physics.tle_orbit import TleOrbit, make_element_set
+from pmv_ros.physics.orbit.ephemeris import Epoch
+from pmv_ros.physics.orbit.tle import TleOrbit, make_element_set
 
 
 def preset_orbit(path: str) -> dict:

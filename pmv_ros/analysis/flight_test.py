@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..physics.oblateness import closed_form_oblateness
+from ..physics.instrument.oblateness import closed_form_oblateness
 from .statistics import (DEFAULT_MAX_CONDITION, DEFAULT_MAX_GAP_FRACTION, ORBIT_HARMONICS, TWO_PI, ChannelStatistics,
                          RunningStatistics, harmonic_amplitudes)
 
@@ -144,7 +144,7 @@ def flight_test_statistics(u_rad, roll_rad, pitch_rad, altitude_m: float, inclin
        Δβ = β − offset;
     4. δβ_k = Δβ_k − (Δβ)_roll(u), δβ_t = Δβ_t − (Δβ)_pitch(u), the published
        closed-form oblateness model (physics.md §2.1;
-       :func:`pmv_ros.physics.oblateness.closed_form_oblateness`) in REP-103 like
+       :func:`pmv_ros.physics.instrument.oblateness.closed_form_oblateness`) in REP-103 like
        the roll and pitch given here (published telemetry is converted first,
        :func:`pmv_ros.physics.conventions.convert`), averaged over
        the same samples as the data. Skipped when ``remove_oblateness`` is False;

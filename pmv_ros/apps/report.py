@@ -23,7 +23,7 @@ import numpy as np
 
 from ..physics.constants import ARCMIN_RAD
 from ..storage.json_output import finite_json
-from ..physics.oblateness import closed_form_oblateness
+from ..physics.instrument.oblateness import closed_form_oblateness
 
 
 def harmonic_spectrum(t_s, values, period_s: float, max_k: int = 40):
@@ -93,7 +93,7 @@ def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_ha
         directory: output folder (created).
         summary: JSON-ready run summary (see ``pmv simulate``).
         residuals: ``(3, N)`` stamp (s), roll and pitch residual (rad).
-        orbit: the :class:`~pmv_ros.physics.orbit.CircularOrbit` flown (for u and the model).
+        orbit: the :class:`~pmv_ros.physics.orbit.two_body.CircularOrbit` flown (for u and the model).
         live_harmonics: {channel: {k: amplitude_arcmin}} from the monitor, marked on the spectrum.
         record: a flight record (:func:`flight_record`) whose published points are drawn on the spectrum.
     """

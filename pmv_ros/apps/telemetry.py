@@ -40,7 +40,7 @@ import numpy as np
 from ..physics.constants import ARCMIN_RAD
 from ..physics.conventions import PAPER, ROS, convert
 from ..physics.ground_error import ground_error
-from ..physics.orbit import CircularOrbit
+from ..physics.orbit.two_body import CircularOrbit
 from ..analysis.flight_test import correct_reference_drift, flight_test_statistics
 from ..analysis.statistics import ORBIT_HARMONICS
 
@@ -69,10 +69,10 @@ def _parse_error(path: str, line: int, message: str) -> ValueError:
 
 #: Plausible range of every column a telemetry CSV row may carry (a value outside it is a one-line refusal
 #: naming the file, line and column; NaN/Inf are drop-outs, skipped and counted). Angles: the monitor's bound on
-#: a sensor sample (:class:`pmv_ros.runtime.validation.InputBounds`, 30°: the PMV sees no horizon beyond it);
+#: a sensor sample (:class:`pmv_ros.runtime.common.validation.InputBounds`, 30°: the PMV sees no horizon beyond it);
 #: u within one turn either way; orbit numbers and times those of a mission (10⁶ orbits ≈ 190 years in LEO).
 def _column_bounds() -> dict:
-    from ..runtime.validation import InputBounds
+    from ..runtime.common.validation import InputBounds
 
     angle_rad = InputBounds().max_abs_angle_rad
     angle_arcmin = angle_rad / ARCMIN_RAD
@@ -320,7 +320,7 @@ def phase_from_odometry(messages, timeout_s: float):
     the odometry flies, and how many messages were unreadable.
     """
     import pmv_msgs_shim as shim
-    from ..physics.orbit import orbit_angles_from_state
+    from ..physics.orbit.two_body import orbit_angles_from_state
 
     rows, unreadable = [], 0
     for recorded in messages:
@@ -392,7 +392,7 @@ def analyze_recording(path: str, altitude_m: float, inclination_rad: float, *, c
 
     The messages go, in the order they were logged, through the same
     alignment and per-sample statistics as ``error_monitor_node``
-    (:func:`pmv_ros.runtime.assembly.build_monitor` with its default settings):
+    (:func:`pmv_ros.runtime.monitor.runtime.build_monitor` with its default settings):
     truth interpolated at each sensor stamp, never across a truth gap; the
     oblateness model at the orbital angle of the sample. ``per_sample`` in
     the report is what ``/pmv/error_statistics`` says at the end of a live
@@ -404,8 +404,9 @@ def analyze_recording(path: str, altitude_m: float, inclination_rad: float, *, c
     missing or wrong.
     """
     import pmv_msgs_shim as shim
-    from ..runtime.assembly import MONITOR_PARAMS, build_monitor
-    from ..runtime.parameters import preset_values
+    from ..runtime.common.assembly import MONITOR_PARAMS
+    from ..runtime.monitor.runtime import build_monitor
+    from ..runtime.common.parameters import preset_values
     from ..storage.recording import RecordingError, iter_recording, recorded_topics, recording_status
 
     spacecraft = "/" + namespace.strip("/") if namespace.strip("/") else ""

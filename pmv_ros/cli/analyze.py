@@ -11,7 +11,7 @@ import math
 
 from ..physics.constants import ARCMIN_RAD
 from ..physics.conventions import CONVENTIONS, PAPER
-from ..physics.orbit import MAX_ALTITUDE_M, MIN_ALTITUDE_M
+from ..physics.orbit.two_body import MAX_ALTITUDE_M, MIN_ALTITUDE_M
 from ..apps.telemetry import (
     DEFAULT_TIME_LAYOUT_BIN_DEG,
     PHASE_SOURCES,

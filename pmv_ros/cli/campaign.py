@@ -95,9 +95,9 @@ def _rows(components: dict) -> list[dict]:
 def run(args) -> int:
     """Plan the tasks, run those not done on Dask, aggregate and report."""
     from ..apps import campaign
-    from ..runtime.assembly import SENSOR_PARAMS, parse_epoch
-    from ..runtime.parameters import ParameterError, preset_values
-    from ..physics.tle_orbit import parse_element_set
+    from ..runtime.common.assembly import SENSOR_PARAMS, parse_epoch
+    from ..runtime.common.parameters import ParameterError, preset_values
+    from ..physics.orbit.tle import parse_element_set
     from ..storage.files import read_yaml_file
 
     path = Path(args.config)

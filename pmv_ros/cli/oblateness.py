@@ -13,8 +13,8 @@ import numpy as np
 
 from ..physics.constants import ARCMIN_RAD, GRS80
 from ..physics.conventions import CONVENTIONS, convert
-from ..physics.oblateness import closed_form_oblateness, oblateness_error
-from ..physics.orbit import MAX_ALTITUDE_M, MIN_ALTITUDE_M, CircularOrbit
+from ..physics.instrument.oblateness import closed_form_oblateness, oblateness_error
+from ..physics.orbit.two_body import MAX_ALTITUDE_M, MIN_ALTITUDE_M, CircularOrbit
 from .common import add_json_flag, format_table, print_json, ranged_float
 
 COLUMNS = [

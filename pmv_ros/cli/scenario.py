@@ -6,10 +6,10 @@ import math
 
 from ..physics.chain import DetectionStatus
 from ..physics.constants import ARCMIN_RAD
-from ..physics.correction import load_correction
-from ..physics.orbit import MAX_ALTITUDE_M, MIN_ALTITUDE_M
+from ..physics.instrument.correction import load_correction
+from ..physics.orbit.two_body import MAX_ALTITUDE_M, MIN_ALTITUDE_M
 from ..physics.radiance import MAX_LAYER_HEIGHT_M, MEAN_EARTH_RADIANCE_RU, WINDOW_HEIGHT_M, WINDOW_HEIGHT_SIGMA_M
-from ..physics.scenarios import (
+from ..physics.instrument.scenarios import (
     MAX_JUMP_DISTANCE_M,
     MAX_SCENARIO_RADIANCE_RU,
     MODEL_B_RADIANCES_RU,

@@ -95,7 +95,7 @@ def run(args) -> int:
     closed whole, one line says where the run stopped, and the status is
     128 + the signal's number (130, 143), as for a shell's interrupted job.
     """
-    from ..runtime.assembly import parse_epoch
+    from ..runtime.common.assembly import parse_epoch
 
     overrides = {} if args.rate_hz is None else {"sensor.rate_hz": args.rate_hz}
     if args.seed is not None:

@@ -13,8 +13,8 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from threadpoolctl import ThreadpoolController
 
 import pmv_msgs_shim as shim
-from ..runtime.clock_watch import CLOCK_STALL_S, CLOCK_WATCH_PERIOD_S, ClockWatch
-from ..runtime.validation import ClockCheck, JumpDetector, SourceLock
+from ..runtime.common.clock_watch import CLOCK_STALL_S, CLOCK_WATCH_PERIOD_S, ClockWatch
+from ..runtime.common.validation import ClockCheck, JumpDetector, SourceLock
 from .params import coerce_parameters
 
 #: How often (wall clock, s) the graph is asked how many publishers an input has.
@@ -115,7 +115,7 @@ class PmvNode(Node):
 
     def health_report(self, stamp_s: float, health, part: str = "", device: str = "pmv",
                       others: tuple = ()) -> shim.HealthReport:
-        """A /diagnostics report of a runtime's status (:class:`pmv_ros.runtime.records.HealthSummary`) named
+        """A /diagnostics report of a runtime's status (:class:`pmv_ros.runtime.common.records.HealthSummary`) named
         after this node (:meth:`status_name` of ``part``, :meth:`hardware_id` of ``device``), ``others`` after it."""
         return shim.HealthReport(stamp_s=stamp_s, statuses=(shim.HealthStatus(
             name=self.status_name(part), level=health.level, message=health.message,
@@ -172,7 +172,7 @@ class PmvNode(Node):
     # -- /clock -------------------------------------------------------------------------------
 
     def _guard_clock(self) -> None:
-        """Put :class:`~pmv_ros.runtime.validation.ClockCheck` in front of rclpy's /clock callback.
+        """Put :class:`~pmv_ros.runtime.common.validation.ClockCheck` in front of rclpy's /clock callback.
 
         rclpy's time source (created by ``use_sim_time``) hands every /clock
         message straight to its clocks; a negative time raised there and
@@ -200,7 +200,7 @@ class PmvNode(Node):
     def watch_clock(self, diagnostics_publisher) -> None:
         """Say on /diagnostics (through ``diagnostics_publisher``, status ``<node>: clock``) when this node's /clock
         stops, and when it
-        moves again (:class:`pmv_ros.runtime.clock_watch.ClockWatch`): on a steady wall-clock timer, which runs
+        moves again (:class:`pmv_ros.runtime.common.clock_watch.ClockWatch`): on a steady wall-clock timer, which runs
         while the node clock stands. Only under ``use_sim_time``, and not for the in-process pipeline's lean
         nodes, whose clocks the pipeline sets itself."""
         if self._lean:
@@ -277,7 +277,7 @@ class PmvNode(Node):
 
         Best effort unless the node takes its inputs reliably (see ``__init__``).
         The message info's publisher GID, or on Jazzy its publication
-        sequence number, goes to a :class:`pmv_ros.runtime.validation.SourceLock`
+        sequence number, goes to a :class:`pmv_ros.runtime.common.validation.SourceLock`
         (the rule is there): the first publisher heard is kept, a second one's
         messages are dropped and counted, never interleaved;
         :meth:`input_source_problems` says so for ``/diagnostics``. Silence

@@ -7,9 +7,9 @@ publishes ``/pmv/residual`` (sensed − true, REP-103) for every aligned sample,
 time with the same numbers on ``/pmv/residual_mean``, ``_sigma`` and
 ``_limit`` (Vector3Stamped: x roll, y pitch, z meridional, rad; NaN where
 the DiagnosticArray says "pending"), and ``/diagnostics``. The alignment
-and statistics are :class:`pmv_ros.runtime.monitor.ErrorMonitor`, fed,
+and statistics are :class:`pmv_ros.runtime.monitor.core.ErrorMonitor`, fed,
 scheduled and reported on by its runtime
-(:class:`pmv_ros.runtime.monitor_runtime.MonitorRuntime`); this node only
+(:class:`pmv_ros.runtime.monitor.runtime.MonitorRuntime`); this node only
 converts and wires.
 
 Statistics are driven by the sample stamps, so the node behaves the same on
@@ -19,7 +19,7 @@ out samples waiting for truth when nothing arrives at all and publishes
 memory is bounded by the monitor's caps.
 
 Bad input, second sources, outages, restarts and clock jumps:
-:mod:`pmv_ros.runtime.monitor_runtime`.
+:mod:`pmv_ros.runtime.monitor.runtime`.
 """
 
 from __future__ import annotations
@@ -32,9 +32,9 @@ from nav_msgs.msg import Odometry
 
 import pmv_msgs_shim as shim
 from .base import PmvNode
-from ..runtime.assembly import MONITOR_PARAMS as PARAMS
-from ..runtime.monitor import ErrorMonitor
-from ..runtime.monitor_runtime import STATISTICS_VECTORS, MonitorOutput, MonitorRuntime
+from ..runtime.common.assembly import MONITOR_PARAMS as PARAMS
+from ..runtime.monitor.core import ErrorMonitor
+from ..runtime.monitor.runtime import STATISTICS_VECTORS, MonitorOutput, MonitorRuntime
 from .launch import node_main
 from .params import ParameterError, declare, install_validation
 

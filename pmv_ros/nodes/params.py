@@ -29,7 +29,7 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.exceptions import ParameterException
 from rclpy.parameter import Parameter
 
-from ..runtime.parameters import MAX_STRING_LENGTH, ParameterError, ParamSpec, unknown_parameter_problem
+from ..runtime.common.parameters import MAX_STRING_LENGTH, ParameterError, ParamSpec, unknown_parameter_problem
 
 
 def descriptor(spec: ParamSpec) -> ParameterDescriptor:
@@ -69,7 +69,7 @@ def declare(node, specs: Sequence[ParamSpec]) -> dict:
             another pmv_ros node passes here; :func:`check_params_files` checks each
             node's own section exactly.)
     """
-    from ..runtime.assembly import NODE_PARAMS  # the names a shared section may carry
+    from ..runtime.common.assembly import NODE_PARAMS  # the names a shared section may carry
 
     # rclpy keeps the overrides of the command line and params files in this
     # attribute (no public accessor); the type check and the int → float
@@ -133,8 +133,8 @@ def check_params_files(args, node_name: str) -> None:
         ParameterError: one line naming the key, the node and the nearest valid name.
         ValueError: the file itself is refused; one line naming the file and the reason.
     """
-    from ..runtime.assembly import NODE_PARAMS
-    from ..runtime.parameters import flatten_parameters
+    from ..runtime.common.assembly import NODE_PARAMS
+    from ..runtime.common.parameters import flatten_parameters
     from ..storage.files import read_yaml_file
 
     own = {spec.name for spec in NODE_PARAMS[node_name]}

@@ -24,7 +24,7 @@ from rclpy.time_source import TimeSource
 from rosgraph_msgs.msg import Clock as ClockMsg
 
 import pmv_msgs_shim as shim
-from ..runtime.assembly import NODE_PARAMS
+from ..runtime.common.assembly import NODE_PARAMS
 from .base import PmvNode, hold_single_threaded_blas, release_single_threaded_blas
 from .error_monitor_node import ErrorMonitorNode
 from .params import check_params_files

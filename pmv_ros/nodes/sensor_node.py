@@ -6,7 +6,7 @@ profile (published on ``/attitude/truth``) or follows the user's
 ``/attitude/truth``, and publishes crossings, roll/pitch (REP-103, corrected
 and uncorrected), the same as an orientation with covariance for estimators
 (``pmv/attitude_imu``), odometry, /tf and health. The node only wires: its
-runtime (:mod:`pmv_ros.runtime.sensor_runtime`, which says what each input
+runtime (:mod:`pmv_ros.runtime.sensor.runtime`, which says what each input
 and tick does) returns what to publish, :mod:`pmv_msgs_shim` lays it out.
 
 Topic names are relative (a namespace moves them), frames come from the
@@ -28,9 +28,9 @@ from sensor_msgs.msg import Imu
 
 import pmv_msgs_shim as shim
 from .base import PmvNode
-from ..runtime.assembly import SENSOR_PARAMS as PARAMS, read_correction
-from ..runtime.frames import Mounting
-from ..runtime.sensor_runtime import SamplePublication, SensorOutput, SensorRuntime
+from ..runtime.common.assembly import SENSOR_PARAMS as PARAMS, read_correction
+from ..runtime.common.frames import Mounting
+from ..runtime.sensor.runtime import SamplePublication, SensorOutput, SensorRuntime
 from .launch import node_main
 from .params import ParameterError, declare, install_validation
 from .tf import NO_TF2_MSGS, SensorTransforms, tf_message_type
@@ -69,7 +69,7 @@ class SensorNode(PmvNode):
         self._pub_attitude = self.publisher(Vector3Stamped, "pmv/attitude")
         self._pub_attitude_raw = self.publisher(Vector3Stamped, "pmv/attitude_uncorrected")
         self._pub_imu = self.publisher(Imu, "pmv/attitude_imu")
-        # orbit.source follow: the user's stack owns orbit/odometry and the sensor flies it (runtime/orbit_buffer.py).
+        # orbit.source follow: the user's stack owns orbit/odometry and the sensor flies it (runtime/common/orbit_buffer.py).
         self._pub_odometry = None if runtime.orbit_following else self.publisher(Odometry, "orbit/odometry")
         self._pub_diagnostics = self.publisher(DiagnosticArray, "/diagnostics")
         self.watch_clock(self._pub_diagnostics)
@@ -165,7 +165,7 @@ class SensorNode(PmvNode):
 
     @property
     def orbit(self):
-        """The orbit the sensor flies (:class:`pmv_ros.physics.orbit.CircularOrbit`)."""
+        """The orbit the sensor flies (:class:`pmv_ros.physics.orbit.two_body.CircularOrbit`)."""
         return self._runtime.orbit
 
     @property
@@ -180,7 +180,7 @@ class SensorNode(PmvNode):
 
     @property
     def fast_time_block(self) -> int:
-        """Samples computed per call in fast time (:func:`pmv_ros.runtime.sample_stream.fast_time_block`)."""
+        """Samples computed per call in fast time (:func:`pmv_ros.runtime.sensor.sample_stream.fast_time_block`)."""
         return self._runtime.fast_time_block
 
     # -- outputs --------------------------------------------------------------------------------

@@ -11,9 +11,9 @@ Frames are driven by the truth stream, so the node runs the same on the wall
 clock and on a fast-time ``/clock``. QoS: reliable, keep-last 100; the
 release queue holds at most ``latency_s × rate_hz`` frames.
 
-The node only wires: its runtime (:class:`pmv_ros.runtime.tracker.TrackerRuntime`)
+The node only wires: its runtime (:class:`pmv_ros.runtime.tracker.runtime.TrackerRuntime`)
 checks each truth message, runs the frame loop and assembles ``/diagnostics``;
-what it does with bad input and discontinuities: :mod:`pmv_ros.runtime.tracker`.
+what it does with bad input and discontinuities: :mod:`pmv_ros.runtime.tracker.runtime`.
 """
 
 from __future__ import annotations
@@ -25,9 +25,9 @@ from geometry_msgs.msg import QuaternionStamped
 
 import pmv_msgs_shim as shim
 from .base import PmvNode
-from ..runtime.assembly import STAR_TRACKER_PARAMS as PARAMS
-from ..runtime.records import HealthSummary
-from ..runtime.tracker import TrackerRuntime
+from ..runtime.common.assembly import STAR_TRACKER_PARAMS as PARAMS
+from ..runtime.common.records import HealthSummary
+from ..runtime.tracker.runtime import TrackerRuntime
 from .launch import node_main
 from .params import ParameterError, declare, install_validation
 

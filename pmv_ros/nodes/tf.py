@@ -21,7 +21,7 @@ from geometry_msgs.msg import TransformStamped
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 import pmv_msgs_shim as shim
-from ..runtime.frames import Frames
+from ..runtime.common.frames import Frames
 
 #: /tf: as tf2_ros's TransformBroadcaster (reliable, volatile, keep-last 100).
 TF_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)

@@ -1,7 +1,15 @@
-"""What the nodes do, without ROS: parameters and presets (assembly, parameters), input guards
-(validation), one runtime per node — the sensor's (sensor_runtime, on sample_stream, sensor_health,
-truth_buffer, orbit_buffer), the star tracker's (tracker), the monitor's (monitor_runtime, on monitor) —
-records, and the flight that drives them for the campaign.
+"""What the nodes do, without ROS: one package per node runtime, one for what they share, and the flight.
 
+* :mod:`.common` — parameters and presets (``assembly``, ``parameters``), input guards
+  (``validation``), frames, records, the clock watch, the truth and orbit buffers;
+* :mod:`.sensor` — :class:`~pmv_ros.runtime.sensor.SensorRuntime` (sensor_node), on its sample
+  stream, health and estimator output;
+* :mod:`.tracker` — :class:`~pmv_ros.runtime.tracker.TrackerRuntime` (star_tracker_node);
+* :mod:`.monitor` — :class:`~pmv_ros.runtime.monitor.MonitorRuntime` (error_monitor_node), on the
+  monitor core, its event scan, alignment and records;
+* :mod:`.flight` — drives the three runtimes for the campaign.
+
+Arrows point down that list: ``common`` imports none of the three node packages, they import
+``common`` and not each other, and only ``flight`` uses all three (tests/system/test_layers.py).
 Imports :mod:`pmv_ros.physics`, :mod:`pmv_ros.analysis` and :mod:`pmv_ros.storage`; never rclpy.
 """

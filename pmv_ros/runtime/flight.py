@@ -2,7 +2,7 @@
 
 orbit → attitude profile → sensor model → star-tracker model → the monitor's
 statistics, for one preset and one set of overrides — the models the nodes
-build (:mod:`pmv_ros.runtime.assembly`), run by the same core pieces the nodes
+build (:mod:`pmv_ros.runtime.common.assembly`), run by the same core pieces the nodes
 run, fed the way the in-process pipeline (``pmv simulate``) feeds them, so a
 flight gives the statistics the pipeline gives for the same preset, epoch
 and seed. Used by ``pmv campaign``.
@@ -10,19 +10,19 @@ and seed. Used by ``pmv campaign``.
 What each node does, and what runs it here:
 
 * sensor_node (fast time, stepped): the node's own runtime,
-  :class:`~pmv_ros.runtime.sensor_runtime.SensorRuntime`, stepped a block at
-  a time (:meth:`~pmv_ros.runtime.sensor_runtime.SensorRuntime.step_block`:
+  :class:`~pmv_ros.runtime.sensor.runtime.SensorRuntime`, stepped a block at
+  a time (:meth:`~pmv_ros.runtime.sensor.runtime.SensorRuntime.step_block`:
   its clock summed step by step from ``sim.start_time_s``, the block its
   stream computes ahead at the block's first step), whole blocks to the last.
   The environment's fields are evaluated on time grids spanning each block,
   so another grouping — even a shorter last block — moves roll by ≈ 2e-4′.
 * star_tracker_node: the node's own runtime,
-  :class:`~pmv_ros.runtime.tracker.TrackerRuntime`, fed the whole truth stream
+  :class:`~pmv_ros.runtime.tracker.runtime.TrackerRuntime`, fed the whole truth stream
   as one batch (:func:`tracker_frames`; the node feeds it one message at a
   time): the same frames, draws and releases, bit for bit. Frames not
   released when the flight ends are never seen by the monitor.
 * error_monitor_node: the node's own runtime,
-  :meth:`~pmv_ros.runtime.monitor_runtime.MonitorRuntime.add_stream` (the
+  :meth:`~pmv_ros.runtime.monitor.runtime.MonitorRuntime.add_stream` (the
   monitor's one path: validation, alignment and statistics), the released frames
   arriving just before the sensor sample of their tick, the node clock at
   each tick the sample's stamp, and the orbit's state at each stamp as the
@@ -38,14 +38,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..physics.orbit import geocentric_latitude_longitude
-from .assembly import MONITOR_PARAMS, NODE_PARAMS, READ_CORRECTION, SENSOR_PARAMS, STAR_TRACKER_PARAMS
-from .monitor_runtime import MonitorRuntime
-from .monitor_records import BATCH_STATUSES, PENDING_CODE, MonitorSummary
-from .parameters import ParameterError, preset_values, unknown_parameter_problem
-from .sample_stream import fast_time_block
-from .sensor_runtime import SensorRuntime
-from .tracker import TrackerFrames, TrackerRuntime, track_stream
+from ..physics.orbit.two_body import geocentric_latitude_longitude
+from .common.assembly import MONITOR_PARAMS, NODE_PARAMS, READ_CORRECTION, SENSOR_PARAMS, STAR_TRACKER_PARAMS
+from .monitor.runtime import MonitorRuntime
+from .monitor.records import BATCH_STATUSES, PENDING_CODE, MonitorSummary
+from .common.parameters import ParameterError, preset_values, unknown_parameter_problem
+from .sensor.sample_stream import fast_time_block
+from .sensor.runtime import SensorRuntime
+from .tracker.runtime import TrackerFrames, TrackerRuntime, track_stream
 
 #: Sample outcome codes in flight tables: the monitor's batch codes (0 is OK), PENDING_CODE still waiting at the end.
 OUTCOME_CODES = BATCH_STATUSES
@@ -70,7 +70,7 @@ def flight_values(document: dict, overrides: dict | None = None) -> FlightValues
     sensor, each override given to the nodes that declare it (winning over
     the preset's sections); an override no node declares, or a key of the
     preset no node has, is refused. Raises
-    :class:`~pmv_ros.runtime.parameters.ParameterError` (a ValueError) naming a
+    :class:`~pmv_ros.runtime.common.parameters.ParameterError` (a ValueError) naming a
     bad value or key.
     """
     settings = {"sim.fast_time": True, **(overrides or {})}

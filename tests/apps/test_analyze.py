@@ -137,8 +137,8 @@ def test_a_wrong_roll_sign_convention_would_show(tmp_path, capsys):
 
 def test_time_layout_with_truth_and_drift(tmp_path, capsys):
     from pmv_ros.physics.constants import ARCMIN_RAD
-    from pmv_ros.physics.oblateness import closed_form_oblateness
-    from pmv_ros.physics.orbit import CircularOrbit
+    from pmv_ros.physics.instrument.oblateness import closed_form_oblateness
+    from pmv_ros.physics.orbit.two_body import CircularOrbit
 
     inclination = math.radians(KONDOR_INCLINATION_DEG)
     period = CircularOrbit(KONDOR_ALTITUDE_KM * 1e3, inclination).period_s
@@ -224,7 +224,7 @@ def test_time_layout_without_phase_is_refused(tmp_path, capsys):
 def test_time_layout_with_a_phase_column(tmp_path, capsys):
     """A u_deg column gives the phase of each row whatever t_s holds (Unix stamps here)."""
     from pmv_ros.physics.constants import ARCMIN_RAD
-    from pmv_ros.physics.oblateness import closed_form_oblateness
+    from pmv_ros.physics.instrument.oblateness import closed_form_oblateness
 
     u = np.radians(np.arange(0.0, 360.0, 2.0))
     model_roll, model_pitch = convert(*closed_form_oblateness(u, KONDOR_ALTITUDE_KM * 1e3,

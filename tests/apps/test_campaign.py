@@ -18,7 +18,8 @@ from pmv_ros.apps import campaign
 from pmv_ros.cli import main
 from pmv_ros.physics.constants import ARCMIN_RAD
 from pmv_ros.physics.star_tracker import Outcome
-from pmv_ros.runtime.assembly import build_models, build_monitor
+from pmv_ros.runtime.common.assembly import build_models
+from pmv_ros.runtime.monitor.runtime import build_monitor
 from pmv_ros.runtime.flight import OUTCOME_CODES, PENDING_CODE, flight_values, fly, sense_block
 
 REPO = Path(__file__).resolve().parents[2]

@@ -28,7 +28,7 @@ import pytest
 
 from pmv_ros.apps import campaign
 from pmv_ros.runtime.flight import OUTCOME_CODES
-from pmv_ros.runtime.monitor_records import Status
+from pmv_ros.runtime.monitor.records import Status
 from pmv_ros.physics.constants import ARCMIN_RAD
 
 pytestmark = pytest.mark.adversarial
@@ -159,8 +159,8 @@ def test_check_result_names_why_a_file_is_not_the_tasks_result(clean, tmp_path, 
 
 
 def _epoch(manifest) -> str:
-    from pmv_ros.runtime.assembly import SENSOR_PARAMS
-    from pmv_ros.runtime.parameters import preset_values
+    from pmv_ros.runtime.common.assembly import SENSOR_PARAMS
+    from pmv_ros.runtime.common.parameters import preset_values
 
     return preset_values(manifest["preset"], "sensor_node", SENSOR_PARAMS)["sim.epoch_utc"]
 

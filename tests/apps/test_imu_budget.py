@@ -24,7 +24,7 @@ import yaml
 
 from pmv_ros.apps import campaign
 from pmv_ros.physics.constants import ARCMIN_RAD
-from pmv_ros.physics.tle_orbit import parse_element_set
+from pmv_ros.physics.orbit.tle import parse_element_set
 from pmv_ros.runtime.flight import flight_values, fly
 
 CONFIG = Path(__file__).resolve().parents[2] / "config"
@@ -69,7 +69,7 @@ def test_documented_imu_variances_match_a_short_campaign_of_the_preset(preset, r
 def test_the_code_defaults_are_the_default_presets():
     # A node started without a params file measures as the default preset (Kondor, the launch file's): the
     # Imu variances' code defaults are kondor.yaml's documented figures, one value in two places kept equal.
-    from pmv_ros.runtime.assembly import IMU_DEFAULT_RMS_ARCMIN
+    from pmv_ros.runtime.common.assembly import IMU_DEFAULT_RMS_ARCMIN
 
     section = yaml.safe_load((CONFIG / "kondor.yaml").read_text())["sensor_node"]["ros__parameters"]["imu"]
     assert IMU_DEFAULT_RMS_ARCMIN == (section["roll_error_rms_arcmin"], section["pitch_error_rms_arcmin"])

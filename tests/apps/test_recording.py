@@ -21,7 +21,7 @@ import pytest
 
 import pmv_msgs_shim as shim
 from pmv_ros.cli import main
-from pmv_ros.physics.orbit import CircularOrbit
+from pmv_ros.physics.orbit.two_body import CircularOrbit
 from pmv_ros.storage.recording import McapRecording
 
 REPO = Path(__file__).resolve().parents[2]
@@ -160,7 +160,7 @@ def test_the_epoch_and_elements_are_on_the_sensors_diagnostics(round_trip):
     assert elements.roll_pitch_convention == shim.WIRE_CONVENTION
     # Anyone can put the spacecraft where the odometry says it was from the elements and a stamp:
     # u of the odometry's position against u from the elements, to 1e-9 rad.
-    from pmv_ros.physics.orbit import orbit_angles_from_state
+    from pmv_ros.physics.orbit.two_body import orbit_angles_from_state
 
     for recorded in topics["/orbit/odometry"][::500]:
         stamp_s, position, velocity = shim.read_orbit_state(recorded.message)

@@ -20,7 +20,7 @@ import pmv_msgs_shim as shim
 from node_harness import probe
 from pmv_ros.nodes.pipeline import Pipeline
 from pmv_ros.physics.constants import ARCMIN_RAD
-from pmv_ros.runtime.estimator_output import UNOBSERVED_VARIANCE_RAD2, estimator_orientation
+from pmv_ros.runtime.sensor.estimator_output import UNOBSERVED_VARIANCE_RAD2, estimator_orientation
 
 KONDOR = Path(__file__).resolve().parents[2] / "config" / "kondor.yaml"
 

@@ -32,13 +32,13 @@ from pmv_ros.nodes.error_monitor_node import ErrorMonitorNode
 from pmv_ros.nodes.pipeline import Pipeline
 from pmv_ros.nodes.sensor_node import PARAMS as SENSOR_PARAMS
 from pmv_ros.nodes.sensor_node import SensorNode
-from pmv_ros.runtime.assembly import build_models
+from pmv_ros.runtime.common.assembly import build_models
 from pmv_ros.nodes.star_tracker_node import StarTrackerNode
 from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
 from pmv_ros.physics.constants import ARCMIN_RAD, EARTH_MEAN_RADIUS_M
-from pmv_ros.physics.ephemeris import Epoch, moon_direction_eci, sun_direction_from
-from pmv_ros.physics.ephemeris import BODY_NAMES
-from pmv_ros.physics.sensor import ChordStatus
+from pmv_ros.physics.orbit.ephemeris import Epoch, moon_direction_eci, sun_direction_from
+from pmv_ros.physics.orbit.ephemeris import BODY_NAMES
+from pmv_ros.physics.instrument.sensor import ChordStatus
 
 #: A star tracker that tells the exact truth.
 PERFECT_TRACKER = {"noise_cross_arcsec": 0.0, "noise_boresight_arcsec": 0.0, "random_failure_probability": 0.0}

@@ -5,7 +5,7 @@ the altitude swings by ≈ 143 km over an orbit) published as nav_msgs
 odometry at 5 Hz on its own stamps, 0.07 s off the sensor's grid, and up to
 0.5 s behind the sample it is needed for (the newest states are carried on
 by two-body motion). The reference is the same orbit flown internally
-(:class:`pmv_ros.physics.orbit.KeplerOrbit`) through the node's own
+(:class:`pmv_ros.physics.orbit.two_body.KeplerOrbit`) through the node's own
 instrument model.
 """
 
@@ -22,10 +22,10 @@ from nav_msgs.msg import Odometry
 import pmv_msgs_shim as shim
 from pmv_ros.nodes.sensor_node import SensorNode
 from pmv_ros.physics.constants import ARCMIN_RAD
-from pmv_ros.physics.orbit import CircularOrbit, KeplerOrbit
-from pmv_ros.physics.sensor import SensorModel
-from pmv_ros.runtime import parameters
-from pmv_ros.runtime.assembly import SENSOR_PARAMS, build_models
+from pmv_ros.physics.orbit.two_body import CircularOrbit, KeplerOrbit
+from pmv_ros.physics.instrument.sensor import SensorModel
+from pmv_ros.runtime.common import parameters
+from pmv_ros.runtime.common.assembly import SENSOR_PARAMS, build_models
 
 ECCENTRIC = KeplerOrbit(700e3, 0.01, math.radians(98.8), 0.4, math.radians(45.0), 0.0, 0.0)
 FOLLOW = {"orbit.source": "follow", "orbit.altitude_km": 771.0, "sim.fast_time": True, "sensor.rate_hz": 1.0,

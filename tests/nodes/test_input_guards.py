@@ -29,8 +29,8 @@ from pmv_ros.nodes.sensor_node import SensorNode
 from pmv_ros.nodes.star_tracker_node import StarTrackerNode
 from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
 from pmv_ros.physics.constants import ARCMIN_RAD
-from pmv_ros.physics.correction import CorrectionTable
-from pmv_ros.runtime.assembly import MAX_OUTAGES
+from pmv_ros.physics.instrument.correction import CorrectionTable
+from pmv_ros.runtime.common.assembly import MAX_OUTAGES
 
 VENV_BIN = Path(sys.executable).parent
 
@@ -259,7 +259,7 @@ def test_the_shipped_presets_have_no_unknown_keys():
 def _run_monitor_stream(harness, hostile: bool):
     """A 10 Hz sensor, 2 Hz truth and odometry on a 500 km orbit through one monitor node, from one publisher
     each; ``hostile`` adds 1 % of 1e308 angles and absurd odometry on the same publishers. Its statistics."""
-    from pmv_ros.physics.orbit import CircularOrbit
+    from pmv_ros.physics.orbit.two_body import CircularOrbit
 
     h = harness(ErrorMonitorNode, {"max_truth_wait_s": 3600.0})  # a recorded stream, 40 s behind the clock
     sensor = h.publisher(Vector3Stamped, "/pmv/attitude")

@@ -4,7 +4,7 @@ measurement time, sensor-data QoS, odometry by nav_msgs' rules, read-only world 
 Tolerances: on a sphere with a uniform horizon the signal chain reads the attitude to a small
 fraction of an arcminute (the corrected rig table leaves ≈ 0.1′, test_chain.py); 0.5′ is the
 issue's "methodical error" bound for this case. Timing errors are measured against the same
-instrument model (pmv_ros.runtime.assembly.build_models) run at the stamp with the true attitude:
+instrument model (pmv_ros.runtime.common.assembly.build_models) run at the stamp with the true attitude:
 what is left is the timing alone.
 
 In-process like tests/nodes/test_nodes.py: each test has its own context and executor.
@@ -33,9 +33,9 @@ from pmv_ros.nodes.pipeline import Pipeline
 from pmv_ros.nodes.sensor_node import SensorNode
 from pmv_ros.physics.attitude import quaternion_from_rotation_vector, quaternion_product
 from pmv_ros.physics.constants import ARCMIN_RAD
-from pmv_ros.runtime.assembly import SENSOR_PARAMS, build_models
-from pmv_ros.runtime.parameters import preset_values
-from pmv_ros.runtime.truth_buffer import DEFAULT_BRIDGE_S
+from pmv_ros.runtime.common.assembly import SENSOR_PARAMS, build_models
+from pmv_ros.runtime.common.parameters import preset_values
+from pmv_ros.runtime.common.truth_buffer import DEFAULT_BRIDGE_S
 
 #: Sphere + uniform horizon through the full signal chain (default detector and correction).
 SPHERE_UNIFORM = {"sensor.earth_model": "sphere", "radiance.source": "uniform", "sensor.bright_body_exclusion_deg": 0.0}
@@ -429,9 +429,9 @@ def test_the_pipeline_is_lossless_with_reliable_inputs():
 
 
 def test_every_read_only_parameter_of_every_node_is_refused_and_keeps_its_value():
-    # runtime/assembly.py marks the world-defining parameters read_only; each node refuses a valid new
+    # runtime/common/assembly.py marks the world-defining parameters read_only; each node refuses a valid new
     # value for each of them with the reason, in-process as through the service (above).
-    from pmv_ros.runtime.assembly import NODE_PARAMS
+    from pmv_ros.runtime.common.assembly import NODE_PARAMS
 
     roles = {"sensor_node": "sensor", "star_tracker_node": "star_tracker", "error_monitor_node": "monitor"}
     with Pipeline(None, {"sensor.detector": "ideal"}, collect=False) as pipeline:

@@ -57,10 +57,10 @@ def test_frame_ids_are_the_documented_names():
 
 
 def test_importing_the_shim_and_the_core_does_not_import_rclpy():
-    code = ("import sys, pmv_msgs_shim, pmv_ros.runtime.monitor, pmv_ros.analysis.statistics, pmv_ros.physics.ground_error;"
+    code = ("import sys, pmv_msgs_shim, pmv_ros.runtime.monitor.core, pmv_ros.analysis.statistics, pmv_ros.physics.ground_error;"
             "sys.exit(1 if 'rclpy' in sys.modules else 0)")
     assert subprocess.run([sys.executable, "-c", code]).returncode == 0
-    code = ("import sys, pmv_ros.runtime.monitor, pmv_ros.analysis.statistics, pmv_ros.physics.ground_error;"
+    code = ("import sys, pmv_ros.runtime.monitor.core, pmv_ros.analysis.statistics, pmv_ros.physics.ground_error;"
             "sys.exit(1 if any(m.endswith('_msgs') or m == 'rclpy' for m in sys.modules) else 0)")
     assert subprocess.run([sys.executable, "-c", code]).returncode == 0
 
@@ -300,8 +300,8 @@ def test_error_statistics_round_trip():
 
 
 def test_error_statistics_from_a_monitor_summary():
-    from pmv_ros.runtime.monitor import ErrorMonitor
-    from pmv_ros.runtime.monitor_records import MonitorConfig
+    from pmv_ros.runtime.monitor.core import ErrorMonitor
+    from pmv_ros.runtime.monitor.records import MonitorConfig
 
     monitor = ErrorMonitor(MonitorConfig(orbital_period_s=600.0, remove_oblateness=False))
     monitor.add_truth(1.0, 0.0, 0.0)

@@ -26,7 +26,7 @@ from pmv_ros.nodes.pipeline import Pipeline, drain
 from pmv_ros.nodes.sensor_node import SensorNode
 from pmv_ros.nodes.star_tracker_node import StarTrackerNode
 from pmv_ros.physics.constants import ARCMIN_RAD
-from pmv_ros.runtime.clock_watch import CLOCK_STALL_S
+from pmv_ros.runtime.common.clock_watch import CLOCK_STALL_S
 
 KONDOR = Path(__file__).resolve().parents[2] / "config" / "kondor.yaml"
 RATE_HZ = 10.0  # the preset's sensor rate

@@ -31,7 +31,7 @@ from pmv_ros.nodes.sensor_node import SensorNode
 from pmv_ros.nodes.star_tracker_node import StarTrackerNode
 from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
 from pmv_ros.physics.constants import ARCMIN_RAD
-from pmv_ros.physics.orbit import CircularOrbit
+from pmv_ros.physics.orbit.two_body import CircularOrbit
 
 #: Topics every spacecraft shares; everything else of ours is under its namespace.
 SHARED = {"/clock", "/diagnostics", "/tf", "/tf_static"}

@@ -18,7 +18,7 @@ from rclpy.node import Node
 import pmv_msgs_shim as shim
 from pmv_ros.nodes.pipeline import Pipeline
 from pmv_ros.physics.constants import ARCMIN_RAD
-from pmv_ros.physics.orbit import CircularOrbit
+from pmv_ros.physics.orbit.two_body import CircularOrbit
 
 KEYS = {"/pmv/residual_mean": "mean_arcmin", "/pmv/residual_sigma": "sigma_arcmin",
         "/pmv/residual_limit": "three_sigma_arcmin"}

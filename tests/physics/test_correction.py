@@ -9,7 +9,7 @@ import pytest
 
 from pmv_ros.physics.chain import DetectionStatus, scan_start_nadir_angle, sense_horizon_chords, sphere_chord
 from pmv_ros.physics.constants import ARCMIN_RAD
-from pmv_ros.physics.correction import (
+from pmv_ros.physics.instrument.correction import (
     RIG_RADIANCES_RU,
     CorrectionTable,
     calibrated_correction_table,
@@ -17,7 +17,7 @@ from pmv_ros.physics.correction import (
     rig_correction_table,
     simulate_rig,
 )
-from pmv_ros.physics.scenarios import model_a, run_pair
+from pmv_ros.physics.instrument.scenarios import model_a, run_pair
 
 
 def test_rig_covers_one_to_four_radiance_units():
@@ -124,7 +124,7 @@ def test_corrected_horizon_is_the_hard_earth_horizon_under_rig_conditions():
 
 def test_the_no2_2_curve_is_refused_on_another_orbit():
     """The inferred Meteor-M No.2-2 curve belongs to the 835 km orbit: elsewhere it would be silently wrong."""
-    from pmv_ros.physics.correction import load_correction
+    from pmv_ros.physics.instrument.correction import load_correction
 
     assert load_correction("meteor_m2_2", 835e3) is not None
     with pytest.raises(ValueError, match="835 km"):

@@ -16,11 +16,11 @@ import pytest
 
 from pmv_ros.physics.attitude_profile import AttitudeProfile
 from pmv_ros.physics.constants import ARCMIN_RAD, EARTH_MEAN_RADIUS_M, GM_EARTH_M3_S2
-from pmv_ros.physics.ephemeris import Epoch
-from pmv_ros.physics.oblateness import closed_form_oblateness, sensed_roll_pitch
-from pmv_ros.physics.orbit import CircularOrbit, KeplerOrbit
-from pmv_ros.physics.sensor import SensorConfig, SensorModel
-from pmv_ros.physics.tle_orbit import TleOrbit, make_element_set
+from pmv_ros.physics.orbit.ephemeris import Epoch
+from pmv_ros.physics.instrument.oblateness import closed_form_oblateness, sensed_roll_pitch
+from pmv_ros.physics.orbit.two_body import CircularOrbit, KeplerOrbit
+from pmv_ros.physics.instrument.sensor import SensorConfig, SensorModel
+from pmv_ros.physics.orbit.tle import TleOrbit, make_element_set
 
 PERIGEE_M, ECCENTRICITY, INCLINATION_DEG, ARG_PERIGEE_DEG = 700e3, 0.01, 98.8, 45.0
 SEMI_MAJOR_AXIS_M = (EARTH_MEAN_RADIUS_M + PERIGEE_M) / (1.0 - ECCENTRICITY)

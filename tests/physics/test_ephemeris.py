@@ -1,4 +1,4 @@
-"""Sun/Moon ephemeris, run epoch and the bright-body-in-a-chord check (pmv_ros.physics.ephemeris, .bright_body).
+"""Sun/Moon ephemeris, run epoch and the bright-body-in-a-chord check (pmv_ros.physics.orbit.ephemeris, .bright_body).
 
 Reference values and where they come from:
 
@@ -24,14 +24,14 @@ import numpy as np
 import pytest
 
 from pmv_ros.physics.attitude import body_axes_in_orbital, quaternion_from_roll_pitch_yaw
-from pmv_ros.physics.bright_body import (
+from pmv_ros.physics.instrument.bright_body import (
     angular_distance_to_scan_arc,
     bright_body_in_chords,
     chords_seeing_body,
     occulted_by_earth,
 )
 from pmv_ros.physics.constants import EARTH_MEAN_RADIUS_M, EARTH_ROTATION_RATE_RAD_S, SPHERE
-from pmv_ros.physics.ephemeris import (
+from pmv_ros.physics.orbit.ephemeris import (
     ASTRONOMICAL_UNIT_M,
     TT_MINUS_UTC_S,
     Epoch,
@@ -51,8 +51,8 @@ from pmv_ros.physics.geometry import (
     sphere_nadir_angle_of_height,
     tangent_nadir_angles,
 )
-from pmv_ros.physics.oblateness import sensor_axes_eci
-from pmv_ros.physics.orbit import CircularOrbit
+from pmv_ros.physics.instrument.oblateness import sensor_axes_eci
+from pmv_ros.physics.orbit.two_body import CircularOrbit
 
 DEG = math.pi / 180.0
 IFOV_HALF_ANGLE_RAD = 1.1 * DEG  # physics.md §1: 2γ = 2.2°

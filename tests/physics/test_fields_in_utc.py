@@ -18,12 +18,12 @@ import yaml
 from pmv_ros.apps.campaign import day_epoch
 from pmv_ros.physics.constants import ARCMIN_RAD
 from pmv_ros.physics.environment import EnvironmentParameters
-from pmv_ros.physics.ephemeris import (Epoch, local_time_of_node_h, raan_from_local_time_of_node,
+from pmv_ros.physics.orbit.ephemeris import (Epoch, local_time_of_node_h, raan_from_local_time_of_node,
                                        sun_position_eci_m)
-from pmv_ros.physics.orbit import CircularOrbit
-from pmv_ros.physics.sensor import ChainDetector, RadianceConfig
-from pmv_ros.runtime import parameters
-from pmv_ros.runtime.assembly import SENSOR_PARAMS, build_detector, build_models, parse_epoch
+from pmv_ros.physics.orbit.two_body import CircularOrbit
+from pmv_ros.physics.instrument.sensor import ChainDetector, RadianceConfig
+from pmv_ros.runtime.common import parameters
+from pmv_ros.runtime.common.assembly import SENSOR_PARAMS, build_detector, build_models, parse_epoch
 
 REPO = Path(__file__).resolve().parents[2]
 LEVEL = np.array([[0.0], [0.0], [0.0], [1.0]])
@@ -47,7 +47,7 @@ def _detector(climatology: bool):
 def _chords(detector, n=400):
     orbit = CircularOrbit(835e3, math.radians(98.8))
     t = np.linspace(0.0, orbit.period_s, n)
-    from pmv_ros.physics.oblateness import sensor_axes_eci
+    from pmv_ros.physics.instrument.oblateness import sensor_axes_eci
     position, _ = orbit.state_eci(t)
     axes = sensor_axes_eci(orbit, t, np.tile(LEVEL, n))
     return t, position, axes

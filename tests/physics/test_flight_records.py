@@ -22,9 +22,9 @@ import yaml
 
 from pmv_ros.apps.report import harmonic_spectrum
 from pmv_ros.physics.constants import ARCMIN_RAD
-from pmv_ros.physics.oblateness import closed_form_oblateness
-from pmv_ros.runtime import parameters
-from pmv_ros.runtime.assembly import SENSOR_PARAMS, build_models
+from pmv_ros.physics.instrument.oblateness import closed_form_oblateness
+from pmv_ros.runtime.common import parameters
+from pmv_ros.runtime.common.assembly import SENSOR_PARAMS, build_models
 
 REPO = Path(__file__).resolve().parents[2]
 CALIBRATION = json.loads((REPO / "pmv_ros" / "data" / "environment_calibration.json").read_text())

@@ -16,10 +16,10 @@ import pytest
 
 from pmv_ros.physics import chain
 from pmv_ros.physics.constants import ARCMIN_RAD
-from pmv_ros.physics.correction import calibrated_correction_table
+from pmv_ros.physics.instrument.correction import calibrated_correction_table
 from pmv_ros.physics.environment import EnvironmentParameters
-from pmv_ros.physics.orbit import CircularOrbit
-from pmv_ros.physics.sensor import ChainDetector, RadianceConfig, SensorConfig, SensorModel
+from pmv_ros.physics.orbit.two_body import CircularOrbit
+from pmv_ros.physics.instrument.sensor import ChainDetector, RadianceConfig, SensorConfig, SensorModel
 
 ALTITUDE_M = 835e3
 PHI0, SLOPE = chain.sphere_chord(ALTITUDE_M)

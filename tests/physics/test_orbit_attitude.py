@@ -20,7 +20,7 @@ from pmv_ros.physics.attitude import (
     rotation_vector_from_quaternion,
     true_roll_pitch,
 )
-from pmv_ros.physics.orbit import CircularOrbit, eci_to_ecef, geocentric_latitude_longitude
+from pmv_ros.physics.orbit.two_body import CircularOrbit, eci_to_ecef, geocentric_latitude_longitude
 
 
 def test_period_matches_the_reference_orbits():

@@ -8,7 +8,7 @@ import pytest
 from pmv_ros.physics.published import MODEL_A_TABLE
 
 from pmv_ros.physics.constants import ARCMIN_RAD
-from pmv_ros.physics.scenarios import model_a, model_b, model_c, model_d, run_pair, scenario
+from pmv_ros.physics.instrument.scenarios import model_a, model_b, model_c, model_d, run_pair, scenario
 
 
 def arcmin(value_rad: float) -> float:

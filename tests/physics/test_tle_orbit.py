@@ -18,11 +18,11 @@ import yaml
 from sgp4.api import WGS72, Satrec, jday
 
 from pmv_ros.physics.constants import EARTH_MEAN_RADIUS_M
-from pmv_ros.physics.ephemeris import Epoch, julian_date_from_utc
-from pmv_ros.physics.tle_orbit import (OrbitPropagationError, TleOrbit, make_element_set, parse_element_set,
+from pmv_ros.physics.orbit.ephemeris import Epoch, julian_date_from_utc
+from pmv_ros.physics.orbit.tle import (OrbitPropagationError, TleOrbit, make_element_set, parse_element_set,
                                        teme_to_mod_matrix, tle_checksum)
-from pmv_ros.runtime.assembly import SENSOR_PARAMS, build_models
-from pmv_ros.runtime.parameters import preset_values
+from pmv_ros.runtime.common.assembly import SENSOR_PARAMS, build_models
+from pmv_ros.runtime.common.parameters import preset_values
 
 REPO = Path(__file__).resolve().parents[2]
 PRESET = REPO / "config" / "meteor_m2_tle.yaml"

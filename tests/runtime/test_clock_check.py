@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import pytest
 
-from pmv_ros.runtime.validation import CLOCK_REJECTIONS, ClockCheck
+from pmv_ros.runtime.common.validation import CLOCK_REJECTIONS, ClockCheck
 
 BACK_S, AHEAD_S = 1.0, 10.0
 

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from pmv_ros.runtime.clock_watch import CLOCK_STALL_S, ClockWatch
-from pmv_ros.runtime.records import Level
+from pmv_ros.runtime.common.clock_watch import CLOCK_STALL_S, ClockWatch
+from pmv_ros.runtime.common.records import Level
 
 
 def test_a_clock_standing_longer_than_the_stall_time_warns_at_each_reading_and_is_ok_once_when_it_moves():

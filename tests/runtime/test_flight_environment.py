@@ -18,7 +18,7 @@ from flights import fly_one_orbit, preset_values
 
 from pmv_ros.apps.report import harmonic_spectrum
 from pmv_ros.physics.constants import ARCMIN_RAD
-from pmv_ros.physics.oblateness import closed_form_oblateness
+from pmv_ros.physics.instrument.oblateness import closed_form_oblateness
 
 REPO = Path(__file__).resolve().parents[2]
 

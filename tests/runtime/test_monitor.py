@@ -10,10 +10,10 @@ import pytest
 
 from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
 from pmv_ros.physics.constants import ARCMIN_RAD
-from pmv_ros.physics.orbit import CircularOrbit, orbit_angles_from_state
-from pmv_ros.runtime.monitor import ErrorMonitor
-from pmv_ros.runtime.monitor_records import COUNTER_NAMES, MonitorConfig, Status
-from pmv_ros.runtime.validation import Rejection
+from pmv_ros.physics.orbit.two_body import CircularOrbit, orbit_angles_from_state
+from pmv_ros.runtime.monitor.core import ErrorMonitor
+from pmv_ros.runtime.monitor.records import COUNTER_NAMES, MonitorConfig, Status
+from pmv_ros.runtime.common.validation import Rejection
 
 KONDOR_ALTITUDE_M, KONDOR_INCLINATION = 500e3, math.radians(74.5)
 
@@ -203,7 +203,7 @@ def test_oblateness_removal_and_harmonics_over_a_kondor_orbit():
     config = MonitorConfig.for_orbit(KONDOR_ALTITUDE_M, KONDOR_INCLINATION)
     monitor = ErrorMonitor(config)
     orbit = CircularOrbit(KONDOR_ALTITUDE_M, KONDOR_INCLINATION)
-    from pmv_ros.physics.oblateness import closed_form_oblateness
+    from pmv_ros.physics.instrument.oblateness import closed_form_oblateness
 
     ripple = 0.5 * ARCMIN_RAD
     for t in np.arange(4.0, 1.05 * orbit.period_s, 4.0):           # §5.1 sampling: every 4 s
@@ -358,7 +358,7 @@ def test_one_batch_equals_the_same_input_message_by_message_with_bad_input(jump)
     Both go through the one path; what differs is where the input is cut (a batch of one event per message,
     one batch of 12,000 samples). 1e-9 arcmin: the same residuals summed in another order.
     """
-    from pmv_ros.runtime.monitor_records import BATCH_STATUSES, PENDING_CODE
+    from pmv_ros.runtime.monitor.records import BATCH_STATUSES, PENDING_CODE
 
     t, roll, pitch, frames, q, arrival, now, (position, velocity) = _hostile_batch(jump)
     config = small_config(min_interval_s=0.002)
@@ -395,7 +395,7 @@ def test_one_batch_equals_the_same_input_message_by_message_with_bad_input(jump)
 def _segments(monitor, feed):
     """The segment of ``feed`` as the array scan and as the event-by-event scan make it, each on its own copy
     of ``monitor`` (returned too)."""
-    from pmv_ros.runtime.monitor_scan import scan_clean
+    from pmv_ros.runtime.monitor.scan import scan_clean
 
     copies = []
     for _ in range(2):
@@ -411,7 +411,7 @@ def _segments(monitor, feed):
 
 
 def test_the_array_scan_of_a_clean_batch_is_the_event_scan():
-    """monitor_scan.scan_clean (the campaign's path) against the event-by-event scan, sample by sample.
+    """scan.scan_clean (the campaign's path) against the event-by-event scan, sample by sample.
 
     A clean stream but for the input the clean path checks itself (angles of 1e3 rad, ±Inf, lost pairs;
     far-from-unit, NaN and near-unit quaternions): the same verdicts, event numbers, timeout clocks, truth and
@@ -419,7 +419,7 @@ def test_the_array_scan_of_a_clean_batch_is_the_event_scan():
     one sample in floats). A batch with a duplicate, a backward, a zero or a NaN stamp, or a clock jump is
     left to the event scan (the clean path says None), and so is a short one.
     """
-    from pmv_ros.runtime.monitor_scan import MIN_ARRAY_SAMPLES, scan_clean
+    from pmv_ros.runtime.monitor.scan import MIN_ARRAY_SAMPLES, scan_clean
 
     t, roll, pitch, frames, q, arrival, now, odometry = _hostile_batch(jump=False)
     clean_t = now.copy()  # stamps on the clock, every one on the timeline
@@ -477,7 +477,7 @@ def test_where_the_input_is_cut_changes_nothing(late_s):
     1.5 s late, truth then covering a sample on arrival — too old for the buffer. Statistics within 1e-9
     arcmin (sums in another order).
     """
-    from pmv_ros.runtime.monitor_records import BATCH_STATUSES, PENDING_CODE
+    from pmv_ros.runtime.monitor.records import BATCH_STATUSES, PENDING_CODE
 
     t, roll, pitch, frames, q, arrival, now, (position, velocity) = _hostile_batch(jump=True)
     t = t - late_s
@@ -516,9 +516,9 @@ def test_where_the_input_is_cut_changes_nothing(late_s):
 
 
 def test_a_wait_runs_out_only_at_an_event_whose_clock_is_past_it():
-    """monitor_alignment.first_expired: a clock that went back (the old reading left on the event of a reset)
+    """alignment.first_expired: a clock that went back (the old reading left on the event of a reset)
     is searched run by run, from each sample's arrival on — never a timeout read off an event before it."""
-    from pmv_ros.runtime.monitor_alignment import first_expired
+    from pmv_ros.runtime.monitor.alignment import first_expired
 
     clocks = np.array([5.0, 1.0, 2.0, 9.0])  # event 0 kept the clock of before the reset
     stamps, arrivals = np.array([0.0, 0.0, 1.0, 8.0]), np.array([0, 1, 1, 1])

@@ -11,10 +11,10 @@ from flights import REPO
 from pmv_ros.analysis.statistics import CHANNELS
 from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
 from pmv_ros.physics.constants import ARCMIN_RAD
-from pmv_ros.physics.orbit import CircularOrbit
+from pmv_ros.physics.orbit.two_body import CircularOrbit
 from pmv_ros.runtime.flight import flight_values
-from pmv_ros.runtime.monitor_runtime import STATISTICS_VECTORS, MonitorRuntime, oblateness_override
-from pmv_ros.runtime.records import Level
+from pmv_ros.runtime.monitor.runtime import STATISTICS_VECTORS, MonitorRuntime, oblateness_override
+from pmv_ros.runtime.common.records import Level
 
 
 def values_of(overrides: dict | None = None):

@@ -19,11 +19,11 @@ import yaml
 
 from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw, quaternion_product, true_roll_pitch
 from pmv_ros.physics.constants import ARCMIN_RAD, SPHERE
-from pmv_ros.physics.orbit import CircularOrbit
-from pmv_ros.physics.sensor import SensorConfig, SensorModel
-from pmv_ros.runtime.assembly import SENSOR_PARAMS
+from pmv_ros.physics.orbit.two_body import CircularOrbit
+from pmv_ros.physics.instrument.sensor import SensorConfig, SensorModel
+from pmv_ros.runtime.common.assembly import SENSOR_PARAMS
 from pmv_ros.runtime.flight import flight_values, fly
-from pmv_ros.runtime.frames import Frames, Mounting, prefix_for_namespace
+from pmv_ros.runtime.common.frames import Frames, Mounting, prefix_for_namespace
 
 REPO = Path(__file__).resolve().parents[2]
 

@@ -1,7 +1,7 @@
 """The orbit a sensor follows (issue 21, ``orbit.source: follow``): the user's odometry at the sensor's times.
 
 The reference is an eccentric orbit (e = 0.01, perigee 700 km) flown
-internally (:class:`pmv_ros.physics.orbit.KeplerOrbit`); the user's stack is
+internally (:class:`pmv_ros.physics.orbit.two_body.KeplerOrbit`); the user's stack is
 played by its states sampled at the stack's own rate and stamps. Two-body
 motion, without the secular J2 rates: with them, KeplerOrbit's velocity is
 the osculating ellipse's, which differs from the time derivative of its
@@ -18,9 +18,9 @@ import pytest
 
 from pmv_ros.physics.attitude_profile import AttitudeProfile
 from pmv_ros.physics.constants import ARCMIN_RAD
-from pmv_ros.physics.orbit import KeplerOrbit
-from pmv_ros.physics.sensor import SensorConfig, SensorModel
-from pmv_ros.runtime.orbit_buffer import (FollowedOrbit, OrbitAt, OrbitBuffer, OrbitUnavailable, hermite_state,
+from pmv_ros.physics.orbit.two_body import KeplerOrbit
+from pmv_ros.physics.instrument.sensor import SensorConfig, SensorModel
+from pmv_ros.runtime.common.orbit_buffer import (FollowedOrbit, OrbitAt, OrbitBuffer, OrbitUnavailable, hermite_state,
                                           two_body_taylor)
 
 ECCENTRIC = KeplerOrbit(700e3, 0.01, math.radians(98.8), 0.4, math.radians(45.0), 0.0, 0.0)

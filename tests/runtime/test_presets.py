@@ -43,8 +43,8 @@ def test_preset_keys_are_declared(preset):
 @pytest.mark.parametrize("preset", ["kondor.yaml", "meteor_m2.yaml", "meteor_m2_2.yaml"])
 def test_preset_values_without_ros_match_the_file(preset):
     """``preset_values`` merges ``/**`` and the node section as rclpy does, node section winning, defaults for the rest."""
-    from pmv_ros.runtime.assembly import NODE_PARAMS
-    from pmv_ros.runtime.parameters import flatten_parameters, preset_values
+    from pmv_ros.runtime.common.assembly import NODE_PARAMS
+    from pmv_ros.runtime.common.parameters import flatten_parameters, preset_values
 
     document = yaml.safe_load((REPO / "config" / preset).read_text())
     for node, specs in NODE_PARAMS.items():
@@ -58,8 +58,8 @@ def test_preset_values_without_ros_match_the_file(preset):
 
 
 def test_preset_values_refuse_a_bad_value_by_name():
-    from pmv_ros.runtime.assembly import SENSOR_PARAMS
-    from pmv_ros.runtime.parameters import ParameterError, preset_values
+    from pmv_ros.runtime.common.assembly import SENSOR_PARAMS
+    from pmv_ros.runtime.common.parameters import ParameterError, preset_values
 
     with pytest.raises(ParameterError, match="sensor.rate_hz"):
         preset_values({"sensor_node": {"ros__parameters": {"sensor": {"rate_hz": 1e9}}}}, "sensor_node", SENSOR_PARAMS)

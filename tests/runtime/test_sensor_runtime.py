@@ -9,11 +9,11 @@ import yaml
 from flights import REPO, preset_values
 from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
 from pmv_ros.physics.constants import ARCMIN_RAD
-from pmv_ros.runtime.assembly import read_correction
+from pmv_ros.runtime.common.assembly import read_correction
 from pmv_ros.runtime.flight import flight_values, fly
-from pmv_ros.runtime.records import Level
-from pmv_ros.runtime.sample_stream import FAST_TIME_BLOCK
-from pmv_ros.runtime.sensor_runtime import HealthAt, SamplePublication, SensorRuntime
+from pmv_ros.runtime.common.records import Level
+from pmv_ros.runtime.sensor.sample_stream import FAST_TIME_BLOCK
+from pmv_ros.runtime.sensor.runtime import HealthAt, SamplePublication, SensorRuntime
 
 
 def runtime_of(values: dict, **options) -> SensorRuntime:

@@ -7,9 +7,9 @@ import pytest
 
 from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
 from pmv_ros.physics.star_tracker import LatencyQueue, Outcome, _grid_times
-from pmv_ros.runtime.assembly import STAR_TRACKER_PARAMS
-from pmv_ros.runtime.parameters import preset_values
-from pmv_ros.runtime.tracker import TrackerRuntime, track_stream
+from pmv_ros.runtime.common.assembly import STAR_TRACKER_PARAMS
+from pmv_ros.runtime.common.parameters import preset_values
+from pmv_ros.runtime.tracker.runtime import TrackerRuntime, track_stream
 
 DEFAULTS = preset_values({}, "star_tracker_node", STAR_TRACKER_PARAMS)
 

@@ -12,8 +12,8 @@ from flights import REPO
 from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
 from pmv_ros.physics.constants import ARCMIN_RAD
 from pmv_ros.runtime.flight import flight_values
-from pmv_ros.runtime.records import Level
-from pmv_ros.runtime.tracker import TrackerRuntime, track_stream
+from pmv_ros.runtime.common.records import Level
+from pmv_ros.runtime.tracker.runtime import TrackerRuntime, track_stream
 
 
 def values_of(overrides: dict | None = None):

@@ -7,7 +7,7 @@ import pytest
 from scipy.spatial.transform import Rotation, Slerp
 
 from pmv_ros.physics.star_tracker import FrameGrid
-from pmv_ros.runtime.truth_buffer import DEFAULT_BRIDGE_S, PendingSamples, TruthAt, TruthBuffer
+from pmv_ros.runtime.common.truth_buffer import DEFAULT_BRIDGE_S, PendingSamples, TruthAt, TruthBuffer
 
 RATE_RAD_S = np.array([2e-3, -1e-3, 5e-4])  # a constant body rate, orbital components
 

@@ -1,4 +1,4 @@
-"""The input validators (pmv_ros.runtime.validation) and what they guarantee the statistics, property-based.
+"""The input validators (pmv_ros.runtime.common.validation) and what they guarantee the statistics, property-based.
 
 Hypothesis draws any float — NaN, ±Inf, ±1e308, subnormals, −0.0 — into the
 validators and through the monitor core, and checks the promises: nothing
@@ -18,10 +18,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
-from pmv_ros.physics.orbit import CircularOrbit
-from pmv_ros.runtime.monitor import ErrorMonitor
-from pmv_ros.runtime.monitor_records import MonitorConfig
-from pmv_ros.runtime.validation import (
+from pmv_ros.physics.orbit.two_body import CircularOrbit
+from pmv_ros.runtime.monitor.core import ErrorMonitor
+from pmv_ros.runtime.monitor.records import MonitorConfig
+from pmv_ros.runtime.common.validation import (
     QUATERNION_NORM_TOLERANCE,
     InputBounds,
     Jump,
@@ -305,7 +305,7 @@ def test_devices_directories_huge_and_binary_files_are_refused(tmp_path):
 
 
 def test_the_reason_never_echoes_the_file(tmp_path):
-    from pmv_ros.physics.correction import CorrectionTable
+    from pmv_ros.physics.instrument.correction import CorrectionTable
 
     secret = tmp_path / "passwd"
     secret.write_text("root:x:0:0:root:/root:/bin/bash\ndaemon:x:1:1::/usr/sbin:/usr/sbin/nologin\n")
@@ -403,7 +403,7 @@ def test_no_statistic_ever_becomes_infinite(samples):
 
 
 def test_a_quaternion_sample_moves_the_timeline_only_when_the_quaternion_is_valid():
-    from pmv_ros.runtime.validation import StampCheck, check_quaternion_sample
+    from pmv_ros.runtime.common.validation import StampCheck, check_quaternion_sample
 
     stamps = StampCheck(1.0, 1.0)
     bad = check_quaternion_sample(stamps, 10.0, (0.0, 0.0, 0.0, 0.0), None)

@@ -22,7 +22,7 @@ def test_core_imports_without_ros():
         names = []
         for layer in ("physics", "analysis", "runtime", "storage", "apps"):
             package = importlib.import_module("pmv_ros." + layer)
-            names += [m.name for m in pkgutil.iter_modules(package.__path__, package.__name__ + ".")]
+            names += [m.name for m in pkgutil.walk_packages(package.__path__, package.__name__ + ".")]
         for name in names:
             importlib.import_module(name)
         try:
@@ -33,4 +33,4 @@ def test_core_imports_without_ros():
     result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
     assert result.returncode == 0, result.stderr
     assert "blocked-ok" in result.stdout
-    assert int(result.stdout.split()[-1]) >= 25
+    assert int(result.stdout.split()[-1]) >= 60  # every module of the five layers, subpackages included

@@ -54,6 +54,36 @@ def _imports(path: Path) -> list[str]:
     return found
 
 
+#: Inside a layer, its parts in order (pmv_ros/runtime/__init__.py, pmv_ros/physics/__init__.py): a part imports
+#: itself and the parts of lower rank, never one of its own rank or above. ``None`` names the layer's own modules.
+INNER_RANKS = {
+    "runtime": {"common": 0, "sensor": 1, "tracker": 1, "monitor": 1, "flight": 2},
+    "physics": {None: 0, "orbit": 1, "chain": 2, "environment": 2, "instrument": 3},
+}
+
+#: The most modules one folder holds (the issue that grouped the runtime and the physics by part).
+MAX_MODULES_PER_FOLDER = 12
+
+
+def _part(module: str) -> tuple[str, str | None] | None:
+    """(layer, part) of a module inside a layer with inner ranks; part is None for the layer's own modules."""
+    parts = module.split(".")
+    if parts[0] != "pmv_ros" or len(parts) < 3 or parts[1] not in INNER_RANKS:
+        return None
+    ranks = INNER_RANKS[parts[1]]
+    if parts[2] in ranks:
+        return parts[1], parts[2]
+    return (parts[1], None) if None in ranks else None
+
+
+def _inner_violation(source: str, target: str) -> bool:
+    own, other = _part(source), _part(target)
+    if own is None or other is None or own[0] != other[0] or own == other:
+        return False
+    ranks = INNER_RANKS[own[0]]
+    return ranks[other[1]] >= ranks[own[1]]
+
+
 def test_every_module_lives_in_a_layer():
     loose = [p.relative_to(PACKAGE).as_posix() for p in PACKAGE.rglob("*.py")
              if p.relative_to(PACKAGE).parts[0] not in LAYERS and p.name != "__init__.py"]
@@ -73,8 +103,35 @@ def test_imports_point_down():
     assert not upward, "imports pointing up:\n" + "\n".join(upward)
 
 
+def test_parts_of_a_layer_import_down_and_not_sideways():
+    wrong = []
+    for path in sorted(PACKAGE.rglob("*.py")):
+        source = _module(path)
+        if source.endswith(".__init__"):
+            source = source[: -len(".__init__")]
+        wrong += [f"{source} → {target}" for target in _imports(path) if _inner_violation(source, target)]
+    assert not wrong, "imports across the parts of a layer, sideways or up:\n" + "\n".join(wrong)
+
+
+def test_no_folder_holds_more_than_twelve_modules():
+    crowded = {}
+    for folder in [PACKAGE, SHIM, *[p for p in PACKAGE.rglob("*") if p.is_dir() and p.name != "__pycache__"]]:
+        count = len([p for p in folder.glob("*.py") if p.name != "__init__.py"])
+        if count > MAX_MODULES_PER_FOLDER:
+            crowded[folder.relative_to(PACKAGE.parent).as_posix()] = count
+    assert not crowded, f"folders over {MAX_MODULES_PER_FOLDER} modules: {crowded}"
+
+
 def test_the_check_sees_an_upward_import(tmp_path):
-    assert _rank("pmv_ros.cli.common") > _rank("pmv_ros.apps.campaign") > _rank("pmv_ros.runtime.monitor")
-    assert _rank("pmv_ros.physics.sensor") < SHIM_RANK < _rank("pmv_ros.nodes.base")
+    assert _rank("pmv_ros.cli.common") > _rank("pmv_ros.apps.campaign") > _rank("pmv_ros.runtime.monitor.core")
+    assert _rank("pmv_ros.physics.instrument.sensor") < SHIM_RANK < _rank("pmv_ros.nodes.base")
     assert _rank("numpy") is None
     assert _rank(_module(SHIM / "records.py")) == SHIM_RANK
+    assert _inner_violation("pmv_ros.runtime.common.assembly", "pmv_ros.runtime.monitor.core")
+    assert _inner_violation("pmv_ros.runtime.sensor.runtime", "pmv_ros.runtime.monitor.records")
+    assert not _inner_violation("pmv_ros.runtime.monitor.runtime", "pmv_ros.runtime.common.assembly")
+    assert not _inner_violation("pmv_ros.runtime.flight", "pmv_ros.runtime.tracker.runtime")
+    assert _inner_violation("pmv_ros.physics.constants", "pmv_ros.physics.orbit.two_body")
+    assert _inner_violation("pmv_ros.physics.chain.fast", "pmv_ros.physics.environment.fields")
+    assert not _inner_violation("pmv_ros.physics.instrument.sensor", "pmv_ros.physics.chain")
+    assert not _inner_violation("pmv_ros.physics.geometry", "pmv_ros.physics.constants")

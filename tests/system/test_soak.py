@@ -35,7 +35,7 @@ from geometry_msgs.msg import Vector3Stamped
 from rclpy.node import Node
 
 from pmv_ros.nodes.pipeline import Pipeline
-from pmv_ros.runtime.sample_stream import FAST_TIME_BLOCK
+from pmv_ros.runtime.sensor.sample_stream import FAST_TIME_BLOCK
 
 REPO = Path(__file__).resolve().parents[2]
 RATE_HZ = 1.0

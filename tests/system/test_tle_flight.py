@@ -28,8 +28,8 @@ from sgp4.api import WGS72, Satrec, jday
 import pmv_msgs_shim as shim
 from pmv_ros.cli import main as pmv_main
 from pmv_ros.nodes.sensor_node import SensorNode
-from pmv_ros.physics.tle_orbit import make_element_set, tle_checksum
-from pmv_ros.runtime import assembly
+from pmv_ros.physics.orbit.tle import make_element_set, tle_checksum
+from pmv_ros.runtime.common import assembly
 
 REPO = Path(__file__).resolve().parents[2]
 PRESET = REPO / "config" / "meteor_m2_tle.yaml"
@@ -216,7 +216,7 @@ def test_the_monitor_removes_the_oblateness_of_an_eccentric_orbit_with_each_samp
     # and the star tracker's noise (3″ across, 20″ about the boresight).
     from pmv_ros.physics.constants import ARCMIN_RAD, EARTH_MEAN_RADIUS_M, GM_EARTH_M3_S2
     from pmv_ros.physics.attitude import true_roll_pitch
-    from pmv_ros.runtime.assembly import build_models
+    from pmv_ros.runtime.common.assembly import build_models
     from pmv_ros.runtime.flight import flight_values, fly
 
     a_m = (EARTH_MEAN_RADIUS_M + 700e3) / 0.99

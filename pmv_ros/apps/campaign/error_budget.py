@@ -15,7 +15,7 @@ from ...storage.json_output import finite_json
 from ...physics.constants import ARCMIN_RAD
 from ...runtime.flight import OUTCOME_CODES
 from ...analysis.statistics import CHANNELS
-from ...runtime.monitor_records import Status
+from ...runtime.monitor.records import Status
 from ...analysis.statistics import RunningStatistics
 from .results import _write_atomically, check_result, read_result, task_path
 from .tasks import COMPONENTS, LATITUDE_BIN_DEG, SEASONS, Settings, Task

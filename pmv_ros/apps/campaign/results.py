@@ -17,7 +17,7 @@ from ...storage.json_output import finite_json
 from ...physics.constants import ARCMIN_RAD
 from ...runtime.flight import OUTCOME_CODES, flight_values, fly
 from ...analysis.statistics import CHANNELS
-from ...runtime.monitor_records import Status
+from ...runtime.monitor.records import Status
 from ..report import channel_to_dict
 from ...analysis.statistics import RunningStatistics
 from .tasks import MAX_TASK_SAMPLES, Settings, Task, season_of, settings_digest, task_overrides, task_samples
@@ -81,7 +81,7 @@ def run_task(settings: Settings, task: Task):
 
 
 def summary_to_dict(summary) -> dict:
-    """A :class:`~pmv_ros.runtime.monitor.MonitorSummary` as JSON-ready data (the report's layout), the
+    """A :class:`~pmv_ros.runtime.monitor.core.MonitorSummary` as JSON-ready data (the report's layout), the
     counters that are not zero."""
     return {"oblateness_removed": summary.oblateness_removed,
             "channels": {channel.channel: channel_to_dict(channel) for channel in summary.channels},
@@ -206,7 +206,7 @@ def check_result(path: Path, settings: Settings, task: Task):
     each channel to :data:`SUMMARY_TOLERANCE`).
     """
     from ...runtime.flight import PENDING_CODE
-    from ...runtime.validation import InputBounds
+    from ...runtime.common.validation import InputBounds
 
     table, description = read_result(path)
     overrides = task_overrides(settings, task)

@@ -10,9 +10,9 @@ from dataclasses import dataclass
 
 
 from ...storage.json_output import finite_json
-from ...runtime.assembly import build_source_orbit
+from ...runtime.common.assembly import build_source_orbit
 from ...runtime.flight import flight_values
-from ...physics.orbit import CircularOrbit
+from ...physics.orbit.two_body import CircularOrbit
 
 
 #: Environment components a campaign can fly alone (``--components``), with the overrides that isolate each.

@@ -11,7 +11,7 @@ physics.md §4, as named, ordered, pure stages (each usable and testable alone):
    linearly interpolated between steps;
 5. :func:`gam_del` — Gam = t(1)·W, Del = (t(2) − t(1))·W;
 6. :func:`brightness_correction` — POP = F(Del), Gam′ = Gam − POP (the table
-   F itself lives in :mod:`pmv_ros.physics.correction`);
+   F itself lives in :mod:`pmv_ros.physics.instrument.correction`);
 7. :func:`pair_angles` — β = ½(Gam(1) − Gam(2)) for a pair of opposite chords.
 
 :func:`sense_sampled_chords` runs stages 1–6 on any radiance profile given as a
@@ -217,7 +217,7 @@ def brightness_correction(del_rad, correction=None):
     Args:
         del_rad: Del, rad.
         correction: a callable F mapping Del (rad) to POP (rad), e.g. a
-            :class:`pmv_ros.physics.correction.CorrectionTable`; None for no table.
+            :class:`pmv_ros.physics.instrument.correction.CorrectionTable`; None for no table.
     """
     d = np.asarray(del_rad, float)
     if correction is None:

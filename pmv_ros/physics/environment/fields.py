@@ -20,7 +20,7 @@ import numpy as np
 from scipy.special import eval_legendre, gammaln, ndtri
 
 from ..constants import EARTH_MEAN_RADIUS_M
-from ..orbit import check_range
+from ..orbit.two_body import check_range
 
 #: Shortest wavelength kept in the spectral synthesis, m. The exponential
 #: covariance has power at all scales; the few components drawn beyond this

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..constants import EARTH_MEAN_RADIUS_M, SECONDS_PER_DAY
-from ..orbit import check_range
+from ..orbit.two_body import check_range
 from ..radiance import CO2_TOP_HEIGHT_M
 from .climatology import horizon_radiance_climatology
 from .fields import _check_count, _flat_points, _seed_sequence, _shaped, _SpectralBank
@@ -23,7 +23,7 @@ from .weather import WINDOW_HALF_RANGE_M, LayerHeightField, WeatherField, backgr
 #: its chord, ≈ 100 km of limb at the slant range of 500 km (≈ 130 km at 835 km), so structure finer than
 #: this reaches the comparators averaged out. Components drawn beyond it are clipped to it (the variance,
 #: e.g. σ_h = 10 km, is kept); it also bounds how fast a field can change along a chord's track, which lets
-#: the sensor evaluate it on a coarse grid (pmv_ros/physics/sensor.py).
+#: the sensor evaluate it on a coarse grid (pmv_ros/physics/instrument/sensor.py).
 IFOV_MIN_WAVELENGTH_M = 100e3
 #: Shortest wavelength of the flight weather, m: the weather is a horizon level per chord (physics.md §3.2
 #: item 3), the level of the ≈ 1000 km of ground the comparators weigh, so finer weather would not act as
@@ -256,7 +256,7 @@ class RadianceEnvironment:
 
         With :meth:`synoptic_band` and :meth:`radiance_from_parts` this is
         :meth:`sample`'s radiance in pieces, for callers that evaluate the slow
-        synoptic band on a coarser grid than the rest (pmv_ros.physics.sensor).
+        synoptic band on a coarser grid than the rest (pmv_ros.physics.instrument.sensor).
         g is zeros without weather.
         """
         lat, lon, t, _ = _flat_points(lat_rad, lon_rad, t_s)

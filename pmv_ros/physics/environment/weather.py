@@ -14,7 +14,7 @@ import numpy as np
 from scipy.special import eval_legendre, ndtr
 
 from ..constants import EARTH_MEAN_RADIUS_M
-from ..orbit import check_range
+from ..orbit.two_body import check_range
 from ..radiance import MAX_EARTH_RADIANCE_RU, MIN_EARTH_RADIANCE_RU
 from .fields import MIN_WAVELENGTH_M, GaussianSphereField, SynopticBandField, _seed_sequence
 

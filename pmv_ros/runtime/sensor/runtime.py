@@ -2,12 +2,12 @@
 
 :class:`SensorRuntime` owns everything the sensor node derives from its
 parameters and its inputs: the models and the sample stream
-(:class:`~pmv_ros.runtime.sample_stream.SampleStream`), the real-time sample
+(:class:`~pmv_ros.runtime.sensor.sample_stream.SampleStream`), the real-time sample
 grid, the fast-time clock, the followed truth
-(:class:`~pmv_ros.runtime.truth_buffer.TruthBuffer`) and orbit
-(:class:`~pmv_ros.runtime.orbit_buffer.FollowedOrbit`) with their stamp
+(:class:`~pmv_ros.runtime.common.truth_buffer.TruthBuffer`) and orbit
+(:class:`~pmv_ros.runtime.common.orbit_buffer.FollowedOrbit`) with their stamp
 checks, and the health counters
-(:class:`~pmv_ros.runtime.sensor_health.SensorHealth`). The node hands it
+(:class:`~pmv_ros.runtime.sensor.health.SensorHealth`). The node hands it
 plain values read from its messages and its clock; each call returns a
 :class:`SensorOutput`: what to publish, in publication order (a
 :class:`SamplePublication` per sample, a :class:`HealthAt` per
@@ -19,20 +19,20 @@ for ±Y, pitch for ±X); ``/diagnostics`` names the chord and the cause.
 
 Follow mode (``attitude.source: follow``; README "Follow mode"): the node
 never publishes ``/attitude/truth``; the runtime measures with the attitude
-at its own sample time (:class:`pmv_ros.runtime.truth_buffer.TruthBuffer`:
+at its own sample time (:class:`pmv_ros.runtime.common.truth_buffer.TruthBuffer`:
 slerp between truth samples, the last body rate for
 ``attitude.extrapolation_periods`` truth periods past the newest, and up to
 ``attitude.extrapolation_s`` to bridge a late truth sample, counted
 ``truth_bridged``), stamps the output with that time, and publishes nothing
 from stale truth: the stale state is an ERROR on ``/diagnostics`` at once
 and logged once. Bad truth (non-finite, far-from-unit, zero, future,
-duplicate, backward, too-fast stamps: :mod:`pmv_ros.runtime.validation`) is
+duplicate, backward, too-fast stamps: :mod:`pmv_ros.runtime.common.validation`) is
 dropped and counted; a truth clock that jumps back by more than
 ``attitude.follow_timeout_s`` starts a new timeline once the next stamp
 confirms it. Truth stamped in another frame than the orbital one
 (``frames.*``) is refused (``rejected_truth_wrong_frame``). The node follows
 only the first publisher of ``/attitude/truth`` heard; a second one is an
-ERROR on ``/diagnostics`` (:class:`pmv_ros.runtime.validation.SourceLock`).
+ERROR on ``/diagnostics`` (:class:`pmv_ros.runtime.common.validation.SourceLock`).
 
 The graph is the node's: the runtime asks it through two callables given
 at construction (``graph_problems``: how many others publish the truth the
@@ -47,16 +47,16 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-from ..physics.tle_orbit import OrbitPropagationError
-from .assembly import build_models, orbit_bounds
+from ...physics.orbit.tle import OrbitPropagationError
+from ..common.assembly import build_models, orbit_bounds
 from .estimator_output import EstimatorOrientation, estimator_orientation, variance_from_rms_arcmin
-from .frames import Frames
-from .orbit_buffer import FollowedOrbit, OrbitAt
-from .records import HealthSummary, Level
+from ..common.frames import Frames
+from ..common.orbit_buffer import FollowedOrbit, OrbitAt
+from ..common.records import HealthSummary, Level
 from .sample_stream import SampleGrid, SampleStream, SensorSample, fast_time_block
-from .sensor_health import SensorHealth, truth_source_warnings
-from .truth_buffer import PendingSamples, TruthAt, TruthBuffer
-from .validation import Jump, JumpDetector, Rejection, StampCheck, check_frame, check_orbit_state, \
+from .health import SensorHealth, truth_source_warnings
+from ..common.truth_buffer import PendingSamples, TruthAt, TruthBuffer
+from ..common.validation import Jump, JumpDetector, Rejection, StampCheck, check_frame, check_orbit_state, \
     check_quaternion_sample
 
 
@@ -107,7 +107,7 @@ class SensorRuntime:
     """The PMV sensor without ROS: orbit + attitude → samples and health.
 
     Args:
-        values: sensor_node parameter values (:data:`pmv_ros.runtime.assembly.SENSOR_PARAMS`).
+        values: sensor_node parameter values (:data:`pmv_ros.runtime.common.assembly.SENSOR_PARAMS`).
         clock_epoch_s: the node clock at the start, s (the orbit's epoch and the sample grid's origin).
         correction: the brightness-correction table (read once by the caller).
         check_lines_of_sight: the message layer's check of a block's lines of sight (see SampleStream).
@@ -191,7 +191,7 @@ class SensorRuntime:
 
     @property
     def fast_time_block(self) -> int:
-        """Samples computed per call in fast time (:func:`pmv_ros.runtime.sample_stream.fast_time_block`)."""
+        """Samples computed per call in fast time (:func:`pmv_ros.runtime.sensor.sample_stream.fast_time_block`)."""
         return fast_time_block(self.values["sensor.rate_hz"], self.values["sim.time_scale"], self.stepped)
 
     def now_s(self, clock_s: float) -> float:
@@ -288,7 +288,7 @@ class SensorRuntime:
         """Real time: every sample of the grid due at node clock ``now_s`` since the last one, in order.
 
         A clock that steps by more than a period makes several due, so the
-        samples are taken from the grid (:class:`~pmv_ros.runtime.sample_stream.SampleGrid`),
+        samples are taken from the grid (:class:`~pmv_ros.runtime.sensor.sample_stream.SampleGrid`),
         not from the tick: with the own attitude profile computed in the
         grid's blocks (those of a fast-time run), in follow mode the due ones
         as one block. A confirmed clock jump restarts the grid at the new time.

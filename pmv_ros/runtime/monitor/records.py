@@ -1,6 +1,6 @@
 """The error monitor's records and configuration: statuses, counters, outcomes, summaries, batch outcomes.
 
-What :class:`pmv_ros.runtime.monitor.ErrorMonitor` takes and gives, in one
+What :class:`pmv_ros.runtime.monitor.core.ErrorMonitor` takes and gives, in one
 place for the monitor, its scan and alignment, its node and the campaign.
 """
 
@@ -13,15 +13,15 @@ from enum import Enum
 
 import numpy as np
 
-from ..physics.ground_error import nadir_ground_error
-from ..physics.orbit import CircularOrbit, orbit_angles_from_state
-from .validation import (
+from ...physics.ground_error import nadir_ground_error
+from ...physics.orbit.two_body import CircularOrbit, orbit_angles_from_state
+from ..common.validation import (
     STAMP_REJECTIONS,
     TRUTH_REJECTIONS,
     InputBounds,
     Rejection,
 )
-from ..analysis.statistics import (
+from ...analysis.statistics import (
     CHANNELS,
     ChannelStatistics,
     DEFAULT_MAX_GAP_FRACTION,
@@ -34,7 +34,7 @@ from ..analysis.statistics import (
 class Status(str, Enum):
     """What became of a valid sensor sample: ``ok`` or why it could not be aligned (the value is the counter name).
 
-    A sample rejected by validation has a :class:`~pmv_ros.runtime.validation.Rejection` instead.
+    A sample rejected by validation has a :class:`~pmv_ros.runtime.common.validation.Rejection` instead.
     """
 
     OK = "ok"
@@ -170,7 +170,7 @@ class Outcome:
     """What became of one sensor sample: its residuals (rad) and ground error (m), or why it was skipped.
 
     ``status`` is :attr:`Status.OK`, a :class:`Status` skip reason, or the
-    :class:`~pmv_ros.runtime.validation.Rejection` of an invalid sample.
+    :class:`~pmv_ros.runtime.common.validation.Rejection` of an invalid sample.
     ``residual_*`` is sensor − truth, as published on /pmv/residual.
     ``roll_rad``/``pitch_rad``/``meridional_rad`` are the residuals that went
     into the reported statistics (offsets removed, oblateness model removed

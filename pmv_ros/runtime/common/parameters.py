@@ -1,7 +1,7 @@
 """Node parameters as plain data: name, default, meaning, allowed values — no ROS.
 
 A :class:`ParamSpec` says what one parameter of one node is and what values
-it may take; :mod:`pmv_ros.runtime.assembly` lists every node's specs and builds
+it may take; :mod:`pmv_ros.runtime.common.assembly` lists every node's specs and builds
 the models from their values. The nodes turn a spec into a ROS
 ``ParameterDescriptor`` (:mod:`pmv_ros.nodes.params`); the CLI, the campaign
 and the tests read presets through :func:`preset_values` without rclpy.

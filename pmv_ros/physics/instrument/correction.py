@@ -42,10 +42,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .chain import DEFAULT_CHAIN_PARAMETERS, scan_start_nadir_angle, sense_horizon_chords, sphere_chord
-from .constants import ARCMIN_RAD, EARTH_MEAN_RADIUS_M
-from .radiance import MAX_EARTH_RADIANCE_RU, MIN_EARTH_RADIANCE_RU
-from ..storage.files import read_text_file
+from ..chain import DEFAULT_CHAIN_PARAMETERS, scan_start_nadir_angle, sense_horizon_chords, sphere_chord
+from ..constants import ARCMIN_RAD, EARTH_MEAN_RADIUS_M
+from ..radiance import MAX_EARTH_RADIANCE_RU, MIN_EARTH_RADIANCE_RU
+from ...storage.files import read_text_file
 
 #: Rig radiances, r.u.: 1 … 4 in steps of 0.025 (121 points).
 RIG_RADIANCES_RU = tuple(np.round(np.linspace(MIN_EARTH_RADIANCE_RU, MAX_EARTH_RADIANCE_RU, 121), 6))

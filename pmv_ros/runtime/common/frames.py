@@ -23,8 +23,8 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from ..physics.attitude import quaternion_from_roll_pitch_yaw
-from ..physics.constants import ARCMIN_RAD
+from ...physics.attitude import quaternion_from_roll_pitch_yaw
+from ...physics.constants import ARCMIN_RAD
 from .parameters import ParamSpec
 
 #: What a frame name may look like: tf2's rules (no leading '/', no whitespace), ROS name characters.

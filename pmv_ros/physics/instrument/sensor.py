@@ -11,7 +11,7 @@ its physics reads):
    reports the geometric horizon of the emitting layer (``detector=None``);
 3. validity — a chord whose half-plane has no horizon, whose scan found no
    crossing, or whose swept arc has the Sun or the Moon within the exclusion
-   angle (:func:`pmv_ros.physics.bright_body.bright_body_in_chords`) reports no
+   angle (:func:`pmv_ros.physics.instrument.bright_body.bright_body_in_chords`) reports no
    crossing (NaN) and says why (:class:`ChordStatus`);
 4. pair angles — roll from the ±Y pair, pitch from the ±X pair
    (:func:`pmv_ros.physics.geometry.roll_pitch_from_horizon_angles`): a lost
@@ -33,16 +33,16 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.interpolate import CubicSpline
 
-from . import chain
-from .attitude import quaternion_product, true_roll_pitch
+from .. import chain
+from ..attitude import quaternion_product, true_roll_pitch
 from .bright_body import bright_body_in_chords
-from .constants import EARTH_MEAN_RADIUS_M, GRS80, Ellipsoid
-from .environment import EnvironmentParameters, RadianceEnvironment
-from .ephemeris import BODY_NAMES, Epoch
-from .geometry import CHORD_AZIMUTHS_RAD, chord_line_of_sight, roll_pitch_from_horizon_angles, tangent_nadir_angles
+from ..constants import EARTH_MEAN_RADIUS_M, GRS80, Ellipsoid
+from ..environment import EnvironmentParameters, RadianceEnvironment
+from ..orbit.ephemeris import BODY_NAMES, Epoch
+from ..geometry import CHORD_AZIMUTHS_RAD, chord_line_of_sight, roll_pitch_from_horizon_angles, tangent_nadir_angles
 from .oblateness import closed_form_oblateness, sensor_axes_eci
-from .orbit import CircularOrbit, eci_to_ecef, geocentric_latitude_longitude
-from .radiance import CO2_TOP_HEIGHT_M
+from ..orbit.two_body import CircularOrbit, eci_to_ecef, geocentric_latitude_longitude
+from ..radiance import CO2_TOP_HEIGHT_M
 
 
 #: Default exclusion angle of the Sun or the Moon from a chord's swept arc, rad:
@@ -131,7 +131,7 @@ class SensorReading:
     sensed_pitch_uncorrected_rad: np.ndarray  #: (N,)
     true_roll_rad: np.ndarray  #: (N,) what an ideal sensor reads for the true attitude
     true_pitch_rad: np.ndarray  #: (N,)
-    #: (4, N) index into :data:`~pmv_ros.physics.ephemeris.BODY_NAMES` of the body that blinds the chord, −1 for none
+    #: (4, N) index into :data:`~pmv_ros.physics.orbit.ephemeris.BODY_NAMES` of the body that blinds the chord, −1 for none
     blinding_body: np.ndarray | None = None
 
     @property

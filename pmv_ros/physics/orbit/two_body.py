@@ -18,7 +18,7 @@ instrument's fixed settings (``altitude_m``, ``inclination_rad``, ``raan_rad``,
 ``arg_latitude_at_epoch_rad``, ``period_s``, ``raan_rate_rad_s``, ``epoch_s``).
 Orbits other than the circular one derive everything from their state
 (:class:`StateOrbit`). The frame called ECI is the mean equator and mean
-equinox of date (:mod:`pmv_ros.physics.ephemeris`).
+equinox of date (:mod:`pmv_ros.physics.orbit.ephemeris`).
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .constants import (
+from ..constants import (
     EARTH_MEAN_RADIUS_M,
     EARTH_ROTATION_RATE_RAD_S,
     GM_EARTH_M3_S2,

@@ -1,7 +1,7 @@
 """error_monitor_node's work without ROS: inputs fed to the monitor, the statistics schedule, the health status.
 
 :class:`MonitorRuntime` puts the node's input side in front of
-:class:`~pmv_ros.runtime.monitor.ErrorMonitor`: the sensor's samples take the
+:class:`~pmv_ros.runtime.monitor.core.ErrorMonitor`: the sensor's samples take the
 orbit of the odometry (or no oblateness model left when the sensor removes
 it on board, :func:`oblateness_override`, as the campaign's flight does);
 the statistics come every ``1/statistics_rate_hz`` seconds of sample time
@@ -10,7 +10,7 @@ vectors carry); :meth:`MonitorRuntime.health` is the ``/diagnostics``
 status. Each input returns a :class:`MonitorOutput`.
 
 Bad input is dropped before it touches any state and counted per reason
-(``rejected_<stream>_<reason>``: the checks of :mod:`pmv_ros.runtime.validation`,
+(``rejected_<stream>_<reason>``: the checks of :mod:`pmv_ros.runtime.common.validation`,
 with the ``input.*`` plausibility bounds), messages the shim cannot read as
 ``rejected_<stream>_unreadable``, messages stamped in another frame than their
 stream's (``frames.*``: angles in the sensor frame, truth in the orbital one,
@@ -27,15 +27,18 @@ parameter change starts the statistics over.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Callable
 
-from ..analysis.statistics import CHANNELS
-from .assembly import build_monitor
-from .frames import Frames
-from .monitor_records import SENSOR_REJECTIONS, BatchOutcome, MonitorSummary, Status
-from .records import HealthSummary, Level
-from .validation import Rejection, check_frame
+from ...analysis.statistics import CHANNELS
+from ...physics.constants import ARCMIN_RAD
+from ..common.assembly import orbit_bounds
+from ..common.frames import Frames
+from .core import ErrorMonitor
+from .records import SENSOR_REJECTIONS, MonitorConfig, BatchOutcome, MonitorSummary, Status
+from ..common.records import HealthSummary, Level
+from ..common.validation import Rejection, check_frame
 
 #: The numeric statistics topics (``pmv/residual_<name>``) and the channel statistic each carries, rad;
 #: "limit" is the half-width 3σ of the bound mean ± 3σ (``three_sigma_arcmin`` on /pmv/error_statistics).
@@ -47,6 +50,22 @@ PERIOD_MISMATCH = 0.01
 
 #: Counters the health status shows when not zero, besides the skipped and rejected ones.
 _SHOWN_COUNTERS = ("truth_quaternions_normalised", "clock_jumps", "clock_outliers", "alignment_resets")
+
+
+def build_monitor(values: dict) -> ErrorMonitor:
+    """The monitor core from parameter values; ValueError if inconsistent."""
+    return ErrorMonitor(MonitorConfig.for_orbit(
+        values["orbit.altitude_km"] * 1e3, math.radians(values["orbit.inclination_deg"]),
+        remove_oblateness=values["remove_oblateness"],
+        max_truth_gap_s=values["max_truth_gap_s"],
+        max_truth_wait_s=values["max_truth_wait_s"],
+        clock_jump_s=values["clock_jump_s"],
+        future_tolerance_s=values["future_tolerance_s"],
+        roll_offset_rad=values["roll_offset_arcmin"] * ARCMIN_RAD,
+        pitch_offset_rad=values["pitch_offset_arcmin"] * ARCMIN_RAD,
+        min_interval_s=1.0 / values["input.max_rate_hz"],
+        bounds=orbit_bounds(values, max_abs_angle_rad=math.radians(values["input.max_abs_angle_deg"])),
+    ))
 
 
 def oblateness_override(values: dict) -> dict:
@@ -74,7 +93,7 @@ class MonitorStatistics:
 class MonitorOutput:
     """What one input makes the monitor publish: residuals (OK outcomes, in order), maybe statistics."""
 
-    residuals: list = field(default_factory=list)  #: :class:`~pmv_ros.runtime.monitor_records.Outcome` items
+    residuals: list = field(default_factory=list)  #: :class:`~pmv_ros.runtime.monitor.records.Outcome` items
     statistics: MonitorStatistics | None = None
 
 
@@ -162,7 +181,7 @@ class MonitorRuntime:
         """A whole clean stream at once (a campaign's flight): what the three inputs would do message by message
         — truth j arriving just before sensor sample ``truth_arrival[j]``, then the odometry at the sample's
         stamp, then the sample, the node clock at the sample's stamp. Arrays as
-        :meth:`~pmv_ros.runtime.monitor.ErrorMonitor.add_batch` takes them; the statistics schedule is not run."""
+        :meth:`~pmv_ros.runtime.monitor.core.ErrorMonitor.add_batch` takes them; the statistics schedule is not run."""
         return self.monitor.add_batch(t_s, roll_rad, pitch_rad, truth_t_s, q_truth, truth_arrival, now_s=t_s,
                                       odometry=(position_eci_m, velocity_eci_m_s), **self._sample_orbit())
 

@@ -1,13 +1,13 @@
 """The error monitor's validation: every input in arrival order, into the segment the alignment settles.
 
-:class:`EventScan` (a part of :class:`~pmv_ros.runtime.monitor.ErrorMonitor`)
+:class:`EventScan` (a part of :class:`~pmv_ros.runtime.monitor.core.ErrorMonitor`)
 checks each event — a truth, odometry or sensor sample, a poll of the clock —
-with :mod:`pmv_ros.runtime.validation`, applies the clock-jump rule (a
+with :mod:`pmv_ros.runtime.common.validation`, applies the clock-jump rule (a
 confirmed jump settles what came before it and resets the alignment), and
 gathers the accepted samples into the open segment, flagging it due when
 something in it will settle.
 
-:func:`scan_clean` gives what :class:`~pmv_ros.runtime.monitor.ErrorMonitor`'s
+:func:`scan_clean` gives what :class:`~pmv_ros.runtime.monitor.core.ErrorMonitor`'s
 event-by-event scan gives — the same verdicts, counters, event numbers and
 timeout clocks, and the same stamp and clock state after it — for a batch in
 which no stamp and no clock reading needs the jump rule: every stamp on its
@@ -25,12 +25,12 @@ import math
 
 import numpy as np
 
-from ..physics.attitude import true_roll_pitch
-from ..physics.constants import GM_EARTH_M3_S2
-from ..physics.orbit import orbit_angles_from_state
-from .monitor_alignment import SAMPLE_ROWS, Segment, oblateness_model
-from .monitor_records import BATCH_STATUSES, PENDING_CODE, Feed, orbit_record
-from .validation import (
+from ...physics.attitude import true_roll_pitch
+from ...physics.constants import GM_EARTH_M3_S2
+from ...physics.orbit.two_body import orbit_angles_from_state
+from .alignment import SAMPLE_ROWS, Segment, oblateness_model
+from .records import BATCH_STATUSES, PENDING_CODE, Feed, orbit_record
+from ..common.validation import (
     QUATERNION_NORM_TOLERANCE,
     UNIT_ROUNDING,
     Jump,
@@ -49,7 +49,7 @@ _HYPOT_4 = np.frompyfunc(math.hypot, 4, 1)
 
 
 def _orbit_records(t_s: np.ndarray, position_eci_m: np.ndarray, velocity_eci_m_s: np.ndarray) -> np.ndarray:
-    """:func:`~pmv_ros.runtime.monitor_records.orbit_record` of ``(N,)`` stamps and ``(3, N)`` states: ``(5, N)``."""
+    """:func:`~pmv_ros.runtime.monitor.records.orbit_record` of ``(N,)`` stamps and ``(3, N)`` states: ``(5, N)``."""
     u, inclination, altitude = orbit_angles_from_state(position_eci_m, velocity_eci_m_s)
     rate = np.linalg.norm(velocity_eci_m_s, axis=0) / np.linalg.norm(position_eci_m, axis=0)
     return np.vstack([t_s, u, inclination, altitude, rate])
@@ -243,7 +243,7 @@ _SAMPLE_ROWS = [_SAMPLE_COLUMNS.index(name) for name in SAMPLE_ROWS]
 
 
 class EventScan:
-    """The event-by-event validation of :class:`~pmv_ros.runtime.monitor.ErrorMonitor` (any input, clock
+    """The event-by-event validation of :class:`~pmv_ros.runtime.monitor.core.ErrorMonitor` (any input, clock
     jumps included), on the monitor's timelines (``_stamps``, ``_clock``), counters, orbit, alignment and
     open segment; a confirmed jump calls the monitor's ``_reset``."""
 

@@ -2,7 +2,7 @@
 
 The nodes declare these specs and call these builders; the CLI, the campaign
 and the tests call them without rclpy (``preset_values`` in
-:mod:`pmv_ros.runtime.parameters` reads a params file the way rclpy merges it).
+:mod:`pmv_ros.runtime.common.parameters` reads a params file the way rclpy merges it).
 """
 
 from __future__ import annotations
@@ -10,21 +10,19 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
-from ..physics.attitude_profile import AttitudeProfile
-from ..physics.constants import ARCMIN_RAD, ARCSEC_RAD, EARTH_ROTATION_RATE_RAD_S, GRS80, SECONDS_PER_DAY, SPHERE
-from ..physics.correction import load_correction
-from ..physics.environment import YEAR_DAYS, EnvironmentParameters
-from ..physics.ephemeris import Epoch, raan_from_local_time_of_node
-from .monitor import ErrorMonitor
-from .monitor_records import MonitorConfig
+from ...physics.attitude_profile import AttitudeProfile
+from ...physics.constants import ARCMIN_RAD, ARCSEC_RAD, EARTH_ROTATION_RATE_RAD_S, GRS80, SECONDS_PER_DAY, SPHERE
+from ...physics.instrument.correction import load_correction
+from ...physics.environment import YEAR_DAYS, EnvironmentParameters
+from ...physics.orbit.ephemeris import Epoch, raan_from_local_time_of_node
 from .orbit_buffer import FollowedOrbit, OrbitBuffer
-from ..physics.orbit import CircularOrbit
+from ...physics.orbit.two_body import CircularOrbit
 from .frames import FRAME_PARAMS, MOUNTING_PARAMS, Mounting
 from .parameters import ParamSpec
 from .truth_buffer import DEFAULT_BRIDGE_S
-from ..physics.tle_orbit import TleOrbit, element_set_altitude_m
-from ..physics.sensor import ChainDetector, RadianceConfig, SensorConfig, SensorModel, nominal_scan_start_nadir_rad
-from ..physics.star_tracker import StarTracker, StarTrackerParameters
+from ...physics.orbit.tle import TleOrbit, element_set_altitude_m
+from ...physics.instrument.sensor import ChainDetector, RadianceConfig, SensorConfig, SensorModel, nominal_scan_start_nadir_rad
+from ...physics.star_tracker import StarTracker, StarTrackerParameters
 from .validation import InputBounds
 
 
@@ -250,22 +248,6 @@ MONITOR_PARAMS = INPUT_PARAMS + FRAME_PARAMS + MONITOR_INPUT_PARAMS + (
     ParamSpec("odometry_timeout_s", 5.0, "orbit data older than this is not used for the oblateness model",
               0.01, 3600.0, unit="s"),
 )
-
-
-def build_monitor(values: dict) -> ErrorMonitor:
-    """The monitor core from parameter values; ValueError if inconsistent."""
-    return ErrorMonitor(MonitorConfig.for_orbit(
-        values["orbit.altitude_km"] * 1e3, math.radians(values["orbit.inclination_deg"]),
-        remove_oblateness=values["remove_oblateness"],
-        max_truth_gap_s=values["max_truth_gap_s"],
-        max_truth_wait_s=values["max_truth_wait_s"],
-        clock_jump_s=values["clock_jump_s"],
-        future_tolerance_s=values["future_tolerance_s"],
-        roll_offset_rad=values["roll_offset_arcmin"] * ARCMIN_RAD,
-        pitch_offset_rad=values["pitch_offset_arcmin"] * ARCMIN_RAD,
-        min_interval_s=1.0 / values["input.max_rate_hz"],
-        bounds=orbit_bounds(values, max_abs_angle_rad=math.radians(values["input.max_abs_angle_deg"])),
-    ))
 
 
 def parse_epoch(iso_string: str) -> Epoch:

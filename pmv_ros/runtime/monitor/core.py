@@ -18,7 +18,7 @@ Alignment (physics.md §6: truth has noise, latency and gaps)
     is given up as ``stale_truth`` — that is what a star-tracker outage
     produces, and alignment resumes by itself when truth returns.
 
-Validation (issues 6 and 15; the checks are :mod:`pmv_ros.runtime.validation`)
+Validation (issues 6 and 15; the checks are :mod:`pmv_ros.runtime.common.validation`)
     Every incoming sample is checked before it touches any state: non-finite
     values, a zero (unset) or negative stamp, a stamp in the future of
     ``now_s``, a duplicate or backwards stamp, one stamped faster than the
@@ -28,7 +28,7 @@ Validation (issues 6 and 15; the checks are :mod:`pmv_ros.runtime.validation`)
     statistic can become non-finite: every value that reaches one is finite
     and bounded.
 
-Clock jumps (the rule of :class:`~pmv_ros.runtime.validation.JumpDetector`)
+Clock jumps (the rule of :class:`~pmv_ros.runtime.common.validation.JumpDetector`)
     A stamp that goes back by more than ``clock_jump_s`` — or a ``now_s``
     that does, or leaps ahead by more than ``max_truth_wait_s`` — is a *suspected* jump; the next
     observation decides. If it continues the new timeline the jump is real
@@ -58,9 +58,9 @@ One path
     (:meth:`add_sensor`, :meth:`add_truth_quaternion`, :meth:`add_odometry`,
     :meth:`poll`), a campaign's flight a batch of an orbit
     (:meth:`add_batch`). The inputs are validated in arrival order, into an
-    open segment (:mod:`pmv_ros.runtime.monitor_scan`; on arrays when a batch
+    open segment (:mod:`pmv_ros.runtime.monitor.scan`; on arrays when a batch
     is clean); a segment — never across a clock jump — is aligned on arrays
-    (:mod:`pmv_ros.runtime.monitor_alignment`) at the end of the input that
+    (:mod:`pmv_ros.runtime.monitor.alignment`) at the end of the input that
     makes anything in it settle, and the used samples enter the statistics
     when these are read (:meth:`summary`). How the same events are cut into
     batches changes nothing but the order in which sums are taken (≈ 1e-15
@@ -75,9 +75,9 @@ import math
 
 import numpy as np
 
-from ..analysis.statistics import CHANNELS, DEFAULT_MAX_CONDITION, ChannelStatistics, OrbitRing, update_rows
-from .monitor_alignment import Alignment, Segment, Settled
-from .monitor_records import (
+from ...analysis.statistics import CHANNELS, DEFAULT_MAX_CONDITION, ChannelStatistics, OrbitRing, update_rows
+from .alignment import Alignment, Segment, Settled
+from .records import (
     BATCH_STATUSES,
     COUNTER_NAMES,
     SKIP_REASONS,
@@ -90,8 +90,8 @@ from .monitor_records import (
     Status,
     ground_components,
 )
-from .monitor_scan import MIN_ARRAY_SAMPLES, EventScan, OpenSegment, scan_clean
-from .validation import JumpDetector, Rejection, StampCheck
+from .scan import MIN_ARRAY_SAMPLES, EventScan, OpenSegment, scan_clean
+from ..common.validation import JumpDetector, Rejection, StampCheck
 
 _SKIP_CODES = {BATCH_STATUSES.index(status): f"skipped_{status.value}" for status in SKIP_REASONS}
 _OK = BATCH_STATUSES.index(Status.OK)

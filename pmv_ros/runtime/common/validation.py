@@ -40,7 +40,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..physics.constants import EARTH_MEAN_RADIUS_M, GM_EARTH_M3_S2
+from ...physics.constants import EARTH_MEAN_RADIUS_M, GM_EARTH_M3_S2
 
 #: | |q| − 1 | up to which a quaternion is normalised (and counted); beyond it, rejected.
 #: Rounding in a float32 stack or a serialiser leaves ~1e-7; 1e-2 admits a stack that

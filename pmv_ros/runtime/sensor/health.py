@@ -3,18 +3,18 @@
 sensor_node publishes :meth:`SensorHealth.report` on ``/diagnostics``
 whenever it is due: every ``period_s`` of sample time, and at once when the
 condition changes (a chord lost or regained, truth going stale). Levels are
-:class:`pmv_ros.runtime.records.Level` (the ``diagnostic_msgs`` values).
+:class:`pmv_ros.runtime.common.records.Level` (the ``diagnostic_msgs`` values).
 """
 
 from __future__ import annotations
 
 import math
 
-from ..physics.ephemeris import BODY_NAMES
-from ..physics.geometry import CHORD_NAMES
-from ..physics.sensor import ChordStatus
-from .records import HealthSummary, Level
-from .truth_buffer import TruthAt
+from ...physics.orbit.ephemeris import BODY_NAMES
+from ...physics.geometry import CHORD_NAMES
+from ...physics.instrument.sensor import ChordStatus
+from ..common.records import HealthSummary, Level
+from ..common.truth_buffer import TruthAt
 
 
 def chord_problems(status, blinding, exclusion_deg: float) -> list[str]:

@@ -11,7 +11,7 @@ the nadir-pointing inertial rate), and the good ones wait ``latency_s`` in the
 The node's input side is here too (:meth:`TrackerRuntime.receive_truth`), and
 its ``/diagnostics`` status (:meth:`TrackerRuntime.health`).
 
-Bad input (the checks are :mod:`pmv_ros.runtime.validation`): a truth message
+Bad input (the checks are :mod:`pmv_ros.runtime.common.validation`): a truth message
 with a non-finite or far-from-unit quaternion, a zero, future (beyond
 ``future_tolerance_s`` of the node clock), duplicate, backward or too-fast
 (``input.max_rate_hz``) stamp, or stamped in another frame than the orbital
@@ -42,12 +42,12 @@ from typing import Callable
 
 import numpy as np
 
-from ..physics.orbit import circular_mean_motion_rad_s
-from ..physics.star_tracker import FrameGrid, LatencyQueue, Outcome, inertial_rate_of_nadir_pointing, read_only
-from .assembly import build_tracker
-from .frames import Frames
-from .records import HealthSummary, Level
-from .validation import TRUTH_REJECTIONS, Rejection, StampCheck, check_frame, check_quaternion_sample
+from ...physics.orbit.two_body import circular_mean_motion_rad_s
+from ...physics.star_tracker import FrameGrid, LatencyQueue, Outcome, inertial_rate_of_nadir_pointing, read_only
+from ..common.assembly import build_tracker
+from ..common.frames import Frames
+from ..common.records import HealthSummary, Level
+from ..common.validation import TRUTH_REJECTIONS, Rejection, StampCheck, check_frame, check_quaternion_sample
 
 #: Why a truth message is dropped: the checks of the stream, and a frame other than the orbital one.
 REJECTIONS = TRUTH_REJECTIONS + (Rejection.WRONG_FRAME,)

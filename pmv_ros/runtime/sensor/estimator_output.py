@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-from ..physics.constants import ARCMIN_RAD
+from ...physics.constants import ARCMIN_RAD
 
 #: Variance of an axis the sensor does not measure (yaw; a lost chord pair), rad². Against the
 #: instrument's ≈ (5′)² ≈ 2·10⁻⁶ rad² it is 5·10¹¹ times larger: a Kalman gain of ≈ 10⁻¹² —

@@ -20,13 +20,13 @@ was the spacecraft at t?":
   nothing rather than an angle from an orbit nobody gave it.
 
 :class:`FollowedOrbit` puts a buffer behind the orbit interface the sensor
-model uses (:class:`pmv_ros.physics.orbit.StateOrbit`): asked for a time the
+model uses (:class:`pmv_ros.physics.orbit.two_body.StateOrbit`): asked for a time the
 buffer cannot give, it raises :class:`OrbitUnavailable` naming why.
 
 Memory is bounded (``capacity`` states); stamps are taken in increasing
 order (the caller validates them; a stamp at or before the newest clears the
 buffer: a new timeline). The states are the caller's: their frame, their
-plausibility (:func:`pmv_ros.runtime.validation.check_orbit_state`).
+plausibility (:func:`pmv_ros.runtime.common.validation.check_orbit_state`).
 """
 
 from __future__ import annotations
@@ -38,8 +38,8 @@ from collections import deque
 
 import numpy as np
 
-from ..physics.constants import EARTH_MEAN_RADIUS_M, GM_EARTH_M3_S2
-from ..physics.orbit import StateOrbit
+from ...physics.constants import EARTH_MEAN_RADIUS_M, GM_EARTH_M3_S2
+from ...physics.orbit.two_body import StateOrbit
 
 
 class OrbitAt(str, enum.Enum):

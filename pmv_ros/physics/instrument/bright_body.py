@@ -4,7 +4,7 @@ The angular distance from a direction to each chord's swept arc
 (:func:`angular_distance_to_scan_arc`), the Earth occultation
 (:func:`occulted_by_earth`), and both put together for an orbit and attitude
 (:func:`bright_body_in_chords`), the bodies placed by
-:mod:`pmv_ros.physics.ephemeris` (ECI there: mean equator and equinox of date).
+:mod:`pmv_ros.physics.orbit.ephemeris` (ECI there: mean equator and equinox of date).
 
 Vectors are ``(3,)`` or ``(3, N)``; per-chord arrays ``(4, ...)`` in the
 order +X, +Y, −X, −Y of :mod:`pmv_ros.physics.geometry`.
@@ -18,11 +18,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .constants import EARTH_MEAN_RADIUS_M
-from .ephemeris import _DIRECTION_FROM, BODY_NAMES, Epoch, _as_columns
-from .geometry import CHORD_AZIMUTHS_RAD
+from ..constants import EARTH_MEAN_RADIUS_M
+from ..orbit.ephemeris import _DIRECTION_FROM, BODY_NAMES, Epoch, _as_columns
+from ..geometry import CHORD_AZIMUTHS_RAD
 from .oblateness import sensor_axes_eci
-from .orbit import CircularOrbit, check_range
+from ..orbit.two_body import CircularOrbit, check_range
 
 
 def angular_distance_to_scan_arc(direction_sensor, crossing_nadir_rad, scan_start_nadir_rad):
@@ -170,7 +170,7 @@ def bright_body_in_chords(orbit: CircularOrbit, t_s, q_orbital_to_body, epoch: E
     """Which chords see the Sun or the Moon in their field, for an orbit, times and attitudes.
 
     The body directions come from the spacecraft (Moon parallax included),
-    go into the sensor frame through :func:`pmv_ros.physics.oblateness.sensor_axes_eci`,
+    go into the sensor frame through :func:`pmv_ros.physics.instrument.oblateness.sensor_axes_eci`,
     and are tested against each chord's swept arc
     (:func:`angular_distance_to_scan_arc`); a body behind the Earth's disc
     (:func:`occulted_by_earth`) cannot blind a chord.

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .chain import (
+from ..chain import (
     DEFAULT_CHAIN_PARAMETERS,
     ChainParameters,
     ChordReadings,
@@ -38,10 +38,10 @@ from .chain import (
     sense_horizon_chords,
     sphere_chord,
 )
-from .constants import EARTH_MEAN_RADIUS_M
+from ..constants import EARTH_MEAN_RADIUS_M
 from .correction import calibrated_correction_table
-from .orbit import MAX_ALTITUDE_M, MIN_ALTITUDE_M
-from .radiance import MAX_LAYER_HEIGHT_M, MEAN_EARTH_RADIANCE_RU, WINDOW_HEIGHT_M, WINDOW_HEIGHT_SIGMA_M
+from ..orbit.two_body import MAX_ALTITUDE_M, MIN_ALTITUDE_M
+from ..radiance import MAX_LAYER_HEIGHT_M, MEAN_EARTH_RADIANCE_RU, WINDOW_HEIGHT_M, WINDOW_HEIGHT_SIGMA_M
 
 #: Radiance models of physics.md §3.1.
 MODELS = ("A", "B", "C", "D")

@@ -34,8 +34,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..physics.oblateness import closed_form_oblateness
-from .monitor_records import BATCH_STATUSES, PENDING_CODE, Status
+from ...physics.instrument.oblateness import closed_form_oblateness
+from .records import BATCH_STATUSES, PENDING_CODE, Status
 
 #: Order of what settles within one event (the per-event order of the monitor's outcomes).
 _OWN, _OVERFLOW, _STALE = 0, 1, 2

@@ -17,10 +17,10 @@ import math
 
 import numpy as np
 
-from .attitude import body_axes_in_orbital, roll_pitch_from_nadir
-from .constants import EARTH_MEAN_RADIUS_M, GRS80, Ellipsoid
-from .geometry import tangent_nadir_angles, vertical_from_horizon_angles
-from .orbit import CircularOrbit
+from ..attitude import body_axes_in_orbital, roll_pitch_from_nadir
+from ..constants import EARTH_MEAN_RADIUS_M, GRS80, Ellipsoid
+from ..geometry import tangent_nadir_angles, vertical_from_horizon_angles
+from ..orbit.two_body import CircularOrbit
 
 
 def sensor_axes_eci(orbit: CircularOrbit, t_s, q_orbital_to_body=None):

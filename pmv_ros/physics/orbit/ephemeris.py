@@ -3,7 +3,7 @@
 Sensor fault "bright body in a chord's field" (issue 6, item 3): while the Sun
 or the Moon is within a configurable angle of the part of a chord's scan that
 looks at space, the chord's crossing is unreliable. This module and
-:mod:`pmv_ros.physics.bright_body` are the pure part of that check:
+:mod:`pmv_ros.physics.instrument.bright_body` are the pure part of that check:
 
 1. time — the simulation clock (seconds since a run epoch) mapped to Julian
    dates, the day of year and the Greenwich sidereal angle (:class:`Epoch`);
@@ -12,7 +12,7 @@ looks at space, the chord's crossing is unreliable. This module and
    directions from the spacecraft (parallax: ≈ 1° for the Moon at 500 km);
 3. the check — angular distance from a direction to each chord's swept arc
    (:func:`angular_distance_to_scan_arc`), the Earth occultation, and both put
-   together for an orbit and attitude (:mod:`pmv_ros.physics.bright_body`).
+   together for an orbit and attitude (:mod:`pmv_ros.physics.instrument.bright_body`).
 
 Frame: "ECI" here is the mean equator and mean equinox of date (precession
 applied, nutation ≤ 0.005° left out, as the low-precision series are).
@@ -40,8 +40,8 @@ from datetime import datetime, timezone
 
 import numpy as np
 
-from .constants import SECONDS_PER_DAY
-from .orbit import CircularOrbit, check_range
+from ..constants import SECONDS_PER_DAY
+from .two_body import CircularOrbit, check_range
 
 # --------------------------------------------------------------------------
 # Constants (kept here rather than in constants.py while that file is being
@@ -190,7 +190,7 @@ class Epoch:
         which is referred to the mean equinox of date — the x axis of this
         module's ECI frame (the IAU 2000 Earth Rotation Angle is referred to
         the CIO instead and differs by the accumulated precession in right
-        ascension, ≈ 0.3° in 2024). For :func:`pmv_ros.physics.orbit.eci_to_ecef`
+        ascension, ≈ 0.3° in 2024). For :func:`pmv_ros.physics.orbit.two_body.eci_to_ecef`
         pass ``angle_at_epoch_rad=epoch.earth_rotation_angle(0.0)``: its rate
         differs from GMST's by 1e-11 rad/s (< 1e-4° a year).
         """
@@ -268,7 +268,7 @@ def raan_from_local_time_of_node(ltan_h: float, epoch: Epoch) -> float:
 
     Ω = α_mean(epoch) + 15°·(LTAN − 12 h) (:func:`mean_sun_right_ascension`).
     A sun-synchronous orbit keeps this local time while its node drifts with
-    the mean Sun (J2: :attr:`pmv_ros.physics.orbit.CircularOrbit.raan_rate_rad_s`).
+    the mean Sun (J2: :attr:`pmv_ros.physics.orbit.two_body.CircularOrbit.raan_rate_rad_s`).
 
     Args:
         ltan_h: local time of the ascending node, h (0 … 24).

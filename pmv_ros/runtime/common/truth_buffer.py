@@ -34,7 +34,7 @@ import bisect
 import enum
 from collections import deque
 
-from ..physics.attitude import slerp
+from ...physics.attitude import slerp
 
 
 class TruthAt(str, enum.Enum):

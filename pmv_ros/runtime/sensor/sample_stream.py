@@ -1,6 +1,6 @@
 """The sensor's output sample by sample, as plain values a node publishes — computed in blocks when it can.
 
-:class:`SampleStream` runs :class:`pmv_ros.physics.sensor.SensorModel` and the
+:class:`SampleStream` runs :class:`pmv_ros.physics.instrument.sensor.SensorModel` and the
 orbit for the sensor node: with the node's own attitude profile it computes
 a block of future samples in one call (numpy overhead amortised; the output
 is identical sample for sample), with a given attitude (follow mode, the
@@ -16,7 +16,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..physics.sensor import ChordStatus
+from ...physics.instrument.sensor import ChordStatus
 
 
 class SensorSample(NamedTuple):
@@ -29,8 +29,8 @@ class SensorSample(NamedTuple):
     pitch_rad: float  #: sensed pitch
     roll_uncorrected_rad: float  #: sensed roll before the brightness correction
     pitch_uncorrected_rad: float
-    chord_status: tuple  #: 4 :class:`~pmv_ros.physics.sensor.ChordStatus` codes
-    blinding_body: tuple  #: 4 indices into :data:`~pmv_ros.physics.ephemeris.BODY_NAMES` (−1: none)
+    chord_status: tuple  #: 4 :class:`~pmv_ros.physics.instrument.sensor.ChordStatus` codes
+    blinding_body: tuple  #: 4 indices into :data:`~pmv_ros.physics.orbit.ephemeris.BODY_NAMES` (−1: none)
     position_eci_m: tuple  #: spacecraft position in ECI
     velocity_eci_m_s: tuple  #: spacecraft velocity in ECI
 
@@ -76,7 +76,7 @@ class SampleGrid:
     less than a jump gives nothing until it passes the last sample again.
 
     Sample k is the k-th step of a fast-time run that started at ``epoch_s``
-    (:meth:`pmv_ros.runtime.sensor_runtime.SensorRuntime.step`): the same
+    (:meth:`pmv_ros.runtime.sensor.runtime.SensorRuntime.step`): the same
     instants, and computed in the same blocks
     (:meth:`SampleStream.grid_profile_samples`).
 
@@ -125,7 +125,7 @@ class SampleStream:
     """Sample rows of one sensor: its model, orbit and attitude profile.
 
     Args:
-        model: the instrument (:class:`pmv_ros.physics.sensor.SensorModel`).
+        model: the instrument (:class:`pmv_ros.physics.instrument.sensor.SensorModel`).
         orbit: the orbit it flies (for position and velocity).
         profile: the own attitude model (``quaternion(t_s)``), used by :meth:`next_profile_sample`.
         check_lines_of_sight: called with the ``(N, 4, 3)`` lines of sight and the ``(N, 4)``
@@ -167,7 +167,7 @@ class SampleStream:
         Computed in the grid's blocks of :data:`FAST_TIME_BLOCK` samples —
         indices 1 … 512, 513 … 1024, …: the blocks of a fast-time run from the
         grid's origin — and the current block kept. The environment's fields
-        are interpolated over a block (:mod:`pmv_ros.physics.sensor`), so the
+        are interpolated over a block (:mod:`pmv_ros.physics.instrument.sensor`), so the
         same blocks make a run on any clock sense what fast time senses.
         """
         samples = []

@@ -15,7 +15,7 @@
    which names the time and SGP4's message;
 3. the frame — SGP4 gives TEME (true equator, "uniform" equinox of date).
    The project's ECI frame is the mean equator and mean equinox of date
-   (:mod:`pmv_ros.physics.ephemeris`): r_MOD = Nᵀ · R_z(Eq) · r_TEME, with
+   (:mod:`pmv_ros.physics.orbit.ephemeris`): r_MOD = Nᵀ · R_z(Eq) · r_TEME, with
    N the IAU 1980 nutation matrix (106 terms, ``erfa.nutm80``: mean → true
    of date) and Eq the equation of the equinoxes (IAU 1994,
    ``erfa.eqeq94``): TEME's x axis lies Eq east of the true equinox along
@@ -27,7 +27,7 @@
    ≈ 0.05″ = 2 m) are left out, as TEME leaves them out. Velocities are
    rotated by the same matrix (its own rate, ≈ 1e-11 rad/s, is neglected:
    < 1e-7 m/s). The Earth-fixed frame of the project then follows from the
-   GMST rotation of :func:`pmv_ros.physics.orbit.eci_to_ecef`, which leaves
+   GMST rotation of :func:`pmv_ros.physics.orbit.two_body.eci_to_ecef`, which leaves
    nutation out (≤ 0.005°, the project's documented approximation).
 
 SGP4's own error against the real spacecraft is ≈ 1 km at the element set's
@@ -44,9 +44,9 @@ from datetime import datetime, timedelta, timezone
 
 import numpy as np
 
-from .constants import EARTH_MEAN_RADIUS_M, SECONDS_PER_DAY
+from ..constants import EARTH_MEAN_RADIUS_M, SECONDS_PER_DAY
 from .ephemeris import JD_J2000, TT_MINUS_UTC_S, Epoch
-from .orbit import MAX_ALTITUDE_M, MIN_ALTITUDE_M, StateOrbit, orbit_angles_from_state
+from .two_body import MAX_ALTITUDE_M, MIN_ALTITUDE_M, StateOrbit, orbit_angles_from_state
 
 #: Columns a line of an element set has (the checksum is the last).
 LINE_LENGTH = 69
@@ -233,10 +233,10 @@ def teme_to_mod_matrix(julian_date_utc):
 class TleOrbit(StateOrbit):
     """The orbit of an element set, propagated by SGP4 and given in the project's ECI frame.
 
-    The same interface as :class:`pmv_ros.physics.orbit.CircularOrbit` where
+    The same interface as :class:`pmv_ros.physics.orbit.two_body.CircularOrbit` where
     the sensor, the pipeline and the monitor use it; its state, frame, u,
     inclination and altitude are those of the SGP4 state at each time
-    (:class:`pmv_ros.physics.orbit.StateOrbit`). The nominal elements
+    (:class:`pmv_ros.physics.orbit.two_body.StateOrbit`). The nominal elements
     (``altitude_m``: SGP4's mean semi-major axis less the 6371 km mean
     radius; ``inclination_rad``: the mean inclination; ``raan_rad`` and
     ``arg_latitude_at_epoch_rad``: osculating at ``epoch_s``; ``period_s``:
