@@ -1,7 +1,7 @@
 """The flight environment on the Earth and in UTC; sun-synchronous presets that keep their local time (issue 22).
 
 physics.md §3.2 items 3 and 6: the weather is a horizon level per chord (its anomaly at the chord's
-horizon point scales the whole profile, the climatology stays along the line of sight); weather and
+horizon point scales the whole profile, also where the climatology is sampled along the line of sight); weather and
 layer height are functions of position and absolute time (epoch + elapsed); a sun-synchronous preset
 keeps its local time of the node (J2 drift, the node set from its local time at the epoch).
 """
@@ -39,8 +39,11 @@ def preset_values(name: str, given: dict) -> dict:
 # --------------------------------------------------------------------------
 
 def _detector(climatology: bool):
-    environment = EnvironmentParameters(climatology_enabled=climatology, relative_variability=0.3,
-                                        synoptic_fraction=0.55, height_variation_enabled=False, seed=3)
+    # The climatology along the line of sight, so that the disc samples show the weather's factor (with the
+    # climatology as a horizon level the disc is uniform: tests/physics/test_climatology_sampling.py).
+    environment = EnvironmentParameters(climatology_enabled=climatology, climatology_sampling="line_of_sight",
+                                        relative_variability=0.3, synoptic_fraction=0.55,
+                                        height_variation_enabled=False, seed=3)
     return ChainDetector(835e3, RadianceConfig(source="environment", environment=environment))
 
 

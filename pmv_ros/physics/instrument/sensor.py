@@ -187,13 +187,14 @@ class RadianceConfig:
         source: ``"uniform"`` — the same disc radiance and window height on
             every chord (physics.md §3.1 Model A with B(1) = B(2)); or
             ``"environment"`` — :class:`~pmv_ros.physics.environment.RadianceEnvironment`
-            sampled on the rotating Earth along each chord's line of sight: the
-            window-layer height and the radiance at the horizon point, and the
-            radiance where the lines of sight at the inward angles
-            :data:`~pmv_ros.physics.chain.DISC_SAMPLE_INWARD_RAD` hit the ground
-            (≈ 440, 830 and 1400 km inside the horizon at 835 km), which the chain
-            interpolates (physics.md §3.2 item 3): climatology, weather and
-            height as they occur in flight.
+            sampled on the rotating Earth at each chord's horizon point: the
+            window-layer height, and the radiance level B_m — climatology times
+            weather — that scales the chord's whole profile (physics.md §3.2
+            item 3). With ``environment.climatology_sampling = "line_of_sight"``
+            the climatology is also taken where the lines of sight at the inward
+            angles :data:`~pmv_ros.physics.chain.DISC_SAMPLE_INWARD_RAD` hit the
+            ground (≈ 440, 830 and 1400 km inside the horizon at 835 km), and the
+            chain interpolates the disc through those samples.
         disc_radiance_ru: uniform source: B_m, r.u.
         window_height_m: uniform source: h_w, m.
         environment: parameters of the environment source.
@@ -274,14 +275,16 @@ class ChainDetector:
         self.band_grid_s, self.grid_s, self.height_grid_s = self.radiance.grid_spacing_s()
 
     def _chord_radiance(self, t_s, position_m, sensor_axes):
-        """Horizon radiance B_m (r.u.), disc samples (r.u.) and h_w (m) of each chord: ``(4, N)``, ``(4, N, 3)``, ``(4, N)``.
+        """Horizon radiance B_m (r.u.), disc samples (r.u.) and h_w (m) of each chord: ``(4, N)``, ``(4, N, 3)`` or None, ``(4, N)``.
 
-        The weather as a horizon level (physics.md §3.2 item 3): the weather
-        anomaly a is taken once per chord and sample, at the chord's horizon
-        point, and scales the whole profile — B = B_clim(x)·(1 + η·a) at the
-        horizon point and at every disc sample x, each kept inside 1 … 4 r.u. —
-        while the climatology (and the window-layer height, at the horizon
-        point) stays a function of where the line of sight meets the Earth.
+        The horizon level (physics.md §3.2 item 3): the weather anomaly a and
+        the climatology B_clim are taken once per chord and sample, at the
+        chord's horizon point; B_m = B_clim·(1 + η·a), kept inside 1 … 4 r.u.,
+        is the level of the chord's whole profile (a uniform disc: no samples,
+        None). The window-layer height is taken at the horizon point too. With
+        ``climatology_sampling = "line_of_sight"`` the climatology is taken at
+        the disc samples as well, and every sample x carries the same weather
+        factor: B(x) = B_clim(x)·(1 + η·a), each kept inside 1 … 4 r.u.
 
         Each field is evaluated at grid samples (one per grid spacing of the
         sample times, and the first and last) and interpolated in time to the
@@ -319,7 +322,11 @@ class ChainDetector:
             return [_interpolate_in_time(t, nodes, v) for v in values]
 
         environment = self.environment
-        mean, = along_track(self.grid_s, True, lambda lat, lon, tt: (environment.mean_radiance_ru(lat, tt),))
+        # The climatology at the horizon point only (a level, physics.md §3.2 item 3), or also at the disc
+        # samples along the line of sight.
+        along_line_of_sight = environment.parameters.climatology_sampling == "line_of_sight"
+        mean, = along_track(self.grid_s, along_line_of_sight,
+                            lambda lat, lon, tt: (environment.mean_radiance_ru(lat, tt),))
         background = band = None
         if environment.weather is not None:
             background, = along_track(self.grid_s, False, lambda *where: (environment.background_anomaly(*where),))
@@ -332,7 +339,9 @@ class ChainDetector:
         else:  # the smooth Gaussian field is interpolated, then mapped to the uniform law at the samples
             gaussian, = along_track(self.height_grid_s, False, lambda *where: (layer.gaussian_field(*where),))
             window = layer.height_from_gaussian(gaussian[0])
-        return radiance[0], radiance[1:].transpose(1, 2, 0), window
+        # A horizon level scales the whole profile: a uniform disc, no samples for the chain to interpolate.
+        samples = radiance[1:].transpose(1, 2, 0) if along_line_of_sight else None
+        return radiance[0], samples, window
 
     def _ground_points(self, t, position_m, sensor_axes, inner: bool):
         """Latitude, longitude (rad) and time of each chord's horizon point (and the disc sample points if ``inner``).
