@@ -31,7 +31,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from .. import chain
 from ..attitude import quaternion_product, true_roll_pitch
@@ -41,6 +40,7 @@ from ..environment import EnvironmentParameters, RadianceEnvironment
 from ..orbit.ephemeris import BODY_NAMES, Epoch
 from ..geometry import CHORD_AZIMUTHS_RAD, chord_line_of_sight, roll_pitch_from_horizon_angles, tangent_nadir_angles
 from .oblateness import closed_form_oblateness, sensor_axes_eci
+from .track_grid import FIELD_GRID_FRACTION, HORIZON_POINT_SPEED_M_S, MAX_FIELD_GRID_S, grid_nodes, interpolate_in_time
 from ..orbit.two_body import CircularOrbit, eci_to_ecef, geocentric_latitude_longitude
 from ..radiance import CO2_TOP_HEIGHT_M
 
@@ -160,23 +160,6 @@ _CHAIN_STATUS = np.full(max(chain.DetectionStatus) + 1, ChordStatus.NOT_DETECTED
 _CHAIN_STATUS[chain.DetectionStatus.OK] = ChordStatus.VALID
 _CHAIN_STATUS[chain.DetectionStatus.INVALID_INPUT] = ChordStatus.NO_HORIZON
 _CHAIN_STATUS[chain.DetectionStatus.SCAN_STARTED_IN_ATMOSPHERE] = ChordStatus.NO_HORIZON
-
-
-#: Longest spacing of the coarse time grid on which the environment is evaluated along each chord's
-#: track, s (see :class:`RadianceConfig`).
-MAX_FIELD_GRID_S = 30.0
-#: Grid spacing as a fraction of the time a horizon point takes to cross a field's shortest wavelength.
-#: The fields are interpolated in time by cubic splines, which reproduce a wave sampled this densely to
-#: ≈ (2π·fraction)⁴/384 ≈ 1.6 % of its amplitude — for the shortest waves of a field only. (The layer
-#: height's Gaussian field is interpolated and mapped to its uniform law afterwards: the map makes
-#: harmonics shorter than the field's own.)
-FIELD_GRID_FRACTION = {"band": 0.25, "weather": 0.25, "height": 0.25}
-#: Two clock readings closer than this, s, are the same instant for the track grid (float64 rounding of
-#: a clock at ≈ 2·10⁹ s is ≈ 2·10⁻⁷ s; samples are ≥ 10 ms apart).
-GRID_TIME_TOLERANCE_S = 1e-6
-#: Ground speed of a horizon point along its track, m/s (the orbital rate on the Earth's surface,
-#: ≈ 6.6 km/s at 500–835 km, plus up to 0.46 km/s of Earth rotation), rounded up.
-HORIZON_POINT_SPEED_M_S = 7.2e3
 
 
 @dataclass(frozen=True)
@@ -307,7 +290,7 @@ class ChainDetector:
         located = {}  # the ground points of a node set, shared by fields on the same grid (short blocks)
 
         def along_track(spacing_s, inner, evaluate):
-            nodes = _grid_nodes(t, spacing_s, origin_s)
+            nodes = grid_nodes(t, spacing_s, origin_s)
             key = nodes.tobytes()
             if (True, key) in located:  # the horizon points lead the profile's points
                 where = located[(True, key)]
@@ -319,7 +302,7 @@ class ChainDetector:
                                                                 sensor_axes[:, :, nodes], inner)
                 where = located[(inner, key)]
             values = [v.reshape(points if inner else 1, 4, nodes.size) for v in evaluate(*where)]
-            return [_interpolate_in_time(t, nodes, v) for v in values]
+            return [interpolate_in_time(t, nodes, v) for v in values]
 
         environment = self.environment
         # The climatology at the horizon point only (a level, physics.md §3.2 item 3), or also at the disc
@@ -383,53 +366,6 @@ class ChainDetector:
         return (readings.sensed_horizon_nadir_rad.reshape(shape),
                 readings.sensed_horizon_nadir_uncorrected_rad.reshape(shape),
                 _CHAIN_STATUS[readings.status].reshape(shape))
-
-
-def _interpolate_in_time(t, nodes, values):
-    """Values given at the samples ``nodes`` (last axis), interpolated in time to every sample of ``t``.
-
-    A not-a-knot cubic spline through 4 nodes or more, linear through 2 or 3.
-    """
-    if nodes.size == t.size:
-        return values
-    t_nodes = t[nodes]
-    if nodes.size >= 4 and np.all(np.diff(t_nodes) > 0.0):
-        return CubicSpline(t_nodes, values, axis=-1)(t)
-    j = np.clip(np.searchsorted(t_nodes, t, side="right") - 1, 0, nodes.size - 2)
-    span = t_nodes[j + 1] - t_nodes[j]
-    w = np.where(span > 0.0, (t - t_nodes[j]) / np.where(span > 0.0, span, 1.0), 0.0)
-    return values[..., j] * (1.0 - w) + values[..., j + 1] * w
-
-
-def _grid_nodes(t, spacing_s, origin_s: float = 0.0):
-    """Indices of the samples on which the environment is evaluated: all, or one per ``spacing_s`` (sorted times).
-
-    The spacing is at most 1/8 of the samples' span. With samples sparser than
-    half the spacing, or unsorted, or fewer than 3: every sample. Otherwise the
-    first, the last, and for each multiple of the spacing the first sample at or
-    after it — a grid tied to the clock ``origin_s + t`` (the fields' clock), so
-    successive long blocks of samples see the same nodes.
-    """
-    n = t.size
-    if n < 3 or not np.all(np.diff(t) >= 0.0):
-        return np.arange(n)
-    # At least 8 intervals over the span, so the spline of a short block is not all end conditions: the
-    # spacing halved as often as needed (a discrete set, so two clocks that read the same span to rounding
-    # pick the same spacing, and its multiples on a clock at ≈ 10⁹ s stay the same instants).
-    span = t[-1] - t[0]
-    if span < 8.0 * spacing_s:
-        spacing_s = spacing_s / 2.0 ** math.ceil(math.log2(8.0 * spacing_s / span)) if span > 0.0 else spacing_s
-    if (t[-1] - t[0]) > 0.5 * spacing_s * (n - 1):
-        return np.arange(n)
-    # Multiples of the spacing on the fields' clock, as offsets from the block's start. A sample within
-    # GRID_TIME_TOLERANCE_S before a multiple counts as on it: the same instant read on another clock
-    # (real time: the node's start ≈ 1.7e9 s; fast time: 0) differs by rounding only.
-    start = origin_s + t[0]
-    multiples = np.arange(math.ceil(start / spacing_s - 1e-12), math.floor((origin_s + t[-1]) / spacing_s) + 1) \
-        * spacing_s
-    nodes = np.searchsorted(t - t[0], multiples - start - GRID_TIME_TOLERANCE_S, side="left")
-    nodes = np.unique(np.concatenate([[0], nodes, [n - 1]]))
-    return nodes[nodes < n]
 
 
 class SensorModel:
