@@ -70,6 +70,6 @@ __all__ = [
     "MIN_WAVELENGTH_M", "GaussianSphereField", "SynopticBandField",
     "PRECISE_FIELD_DTYPE", "WINDOW_HALF_RANGE_M", "LayerHeightField", "WeatherField", "background_radius_m",
     "synoptic_degrees",
-    "CLIMATOLOGY_SAMPLINGS", "IFOV_MIN_WAVELENGTH_M", "WEATHER_MIN_WAVELENGTH_M", "EnvironmentParameters", "HorizonEnvironmentSample",
-    "RadianceEnvironment",
+    "CLIMATOLOGY_SAMPLINGS", "IFOV_MIN_WAVELENGTH_M", "WEATHER_MIN_WAVELENGTH_M", "EnvironmentParameters",
+    "HorizonEnvironmentSample", "RadianceEnvironment",
 ]

@@ -266,20 +266,6 @@ class RadianceEnvironment:
         return HorizonEnvironmentSample(_shaped(radiance, shape), _shaped(heights[0], shape),
                                         _shaped(heights[1], shape), _shaped(mean, shape))
 
-    def weather_parts(self, lat_rad, lon_rad, t_s):
-        """The radiance without weather (r.u.) and the background anomaly g (σ = 1) at points: two flat arrays.
-
-        With :meth:`synoptic_band` and :meth:`radiance_from_parts` this is
-        :meth:`sample`'s radiance in pieces, for callers that evaluate the slow
-        synoptic band on a coarser grid than the rest (pmv_ros.physics.instrument.sensor).
-        g is zeros without weather.
-        """
-        lat, lon, t, _ = _flat_points(lat_rad, lon_rad, t_s)
-        mean = self.mean_radiance_ru(lat, t) + 0.0 * lon
-        if self.weather is None:
-            return mean, np.zeros(lat.size)
-        return mean, self._weather_bank.evaluate(lat, lon, t)[:, 0]
-
     def background_anomaly(self, lat_rad, lon_rad, t_s):
         """The weather's red background g (σ = 1) at points, flat; zeros without weather."""
         lat, lon, t, _ = _flat_points(lat_rad, lon_rad, t_s)
@@ -295,10 +281,12 @@ class RadianceEnvironment:
         return self.weather.band_field.evaluate(lat, lon, t)
 
     def radiance_from_parts(self, mean_radiance_ru, background, band):
-        """Horizon radiance, r.u., from :meth:`weather_parts` and :meth:`synoptic_band` (band may be None).
+        """Horizon radiance, r.u., from its parts: the radiance without weather (:meth:`mean_radiance_ru`), the
+        background g (:meth:`background_anomaly`) and the band s (:meth:`synoptic_band`; may be None).
 
-        The parts broadcast: the sensor gives the climatology at every point of a chord's profile and
-        the anomaly of its horizon point only (the weather as a horizon level, physics.md §3.2 item 3).
+        :meth:`sample`'s radiance in pieces, for the sensor, which interpolates them in time along a chord's
+        track. The parts broadcast: the sensor gives the climatology at a chord's horizon point (or along
+        its line of sight) and the anomaly of its horizon point only (physics.md §3.2 item 3).
         """
         if self.weather is None:
             return np.asarray(mean_radiance_ru, float)

@@ -188,10 +188,11 @@ class RadianceConfig:
             cross the smallest scale of a field (its correlation radius, or its
             shortest wavelength: 1600 km for the synoptic band of 2000 km zones,
             300 km for the weather's background, 100 km for the layer height),
-            at most :data:`MAX_FIELD_GRID_S` — ≈ 30, 10 and 3.5 s. Between grid
-            points the values are interpolated in time by cubic splines: a
-            horizon point moves < 1 km between samples 0.1 s apart, against
-            scales of hundreds of km.
+            at most :data:`MAX_FIELD_GRID_S` — ≈ 30, 10 and 3.5 s; the band
+            rides on the weather background's grid (:meth:`grid_spacing_s`).
+            Between grid points the values are interpolated in time by cubic
+            splines: a horizon point moves < 1 km between samples 0.1 s apart,
+            against scales of hundreds of km.
     """
 
     source: str = "uniform"
@@ -211,21 +212,23 @@ class RadianceConfig:
         if self.field_grid_s is not None and not (0.1 <= self.field_grid_s <= 60.0):
             raise ValueError(f"field_grid_s = {self.field_grid_s} is outside the allowed range 0.1 … 60 s")
 
-    def grid_spacing_s(self) -> tuple[float, float, float]:
-        """The coarse grids' spacings, s: (synoptic band, weather background and climatology, window-layer height).
+    def grid_spacing_s(self) -> tuple[float, float]:
+        """The coarse grids' spacings, s: (the radiance — climatology and weather —, the window-layer height).
 
-        See ``field_grid_s``; the band's shortest wavelength is its zone length ÷ 1.25 (degree ℓ₀·1.25).
+        See ``field_grid_s``. The radiance grid serves the weather's background (the finer of its two
+        fields) and so the synoptic band too, whose shortest wavelength — its zone length ÷ 1.25, degree
+        ℓ₀·1.25, ≥ 400 km — is longer than the background's (≤ 300 km).
         """
         if self.field_grid_s is not None:
-            return (float(self.field_grid_s),) * 3
+            return (float(self.field_grid_s),) * 2
         p = self.environment
         height = p.correlation_radius_m if p.height_correlation_radius_m is None else p.height_correlation_radius_m
 
         def spacing(scale_m, fraction):
             return float(min(MAX_FIELD_GRID_S, fraction * scale_m / HORIZON_POINT_SPEED_M_S))
 
-        return (spacing(p.synoptic_zone_m / 1.25, FIELD_GRID_FRACTION["band"]),
-                spacing(min(p.correlation_radius_m, p.weather_min_wavelength_m), FIELD_GRID_FRACTION["weather"]),
+        return (min(spacing(p.synoptic_zone_m / 1.25, FIELD_GRID_FRACTION["band"]),
+                    spacing(min(p.correlation_radius_m, p.weather_min_wavelength_m), FIELD_GRID_FRACTION["weather"])),
                 spacing(max(height, p.min_wavelength_m), FIELD_GRID_FRACTION["height"]))
 
 
@@ -255,10 +258,10 @@ class ChainDetector:
         self.scan_start_rad = nominal_scan_start_nadir_rad(altitude_m, scan_margin_rad, params)
         self.environment = (RadianceEnvironment(self.radiance.environment)
                             if self.radiance.source == "environment" else None)
-        self.band_grid_s, self.grid_s, self.height_grid_s = self.radiance.grid_spacing_s()
+        self.grid_s, self.height_grid_s = self.radiance.grid_spacing_s()
 
     def _chord_radiance(self, t_s, position_m, sensor_axes):
-        """Horizon radiance B_m (r.u.), disc samples (r.u.) and h_w (m) of each chord: ``(4, N)``, ``(4, N, 3)`` or None, ``(4, N)``.
+        """Horizon radiance B_m (r.u.), disc samples (r.u.) or None, and h_w (m) of each chord: ``(4, N)``, ``(4, N, 3)``.
 
         The horizon level (physics.md §3.2 item 3): the weather anomaly a and
         the climatology B_clim are taken once per chord and sample, at the
@@ -271,12 +274,14 @@ class ChainDetector:
 
         Each field is evaluated at grid samples (one per grid spacing of the
         sample times, and the first and last) and interpolated in time to the
-        other samples by a cubic spline: the synoptic band every
-        ``band_grid_s``, the climatology and the weather's background every
-        ``grid_s``, the window-layer height every ``height_grid_s``. When the
-        samples are sparser than a grid: at every sample. The grids are tied to
-        the fields' clock (UTC when the environment has a time origin), so runs
-        of the same instants see the same nodes whatever their own clock reads.
+        other samples by a cubic spline: the climatology and the weather
+        (background and synoptic band) every ``grid_s``, the window-layer
+        height every ``height_grid_s`` (:mod:`.track_grid`); the horizon points
+        are found once for both grids, and each grid's fields share one spline.
+        When the samples are sparser than a grid: at every sample. The grids
+        are tied to the fields' clock (UTC when the environment has a time
+        origin), so runs of the same instants see the same nodes whatever their
+        own clock reads.
         """
         t = np.atleast_1d(np.asarray(t_s, float))
         n = t.size
@@ -284,44 +289,50 @@ class ChainDetector:
         if self.environment is None:
             return (np.full(shape, self.radiance.disc_radiance_ru), None,
                     np.full(shape, self.radiance.window_height_m))
-        points = 1 + len(chain.DISC_SAMPLE_INWARD_RAD)
-        origin_s = self.environment.parameters.field_time_origin_s
-
-        located = {}  # the ground points of a node set, shared by fields on the same grid (short blocks)
-
-        def along_track(spacing_s, inner, evaluate):
-            nodes = grid_nodes(t, spacing_s, origin_s)
-            key = nodes.tobytes()
-            if (True, key) in located:  # the horizon points lead the profile's points
-                where = located[(True, key)]
-                if not inner:
-                    where = tuple(w[: 4 * nodes.size] for w in where)
-            else:
-                if (inner, key) not in located:
-                    located[(inner, key)] = self._ground_points(t[nodes], position_m[:, nodes],
-                                                                sensor_axes[:, :, nodes], inner)
-                where = located[(inner, key)]
-            values = [v.reshape(points if inner else 1, 4, nodes.size) for v in evaluate(*where)]
-            return [interpolate_in_time(t, nodes, v) for v in values]
-
         environment = self.environment
+        parameters = environment.parameters
         # The climatology at the horizon point only (a level, physics.md §3.2 item 3), or also at the disc
         # samples along the line of sight.
-        along_line_of_sight = environment.parameters.climatology_sampling == "line_of_sight"
-        mean, = along_track(self.grid_s, along_line_of_sight,
-                            lambda lat, lon, tt: (environment.mean_radiance_ru(lat, tt),))
-        background = band = None
-        if environment.weather is not None:
-            background, = along_track(self.grid_s, False, lambda *where: (environment.background_anomaly(*where),))
-            if environment.weather.band_field is not None:
-                band, = along_track(self.band_grid_s, False, lambda *where: (environment.synoptic_band(*where),))
-        radiance = environment.radiance_from_parts(mean, background, band)  # (points, 4, N)
+        along_line_of_sight = parameters.climatology_sampling == "line_of_sight"
+        band_field = environment.weather and environment.weather.band_field
         layer = environment.window_layer
+        origin_s = parameters.field_time_origin_s
+        nodes = {"radiance": grid_nodes(t, self.grid_s, origin_s)}
+        if layer is not None:
+            nodes["height"] = grid_nodes(t, self.height_grid_s, origin_s)
+        # The horizon points once, at both grids' nodes in a row: (4 chords, nodes) each.
+        every = np.concatenate(list(nodes.values()))
+        horizon = [v.reshape(4, every.size) for v in self._ground_points(t[every], position_m[:, every],
+                                                                          sensor_axes[:, :, every], False)]
+        grid = nodes["radiance"]
+
+        def where(name):
+            """Latitude, longitude and time of the horizon points at a grid's nodes, flat (chord, node)."""
+            columns = slice(0, grid.size) if name == "radiance" else slice(grid.size, every.size)
+            return tuple(v[:, columns].ravel() for v in horizon)
+
+        at_horizon = where("radiance")
+        if along_line_of_sight:  # the horizon points lead the profile's points
+            lat, _, t_points = self._ground_points(t[grid], position_m[:, grid], sensor_axes[:, :, grid], True)
+        else:
+            lat, _, t_points = at_horizon
+        # The radiance grid's fields through one spline: (rows, 4 chords, nodes) → (rows, 4, N).
+        climatology = environment.mean_radiance_ru(lat, t_points).reshape(-1, 4, grid.size)
+        rows = [climatology]
+        if environment.weather is not None:
+            rows.append(environment.background_anomaly(*at_horizon).reshape(1, 4, grid.size))
+            if band_field is not None:
+                rows.append(band_field.evaluate(*at_horizon).reshape(1, 4, grid.size))
+        values = interpolate_in_time(t, grid, np.concatenate(rows))
+        parts = iter(values[climatology.shape[0]:])
+        background = next(parts) if environment.weather is not None else None
+        band = next(parts) if band_field is not None else None
+        radiance = environment.radiance_from_parts(values[:climatology.shape[0]], background, band)  # (points, 4, N)
         if layer is None:
-            window = np.full(shape, environment.parameters.window_height_mean_m)
+            window = np.full(shape, parameters.window_height_mean_m)
         else:  # the smooth Gaussian field is interpolated, then mapped to the uniform law at the samples
-            gaussian, = along_track(self.height_grid_s, False, lambda *where: (layer.gaussian_field(*where),))
-            window = layer.height_from_gaussian(gaussian[0])
+            gaussian = layer.gaussian_field(*where("height")).reshape(4, -1)
+            window = layer.height_from_gaussian(interpolate_in_time(t, nodes["height"], gaussian))
         # A horizon level scales the whole profile: a uniform disc, no samples for the chain to interpolate.
         samples = radiance[1:].transpose(1, 2, 0) if along_line_of_sight else None
         return radiance[0], samples, window
