@@ -274,8 +274,6 @@ class SynopticBandField:
         gaussian = rng.standard_normal((m, 3, 3))
         q, r = np.linalg.qr(gaussian)
         q = q * np.sign(np.diagonal(r, axis1=1, axis2=2))[:, None, :]
-        # (3, 2M): e₁ of every component, then e₂.
-        self._frame = np.hstack([q[:, :, 0].T, q[:, :, 1].T]).astype(self.dtype)
         band = np.arange(self.degree_low, self.degree_high + 1)
         self.degrees = band[rng.permutation(np.arange(m) % band.size)].astype(self.dtype)
         mean_power = np.exp(0.5 * math.log(math.pi) + gammaln(self.degrees + 1.0)
@@ -288,9 +286,10 @@ class SynopticBandField:
             self._frequency_rad_s = (math.sqrt(2.0) / self.time_scale_s) * ndtri(quantiles)
         self._phase_rad = _phases_at_origin(rng.uniform(0.0, 2.0 * math.pi, m), self._frequency_rad_s,
                                             time_origin_s)
-        # What every evaluation uses, in the evaluation's type.
-        self._frequency = self._frequency_rad_s.astype(self.dtype)
-        self._half_degrees = 0.5 * self.degrees
+        # What every evaluation uses, in the evaluation's complex type: w = e₁ + i·e₂ and the degrees.
+        self._complex = np.result_type(self.dtype, np.complex64)
+        self._w = (q[:, :, 0].T + 1j * q[:, :, 1].T).astype(self._complex)
+        self._complex_degrees = self.degrees.astype(self._complex)
 
     def correlation(self, angle_rad):
         """Ensemble correlation at great-circle angle ψ (rad): the band mean of P_ℓ(cos ψ)."""
@@ -304,37 +303,29 @@ class SynopticBandField:
         return _shaped(self.evaluate(lat, lon, t), shape)
 
     def evaluate(self, lat, lon, t):
-        """The field at flat arrays of latitude, longitude (rad) and time (s); ``(N,)``."""
+        """The field at flat arrays of latitude, longitude (rad) and time (s); ``(N,)``.
+
+        Re[(x·w)^ℓ·e^{iφ(t)}] summed with the amplitudes: the power of the complex number x·w by numpy's
+        complex power (exact repeated multiplication for integer ℓ), the phase φ = ωt + b as e^{iφ} once per
+        distinct time of the batch (a node's grid has a few times for its four chords).
+        """
         out = np.empty(lat.size)
         if lat.size == 0:
             return out
         t_ref, phase_ref = _reference_phases(self._phase_rad, self._frequency_rad_s, t)
-        phase_ref = phase_ref.astype(self.dtype)
         cos_lat = np.cos(lat)
         unit = np.empty((lat.size, 3), dtype=self.dtype)
         unit[:, 0] = cos_lat * np.cos(lon)
         unit[:, 1] = cos_lat * np.sin(lon)
         unit[:, 2] = np.sin(lat)
-        dt = (t - t_ref).astype(self.dtype)[:, None]
-        frequency, half_degrees = self._frequency, self._half_degrees
-        m = self.n_components
-        block_points = max(64, (_BLOCK_ELEMENTS // 2) // m)
+        times, which = np.unique(t - t_ref, return_inverse=True)
+        rotation = np.exp(1j * (phase_ref + times[:, None] * self._frequency_rad_s)).astype(self._complex)
+        block_points = max(64, (_BLOCK_ELEMENTS // 4) // self.n_components)
         for start in range(0, lat.size, block_points):
             stop = min(start + block_points, lat.size)
-            z = unit[start:stop] @ self._frame  # (n, 2M): the real and imaginary parts of x·w
-            real, imag = z[:, :m], z[:, m:]
-            angle = np.arctan2(imag, real)
-            # |z|^ℓ = (|z|²)^(ℓ/2); the argument ℓ·arg z plus the drifting phase.
-            np.multiply(real, real, out=real)
-            np.multiply(imag, imag, out=imag)
-            np.add(real, imag, out=real)
-            magnitude = np.power(real, half_degrees, out=real)
-            np.multiply(angle, self.degrees, out=angle)
-            angle += phase_ref
-            angle += dt[start:stop] * frequency
-            np.cos(angle, out=angle)
-            np.multiply(angle, magnitude, out=angle)
-            out[start:stop] = angle @ self._amplitude
+            power = np.power(unit[start:stop] @ self._w, self._complex_degrees)  # (x·w)^ℓ, (n, M)
+            power *= rotation[which[start:stop]]
+            out[start:stop] = power.real @ self._amplitude
         return out
 
 

@@ -343,12 +343,12 @@ class ChainDetector:
         Flat arrays ordered (point, chord, sample): the horizon point first,
         then the ground hit by the lines of sight at the inward sample angles.
         """
-        radius = np.linalg.norm(position_m, axis=0)
+        radius = np.sqrt(np.einsum("in,in->n", position_m, position_m))
         up = position_m / radius
         # Chord directions ±X, ±Y of the sensor, made horizontal at the sub-satellite point.
-        chords = np.stack([sensor_axes[:, 0], sensor_axes[:, 1], -sensor_axes[:, 0], -sensor_axes[:, 1]], axis=1)
+        chords = np.concatenate([sensor_axes[:, :2], -sensor_axes[:, :2]], axis=1)
         horizontal = chords - np.einsum("ikn,in->kn", chords, up)[None] * up[:, None]
-        horizontal /= np.linalg.norm(horizontal, axis=0)
+        horizontal /= np.sqrt(np.einsum("ikn,ikn->kn", horizontal, horizontal))
         # Spherical horizon: central angle acos(R/r) from the sub-satellite point; the ground the
         # lines of sight at the sample angles hit lies further in.
         angles = np.arccos(EARTH_MEAN_RADIUS_M / radius)[None]

@@ -47,7 +47,7 @@ def interpolate_in_time(t, nodes, values):
     if nodes.size == t.size:
         return values
     t_nodes = t[nodes]
-    if nodes.size >= 4 and np.all(np.diff(t_nodes) > 0.0):
+    if nodes.size >= 4 and (t_nodes[1:] > t_nodes[:-1]).all():
         if nodes.size <= DENSE_SPLINE_NODES:
             return _hermite(t_nodes, values, values @ spline_slopes(t_nodes).T, t)
         return CubicSpline(t_nodes, values, axis=-1)(t)
@@ -71,7 +71,7 @@ def spline_slopes(x):
         x: ``(m,)`` increasing node times, s (m ≥ 4).
     """
     m = x.size
-    dx = np.diff(x)
+    dx = x[1:] - x[:-1]
     system = np.zeros((m, m))
     right = np.zeros((m, m))
     inner = np.arange(1, m - 1)
@@ -99,7 +99,7 @@ def _hermite(x, values, slopes, t):
     """
     j = np.searchsorted(x, t, side="right") - 1
     np.minimum(np.maximum(j, 0, out=j), x.size - 2, out=j)
-    h = np.diff(x)[j]
+    h = x[j + 1] - x[j]
     u = (t - x[j]) / h
     u2 = u * u
     level = u2 * (3.0 - 2.0 * u)
@@ -123,7 +123,7 @@ def grid_nodes(t, spacing_s, origin_s: float = 0.0):
     successive long blocks of samples see the same nodes.
     """
     n = t.size
-    if n < 3 or not np.all(np.diff(t) >= 0.0):
+    if n < 3 or not (t[1:] >= t[:-1]).all():
         return np.arange(n)
     # At least MIN_BLOCK_INTERVALS intervals over the span: the spacing halved as often as needed (a discrete
     # set, so two clocks that read the same span to rounding pick the same spacing, and its multiples on a
@@ -142,5 +142,8 @@ def grid_nodes(t, spacing_s, origin_s: float = 0.0):
         * spacing_s
     nodes = np.concatenate([[0], np.searchsorted(t - t[0], multiples - start - GRID_TIME_TOLERANCE_S, side="left"),
                             [n - 1]])
-    nodes = np.minimum(nodes, n - 1)  # sorted: keep each index once
-    return nodes[np.diff(nodes, prepend=-1) > 0]
+    np.minimum(nodes, n - 1, out=nodes)  # sorted: keep each index once
+    keep = np.empty(nodes.size, bool)
+    keep[0] = True
+    np.greater(nodes[1:], nodes[:-1], out=keep[1:])
+    return nodes[keep]
