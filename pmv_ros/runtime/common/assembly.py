@@ -73,7 +73,7 @@ ORBIT_SOURCES = ("circular", "tle", "follow")
 
 #: Roll and pitch error RMS of the Kondor preset (the defaults fly its orbit), arcmin: the defaults of
 #: ``imu.*_error_rms_arcmin`` (config/kondor.yaml says how they were measured).
-IMU_DEFAULT_RMS_ARCMIN = (6.38, 9.12)
+IMU_DEFAULT_RMS_ARCMIN = (5.81, 7.96)
 
 #: Parameters of sensor_node (units in the names; YAML speaks km, deg, arcmin).
 SENSOR_PARAMS = INPUT_PARAMS + FRAME_PARAMS + MOUNTING_PARAMS + ORBIT_BOUND_PARAMS + (
