@@ -14,6 +14,7 @@ tests/physics/test_climatology_sampling.py.
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import math
 from pathlib import Path
@@ -97,3 +98,30 @@ def test_the_meteor_records_with_the_climatology_as_a_horizon_level(seeds):
     assert ratio < 0.9  # and always below No.2's: the curve over-corrects
 
 
+
+
+def _calibration_tool():
+    spec = importlib.util.spec_from_file_location("pmv_calibrate_environment", REPO / "tools" / "calibrate_environment.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_calibration_combines_runs_with_lost_chords_linearly():
+    # The tool flies No.2-2 once with the working curve and forms the gain-s curve as β_raw + s·(β_working −
+    # β_raw), harmonic by harmonic. On the session date the Sun blinds the roll pair for ≈ 55 samples, so the
+    # harmonics of those runs come from a gappy least-squares fit: they must stay complex coefficients (the
+    # amplitudes of report.harmonic_spectrum, 1e-9′), so that the combination equals the harmonics of the
+    # combined series — combining amplitudes would assume every harmonic in phase.
+    tool = _calibration_tool()
+    rng = np.random.default_rng(5)
+    t = np.arange(0.0, 6090.0, 4.0)
+    period = 6090.0
+    raw = 9.0 * np.cos(4 * np.pi * t / period + 0.3) + rng.normal(0.0, 1.0, t.size)
+    working = 3.0 * np.cos(4 * np.pi * t / period - 1.2) + rng.normal(0.0, 1.0, t.size)
+    raw[700:755] = working[700:755] = np.nan
+    c_raw, c_working = tool._harmonics(t, period, raw), tool._harmonics(t, period, working)
+    np.testing.assert_allclose(np.abs(c_raw), harmonic_spectrum(t, raw, period, 40)[1], rtol=0, atol=1e-9)
+    combined = raw + 1.92 * (working - raw)
+    np.testing.assert_allclose(np.abs(c_raw + 1.92 * (c_working - c_raw)), harmonic_spectrum(t, combined, period, 40)[1],
+                               rtol=0, atol=1e-9)
