@@ -12,7 +12,7 @@ whichever it overlaps); the ratio is given from the best wall times, from the be
 Rates: 10 Hz (the node's, the target) and 1 Hz (a campaign's year is flown at 1 Hz: the fields cost the
 same per orbit at any rate, the chain's cost scales with the rate, so the environment weighs more there).
 
-Also printed:
+The blocks are spread evenly over one orbit. Also printed:
 
 * real time against fast time — the same instants of the same preset and seed on a clock that reads
   1.76·10⁹ s at the start and on one that reads 0: the largest difference of the sensed angles, arcmin
@@ -64,12 +64,18 @@ def preset_values(preset: str, **given) -> dict:
 
 
 class Flight:
-    """A preset's sensor model and ``blocks`` node blocks of samples at ``rate_hz`` (zero attitude)."""
+    """A preset's sensor model and ``blocks`` node blocks of samples at ``rate_hz`` (zero attitude).
+
+    The blocks are spread evenly over one orbit (each starts on the node's sample grid), so that they see
+    the whole orbit's horizons — polar night and subtropics — as a flight does.
+    """
 
     def __init__(self, preset: str, source: str, rate_hz: float, blocks: int, start_s: float = 0.0, **given):
         orbit, _, self.model = build_models(preset_values(preset, **{"radiance.source": source, **given}),
                                             clock_epoch_s=start_s)
-        self.times = [start_s + (np.arange(FAST_TIME_BLOCK) + 1 + b * FAST_TIME_BLOCK) / rate_hz for b in range(blocks)]
+        per_orbit = orbit.period_s * rate_hz
+        firsts = [int(b * per_orbit / blocks) for b in range(blocks)]
+        self.times = [start_s + (np.arange(FAST_TIME_BLOCK) + 1 + first) / rate_hz for first in firsts]
         self.attitude = np.tile(np.array([[0.0], [0.0], [0.0], [1.0]]), FAST_TIME_BLOCK)
         self.geometry = [(t, orbit.state_eci(t)[0], sensor_axes_eci(orbit, t, self.attitude)) for t in self.times]
 
