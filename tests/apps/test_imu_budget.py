@@ -5,11 +5,12 @@ year (13 days, the command in the preset's comment): the root mean square of the
 true with the oblateness kept (none of the presets compensates it on board). Here the same core flies
 days the documenting campaign did not fly, at 1 Hz, and the RMS must agree.
 
-Tolerances (TOLERANCE), from the spread of one orbit's RMS about the year's in the documenting campaigns,
-with a margin for the sparser 1 Hz sampling of the same error process: Kondor roll 6.03 … 6.59′ about
-6.38′, pitch 8.68 … 9.62′ about 9.12′ (within 5.5 %), Meteor-M No.2 roll 4.13 … 4.64′ about 4.34′, pitch
-7.83 … 8.73′ about 8.35′ (within 7 %): 10 %. No.2-2's over-correcting curve makes its error follow the
-day's weather: roll 9.26 … 14.60′ about 12.51′, pitch 10.31 … 16.09′ about 13.26′ (within 26 %): 30 %.
+Tolerances (TOLERANCE), from the spread of one orbit's RMS about the year's in the documenting campaigns
+(2026-12-03, the climatology as a horizon level), with a margin for the sparser 1 Hz sampling of the same
+error process: Kondor roll 5.44 … 6.18′ about 5.81′, pitch 7.55 … 8.21′ about 7.96′ (within 6.3 %),
+Meteor-M No.2 roll 3.72 … 4.11′ about 3.96′, pitch 6.45 … 7.59′ about 7.05′ (within 8.4 %; the element-set
+preset within 7.9 %): 10 %. No.2-2's over-correcting curve makes its error follow the day's weather: roll
+8.26 … 14.41′ about 11.30′, pitch 10.66 … 16.51′ about 12.55′ (within 32 %): 35 %.
 A change of the instrument or the environment that moves the error by more than that fails here, and the
 presets' figures must be measured again.
 """
@@ -28,7 +29,7 @@ from pmv_ros.physics.orbit.tle import parse_element_set
 from pmv_ros.runtime.flight import flight_values, fly
 
 CONFIG = Path(__file__).resolve().parents[2] / "config"
-TOLERANCE = {"kondor": 0.10, "meteor_m2": 0.10, "meteor_m2_tle": 0.10, "meteor_m2_2": 0.30}
+TOLERANCE = {"kondor": 0.10, "meteor_m2": 0.10, "meteor_m2_tle": 0.10, "meteor_m2_2": 0.35}
 #: Days the documenting campaigns (1-365:30, i.e. 1, 31, …, 361; the element-set preset 0-360:30) did not fly.
 SHORT_DAYS, LONG_DAYS = (100,), (100, 220, 340)
 

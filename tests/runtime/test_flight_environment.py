@@ -35,8 +35,8 @@ def test_switching_off_weather_and_height_reduces_the_kondor_residual():
     full = methodical_sigma_arcmin(preset_values("kondor"))
     climatology_only = methodical_sigma_arcmin(preset_values("kondor", environment__weather=False,
                                                              environment__height_variation=False))
-    # Expected: a few arcmin with everything on; the corrected latitude/season part alone is
-    # about 1–2′ (the correction removes most of a smooth gradient, physics.md §4).
+    # Expected: a few arcmin with everything on; the corrected latitude/season part alone is small: a
+    # horizon level per chord (physics.md §3.2 item 3) is what the rig curve corrects (a Model-A level).
     assert 2.0 < full[0] < 10.0 and 2.0 < full[1] < 10.0
     assert climatology_only[0] < 0.5 * full[0] and climatology_only[1] < 0.5 * full[1]
 
@@ -131,13 +131,15 @@ def test_the_presets_fly_the_flight_sessions():
         assert preset_values(preset)["sim.epoch_utc"].startswith(day)
 
 
+@pytest.mark.regression
 def test_the_flight_records_over_a_few_seeds():
-    """The figures of the Meteor-M records (issue 11 "Must show") that the calibration reaches, on 3 seeds.
+    """The figures of the Meteor-M records (issue 30 "Must show") that the calibration reaches, on 3 seeds.
 
-    Partly a regression test: the presets were fitted to these figures (tools/calibrate_environment.py,
-    6 seeds). Tolerances: the 3-seed mean scatters about the 6-seed one by ≈ σ_seed/√3 (σ_seed from the
-    calibration's JSON); each bound below is the target widened by that. Targets the calibration reports
-    as not reached within the physical bounds are checked against its best in-bounds figure instead.
+    A regression test: the presets were fitted to these figures (tools/calibrate_environment.py, seeds
+    1–6 and 101–106). Tolerances: the 3-seed mean scatters about the 6-seed one by ≈ σ_seed/√3 (σ_seed from
+    the calibration's JSON); each bound below is the target widened by 35 % of the 6-seed figure. Targets
+    the calibration reports as not reached within the physical bounds are checked against its best
+    in-bounds figure instead. Not from the fit: the curve works at all (below).
     """
     m2 = record_figures("meteor_m2")
     m22 = record_figures("meteor_m2_2")
@@ -145,11 +147,11 @@ def test_the_flight_records_over_a_few_seeds():
                "m2_pitch_hump_mean": m2["hump_mean"], "m2_sigma_over_2k20": m2["sigma"] / (2 * m2["pitch_k20"]),
                "m22_k2_ratio": m22["pitch_k2"] / m2["pitch_k2"], "m22_pitch_hump_max": m22["hump_max"],
                "m22_hump_ratio": m22["hump_max"] / m2["hump_max"]}
-    fit = CALIBRATION["fit"]["targets"]
+    fit = CALIBRATION["fit"]["1-6"]["targets"]
     for name, target in CALIBRATION["targets"].items():
         low, high = target["low"], target["high"] if target["high"] is not None else math.inf
         value = figures[name]
-        if name in CALIBRATION["unreached"]:
+        if name in CALIBRATION["unreached"]["1-6"]:
             # best in bounds, not the record: within 35 % of the 6-seed figure (3 seeds against 6)
             assert value == pytest.approx(fit[name], rel=0.35), name
         else:

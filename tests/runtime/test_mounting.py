@@ -47,8 +47,11 @@ def test_a_mounting_of_10_arcmin_roll_and_minus_5_pitch_is_the_mean_residual_and
     for channel, mounting_arcmin in (("roll", 10.0), ("pitch", -5.0)):
         a, m = aligned[channel], mounted[channel]
         assert m.count == a.count > 5000
-        # The mean residual reads the mounting, ± the methodical error (the aligned sensor's mean, a few 0.1′).
-        assert abs(a.mean_rad / ARCMIN_RAD) < 0.5
+        # The mean residual reads the mounting, ± the methodical error: the aligned sensor's orbit mean, which
+        # the weather's synoptic zones (≈ 2000 km, ≈ 20 a Kondor orbit) do not average out — σ ≈ 4.6′ per sample
+        # gives ≈ 1′ for the mean of an orbit (measured −0.33′ roll, +0.70′ pitch with the presets of issue 30;
+        # 2.5′ is 2.5 such σ). The mounting itself is read from the difference, to 0.01′ (below).
+        assert abs(a.mean_rad / ARCMIN_RAD) < 2.5
         assert m.mean_rad / ARCMIN_RAD == pytest.approx(mounting_arcmin + a.mean_rad / ARCMIN_RAD, abs=0.01)
         # σ and the harmonics stay: the turned chords look at the horizon 10′ × 500 km ≈ 1.5 km from where they
         # did, against weather and layer-height fields correlated over 50 … 700 km (measured: ≤ 2e-3′).

@@ -17,6 +17,10 @@ time, the three quantities the horizon profile of physics.md §3 needs:
 * the height of the CO₂ layer, ≈ 60 km, fixed unless a small spread is asked for.
 
 :class:`RadianceEnvironment` assembles them from :class:`EnvironmentParameters`.
+The sensor takes the climatology and the weather once per chord, at its horizon
+point, as the level of the chord's whole profile (physics.md §3.2 item 3;
+``climatology_sampling = "line_of_sight"`` takes the climatology along the line
+of sight instead, for comparison).
 Together they make the latitude/season, weather and height errors of
 physics.md §3.1 (models B, C, D) come out of one model, as in flight.
 
@@ -45,6 +49,7 @@ from .climatology import (
 )
 from .fields import MIN_WAVELENGTH_M, GaussianSphereField, SynopticBandField
 from .radiance_environment import (
+    CLIMATOLOGY_SAMPLINGS,
     IFOV_MIN_WAVELENGTH_M,
     WEATHER_MIN_WAVELENGTH_M,
     EnvironmentParameters,
@@ -65,6 +70,6 @@ __all__ = [
     "MIN_WAVELENGTH_M", "GaussianSphereField", "SynopticBandField",
     "PRECISE_FIELD_DTYPE", "WINDOW_HALF_RANGE_M", "LayerHeightField", "WeatherField", "background_radius_m",
     "synoptic_degrees",
-    "IFOV_MIN_WAVELENGTH_M", "WEATHER_MIN_WAVELENGTH_M", "EnvironmentParameters", "HorizonEnvironmentSample",
-    "RadianceEnvironment",
+    "CLIMATOLOGY_SAMPLINGS", "IFOV_MIN_WAVELENGTH_M", "WEATHER_MIN_WAVELENGTH_M", "EnvironmentParameters",
+    "HorizonEnvironmentSample", "RadianceEnvironment",
 ]

@@ -107,13 +107,8 @@ def horizon_radiance_climatology(lat_rad, day_of_year):
     """
     lat, day = np.broadcast_arrays(np.asarray(lat_rad, float), np.asarray(day_of_year, float))
     shape = lat.shape
-    # Powers 1, x, x², … of x = sin φ, then both series in one product.
-    x = np.sin(lat.ravel())
-    powers = np.empty((_POWER_COEFFS.shape[0], x.size))
-    powers[0] = 1.0
-    for k in range(1, powers.shape[0]):
-        np.multiply(powers[k - 1], x, out=powers[k])
-    annual, seasonal = _POWER_COEFFS.T @ powers
+    # Powers 1, x, x², … of x = sin φ (a Vandermonde matrix), then both series in one product.
+    annual, seasonal = (np.vander(np.sin(lat.ravel()), _POWER_COEFFS.shape[0], increasing=True) @ _POWER_COEFFS).T
     season = np.cos((2.0 * math.pi / YEAR_DAYS) * (day.ravel() - SEASON_PEAK_DAY))
     out = (annual + season * seasonal).reshape(shape)
     return out[()] if out.ndim == 0 else out

@@ -102,8 +102,8 @@ class GaussianSphereField:
     scale. The marginal is a sum of M equal-amplitude cosines — Gaussian to
     within an excess kurtosis of −1.5/M.
 
-    Evaluation is cos of an (N × M) float32 array: ≈ 1 ns per point and
-    component (benchmarks/bench_environment.py); ≈ 3× that in float64.
+    Evaluation is cos of an (N × M) array: ≈ 1 ns per point and component
+    in float32, ≈ 6× that in float64 (benchmarks/bench_environment.py --points).
 
     Args:
         correlation_radius_m: e-folding distance R_x, m (10 km … 6371 km).
@@ -258,27 +258,27 @@ class SynopticBandField:
         n_components: number of sectoral components M (16 … 8192).
         seed: an int ≥ 0 or a ``numpy.random.SeedSequence``.
         time_origin_s: the field's own time at t = 0, s (see :class:`GaussianSphereField`).
+        dtype: float type of the evaluation (see :class:`GaussianSphereField`).
     """
 
     def __init__(self, degree_low: int = 15, degree_high: int = 25, time_scale_s: float = 86400.0,
-                 n_components: int = 128, seed=0, time_origin_s: float = 0.0) -> None:
+                 n_components: int = 128, seed=0, time_origin_s: float = 0.0, dtype=np.float32) -> None:
         self.degree_low = _check_count("lowest synoptic degree", degree_low, 2, 200)
         self.degree_high = _check_count("highest synoptic degree", degree_high, self.degree_low, 200)
         self.time_scale_s = check_range("time scale", time_scale_s, 60.0, math.inf, " s")
         self.n_components = _check_count("number of spectral components", n_components, 16, 8192)
         rng = np.random.default_rng(_seed_sequence(seed))
         m = self.n_components
+        self.dtype = np.dtype(dtype)
         # Random orthonormal frames: QR of Gaussian matrices, signs fixed so the law is Haar.
         gaussian = rng.standard_normal((m, 3, 3))
         q, r = np.linalg.qr(gaussian)
         q = q * np.sign(np.diagonal(r, axis1=1, axis2=2))[:, None, :]
-        # (3, 2M): e₁ of every component, then e₂.
-        self._frame = np.hstack([q[:, :, 0].T, q[:, :, 1].T]).astype(np.float32)
         band = np.arange(self.degree_low, self.degree_high + 1)
-        self.degrees = band[rng.permutation(np.arange(m) % band.size)].astype(np.float32)
+        self.degrees = band[rng.permutation(np.arange(m) % band.size)].astype(self.dtype)
         mean_power = np.exp(0.5 * math.log(math.pi) + gammaln(self.degrees + 1.0)
                             - gammaln(self.degrees + 1.5) - math.log(2.0))
-        self._amplitude = np.sqrt(2.0 / (m * mean_power)).astype(np.float32)
+        self._amplitude = np.sqrt(2.0 / (m * mean_power)).astype(self.dtype)
         if math.isinf(self.time_scale_s):
             self._frequency_rad_s = np.zeros(m)
         else:
@@ -286,6 +286,10 @@ class SynopticBandField:
             self._frequency_rad_s = (math.sqrt(2.0) / self.time_scale_s) * ndtri(quantiles)
         self._phase_rad = _phases_at_origin(rng.uniform(0.0, 2.0 * math.pi, m), self._frequency_rad_s,
                                             time_origin_s)
+        # What every evaluation uses, in the evaluation's complex type: w = e₁ + i·e₂ and the degrees.
+        self._complex = np.result_type(self.dtype, np.complex64)
+        self._w = (q[:, :, 0].T + 1j * q[:, :, 1].T).astype(self._complex)
+        self._complex_degrees = self.degrees.astype(self._complex)
 
     def correlation(self, angle_rad):
         """Ensemble correlation at great-circle angle ψ (rad): the band mean of P_ℓ(cos ψ)."""
@@ -299,38 +303,29 @@ class SynopticBandField:
         return _shaped(self.evaluate(lat, lon, t), shape)
 
     def evaluate(self, lat, lon, t):
-        """The field at flat arrays of latitude, longitude (rad) and time (s); ``(N,)``."""
+        """The field at flat arrays of latitude, longitude (rad) and time (s); ``(N,)``.
+
+        Re[(x·w)^ℓ·e^{iφ(t)}] summed with the amplitudes: the power of the complex number x·w by numpy's
+        complex power (exact repeated multiplication for integer ℓ), the phase φ = ωt + b as e^{iφ} once per
+        distinct time of the batch (a node's grid has a few times for its four chords).
+        """
         out = np.empty(lat.size)
         if lat.size == 0:
             return out
         t_ref, phase_ref = _reference_phases(self._phase_rad, self._frequency_rad_s, t)
-        phase_ref = phase_ref.astype(np.float32)
         cos_lat = np.cos(lat)
-        unit = np.empty((lat.size, 3), dtype=np.float32)
+        unit = np.empty((lat.size, 3), dtype=self.dtype)
         unit[:, 0] = cos_lat * np.cos(lon)
         unit[:, 1] = cos_lat * np.sin(lon)
         unit[:, 2] = np.sin(lat)
-        dt = (t - t_ref).astype(np.float32)[:, None]
-        frequency = self._frequency_rad_s.astype(np.float32)
-        m = self.n_components
-        half_degrees = 0.5 * self.degrees
-        block_points = max(64, (_BLOCK_ELEMENTS // 2) // m)
+        times, which = np.unique(t - t_ref, return_inverse=True)
+        rotation = np.exp(1j * (phase_ref + times[:, None] * self._frequency_rad_s)).astype(self._complex)
+        block_points = max(64, (_BLOCK_ELEMENTS // 4) // self.n_components)
         for start in range(0, lat.size, block_points):
             stop = min(start + block_points, lat.size)
-            z = unit[start:stop] @ self._frame  # (n, 2M): the real and imaginary parts of x·w
-            real, imag = z[:, :m], z[:, m:]
-            angle = np.arctan2(imag, real)
-            # |z|^ℓ = (|z|²)^(ℓ/2); the argument ℓ·arg z plus the drifting phase.
-            np.multiply(real, real, out=real)
-            np.multiply(imag, imag, out=imag)
-            np.add(real, imag, out=real)
-            magnitude = np.power(real, half_degrees, out=real)
-            np.multiply(angle, self.degrees, out=angle)
-            angle += phase_ref
-            angle += dt[start:stop] * frequency
-            np.cos(angle, out=angle)
-            np.multiply(angle, magnitude, out=angle)
-            out[start:stop] = angle @ self._amplitude
+            power = np.power(unit[start:stop] @ self._w, self._complex_degrees)  # (x·w)^ℓ, (n, M)
+            power *= rotation[which[start:stop]]
+            out[start:stop] = power.real @ self._amplitude
         return out
 
 

@@ -30,6 +30,12 @@ IFOV_MIN_WAVELENGTH_M = 100e3
 #: one. The synoptic band (zones ≥ 1600 km) is far above it; ≈ 10 % of the red background's variance is
 #: moved up to it at R_b ≈ 1000 km.
 WEATHER_MIN_WAVELENGTH_M = 300e3
+#: Where a chord's sensor takes the latitude/season climatology (:attr:`EnvironmentParameters.climatology_sampling`):
+#: ``horizon`` — once per chord, at its horizon (limb) point, a level that scales the chord's whole profile
+#: like the weather's (physics.md §3.2 item 3, extended in round four); ``line_of_sight`` — at the horizon
+#: point and where the lines of sight below it hit the ground, the profile following the climatology
+#: inwards (the model before round four, kept for comparison).
+CLIMATOLOGY_SAMPLINGS = ("horizon", "line_of_sight")
 
 
 @dataclass(frozen=True)
@@ -49,6 +55,11 @@ class EnvironmentParameters:
             (0.3 … 10; physics.md §3 mean 2.4).
         epoch_day_of_year: day of year at simulation time 0, days (0 … 367;
             default 15: the southern summer of the physics.md §3.1 example).
+        climatology_sampling: how the sensor samples the climatology along a chord, one of
+            :data:`CLIMATOLOGY_SAMPLINGS`: ``"horizon"`` (default; one value per chord at its horizon
+            point, scaling the whole profile, physics.md §3.2 item 3) or ``"line_of_sight"`` (the
+            climatology wherever the line of sight meets the ground). The layer heights are taken at
+            the horizon point either way; the fields themselves do not depend on it.
         weather_enabled: add the correlated weather anomaly.
         relative_variability: η, σ_B/B_mean at a point (0 … 1; physics.md §3.1: 0.2 at nadir,
             η′ = 0.15 after slant viewing and the IFOV at 500 km; §3.2: up to ≈ 0.3).
@@ -90,6 +101,7 @@ class EnvironmentParameters:
     climatology_enabled: bool = True
     uniform_radiance_ru: float = 2.4
     epoch_day_of_year: float = 15.0
+    climatology_sampling: str = "horizon"
     weather_enabled: bool = True
     relative_variability: float = 0.15
     correlation_radius_m: float = 700e3
@@ -115,6 +127,9 @@ class EnvironmentParameters:
                 raise ValueError(f"{name} = {getattr(self, name)!r} must be true or false")
         check_range("uniform radiance", self.uniform_radiance_ru, 0.3, 10.0, " r.u.")
         check_range("epoch day of year", self.epoch_day_of_year, 0.0, 367.0)
+        if self.climatology_sampling not in CLIMATOLOGY_SAMPLINGS:
+            raise ValueError(f"climatology sampling = {self.climatology_sampling!r} is not one of "
+                             f"{', '.join(CLIMATOLOGY_SAMPLINGS)}")
         check_range("relative variability η′", self.relative_variability, 0.0, 1.0)
         check_range("correlation radius", self.correlation_radius_m / 1e3, 10.0, EARTH_MEAN_RADIUS_M / 1e3, " km")
         check_range("time scale", self.time_scale_s, 60.0, math.inf, " s")
@@ -251,20 +266,6 @@ class RadianceEnvironment:
         return HorizonEnvironmentSample(_shaped(radiance, shape), _shaped(heights[0], shape),
                                         _shaped(heights[1], shape), _shaped(mean, shape))
 
-    def weather_parts(self, lat_rad, lon_rad, t_s):
-        """The radiance without weather (r.u.) and the background anomaly g (σ = 1) at points: two flat arrays.
-
-        With :meth:`synoptic_band` and :meth:`radiance_from_parts` this is
-        :meth:`sample`'s radiance in pieces, for callers that evaluate the slow
-        synoptic band on a coarser grid than the rest (pmv_ros.physics.instrument.sensor).
-        g is zeros without weather.
-        """
-        lat, lon, t, _ = _flat_points(lat_rad, lon_rad, t_s)
-        mean = self.mean_radiance_ru(lat, t) + 0.0 * lon
-        if self.weather is None:
-            return mean, np.zeros(lat.size)
-        return mean, self._weather_bank.evaluate(lat, lon, t)[:, 0]
-
     def background_anomaly(self, lat_rad, lon_rad, t_s):
         """The weather's red background g (σ = 1) at points, flat; zeros without weather."""
         lat, lon, t, _ = _flat_points(lat_rad, lon_rad, t_s)
@@ -280,10 +281,12 @@ class RadianceEnvironment:
         return self.weather.band_field.evaluate(lat, lon, t)
 
     def radiance_from_parts(self, mean_radiance_ru, background, band):
-        """Horizon radiance, r.u., from :meth:`weather_parts` and :meth:`synoptic_band` (band may be None).
+        """Horizon radiance, r.u., from its parts: the radiance without weather (:meth:`mean_radiance_ru`), the
+        background g (:meth:`background_anomaly`) and the band s (:meth:`synoptic_band`; may be None).
 
-        The parts broadcast: the sensor gives the climatology at every point of a chord's profile and
-        the anomaly of its horizon point only (the weather as a horizon level, physics.md §3.2 item 3).
+        :meth:`sample`'s radiance in pieces, for the sensor, which interpolates them in time along a chord's
+        track. The parts broadcast: the sensor gives the climatology at a chord's horizon point (or along
+        its line of sight) and the anomaly of its horizon point only (physics.md §3.2 item 3).
         """
         if self.weather is None:
             return np.asarray(mean_radiance_ru, float)

@@ -21,15 +21,15 @@ from .fields import MIN_WAVELENGTH_M, GaussianSphereField, SynopticBandField, _s
 #: Half-width of the uniform window-layer height spread, m: σ_h = 10 km (physics.md §3.2 item 4) → √3·σ_h.
 WINDOW_HALF_RANGE_M = math.sqrt(3.0) * 10e3
 
-#: Floating-point type of the flight environment's Gaussian fields (the weather's red background and the
-#: layer heights; the synoptic band stays float32). The same instant reached on two clocks (a real-time
-#: run's ≈ 1.7e9 s, a fast-time run's 0) differs by rounding only (≈ 10⁻⁷ s, 10⁻¹⁰ rad of Earth rotation);
-#: in float32 such a difference flips roundings of phases of up to ≈ 400 rad (100 km waves; ULP 3·10⁻⁵
-#: rad), and the sensed angles of the two runs part by ≈ 5·10⁻⁶′ (heights) and ≈ 7·10⁻⁷′ (weather at
-#: η = 0.3); in float64 by ≈ 3·10⁻⁷′ (issue 22 asks 10⁻⁶′). Tried and dropped: a phase reduced to ±π in
-#: float64 with a float32 cosine (9·10⁻⁷′), float32 offsets from float64 references every 16 points of a
-#: track (2·10⁻⁶′). float64 costs ≈ 3× float32 and is most of the environment's cost in
-#: benchmarks/bench_chain.py.
+#: Floating-point type of the flight environment's fields (the weather's red background and synoptic band,
+#: the layer heights). The same instant reached on two clocks (a real-time run's ≈ 1.7e9 s, a fast-time
+#: run's 0) differs by rounding only (≈ 10⁻⁷ s, 10⁻¹⁰ rad of Earth rotation); in float32 such a difference
+#: flips roundings of phases of up to ≈ 400 rad (100 km waves; ULP 3·10⁻⁵ rad), and the sensed angles of
+#: the two runs part by ≈ 5·10⁻⁶′ (heights) and ≈ 7·10⁻⁷′ (weather at η = 0.3); in float64 by ≈ 3·10⁻⁷′
+#: (physics.md §3.2 item 6 asks 10⁻⁶′). Tried and dropped: a phase reduced to ±π in float64 with a float32
+#: cosine (9·10⁻⁷′), float32 offsets from float64 references every 16 points of a track (2·10⁻⁶′). numpy's
+#: float64 cosine costs ≈ 6× its float32 one here, and the layer height's is the largest item of the
+#: environment's cost (benchmarks/bench_environment.py --profile).
 PRECISE_FIELD_DTYPE = np.float64
 
 
@@ -126,7 +126,7 @@ class WeatherField:
                                                  background_seed, min_wavelength_m, time_origin_s,
                                                  PRECISE_FIELD_DTYPE)
         self.band_field = SynopticBandField(*self.degrees, time_scale_s, synoptic_components, band_seed,
-                                            time_origin_s) \
+                                            time_origin_s, PRECISE_FIELD_DTYPE) \
             if self.synoptic_fraction > 0.0 else None
         self._weights = (math.sqrt(1.0 - self.synoptic_fraction), math.sqrt(self.synoptic_fraction))
 

@@ -31,7 +31,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from .. import chain
 from ..attitude import quaternion_product, true_roll_pitch
@@ -41,6 +40,7 @@ from ..environment import EnvironmentParameters, RadianceEnvironment
 from ..orbit.ephemeris import BODY_NAMES, Epoch
 from ..geometry import CHORD_AZIMUTHS_RAD, chord_line_of_sight, roll_pitch_from_horizon_angles, tangent_nadir_angles
 from .oblateness import closed_form_oblateness, sensor_axes_eci
+from .track_grid import FIELD_GRID_FRACTION, HORIZON_POINT_SPEED_M_S, MAX_FIELD_GRID_S, grid_nodes, interpolate_in_time
 from ..orbit.two_body import CircularOrbit, eci_to_ecef, geocentric_latitude_longitude
 from ..radiance import CO2_TOP_HEIGHT_M
 
@@ -162,23 +162,6 @@ _CHAIN_STATUS[chain.DetectionStatus.INVALID_INPUT] = ChordStatus.NO_HORIZON
 _CHAIN_STATUS[chain.DetectionStatus.SCAN_STARTED_IN_ATMOSPHERE] = ChordStatus.NO_HORIZON
 
 
-#: Longest spacing of the coarse time grid on which the environment is evaluated along each chord's
-#: track, s (see :class:`RadianceConfig`).
-MAX_FIELD_GRID_S = 30.0
-#: Grid spacing as a fraction of the time a horizon point takes to cross a field's shortest wavelength.
-#: The fields are interpolated in time by cubic splines, which reproduce a wave sampled this densely to
-#: ≈ (2π·fraction)⁴/384 ≈ 1.6 % of its amplitude — for the shortest waves of a field only. (The layer
-#: height's Gaussian field is interpolated and mapped to its uniform law afterwards: the map makes
-#: harmonics shorter than the field's own.)
-FIELD_GRID_FRACTION = {"band": 0.25, "weather": 0.25, "height": 0.25}
-#: Two clock readings closer than this, s, are the same instant for the track grid (float64 rounding of
-#: a clock at ≈ 2·10⁹ s is ≈ 2·10⁻⁷ s; samples are ≥ 10 ms apart).
-GRID_TIME_TOLERANCE_S = 1e-6
-#: Ground speed of a horizon point along its track, m/s (the orbital rate on the Earth's surface,
-#: ≈ 6.6 km/s at 500–835 km, plus up to 0.46 km/s of Earth rotation), rounded up.
-HORIZON_POINT_SPEED_M_S = 7.2e3
-
-
 @dataclass(frozen=True)
 class RadianceConfig:
     """Where the horizon radiance seen by each chord comes from.
@@ -187,13 +170,14 @@ class RadianceConfig:
         source: ``"uniform"`` — the same disc radiance and window height on
             every chord (physics.md §3.1 Model A with B(1) = B(2)); or
             ``"environment"`` — :class:`~pmv_ros.physics.environment.RadianceEnvironment`
-            sampled on the rotating Earth along each chord's line of sight: the
-            window-layer height and the radiance at the horizon point, and the
-            radiance where the lines of sight at the inward angles
-            :data:`~pmv_ros.physics.chain.DISC_SAMPLE_INWARD_RAD` hit the ground
-            (≈ 440, 830 and 1400 km inside the horizon at 835 km), which the chain
-            interpolates (physics.md §3.2 item 3): climatology, weather and
-            height as they occur in flight.
+            sampled on the rotating Earth at each chord's horizon point: the
+            window-layer height, and the radiance level B_m — climatology times
+            weather — that scales the chord's whole profile (physics.md §3.2
+            item 3). With ``environment.climatology_sampling = "line_of_sight"``
+            the climatology is also taken where the lines of sight at the inward
+            angles :data:`~pmv_ros.physics.chain.DISC_SAMPLE_INWARD_RAD` hit the
+            ground (≈ 440, 830 and 1400 km inside the horizon at 835 km), and the
+            chain interpolates the disc through those samples.
         disc_radiance_ru: uniform source: B_m, r.u.
         window_height_m: uniform source: h_w, m.
         environment: parameters of the environment source.
@@ -204,10 +188,11 @@ class RadianceConfig:
             cross the smallest scale of a field (its correlation radius, or its
             shortest wavelength: 1600 km for the synoptic band of 2000 km zones,
             300 km for the weather's background, 100 km for the layer height),
-            at most :data:`MAX_FIELD_GRID_S` — ≈ 30, 10 and 3.5 s. Between grid
-            points the values are interpolated in time by cubic splines: a
-            horizon point moves < 1 km between samples 0.1 s apart, against
-            scales of hundreds of km.
+            at most :data:`MAX_FIELD_GRID_S` — ≈ 30, 10 and 3.5 s; the band
+            rides on the weather background's grid (:meth:`grid_spacing_s`).
+            Between grid points the values are interpolated in time by cubic
+            splines: a horizon point moves < 1 km between samples 0.1 s apart,
+            against scales of hundreds of km.
     """
 
     source: str = "uniform"
@@ -227,21 +212,23 @@ class RadianceConfig:
         if self.field_grid_s is not None and not (0.1 <= self.field_grid_s <= 60.0):
             raise ValueError(f"field_grid_s = {self.field_grid_s} is outside the allowed range 0.1 … 60 s")
 
-    def grid_spacing_s(self) -> tuple[float, float, float]:
-        """The coarse grids' spacings, s: (synoptic band, weather background and climatology, window-layer height).
+    def grid_spacing_s(self) -> tuple[float, float]:
+        """The coarse grids' spacings, s: (the radiance — climatology and weather —, the window-layer height).
 
-        See ``field_grid_s``; the band's shortest wavelength is its zone length ÷ 1.25 (degree ℓ₀·1.25).
+        See ``field_grid_s``. The radiance grid serves the weather's background (the finer of its two
+        fields) and so the synoptic band too, whose shortest wavelength — its zone length ÷ 1.25, degree
+        ℓ₀·1.25, ≥ 400 km — is longer than the background's (≤ 300 km).
         """
         if self.field_grid_s is not None:
-            return (float(self.field_grid_s),) * 3
+            return (float(self.field_grid_s),) * 2
         p = self.environment
         height = p.correlation_radius_m if p.height_correlation_radius_m is None else p.height_correlation_radius_m
 
         def spacing(scale_m, fraction):
             return float(min(MAX_FIELD_GRID_S, fraction * scale_m / HORIZON_POINT_SPEED_M_S))
 
-        return (spacing(p.synoptic_zone_m / 1.25, FIELD_GRID_FRACTION["band"]),
-                spacing(min(p.correlation_radius_m, p.weather_min_wavelength_m), FIELD_GRID_FRACTION["weather"]),
+        return (min(spacing(p.synoptic_zone_m / 1.25, FIELD_GRID_FRACTION["band"]),
+                    spacing(min(p.correlation_radius_m, p.weather_min_wavelength_m), FIELD_GRID_FRACTION["weather"])),
                 spacing(max(height, p.min_wavelength_m), FIELD_GRID_FRACTION["height"]))
 
 
@@ -271,26 +258,30 @@ class ChainDetector:
         self.scan_start_rad = nominal_scan_start_nadir_rad(altitude_m, scan_margin_rad, params)
         self.environment = (RadianceEnvironment(self.radiance.environment)
                             if self.radiance.source == "environment" else None)
-        self.band_grid_s, self.grid_s, self.height_grid_s = self.radiance.grid_spacing_s()
+        self.grid_s, self.height_grid_s = self.radiance.grid_spacing_s()
 
     def _chord_radiance(self, t_s, position_m, sensor_axes):
-        """Horizon radiance B_m (r.u.), disc samples (r.u.) and h_w (m) of each chord: ``(4, N)``, ``(4, N, 3)``, ``(4, N)``.
+        """Horizon radiance B_m (r.u.), disc samples (r.u.) or None, and h_w (m) of each chord: ``(4, N)``, ``(4, N, 3)``.
 
-        The weather as a horizon level (physics.md §3.2 item 3): the weather
-        anomaly a is taken once per chord and sample, at the chord's horizon
-        point, and scales the whole profile — B = B_clim(x)·(1 + η·a) at the
-        horizon point and at every disc sample x, each kept inside 1 … 4 r.u. —
-        while the climatology (and the window-layer height, at the horizon
-        point) stays a function of where the line of sight meets the Earth.
+        The horizon level (physics.md §3.2 item 3): the weather anomaly a and
+        the climatology B_clim are taken once per chord and sample, at the
+        chord's horizon point; B_m = B_clim·(1 + η·a), kept inside 1 … 4 r.u.,
+        is the level of the chord's whole profile (a uniform disc: no samples,
+        None). The window-layer height is taken at the horizon point too. With
+        ``climatology_sampling = "line_of_sight"`` the climatology is taken at
+        the disc samples as well, and every sample x carries the same weather
+        factor: B(x) = B_clim(x)·(1 + η·a), each kept inside 1 … 4 r.u.
 
         Each field is evaluated at grid samples (one per grid spacing of the
         sample times, and the first and last) and interpolated in time to the
-        other samples by a cubic spline: the synoptic band every
-        ``band_grid_s``, the climatology and the weather's background every
-        ``grid_s``, the window-layer height every ``height_grid_s``. When the
-        samples are sparser than a grid: at every sample. The grids are tied to
-        the fields' clock (UTC when the environment has a time origin), so runs
-        of the same instants see the same nodes whatever their own clock reads.
+        other samples by a cubic spline: the climatology and the weather
+        (background and synoptic band) every ``grid_s``, the window-layer
+        height every ``height_grid_s`` (:mod:`.track_grid`); the horizon points
+        are found once for both grids, and each grid's fields share one spline.
+        When the samples are sparser than a grid: at every sample. The grids
+        are tied to the fields' clock (UTC when the environment has a time
+        origin), so runs of the same instants see the same nodes whatever their
+        own clock reads.
         """
         t = np.atleast_1d(np.asarray(t_s, float))
         n = t.size
@@ -298,41 +289,53 @@ class ChainDetector:
         if self.environment is None:
             return (np.full(shape, self.radiance.disc_radiance_ru), None,
                     np.full(shape, self.radiance.window_height_m))
-        points = 1 + len(chain.DISC_SAMPLE_INWARD_RAD)
-        origin_s = self.environment.parameters.field_time_origin_s
-
-        located = {}  # the ground points of a node set, shared by fields on the same grid (short blocks)
-
-        def along_track(spacing_s, inner, evaluate):
-            nodes = _grid_nodes(t, spacing_s, origin_s)
-            key = nodes.tobytes()
-            if (True, key) in located:  # the horizon points lead the profile's points
-                where = located[(True, key)]
-                if not inner:
-                    where = tuple(w[: 4 * nodes.size] for w in where)
-            else:
-                if (inner, key) not in located:
-                    located[(inner, key)] = self._ground_points(t[nodes], position_m[:, nodes],
-                                                                sensor_axes[:, :, nodes], inner)
-                where = located[(inner, key)]
-            values = [v.reshape(points if inner else 1, 4, nodes.size) for v in evaluate(*where)]
-            return [_interpolate_in_time(t, nodes, v) for v in values]
-
         environment = self.environment
-        mean, = along_track(self.grid_s, True, lambda lat, lon, tt: (environment.mean_radiance_ru(lat, tt),))
-        background = band = None
-        if environment.weather is not None:
-            background, = along_track(self.grid_s, False, lambda *where: (environment.background_anomaly(*where),))
-            if environment.weather.band_field is not None:
-                band, = along_track(self.band_grid_s, False, lambda *where: (environment.synoptic_band(*where),))
-        radiance = environment.radiance_from_parts(mean, background, band)  # (points, 4, N)
+        parameters = environment.parameters
+        # The climatology at the horizon point only (a level, physics.md §3.2 item 3), or also at the disc
+        # samples along the line of sight.
+        along_line_of_sight = parameters.climatology_sampling == "line_of_sight"
+        band_field = environment.weather and environment.weather.band_field
         layer = environment.window_layer
+        origin_s = parameters.field_time_origin_s
+        nodes = {"radiance": grid_nodes(t, self.grid_s, origin_s)}
+        if layer is not None:
+            nodes["height"] = grid_nodes(t, self.height_grid_s, origin_s)
+        # The horizon points once, at both grids' nodes in a row: (4 chords, nodes) each.
+        every = np.concatenate(list(nodes.values()))
+        horizon = [v.reshape(4, every.size) for v in self._ground_points(t[every], position_m[:, every],
+                                                                          sensor_axes[:, :, every], False)]
+        grid = nodes["radiance"]
+
+        def where(name):
+            """Latitude, longitude and time of the horizon points at a grid's nodes, flat (chord, node)."""
+            columns = slice(0, grid.size) if name == "radiance" else slice(grid.size, every.size)
+            return tuple(v[:, columns].ravel() for v in horizon)
+
+        at_horizon = where("radiance")
+        if along_line_of_sight:  # the horizon points lead the profile's points
+            lat, _, t_points = self._ground_points(t[grid], position_m[:, grid], sensor_axes[:, :, grid], True)
+        else:
+            lat, _, t_points = at_horizon
+        # The radiance grid's fields through one spline: (rows, 4 chords, nodes) → (rows, 4, N).
+        climatology = environment.mean_radiance_ru(lat, t_points).reshape(-1, 4, grid.size)
+        rows = [climatology]
+        if environment.weather is not None:
+            rows.append(environment.background_anomaly(*at_horizon).reshape(1, 4, grid.size))
+            if band_field is not None:
+                rows.append(band_field.evaluate(*at_horizon).reshape(1, 4, grid.size))
+        values = interpolate_in_time(t, grid, np.concatenate(rows))
+        parts = iter(values[climatology.shape[0]:])
+        background = next(parts) if environment.weather is not None else None
+        band = next(parts) if band_field is not None else None
+        radiance = environment.radiance_from_parts(values[:climatology.shape[0]], background, band)  # (points, 4, N)
         if layer is None:
-            window = np.full(shape, environment.parameters.window_height_mean_m)
+            window = np.full(shape, parameters.window_height_mean_m)
         else:  # the smooth Gaussian field is interpolated, then mapped to the uniform law at the samples
-            gaussian, = along_track(self.height_grid_s, False, lambda *where: (layer.gaussian_field(*where),))
-            window = layer.height_from_gaussian(gaussian[0])
-        return radiance[0], radiance[1:].transpose(1, 2, 0), window
+            gaussian = layer.gaussian_field(*where("height")).reshape(4, -1)
+            window = layer.height_from_gaussian(interpolate_in_time(t, nodes["height"], gaussian))
+        # A horizon level scales the whole profile: a uniform disc, no samples for the chain to interpolate.
+        samples = radiance[1:].transpose(1, 2, 0) if along_line_of_sight else None
+        return radiance[0], samples, window
 
     def _ground_points(self, t, position_m, sensor_axes, inner: bool):
         """Latitude, longitude (rad) and time of each chord's horizon point (and the disc sample points if ``inner``).
@@ -340,12 +343,12 @@ class ChainDetector:
         Flat arrays ordered (point, chord, sample): the horizon point first,
         then the ground hit by the lines of sight at the inward sample angles.
         """
-        radius = np.linalg.norm(position_m, axis=0)
+        radius = np.sqrt(np.einsum("in,in->n", position_m, position_m))
         up = position_m / radius
         # Chord directions ±X, ±Y of the sensor, made horizontal at the sub-satellite point.
-        chords = np.stack([sensor_axes[:, 0], sensor_axes[:, 1], -sensor_axes[:, 0], -sensor_axes[:, 1]], axis=1)
+        chords = np.concatenate([sensor_axes[:, :2], -sensor_axes[:, :2]], axis=1)
         horizontal = chords - np.einsum("ikn,in->kn", chords, up)[None] * up[:, None]
-        horizontal /= np.linalg.norm(horizontal, axis=0)
+        horizontal /= np.sqrt(np.einsum("ikn,ikn->kn", horizontal, horizontal))
         # Spherical horizon: central angle acos(R/r) from the sub-satellite point; the ground the
         # lines of sight at the sample angles hit lies further in.
         angles = np.arccos(EARTH_MEAN_RADIUS_M / radius)[None]
@@ -374,53 +377,6 @@ class ChainDetector:
         return (readings.sensed_horizon_nadir_rad.reshape(shape),
                 readings.sensed_horizon_nadir_uncorrected_rad.reshape(shape),
                 _CHAIN_STATUS[readings.status].reshape(shape))
-
-
-def _interpolate_in_time(t, nodes, values):
-    """Values given at the samples ``nodes`` (last axis), interpolated in time to every sample of ``t``.
-
-    A not-a-knot cubic spline through 4 nodes or more, linear through 2 or 3.
-    """
-    if nodes.size == t.size:
-        return values
-    t_nodes = t[nodes]
-    if nodes.size >= 4 and np.all(np.diff(t_nodes) > 0.0):
-        return CubicSpline(t_nodes, values, axis=-1)(t)
-    j = np.clip(np.searchsorted(t_nodes, t, side="right") - 1, 0, nodes.size - 2)
-    span = t_nodes[j + 1] - t_nodes[j]
-    w = np.where(span > 0.0, (t - t_nodes[j]) / np.where(span > 0.0, span, 1.0), 0.0)
-    return values[..., j] * (1.0 - w) + values[..., j + 1] * w
-
-
-def _grid_nodes(t, spacing_s, origin_s: float = 0.0):
-    """Indices of the samples on which the environment is evaluated: all, or one per ``spacing_s`` (sorted times).
-
-    The spacing is at most 1/8 of the samples' span. With samples sparser than
-    half the spacing, or unsorted, or fewer than 3: every sample. Otherwise the
-    first, the last, and for each multiple of the spacing the first sample at or
-    after it — a grid tied to the clock ``origin_s + t`` (the fields' clock), so
-    successive long blocks of samples see the same nodes.
-    """
-    n = t.size
-    if n < 3 or not np.all(np.diff(t) >= 0.0):
-        return np.arange(n)
-    # At least 8 intervals over the span, so the spline of a short block is not all end conditions: the
-    # spacing halved as often as needed (a discrete set, so two clocks that read the same span to rounding
-    # pick the same spacing, and its multiples on a clock at ≈ 10⁹ s stay the same instants).
-    span = t[-1] - t[0]
-    if span < 8.0 * spacing_s:
-        spacing_s = spacing_s / 2.0 ** math.ceil(math.log2(8.0 * spacing_s / span)) if span > 0.0 else spacing_s
-    if (t[-1] - t[0]) > 0.5 * spacing_s * (n - 1):
-        return np.arange(n)
-    # Multiples of the spacing on the fields' clock, as offsets from the block's start. A sample within
-    # GRID_TIME_TOLERANCE_S before a multiple counts as on it: the same instant read on another clock
-    # (real time: the node's start ≈ 1.7e9 s; fast time: 0) differs by rounding only.
-    start = origin_s + t[0]
-    multiples = np.arange(math.ceil(start / spacing_s - 1e-12), math.floor((origin_s + t[-1]) / spacing_s) + 1) \
-        * spacing_s
-    nodes = np.searchsorted(t - t[0], multiples - start - GRID_TIME_TOLERANCE_S, side="left")
-    nodes = np.unique(np.concatenate([[0], nodes, [n - 1]]))
-    return nodes[nodes < n]
 
 
 class SensorModel:

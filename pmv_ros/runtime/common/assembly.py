@@ -13,7 +13,7 @@ from dataclasses import replace
 from ...physics.attitude_profile import AttitudeProfile
 from ...physics.constants import ARCMIN_RAD, ARCSEC_RAD, EARTH_ROTATION_RATE_RAD_S, GRS80, SECONDS_PER_DAY, SPHERE
 from ...physics.instrument.correction import load_correction
-from ...physics.environment import YEAR_DAYS, EnvironmentParameters
+from ...physics.environment import CLIMATOLOGY_SAMPLINGS, YEAR_DAYS, EnvironmentParameters
 from ...physics.orbit.ephemeris import Epoch, raan_from_local_time_of_node
 from .orbit_buffer import FollowedOrbit, OrbitBuffer
 from ...physics.orbit.two_body import CircularOrbit
@@ -73,7 +73,7 @@ ORBIT_SOURCES = ("circular", "tle", "follow")
 
 #: Roll and pitch error RMS of the Kondor preset (the defaults fly its orbit), arcmin: the defaults of
 #: ``imu.*_error_rms_arcmin`` (config/kondor.yaml says how they were measured).
-IMU_DEFAULT_RMS_ARCMIN = (6.38, 9.12)
+IMU_DEFAULT_RMS_ARCMIN = (5.81, 7.96)
 
 #: Parameters of sensor_node (units in the names; YAML speaks km, deg, arcmin).
 SENSOR_PARAMS = INPUT_PARAMS + FRAME_PARAMS + MOUNTING_PARAMS + ORBIT_BOUND_PARAMS + (
@@ -145,6 +145,10 @@ SENSOR_PARAMS = INPUT_PARAMS + FRAME_PARAMS + MOUNTING_PARAMS + ORBIT_BOUND_PARA
     ParamSpec("radiance.window_height_km", 40.0, "uniform source: height of the window emitting layer", 0.0, 100.0,
               unit="km"),
     ParamSpec("environment.climatology", True, "latitude/season climatology (off: uniform 2.4 r.u.)"),
+    ParamSpec("environment.climatology_sampling", "horizon", "where a chord takes the climatology: horizon (once, "
+              "at its horizon point, a level scaling its whole profile, as the flight records show) or "
+              "line_of_sight (also where its lines of sight below the horizon meet the ground)",
+              choices=CLIMATOLOGY_SAMPLINGS),
     ParamSpec("environment.weather", True, "correlated random weather field"),
     ParamSpec("environment.height_variation", True, "varying window-layer height, 40 km with sigma 10 km (uniform)"),
     ParamSpec("environment.relative_variability", 0.15, "weather: relative variability eta = sigma_B/B_mean at a "
@@ -366,6 +370,7 @@ def build_detector(values: dict, orbit: CircularOrbit, epoch: Epoch, correction=
     rotation_at_clock_zero = float(epoch.earth_rotation_angle(0.0)) - EARTH_ROTATION_RATE_RAD_S * zero_s
     environment = EnvironmentParameters(
         climatology_enabled=values["environment.climatology"],
+        climatology_sampling=values["environment.climatology_sampling"],
         weather_enabled=values["environment.weather"],
         height_variation_enabled=values["environment.height_variation"],
         relative_variability=values["environment.relative_variability"],
