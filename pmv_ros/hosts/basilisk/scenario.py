@@ -97,6 +97,7 @@ class Scenario:
     readings: object | None  #: the PMV's recorder
     monitor: object | None  #: the PMV's error monitor
     step_s: float
+    nav: PmvAttitudeNav | None = None  #: the PMV's NavAttMsg bridge (pointing "pmv")
     keep: list = field(default_factory=list, repr=False)  # modules and messages Basilisk does not own
 
     def run(self, duration_s: float) -> None:
@@ -106,7 +107,8 @@ class Scenario:
 
 
 def kondor_scenario(preset, overrides: dict | None = None, *, gravity: str = "two_body", pointing: str = "truth",
-                    pmv: str | None = "direct", step_s: float = 0.1, batch_s: float = 20.0) -> Scenario:
+                    pmv: str | None = "direct", step_s: float = 0.1, batch_s: float = 20.0,
+                    extra: tuple = ()) -> Scenario:
     """A spacecraft on the preset's orbit, nadir-pointed by Basilisk's FSW, with the PMV.
 
     Args:
@@ -116,6 +118,7 @@ def kondor_scenario(preset, overrides: dict | None = None, *, gravity: str = "tw
         pmv: ``"direct"`` (the module reads the newest state at each step), ``"batch"`` (the module runs every
             ``batch_s`` and senses the states of every step since, as blocks), or None (no PMV).
         step_s: the step of the task (dynamics, FSW, and the PMV in ``"direct"``), s.
+        extra: further modules for the task, run where the PMV runs (each with ``scStateInMsg`` subscribed).
     """
     if gravity not in ("two_body", "j2") or pointing not in ("truth", "pmv") or pmv not in ("direct", "batch", None):
         raise ValueError(f"gravity, pointing, pmv = {gravity!r}, {pointing!r}, {pmv!r}: not one of the choices")
@@ -155,7 +158,7 @@ def kondor_scenario(preset, overrides: dict | None = None, *, gravity: str = "tw
     navigation.scStateInMsg.subscribeTo(body.scStateOutMsg)
     sim.AddModelToTask("dynamics", navigation, priority["navigation"])
 
-    readings = monitor = None
+    readings = monitor = bridge = None
     attitude_source = navigation.attOutMsg
     if sensor is not None:
         sensor.scStateInMsg.subscribeTo(body.scStateOutMsg)
@@ -174,7 +177,10 @@ def kondor_scenario(preset, overrides: dict | None = None, *, gravity: str = "tw
             bridge.scStateInMsg.subscribeTo(body.scStateOutMsg)
             sim.AddModelToTask("dynamics", bridge, priority["pmv_nav"])
             attitude_source = bridge.attNavOutMsg
-            keep.append(bridge)
+
+    for module in extra:
+        module.scStateInMsg.subscribeTo(body.scStateOutMsg)
+        sim.AddModelToTask("dynamics", module, priority["pmv"])
 
     guidance = hillPoint.hillPoint()
     guidance.ModelTag = "hillPoint"
@@ -202,4 +208,4 @@ def kondor_scenario(preset, overrides: dict | None = None, *, gravity: str = "tw
     keep += [navigation, guidance, tracking, control, torque]
 
     sim.InitializeSimulation()
-    return Scenario(sim, body, states, sensor, readings, monitor, step_s, keep)
+    return Scenario(sim, body, states, sensor, readings, monitor, step_s, bridge, keep)

@@ -58,12 +58,13 @@ class PmvReading(NamedTuple):
     """One PMV sample in Basilisk's conventions (frames in names; SI units)."""
 
     timeTag: float  #: [s] Basilisk time of the sample
-    roll_CO: float  #: [rad] roll of the case frame C in the orbital frame O (REP-103), brightness-corrected; NaN: ±Y lost
-    pitch_CO: float  #: [rad] pitch of C in O (REP-103), brightness-corrected; NaN: ±X lost
+    roll_CO: float  #: [rad] roll of the case frame C in the orbital frame O (REP-103) as output; NaN: ±Y lost
+    pitch_CO: float  #: [rad] pitch of C in O (REP-103) as output (corrections applied); NaN: ±X lost
     rollUncorrected_CO: float  #: [rad] roll before the brightness correction
     pitchUncorrected_CO: float  #: [rad] pitch before the brightness correction
     valid: bool  #: [-] both angles measured
-    chordStatus: tuple  #: [-] 4 codes, chords +X, +Y, −X, −Y (:class:`~pmv_ros.physics.instrument.sensor.ChordStatus`, 0 valid)
+    #: [-] 4 codes, chords +X, +Y, −X, −Y (:class:`~pmv_ros.physics.instrument.sensor.ChordStatus`, 0 valid)
+    chordStatus: tuple
     lineOfSight_C: tuple  #: [-] 4 × (x, y, z) unit lines of sight to the horizon crossings in C (NaN: lost)
 
 
