@@ -40,6 +40,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_environment.py
 	$(BIN)/python benchmarks/bench_campaign.py
 	$(BIN)/python benchmarks/bench_tick_outputs.py
+	$(BIN)/python benchmarks/bench_basilisk.py
 
 clean:
 	rm -rf $(VENV) build install log .ros_log report *.egg-info
