@@ -74,6 +74,8 @@ def test_basilisk_module_reads_what_pmv_ros_senses_of_the_very_same_states(mode)
     scenario.run(duration_s)
     times, r, v, sigma = recorded(scenario)
     readings = scenario.readings
+    # The module took the run's epoch from Basilisk's EpochMsg (the scenario writes the preset's): the same instant.
+    assert scenario.pmv.values.sensor["sim.epoch_utc"] == "2013-09-10T00:00:00.000000Z"
     samples = replay_states(scenario.pmv.values, times, r, v, sigma, DCM_CB_HILL,
                             call_every_ns=20_000_000_000 if mode == "batch" else None)
     steps = round(duration_s * 10) + 1  # every 0.1 s step from 0 on, the sample at 0 included

@@ -39,6 +39,7 @@ class PmvAttitudeNav(sysModel.SysModel):
         self.attNavOutMsg = messaging.NavAttMsg()
         self.heldReadings = 0  #: readings with a lost pair (the last valid angles kept)
         self._angles = (0.0, 0.0)
+        self._used = None  # the reading taken last
 
     def Reset(self, CurrentSimNanos):
         """A new run: no reading yet."""

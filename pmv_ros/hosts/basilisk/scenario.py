@@ -34,6 +34,7 @@ from ...runtime.common.assembly import build_models, parse_epoch
 from .frames import DCM_CB_HILL, sigma_from_roll_pitch_yaw
 from .nav import PmvAttitudeNav
 from .sensor import PmvHorizonSensor
+from .values import host_values
 
 #: Mass, kg, and inertia about the centre of mass, kg·m², of the spacecraft (Basilisk's attitude-scenario hub).
 MASS_KG = 750.0
@@ -131,10 +132,7 @@ def kondor_scenario(preset, overrides: dict | None = None, *, gravity: str = "tw
     keep = []
 
     sensor = PmvHorizonSensor(preset, overrides, dcm_CB=DCM_CB_HILL) if pmv else None
-    values = sensor.values if sensor else None
-    if values is None:
-        from .values import host_values
-        values = host_values(preset, overrides)
+    values = sensor.values if sensor else host_values(preset, overrides)
     orbit = preset_orbit(values)
     r0, v0 = orbit.state_eci(0.0)
 
