@@ -209,12 +209,16 @@ def main() -> None:
     parser.add_argument("--config", default="config/kondor.yaml")
     parser.add_argument("--orbits", type=float, default=1.0)
     parser.add_argument("--only", nargs="*", default=["same", "loop", "j2"], choices=["same", "loop", "j2"])
+    parser.add_argument("--loop-instruments", nargs="*", default=["geometric", "preset"],
+                        choices=["geometric", "preset"], help="the closed loop with which instruments")
     args = parser.parse_args()
     geometric = {"sensor.detector": "ideal", "radiance.source": "uniform"}
     for part in args.only:
-        if part == "loop":
-            loop(args.config, args.orbits, geometric, "geometric")
-        {"same": same, "loop": loop, "j2": j2}[part](args.config, args.orbits)
+        if part != "loop":
+            {"same": same, "j2": j2}[part](args.config, args.orbits)
+            continue
+        for instrument in args.loop_instruments:
+            loop(args.config, args.orbits, geometric if instrument == "geometric" else {}, instrument)
 
 
 if __name__ == "__main__":

@@ -173,7 +173,7 @@ def test_basilisk_is_imported_by_its_host_only_and_the_host_runs_without_ros():
                 return None
 
         sys.meta_path.insert(0, NoRos())
-        import pmv_ros.runtime.flight, pmv_ros.apps.campaign
+        import pmv_ros.runtime.flight, pmv_ros.apps.report
         assert "Basilisk" not in sys.modules, "the core imported Basilisk"
         import pmv_ros.hosts.basilisk
         assert "Basilisk" in sys.modules and "rclpy" not in sys.modules
