@@ -12,9 +12,10 @@ export PYTHONDONTWRITEBYTECODE := 1
 
 venv: $(STAMP)
 
-$(STAMP): requirements.txt setup.py setup.cfg package.xml
+$(STAMP): requirements.txt requirements-basilisk.txt setup.py setup.cfg package.xml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet -r requirements.txt
+	$(BIN)/python -m pip install --quiet --no-deps -r requirements-basilisk.txt
 	$(BIN)/python -m pip install --quiet --no-deps --no-build-isolation -e .
 	touch $(STAMP)
 
@@ -39,6 +40,7 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_environment.py
 	$(BIN)/python benchmarks/bench_campaign.py
 	$(BIN)/python benchmarks/bench_tick_outputs.py
+	$(BIN)/python benchmarks/bench_basilisk.py
 
 clean:
 	rm -rf $(VENV) build install log .ros_log report *.egg-info

@@ -16,6 +16,8 @@ setup(
         (f"share/{PACKAGE}/launch", glob("launch/*.launch.py")),
     ],
     install_requires=["setuptools"],
+    # The Basilisk host (pmv_ros.hosts.basilisk); `make venv` pins it in requirements-basilisk.txt.
+    extras_require={"basilisk": ["bsk==2.12.1"]},
     zip_safe=True,
     maintainer="pmv_ros maintainers",
     maintainer_email="pmv-ros@example.com",

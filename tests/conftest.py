@@ -77,6 +77,7 @@ GROUP_COST_S = {
     "tests/system/test_golden.py": 32.0,
     "tests/runtime/test_flight_environment.py": 31.0,
     "tests/physics/test_environment.py": 28.0,
+    "tests/hosts/test_basilisk.py": 25.0,
     "tests/physics/test_flight_records.py": 24.0,
     "tests/runtime/test_validation.py": 24.0,
     "tests/runtime/test_parameters.py": 23.0,

@@ -106,3 +106,31 @@ def test_real_time_ticks_give_every_grid_time_due_once_in_order():
     assert [s.t_s for s in later] == pytest.approx([1000.4, 1000.5, 1000.6])
     assert runtime.tick(1000.64).samples == []  # nothing new is due
     assert runtime.health.samples_published == 4
+
+
+def test_a_host_steps_the_follower_to_its_own_times_as_the_node_clock_would():
+    # A simulator keeps its clock in integer nanoseconds; step_to measures at exactly its times, one call a step
+    # or several as one block, what tick measures at the same grid times (both follow mode, real time).
+    values = preset_values("kondor", sim__fast_time=False, attitude__source="follow", orbit__source="follow",
+                           sensor__rate_hz=10.0, sensor__detector="ideal")
+    stepped, ticked = runtime_of(values, stepped=False), runtime_of(values, stepped=False)
+    orbit = runtime_of(preset_values("kondor", sim__fast_time=False)).orbit
+    times = [k * 100_000_000 * 1e-9 for k in range(1, 31)]  # a zero stamp is 'unset', as on the wire
+    angles = {"stepped": [], "ticked": []}
+    for k, t_s in enumerate(times):
+        q = quaternion_from_roll_pitch_yaw((5 + 0.1 * k) * ARCMIN_RAD, -3 * ARCMIN_RAD, 0.0)
+        position, velocity = orbit.state_eci(t_s)
+        for runtime in (stepped, ticked):
+            runtime.add_truth(runtime.frames.orbital, t_s, q, t_s)
+            runtime.add_odometry(runtime.frames.eci, runtime.frames.orbital, (t_s, position, velocity), t_s)
+        if k >= 10:  # the first ten as one block, then one at a time
+            angles["stepped"] += [(s.t_s, s.roll_rad) for s in stepped.step_to(times[:11] if k == 10 else [t_s]).samples]
+            angles["ticked"] += [(s.t_s, s.roll_rad) for s in ticked.tick(t_s).samples]
+    assert [t for t, _ in angles["stepped"]] == times
+    steps = {round(t, 6): roll for t, roll in angles["stepped"]}
+    assert all(steps[round(t, 6)] == roll for t, roll in angles["ticked"])  # tick: the latest time first
+    assert angles["stepped"][-1][1] == pytest.approx(7.9 * ARCMIN_RAD, abs=0.05 * ARCMIN_RAD)
+    with pytest.raises(ValueError, match="not after"):
+        stepped.step_to([times[5]])
+    with pytest.raises(ValueError, match="follow"):
+        runtime_of(preset_values("kondor")).step_to([1.0])

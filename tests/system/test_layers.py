@@ -135,3 +135,52 @@ def test_the_check_sees_an_upward_import(tmp_path):
     assert _inner_violation("pmv_ros.physics.chain.fast", "pmv_ros.physics.environment.fields")
     assert not _inner_violation("pmv_ros.physics.instrument.sensor", "pmv_ros.physics.chain")
     assert not _inner_violation("pmv_ros.physics.geometry", "pmv_ros.physics.constants")
+
+
+#: The simulator each host may import (its root package), and only that host.
+HOST_SIMULATORS = {"basilisk": "Basilisk"}
+
+#: What the hosts' siblings and what the hosts themselves must not import.
+ROS_ROOTS = ("rclpy", "pmv_msgs_shim", "pmv_ros.nodes")
+
+
+def _host_of(module: str) -> str | None:
+    parts = module.split(".")
+    return parts[2] if parts[:2] == ["pmv_ros", "hosts"] and len(parts) > 2 else None
+
+
+def _crossing_into_hosts(module: str, target: str) -> str | None:
+    """Why ``module`` importing ``target`` breaks the hosts' rule, or None: only a host imports its simulator,
+    nothing outside the hosts imports one (the core runs without any simulator installed), and a host imports
+    no ROS (the ROS host, the nodes, is its sibling)."""
+    host, root = _host_of(module), target.split(".")[0]
+    simulators = {simulator: name for name, simulator in HOST_SIMULATORS.items()}
+    if root in simulators and host != simulators[root]:
+        return f"{module} imports {target}: only pmv_ros.hosts.{simulators[root]} imports {root}"
+    if host is None and module.split(".")[0] in ("pmv_ros", "pmv_msgs_shim") and (
+            target == "pmv_ros.hosts" or target.startswith("pmv_ros.hosts.")):
+        return f"{module} imports {target}: nothing outside the hosts imports a host (and so its simulator)"
+    if host is not None and any(target == name or target.startswith(name + ".") for name in ROS_ROOTS):
+        return f"{module} imports {target}: a host runs without ROS"
+    return None
+
+
+def test_only_the_basilisk_host_imports_basilisk_and_hosts_import_no_ros():
+    wrong = []
+    for path in sorted([*PACKAGE.rglob("*.py"), *SHIM.rglob("*.py")]):
+        module = _module(path)
+        wrong += [problem for target in _imports(path) if (problem := _crossing_into_hosts(module, target))]
+    assert not wrong, "\n".join(wrong)
+    assert (PACKAGE / "hosts" / "basilisk" / "sensor.py").exists()  # the rule has a host to keep apart
+
+
+def test_the_hosts_check_sees_a_crossing():
+    assert _crossing_into_hosts("pmv_ros.runtime.flight", "Basilisk.architecture.messaging")
+    assert _crossing_into_hosts("pmv_ros.apps.report", "pmv_ros.hosts.basilisk.sensor")
+    assert _crossing_into_hosts("pmv_ros.nodes.base", "pmv_ros.hosts")
+    assert _crossing_into_hosts("pmv_ros.hosts.basilisk.sensor", "pmv_ros.nodes.params")
+    assert _crossing_into_hosts("pmv_ros.hosts.basilisk.nav", "rclpy.node")
+    assert _crossing_into_hosts("pmv_ros.hosts.other.sensor", "Basilisk")
+    assert not _crossing_into_hosts("pmv_ros.hosts.basilisk.sensor", "Basilisk.architecture.sysModel")
+    assert not _crossing_into_hosts("pmv_ros.hosts.basilisk.sensor", "pmv_ros.runtime.sensor.runtime")
+    assert not _crossing_into_hosts("pmv_ros.hosts.basilisk", "pmv_ros.hosts.basilisk.frames")

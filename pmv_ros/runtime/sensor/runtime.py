@@ -42,6 +42,7 @@ own attitude model publishes, and the second sources of the inputs;
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Callable, NamedTuple
 
@@ -149,6 +150,7 @@ class SensorRuntime:
             self._odometry_stamps = StampCheck(timeout, timeout, 1.0 / values["input.max_rate_hz"])
         self._waiting = PendingSamples()  # follow mode, real time: due sample times waiting for truth
         self.sim_time_s = values["sim.start_time_s"]
+        self._host_time_s = None  # the last sample time a host stepped the sensor to (step_to)
         self._out = SensorOutput()
 
     # -- parameters ---------------------------------------------------------------------------
@@ -282,6 +284,26 @@ class SensorRuntime:
             for sample in self._orbit_samples(t_s, lambda: [self.stream.next_profile_sample(
                     t_s, period, self.fast_time_block)]):
                 self._emit_sample(sample)
+        return self._take()
+
+    def step_to(self, times) -> SensorOutput:
+        """A host that keeps its own clock (a spacecraft simulator's integer nanoseconds) steps the sensor: it
+        measures at each of ``times`` (s, increasing, each after the last sample time) with the attitude and
+        orbit followed so far, the samples as one block (as :meth:`tick` senses the due ones), and its clock
+        then reads the last. The host passes its clock as ``clock_s`` with the inputs (``sim.fast_time``
+        false) and chooses the sample times itself: no grid of the node clock's, no summing of periods
+        (:meth:`step`'s clock drifts ≈ 3e-9 s from a host's after an orbit of 0.1 s steps). Follow mode only."""
+        if not self.following:
+            raise ValueError("step_to: a host steps the sensor with attitude.source follow")
+        times = [float(t_s) for t_s in times]
+        previous = self._host_time_s
+        for t_s in times:
+            if not (math.isfinite(t_s) and (previous is None or t_s > previous)):
+                raise ValueError(f"step_to: sample time {t_s} s is not after the last one ({previous} s)")
+            previous = t_s
+        if times:
+            self.sim_time_s = self._host_time_s = times[-1]
+            self._sense_following([(t_s, *self.truth.attitude_at(t_s)) for t_s in times])
         return self._take()
 
     def tick(self, now_s: float) -> SensorOutput:
