@@ -80,6 +80,7 @@ from .alignment import Alignment, Segment, Settled
 from .records import (
     BATCH_STATUSES,
     COUNTER_NAMES,
+    SENSOR_REJECTIONS,
     SKIP_REASONS,
     BatchOutcome,
     Feed,
@@ -95,6 +96,7 @@ from ..common.validation import JumpDetector, Rejection, StampCheck
 
 _SKIP_CODES = {BATCH_STATUSES.index(status): f"skipped_{status.value}" for status in SKIP_REASONS}
 _OK = BATCH_STATUSES.index(Status.OK)
+_FIRST_REFUSAL = BATCH_STATUSES.index(SENSOR_REJECTIONS[0])  # codes from here on: refused on arrival
 _FIRST = (0,)  # the arrival of the one truth or odometry sample of a one-event input
 
 #: Used samples kept for the statistics before they go in whether or not anyone reads them (memory bound).
@@ -316,6 +318,16 @@ class ErrorMonitor(EventScan):
                     model_roll_rad=_one(oblateness_roll_rad) if given else None,
                     model_pitch_rad=_one(oblateness_pitch_rad) if given else None)
         return self._outcomes(self._feed(feed))
+
+    def add_inputs(self, feed: Feed, place: int | None = None) -> tuple[list[Outcome], bool]:
+        """Any input in arrival order (a :class:`Feed`; a node's messages with their ``order``): the outcomes it
+        settled, in order, and whether its sensor sample at ``place`` was refused on arrival (False: no place)."""
+        settled = self._feed(feed)
+        outcomes = self.take_settled() + self._outcomes(settled)
+        if place is None or not settled.size:
+            return outcomes, False
+        refused = (settled.values[0] == place) & (settled.values[2] >= _FIRST_REFUSAL)
+        return outcomes, bool(refused.any())
 
     def poll(self, now_s: float | None = None) -> list[Outcome]:
         """Time out pending samples by the clock (call from a timer); returns their outcomes."""

@@ -29,7 +29,8 @@ from ...physics.attitude import true_roll_pitch
 from ...physics.constants import GM_EARTH_M3_S2
 from ...physics.orbit.two_body import orbit_angles_from_state
 from .alignment import SAMPLE_ROWS, Segment, oblateness_model
-from .records import BATCH_STATUSES, PENDING_CODE, Feed, orbit_record
+from .records import BATCH_STATUSES, ODOMETRY_EVENT, PENDING_CODE, POLL_EVENT, SENSOR_EVENT, TRUTH_EVENT, Feed, \
+    orbit_record
 from ..common.validation import (
     QUATERNION_NORM_TOLERANCE,
     UNIT_ROUNDING,
@@ -46,6 +47,10 @@ MIN_ARRAY_SAMPLES = 32
 #: ``math.hypot`` of four arrays, element by element: the norm check_quaternion takes (numpy's hypot has two
 #: arguments and rounds otherwise).
 _HYPOT_4 = np.frompyfunc(math.hypot, 4, 1)
+
+
+def _as_list(column) -> list:
+    return column if isinstance(column, list) else column.tolist()
 
 
 def _orbit_records(t_s: np.ndarray, position_eci_m: np.ndarray, velocity_eci_m_s: np.ndarray) -> np.ndarray:
@@ -82,6 +87,8 @@ def _odometry_at_sensors(feed: Feed) -> bool:
 def scan_clean(monitor, feed: Feed) -> Segment | None:
     """The segment of a clean batch, with ``monitor``'s counters, timelines and orbit moved past it; or None
     (nothing touched) for a batch that needs the event-by-event scan."""
+    if feed.order is not None:  # a node's messages, in the order they came: event by event
+        return None
     t, truth_t, arrival, now = feed.t_s, feed.truth_t_s, feed.truth_arrival, feed.sensor_now_s
     n, m = t.size, truth_t.size
     if n < MIN_ARRAY_SAMPLES or feed.poll_now_s is not None or feed.truth.shape[0] != 4:
@@ -210,8 +217,6 @@ def scan_clean(monitor, feed: Feed) -> Segment | None:
     return Segment(samples, sensor_code, sensor_event, truth, truth_event[truth_ok], expiry_clock)
 
 
-_TRUTH, _ODOMETRY, _SENSOR, _POLL = range(4)
-
 #: The open segment is settled at this many events whatever they are (memory stays bounded).
 OPEN_EVENTS = 256
 
@@ -258,23 +263,28 @@ class EventScan:
     def _scan_events(self, feed: Feed) -> None:
         """Validate ``feed`` event by event into the open segment; a confirmed clock jump settles what came
         before it and resets."""
-        n, m, k = len(feed.t_s), len(feed.truth_t_s), len(feed.odometry_t_s)
-        if n + m + k == 1:
-            order = [(_SENSOR, 0)] if n else [(_TRUTH, 0)] if m else [(_ODOMETRY, 0)]
-        else:
-            truth_at = np.searchsorted(feed.truth_arrival, np.arange(n + 2), side="left").tolist()
-            odometry_at = np.searchsorted(feed.odometry_arrival, np.arange(n + 2), side="left").tolist()
-            order = []
-            for i in range(n + 1):
-                order += [(_TRUTH, j) for j in range(truth_at[i], truth_at[i + 1])]
-                order += [(_ODOMETRY, j) for j in range(odometry_at[i], odometry_at[i + 1])]
-                if i < n:
-                    order.append((_SENSOR, i))
-        if feed.poll_now_s is not None:
-            order.append((_POLL, 0))
+        order = feed.order
+        if order is None:
+            n, m, k = len(feed.t_s), len(feed.truth_t_s), len(feed.odometry_t_s)
+            if n + m + k == 1:
+                order = [(SENSOR_EVENT, 0)] if n else [(TRUTH_EVENT, 0)] if m else [(ODOMETRY_EVENT, 0)]
+            else:  # before sensor sample i, the truth arriving at i, then the odometry arriving at i
+                truth_at, odometry_at = _as_list(feed.truth_arrival), _as_list(feed.odometry_arrival)
+                order, j, o = [], 0, 0
+                for i in range(n + 1):
+                    while j < m and truth_at[j] <= i:
+                        order.append((TRUTH_EVENT, j))
+                        j += 1
+                    while o < k and odometry_at[o] <= i:
+                        order.append((ODOMETRY_EVENT, o))
+                        o += 1
+                    if i < n:
+                        order.append((SENSOR_EVENT, i))
+            if feed.poll_now_s is not None:
+                order.append((POLL_EVENT, 0))
         handlers = (self._truth_event, self._odometry_event, self._sensor_event, self._poll_event)
-        for kind, k in order:
-            handlers[kind](feed, k)
+        for kind, index in order:
+            handlers[kind](feed, index)
 
     def _restart(self) -> None:
         """A confirmed jump mid-input: settle the events before it, then reset (a new segment)."""
@@ -324,20 +334,22 @@ class EventScan:
 
     @staticmethod
     def _now(column, k: int):
-        return None if column is None else float(column[k])
+        value = None if column is None else column[k]
+        return None if value is None else float(value)
 
     def _truth_event(self, feed: Feed, j: int) -> None:
         self._counters["truth_received"] += 1
         now_s = self._now(feed.truth_now_s, j)
         clock_s = self._observe(now_s)
         t_s = float(feed.truth_t_s[j])
-        if feed.truth.shape[0] == 4:
-            unit, rejection, normalised = check_quaternion(feed.truth[:, j])
+        truth = feed.truth[j] if isinstance(feed.truth, list) else feed.truth[:, j]
+        if len(truth) == 4:
+            unit, rejection, normalised = check_quaternion(truth)
             if rejection is None:
                 self._counters["truth_quaternions_normalised"] += normalised
                 roll, pitch = true_roll_pitch(unit)
         else:
-            roll, pitch = float(feed.truth[0, j]), float(feed.truth[1, j])
+            roll, pitch = float(truth[0]), float(truth[1])
             # Truth is complete, or it is no truth.
             rejection = None if math.isfinite(roll) and math.isfinite(pitch) else Rejection.NON_FINITE
         if rejection is None:
@@ -355,7 +367,10 @@ class EventScan:
         now_s = self._now(feed.odometry_now_s, k)
         self._observe(now_s)
         t_s = float(feed.odometry_t_s[k])
-        position, velocity = feed.odometry_position_m[:, k], feed.odometry_velocity_m_s[:, k]
+        if isinstance(feed.odometry_position_m, list):
+            position, velocity = feed.odometry_position_m[k], feed.odometry_velocity_m_s[k]
+        else:
+            position, velocity = feed.odometry_position_m[:, k], feed.odometry_velocity_m_s[:, k]
         rejection = check_orbit_state(position, velocity, self.config.bounds)
         if rejection is None:
             rejection = self._check_stamp("odometry", t_s, now_s)
