@@ -25,7 +25,8 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 
 import pmv_msgs_shim as shim
 from ..runtime.common.assembly import NODE_PARAMS
-from .base import PmvNode, hold_single_threaded_blas, release_single_threaded_blas
+from .base import PmvNode
+from .launch import hold_single_threaded_blas, release_single_threaded_blas
 from .error_monitor_node import ErrorMonitorNode
 from .params import check_params_files
 from .sensor_node import SensorNode
