@@ -332,6 +332,6 @@ def orbit_record(t_s: float, position_eci_m, velocity_eci_m_s) -> tuple:
     """What the monitor keeps of an accepted odometry state: (stamp_s, u_rad, inclination_rad, altitude_m,
     mean motion rad/s) — the orbit of :meth:`ErrorMonitor.orbit_at`."""
     u, inclination, altitude = orbit_angles_from_state(position_eci_m, velocity_eci_m_s)
-    radius = math.hypot(*(float(c) for c in position_eci_m))
-    speed = math.hypot(*(float(c) for c in velocity_eci_m_s))
+    (rx, ry, rz), (vx, vy, vz) = position_eci_m, velocity_eci_m_s
+    radius, speed = math.hypot(float(rx), float(ry), float(rz)), math.hypot(float(vx), float(vy), float(vz))
     return (t_s, float(u), float(inclination), float(altitude), speed / radius)

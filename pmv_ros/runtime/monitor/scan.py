@@ -30,7 +30,7 @@ from ...physics.constants import GM_EARTH_M3_S2
 from ...physics.orbit.two_body import orbit_angles_from_state
 from .alignment import SAMPLE_ROWS, Segment, oblateness_model
 from .records import BATCH_STATUSES, ODOMETRY_EVENT, PENDING_CODE, POLL_EVENT, SENSOR_EVENT, TRUTH_EVENT, Feed, \
-    orbit_record
+    Status, orbit_record
 from ..common.validation import (
     QUATERNION_NORM_TOLERANCE,
     UNIT_ROUNDING,
@@ -40,6 +40,8 @@ from ..common.validation import (
     check_orbit_state,
     check_quaternion,
 )
+
+_NO_ANGLE = BATCH_STATUSES.index(Status.NO_VALID_ANGLE)
 
 #: Below this many sensor samples a batch goes event by event.
 MIN_ARRAY_SAMPLES = 32
@@ -158,6 +160,7 @@ def scan_clean(monitor, feed: Feed) -> Segment | None:
         return None
     # Clean: from here on the monitor's state moves.
     sensor_code = np.full(n, PENDING_CODE, np.int64)
+    sensor_code[sensor_ok & np.isnan(roll) & np.isnan(pitch)] = _NO_ANGLE  # settles on arrival
     sensor_code[infinite] = BATCH_STATUSES.index(Rejection.NON_FINITE)
     sensor_code[too_large] = BATCH_STATUSES.index(Rejection.IMPLAUSIBLE_ANGLE)
     counters["sensor_received"] = n
@@ -214,7 +217,8 @@ def scan_clean(monitor, feed: Feed) -> Segment | None:
     samples = np.vstack((np.arange(n, dtype=float), t, roll, pitch, np.broadcast_to(model_roll, (n,)),
                          np.broadcast_to(model_pitch, (n,)), np.broadcast_to(altitude, (n,))))
     truth = np.vstack((truth_t[truth_ok], np.atleast_1d(truth_roll), np.atleast_1d(truth_pitch)))
-    return Segment(samples, sensor_code, sensor_event, truth, truth_event[truth_ok], expiry_clock)
+    return Segment(samples, sensor_code, sensor_event, truth, truth_event[truth_ok], expiry_clock,
+                   bool(np.any(sensor_code != PENDING_CODE)))
 
 
 #: The open segment is settled at this many events whatever they are (memory stays bounded).
@@ -236,6 +240,7 @@ class OpenSegment:
         self.truth: list = []       # (stamp, roll, pitch, event)
         self.expiry: list = []      # per event: what times waiting samples out
         self.due = False
+        self.on_arrival = False     # a sample in it settles on arrival (refused, or with neither angle)
         self.waiting = 0            # samples in it that may wait for truth
         self.oldest_s = math.inf    # the oldest of them
 
@@ -258,7 +263,7 @@ class EventScan:
         rows[1] = np.where(rows[0] == self._serial, rows[1], -1.0)  # a place in an earlier input means nothing
         truth = np.array(gathered.truth, float).reshape(-1, 4).T
         return Segment(rows[_SAMPLE_ROWS], rows[2].astype(np.int64), rows[3].astype(np.int64), truth[:3],
-                       truth[3].astype(np.int64), np.array(gathered.expiry, float))
+                       truth[3].astype(np.int64), np.array(gathered.expiry, float), gathered.on_arrival)
 
     def _scan_events(self, feed: Feed) -> None:
         """Validate ``feed`` event by event into the open segment; a confirmed clock jump settles what came
@@ -393,9 +398,10 @@ class EventScan:
         if rejection is not None:
             self._counters[f"rejected_sensor_{rejection.value}"] += 1
             code = BATCH_STATUSES.index(rejection)
-            gathered.due = True
+            gathered.due = gathered.on_arrival = True
         elif math.isnan(roll) and math.isnan(pitch):
-            gathered.due = True
+            code = _NO_ANGLE
+            gathered.due = gathered.on_arrival = True
         elif (self._stamps["truth"].latest_s or -math.inf) >= t_s:
             gathered.due = True  # covered on arrival
         else:
@@ -410,13 +416,16 @@ class EventScan:
     def _model(self, feed: Feed, i: int, t_s: float) -> tuple:
         """(model roll, model pitch, altitude) of sensor sample ``i`` of ``feed``: the model given with it, or
         the closed form at its orbit (the odometry's, or the orbit columns); NaN where unknown."""
-        if feed.odometry_max_age_s is not None:
-            orbit = self.orbit_at(t_s, feed.odometry_max_age_s)
-            config = self.config
-            u = orbit.get("u_rad", math.nan)
-            inclination = orbit.get("inclination_rad", math.nan if config.inclination_rad is None
-                                    else config.inclination_rad)
-            altitude = orbit.get("altitude_m", math.nan if config.altitude_m is None else config.altitude_m)
+        if feed.odometry_max_age_s is not None:  # the orbit of ErrorMonitor.orbit_at, or the configured one
+            orbit = self._orbit
+            if orbit is not None and abs(t_s - orbit[0]) <= feed.odometry_max_age_s:
+                stamp, u, inclination, altitude, rate = orbit
+                u += rate * (t_s - stamp)
+            else:
+                config = self.config
+                u = math.nan
+                inclination = math.nan if config.inclination_rad is None else config.inclination_rad
+                altitude = math.nan if config.altitude_m is None else config.altitude_m
         else:
             u, inclination, altitude = float(feed.u_rad[i]), float(feed.inclination_rad[i]), float(feed.altitude_m[i])
         if feed.model_roll_rad is not None:
