@@ -114,7 +114,8 @@ class PmvNode(Node):
             Default: in lean mode, where every publisher is one of ours and reliable, so the pipeline is lossless.
 
     A node class with ``BATCHED = True`` queues its inputs and hands them to its runtime's ``add_inputs`` once per
-    executor wake-up (:meth:`flush_inputs`). Parameter updates pass
+    executor wake-up (:meth:`flush_inputs`, on a guard condition) — or, with ``flushed_by_caller``, when the caller
+    says (the in-process pipeline: each time its drain finds the graph idle). Parameter updates pass
     :func:`pmv_ros.nodes.params.coerce_parameters` first: a wrong type or a value out of range is refused with a
     reason that names it; an integer for a floating-point parameter is taken as a float.
     """
@@ -143,14 +144,14 @@ class PmvNode(Node):
         return "on simulation time from /clock" if self.get_parameter("use_sim_time").value else "on the wall clock"
 
     def __init__(self, name: str, *, lean: bool = False, time_source=None, reliable_inputs: bool | None = None,
-                 **kwargs):
+                 flushed_by_caller: bool = False, **kwargs):
         if lean:
             kwargs.setdefault("start_parameter_services", False)
             kwargs.setdefault("enable_rosout", False)  # logs still reach the console and the log file
         self.parameter_specs = {}  # name → ParamSpec, filled by install_validation
         if not getattr(self, "configuring", False):  # a managed node (nodes/managed.py) is a node already
             super().__init__(name, **kwargs)
-        self._lean = lean
+        self._lean, self._flushed_by_caller = lean, flushed_by_caller
         self.source_locks = {}  # input topic (resolved name) → SourceLock
         self._input_names = {}  # input topic (resolved name) → the name the node gave (for counter keys)
         self._feeds, self.topic_publishers, self._queued = {}, {}, []
@@ -197,7 +198,7 @@ class PmvNode(Node):
             always = not self._lean or topic.qos.durability == DurabilityPolicy.TRANSIENT_LOCAL
             self._feeds.setdefault(topic.feed, []).append((publisher, message, topic.write, always))
             self.topic_publishers[topic.topic] = publisher
-        if self.BATCHED:
+        if self.BATCHED and not self._flushed_by_caller:
             self._wake = self.create_guard_condition(self.flush_inputs)
         if "/diagnostics" in self.topic_publishers:
             self.watch_clock()
@@ -266,17 +267,21 @@ class PmvNode(Node):
         if not self.BATCHED:
             self.take_output(getattr(self._runtime, to)(*arguments, now_s))
             return
-        if not self._queued:
+        if not self._queued and not self._flushed_by_caller:
             self._wake.trigger()  # ready at the next wait: handled after that wake-up's messages of this node
         self._queued.append((to, arguments, now_s))
         if len(self._queued) >= MAX_QUEUED_INPUTS:
             self.flush_inputs()
 
-    def flush_inputs(self) -> None:
-        """Hand the queued inputs to the runtime as one batch (``add_inputs``), in arrival order, and publish."""
-        if self._queued:
-            events, self._queued = self._queued, []
-            self.take_output(self._runtime.add_inputs(events))
+    def flush_inputs(self) -> bool:
+        """Hand the queued inputs to the runtime as one batch (``add_inputs``), in arrival order, and publish;
+        whether that gave anything to publish."""
+        if not self._queued:
+            return False
+        events, self._queued = self._queued, []
+        output = self._runtime.add_inputs(events)
+        self.take_output(output)
+        return bool(output.published)
 
     def _arrival_s(self, now_s: float) -> float:
         """The node clock as the source locks see it (a jump counts once the next reading confirms it), s."""
