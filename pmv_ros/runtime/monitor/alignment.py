@@ -191,12 +191,14 @@ class Alignment:
         """Drop truth and the queue (a new time axis); the caller settles what was waiting first."""
         self.truth = np.empty((3, 0))  # stamp, roll, pitch
         self.truth_pruned = False  # something was pruned since the (re)start: NO_TRUTH becomes TOO_OLD
-        self.pending = np.empty((len(SAMPLE_ROWS), 0))
+        self._wait(np.empty((len(SAMPLE_ROWS), 0)))
         self._indexed = False  # the queue holds places in the current input
 
-    @property
-    def pending_count(self) -> int:
-        return self.pending.shape[1]
+    def _wait(self, pending: np.ndarray) -> None:
+        """The samples waiting from now on (their count and the oldest stamp kept as plain numbers for the scan)."""
+        self.pending = pending
+        self.pending_count = pending.shape[1]
+        self.oldest_pending_s = float(pending[1, 0]) if self.pending_count else math.inf
 
     def take_pending(self) -> Settled:
         """Every waiting sample as settled by a reset (RESET), and an empty queue."""
@@ -204,7 +206,7 @@ class Alignment:
         n = p.shape[1]
         nan = np.full(n, np.nan)
         settled = Settled(np.vstack((p[0], p[1], np.full(n, float(_RESET)), nan, nan, p[4], p[5], p[6])))
-        self.pending = p[:, :0]
+        self._wait(p[:, :0])
         return settled
 
     def forget_indices(self) -> None:
@@ -338,7 +340,7 @@ class Alignment:
         elif new_truth:
             self.truth = truth
         all_done = bool(done.all())
-        self.pending = candidates[:, :0] if all_done else candidates[:, ~done]
+        self._wait(candidates[:, :0] if all_done else candidates[:, ~done])
         self._indexed = True
         if not all_done:
             block = block[:, done]

@@ -281,6 +281,8 @@ class ErrorMonitor(EventScan):
 
     def take_settled(self) -> list[Outcome]:
         """Outcomes settled by a call that returns no outcomes (an odometry message that reset the alignment)."""
+        if not self._later:
+            return []
         later, self._later = self._later, []
         return self._outcomes(Settled.concatenate(later))
 

@@ -287,9 +287,9 @@ class EventScan:
                         order.append((SENSOR_EVENT, i))
             if feed.poll_now_s is not None:
                 order.append((POLL_EVENT, 0))
-        handlers = (self._truth_event, self._odometry_event, self._sensor_event, self._poll_event)
+        handlers = self._HANDLERS
         for kind, index in order:
-            handlers[kind](feed, index)
+            handlers[kind](self, feed, index)
 
     def _restart(self) -> None:
         """A confirmed jump mid-input: settle the events before it, then reset (a new segment)."""
@@ -333,7 +333,7 @@ class EventScan:
         expiry = -math.inf if latest is None else latest
         gathered = self._open
         gathered.expiry.append(expiry)
-        oldest = self._alignment.pending[1, 0] if self._alignment.pending_count else gathered.oldest_s
+        oldest = self._alignment.oldest_pending_s if self._alignment.pending_count else gathered.oldest_s
         if expiry - oldest > self.config.max_truth_wait_s or len(gathered.expiry) >= OPEN_EVENTS:
             gathered.due = True
 
@@ -434,3 +434,6 @@ class EventScan:
 
     def _poll_event(self, feed: Feed, _: int) -> None:
         self._close_event(self._observe(feed.poll_now_s))
+
+    #: The handler of each kind of event (TRUTH_EVENT, ODOMETRY_EVENT, SENSOR_EVENT, POLL_EVENT).
+    _HANDLERS = (_truth_event, _odometry_event, _sensor_event, _poll_event)
