@@ -132,6 +132,8 @@ class _Managed:
         return _SUCCESS
 
     def on_deactivate(self, state: State) -> TransitionCallbackReturn:
+        if self.active and self._queued:  # what a batching node took while active goes through first
+            self.flush_inputs()
         self.active = False
         for timer in self._made("timers"):
             self._hold_still(timer)
