@@ -260,7 +260,8 @@ class EventScan:
     def _segment(self, gathered: OpenSegment) -> Segment:
         """The open segment's events as a :class:`Segment`, with each sample's oblateness model and altitude."""
         rows = np.array(gathered.sensor, float).reshape(-1, len(_SAMPLE_COLUMNS)).T
-        rows[1] = np.where(rows[0] == self._serial, rows[1], -1.0)  # a place in an earlier input means nothing
+        if gathered.sensor and gathered.sensor[0][0] != self._serial:  # gathered in order: the first is the oldest
+            rows[1] = np.where(rows[0] == self._serial, rows[1], -1.0)  # a place in an earlier input means nothing
         truth = np.array(gathered.truth, float).reshape(-1, 4).T
         return Segment(rows[_SAMPLE_ROWS], rows[2].astype(np.int64), rows[3].astype(np.int64), truth[:3],
                        truth[3].astype(np.int64), np.array(gathered.expiry, float), gathered.on_arrival)
