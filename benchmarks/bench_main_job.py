@@ -141,12 +141,16 @@ def floor(recorded: dict) -> dict:
         for publisher, message in tick:
             publisher.publish(message)
         drain(executor)
-    wall, cpu = time.perf_counter() - started, time.process_time() - cpu
+    return _closed(executor, nodes, context, time.perf_counter() - started, time.process_time() - cpu, taken)
+
+
+def _closed(executor, nodes, context, wall_s: float, cpu_s: float, taken: Counter) -> dict:
+    """Tear a floor's graph down; its figures."""
     executor.shutdown()
     for node in nodes:
         node.destroy_node()
     rclpy.shutdown(context=context)
-    return {"wall_s": wall, "cpu_s": cpu, "taken": dict(taken)}
+    return {"wall_s": wall_s, "cpu_s": cpu_s, "taken": dict(taken)}
 
 
 def graph_floor(recorded: dict) -> dict:
@@ -197,12 +201,7 @@ def graph_floor(recorded: dict) -> dict:
             if not recorded["takes"][tick][name]:  # the sensor (and a node that took nothing this tick)
                 publish(name)
         drain(executor)
-    wall, cpu = time.perf_counter() - started, time.process_time() - cpu
-    executor.shutdown()
-    for node in nodes:
-        node.destroy_node()
-    rclpy.shutdown(context=context)
-    return {"wall_s": wall, "cpu_s": cpu, "taken": dict(taken)}
+    return _closed(executor, nodes, context, time.perf_counter() - started, time.process_time() - cpu, taken)
 
 
 def main() -> None:
