@@ -68,7 +68,7 @@ from sensor_msgs.msg import Imu
 
 from pmv_ros.analysis.statistics import CHANNELS, ChannelStatistics
 from pmv_ros.physics.constants import ARCMIN_RAD
-from pmv_ros.physics.orbit.two_body import orbital_frame_from_state
+from pmv_ros.physics.orbit.two_body import orbital_axes_of_state
 
 from .records import (
     AttitudeAngles,
@@ -273,17 +273,15 @@ def write_orbit_state(msg: Odometry, stamp_s: float, frame_id: str, child_frame_
     nav_msgs/Odometry: the pose is in ``header.frame_id``, the twist in
     ``child_frame_id``. So: pose.position = the position in ``frame_id``
     (ECI); pose.orientation = the orbital frame's orientation in ``frame_id``
-    (:func:`pmv_ros.physics.orbit.two_body.orbital_frame_from_state`) — the child frame, ``orbital``; twist.linear = the
+    (:func:`pmv_ros.physics.orbit.two_body.orbital_axes_of_state`) — the child frame, ``orbital``; twist.linear = the
     velocity expressed in the orbital frame ((|v|, 0, 0) on a circular
     orbit); twist.angular = the orbital frame's rate relative to ECI in its
     own axes, (0, |r × v|/|r|², 0). ECI velocity = R(orientation)·twist.linear.
     Covariances are left as they are (zero in a message made by ``Odometry()``).
     """
-    with np.errstate(invalid="ignore", divide="ignore"):
-        frame = orbital_frame_from_state(position_m, velocity_m_s)
-    if not np.all(np.isfinite(frame)):
+    x, y, z = orbital_axes_of_state(position_m, velocity_m_s)  # one state: plain floats
+    if not all(map(math.isfinite, (*x, *y, *z))):
         raise ValueError(f"position {position_m} and velocity {velocity_m_s} define no orbital frame")
-    x, y, z = (tuple(axis) for axis in frame.T.tolist())
     q = _quaternion_of_axes(x, y, z)
     vx, vy, vz = (float(c) for c in velocity_m_s)
     rx, ry, rz = (float(c) for c in position_m)

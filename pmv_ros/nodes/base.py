@@ -1,16 +1,21 @@
-"""What the pmv_ros nodes share: QoS, the parameter type gate, one source per input, and a lean mode."""
+"""What the pmv_ros nodes share: QoS, the parameter type gate, one source per input, a lean mode, and the wiring.
+
+A node declares its topics in a table (:class:`Pub`, :class:`Sub`: name, type, QoS, which runtime output feeds
+it or which runtime input a message goes to); :meth:`PmvNode.wire` builds them and the node only hands the
+runtime's outputs to :meth:`PmvNode.emit_all`.
+"""
 
 from __future__ import annotations
 
 import time
+from typing import Callable, NamedTuple
 
 from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import EventHandler, PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.node import Node
-from rclpy.qos import QoSProfile, ReliabilityPolicy
-from threadpoolctl import ThreadpoolController
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 import pmv_msgs_shim as shim
 from ..runtime.common.clock_watch import CLOCK_STALL_S, CLOCK_WATCH_PERIOD_S, ClockWatch
@@ -24,89 +29,102 @@ GRAPH_CHECK_PERIOD_S = 1.0
 #: (back by more than 1 s, or ahead by more than 10 s) not believed until the next reading confirms it.
 ARRIVAL_JUMP_BACK_S, ARRIVAL_JUMP_AHEAD_S = 1.0, 10.0
 
+#: A batching node hands its queued inputs to the runtime at the latest when this many wait (memory bound).
+MAX_QUEUED_INPUTS = 1000
 
-_blas_holders = 0
-_blas_limiter = None
-
-
-def hold_single_threaded_blas() -> None:
-    """Run BLAS (numpy's matrix products) on one thread in this process until the last holder releases it.
-
-    The nodes' numerics are small products (the radiance environment's
-    spectral synthesis is the largest). Left to itself OpenBLAS splits them
-    over every core, where on a 2-core machine its threads contend with the
-    executor, the DDS threads and any other busy process: a block of sensor
-    samples then took 4–10× longer than on one thread. Holders are counted,
-    so pipelines that overlap in one process restore the original setting
-    only when the last of them is released.
-    """
-    global _blas_holders, _blas_limiter
-    if _blas_holders == 0:
-        _blas_limiter = ThreadpoolController().limit(limits=1, user_api="blas")
-    _blas_holders += 1
-
-
-def release_single_threaded_blas() -> None:
-    """Undo one :func:`hold_single_threaded_blas`; the last release restores the original BLAS threads."""
-    global _blas_holders, _blas_limiter
-    if _blas_holders == 0:
-        return
-    _blas_holders -= 1
-    if _blas_holders == 0:
-        _blas_limiter.restore_original_limits()
-        _blas_limiter = None
-
-
-#: Every pmv_ros publisher: reliable, keep-last 100, volatile. At the highest
-#: sensor rate (100 Hz) that is one second of messages per topic; a
-#: subscriber that falls further behind loses the oldest, it never makes the
-#: publisher wait or a queue grow. The in-process pipeline drains the graph
-#: after every tick, so its queues hold a handful of messages.
+#: Every pmv_ros publisher: reliable, keep-last 100, volatile. At the highest sensor rate (100 Hz) that is one
+#: second of messages per topic; a subscriber that falls further behind loses the oldest, it never makes the
+#: publisher wait or a queue grow. The in-process pipeline drains the graph after every tick.
 QOS_DEPTH = 100
 QOS = QoSProfile(depth=QOS_DEPTH)
 
-#: Subscriptions to inputs (/attitude/truth, /star_tracker/attitude,
-#: /pmv/attitude, /orbit/odometry): best effort, keep-last 100, volatile. A
-#: best-effort subscription is matched by reliable and best-effort publishers
-#: alike (REP-2003: an estimator publishing with ``qos_profile_sensor_data``
+#: Subscriptions to inputs: best effort, keep-last 100, volatile. A best-effort subscription is matched by
+#: reliable and best-effort publishers alike (REP-2003: an estimator publishing with ``qos_profile_sensor_data``
 #: must be able to feed us); a reliable one would never hear a best-effort one.
 INPUT_QOS = QoSProfile(depth=QOS_DEPTH, reliability=ReliabilityPolicy.BEST_EFFORT)
 
 
+_QUIET = {"Publisher": {"event_callbacks": PublisherEventCallbacks(use_default_callbacks=False)},
+          "Subscription": {"event_callbacks": SubscriptionEventCallbacks(use_default_callbacks=False)}}
+
+
+class Pub(NamedTuple):
+    """A topic a node publishes: ``write(message, item, node)`` fills the node's one message of it (made by
+    ``make(node)``, else ``type()``) from each item of the runtime output ``feed`` (an item type, or a name the
+    node emits under). Made only where ``when(node)`` holds."""
+
+    topic: str
+    type: type
+    feed: object
+    write: Callable
+    qos: QoSProfile = QOS
+    when: Callable | None = None
+    make: Callable | None = None
+
+
+class Sub(NamedTuple):
+    """An input a node subscribes to, from one source only: ``read(message)`` gives the arguments of the
+    runtime input ``to`` (before the node clock, which comes last). Made only where ``when(node)`` holds."""
+
+    topic: str
+    type: type
+    read: Callable
+    to: str
+    when: Callable | None = None
+
+
+def read_angles(message) -> tuple:
+    """(frame id, stamp s, roll rad, pitch rad) of a Vector3Stamped; None for the three when unreadable."""
+    try:
+        return (message.header.frame_id, *shim.read_attitude_angles(message))
+    except ValueError:  # a negative or non-finite stamp
+        return message.header.frame_id, None, None, None
+
+
+def read_quaternion(message) -> tuple:
+    """(frame id, stamp s, (x, y, z, w)) of a QuaternionStamped; None for both when unreadable."""
+    try:
+        return (message.header.frame_id, *shim.read_attitude_quaternion(message))
+    except ValueError:
+        return message.header.frame_id, None, None
+
+
+def read_odometry(message) -> tuple:
+    """(frame id, child frame id, (stamp s, position m, velocity m/s) or None) of an Odometry."""
+    try:
+        state = shim.read_orbit_state(message)
+    except ValueError:  # an orientation that is no rotation, or a bad stamp
+        state = None
+    return message.header.frame_id, message.child_frame_id, state
+
+
 class PmvNode(Node):
-    """A node with the project's QoS, a parameter type gate and an optional lean mode.
+    """A node with the project's QoS, a parameter type gate, declared topics and an optional lean mode.
 
     Args:
         name: node name.
-        lean: for the in-process pipeline (``pmv simulate``), whose graph
-            nothing outside the process can see: no parameter services, no
-            /rosout publisher and no default QoS-event handlers. Each of those is an entity the
-            executor re-examines on every wait; dropping them almost doubles
-            the fast-time rate. Parameters still work through
-            ``set_parameters`` in-process, with the same validation.
-        time_source: for the in-process pipeline: a ``rclpy.time_source.TimeSource``
-            that the process drives itself (``clock_callback``). The node runs
-            with ``use_sim_time`` as usual, but its clock follows this source and
-            the /clock subscription ``use_sim_time`` made is dropped: nodes that
-            share the process learn the time from the pipeline, not through DDS.
-        reliable_inputs: subscribe to inputs reliably (:data:`QOS`) instead of
-            best effort (:data:`INPUT_QOS`). Default: in lean mode, where every
-            publisher is one of ours and reliable, so the pipeline is lossless.
+        lean: for the in-process pipeline (``pmv simulate``), whose graph nothing outside the process can see:
+            no parameter services, no /rosout publisher, no default QoS-event handlers (each an entity the
+            executor re-examines on every wait), and nothing built or published on a topic nobody in the process
+            subscribes to. Parameters still work through ``set_parameters``, with the same validation.
+        time_source: for the in-process pipeline: a ``rclpy.time_source.TimeSource`` the process drives itself;
+            the node runs with ``use_sim_time``, its clock follows this source, and the /clock subscription
+            ``use_sim_time`` made is dropped.
+        reliable_inputs: subscribe to inputs reliably (:data:`QOS`) instead of best effort (:data:`INPUT_QOS`).
+            Default: in lean mode, where every publisher is one of ours and reliable, so the pipeline is lossless.
 
-    Parameter updates (in-process ``set_parameters`` and the parameter
-    services alike) pass :func:`pmv_ros.nodes.params.coerce_parameters` first:
-    a value of the wrong type or out of range is refused with a reason that
-    names the value and what is allowed, and an integer for a floating-point
-    parameter is taken as a float. The specs come from
-    :func:`pmv_ros.nodes.params.install_validation`.
+    A node class with ``BATCHED = True`` queues its inputs and hands them to its runtime's ``add_inputs`` once per
+    executor wake-up (:meth:`flush_inputs`, on a guard condition) — or, with ``flushed_by_caller``, when the caller
+    says (the in-process pipeline: each time its drain finds the graph idle). Parameter updates pass
+    :func:`pmv_ros.nodes.params.coerce_parameters` first: a wrong type or a value out of range is refused with a
+    reason that names it; an integer for a floating-point parameter is taken as a float.
     """
 
-    def status_name(self, part: str = "") -> str:
-        """Name of a /diagnostics status of this node: ``pmv_ros`` + its fully qualified name (+ ``: part``).
+    BATCHED = False
+    _queued = ()  # a managed node before its first configure has no queue yet
 
-        ``pmv_ros/sensor_node: horizon`` with no namespace, ``pmv_ros/sat1/sensor_node: horizon`` in
-        ``sat1``: /diagnostics is shared by every spacecraft of a graph, so each status says whose it is.
-        """
+    def status_name(self, part: str = "") -> str:
+        """``pmv_ros`` + this node's fully qualified name (+ ``: part``): a /diagnostics status says whose it is."""
         return f"pmv_ros{self.get_fully_qualified_name()}" + (f": {part}" if part else "")
 
     def hardware_id(self, device: str) -> str:
@@ -115,7 +133,7 @@ class PmvNode(Node):
 
     def health_report(self, stamp_s: float, health, part: str = "", device: str = "pmv",
                       others: tuple = ()) -> shim.HealthReport:
-        """A /diagnostics report of a runtime's status (:class:`pmv_ros.runtime.common.records.HealthSummary`) named
+        """A /diagnostics report of a runtime's :class:`~pmv_ros.runtime.common.records.HealthSummary` named
         after this node (:meth:`status_name` of ``part``, :meth:`hardware_id` of ``device``), ``others`` after it."""
         return shim.HealthReport(stamp_s=stamp_s, statuses=(shim.HealthStatus(
             name=self.status_name(part), level=health.level, message=health.message,
@@ -123,21 +141,20 @@ class PmvNode(Node):
 
     def clock_name(self) -> str:
         """The clock this node runs on, for its start-up line: simulation time from /clock or the wall clock."""
-        if self.get_parameter("use_sim_time").value:
-            return "on simulation time from /clock"
-        return "on the wall clock"
+        return "on simulation time from /clock" if self.get_parameter("use_sim_time").value else "on the wall clock"
 
     def __init__(self, name: str, *, lean: bool = False, time_source=None, reliable_inputs: bool | None = None,
-                 **kwargs):
+                 flushed_by_caller: bool = False, **kwargs):
         if lean:
             kwargs.setdefault("start_parameter_services", False)
             kwargs.setdefault("enable_rosout", False)  # logs still reach the console and the log file
         self.parameter_specs = {}  # name → ParamSpec, filled by install_validation
         if not getattr(self, "configuring", False):  # a managed node (nodes/managed.py) is a node already
             super().__init__(name, **kwargs)
-        self._lean = lean
-        self.source_locks = {}  # input topic (resolved name) → SourceLock (see input_subscription)
+        self._lean, self._flushed_by_caller = lean, flushed_by_caller
+        self.source_locks = {}  # input topic (resolved name) → SourceLock
         self._input_names = {}  # input topic (resolved name) → the name the node gave (for counter keys)
+        self._feeds, self.topic_publishers, self._queued = {}, {}, []
         self._arrival_clock = JumpDetector(ARRIVAL_JUMP_BACK_S, forward_threshold_s=ARRIVAL_JUMP_AHEAD_S)
         self._source_problems, self._source_checked_s = [], -float("inf")
         self._input_qos = QOS if (lean if reliable_inputs is None else reliable_inputs) else INPUT_QOS
@@ -148,19 +165,14 @@ class PmvNode(Node):
             self._guard_clock()
             # use_sim_time switched on later: rclpy subscribes to /clock then; guard that subscription too.
             self.add_post_set_parameters_callback(lambda parameters: self._guard_clock())
-        if time_source is not None:
+        else:
             for subscription in [s for s in self.subscriptions if s.topic_name == "/clock"]:
                 self.destroy_subscription(subscription)
-            # Before a subclass reads its clock: the node starts on the pipeline's simulation time.
-            time_source.attach_clock(self.get_clock())
-        if lean:
-            # rclpy's own /parameter_events publisher (and /clock subscription)
-            # come with default QoS-event handlers (they log incompatible-QoS
-            # warnings); in a graph private to the process they only cost time.
-            for waitable in list(self.waitables):
-                if isinstance(waitable, EventHandler):
-                    self.remove_waitable(waitable)
-                    self._detached.append(waitable)
+            time_source.attach_clock(self.get_clock())  # before a subclass reads its clock
+        if lean:  # rclpy's own /parameter_events publisher's QoS-event handlers only cost time in a private graph
+            for waitable in [w for w in self.waitables if isinstance(w, EventHandler)]:
+                self.remove_waitable(waitable)
+                self._detached.append(waitable)
 
     def destroy_node(self):
         """Destroy the node (re-attaching detached handlers first: rclpy removes them with their publisher)."""
@@ -169,18 +181,158 @@ class PmvNode(Node):
         self._detached = []
         return super().destroy_node()
 
-    # -- /clock -------------------------------------------------------------------------------
+    # -- the declared topics ----------------------------------------------------------------------
+
+    def wire(self, topics, source_timeout_s: float) -> None:
+        """Build the publishers and input subscriptions of ``topics`` (:class:`Pub`, :class:`Sub`) whose ``when``
+        holds, in table order; with a /diagnostics publisher, :meth:`watch_clock`; a batching node's wake-up."""
+        for topic in topics:
+            if topic.when is not None and not topic.when(self):
+                continue
+            if isinstance(topic, Sub):
+                self._input(topic, source_timeout_s)
+                continue
+            publisher = self.create_publisher(topic.type, topic.topic, topic.qos, **self._quiet("Publisher"))
+            message = topic.make(self) if topic.make is not None else topic.type()
+            # A latched topic always goes out: a later subscriber gets the last message.
+            always = not self._lean or topic.qos.durability == DurabilityPolicy.TRANSIENT_LOCAL
+            self._feeds.setdefault(topic.feed, []).append((publisher, message, topic.write, always))
+            self.topic_publishers[topic.topic] = publisher
+        if self.BATCHED and not self._flushed_by_caller:
+            self._wake = self.create_guard_condition(self.flush_inputs)
+        if "/diagnostics" in self.topic_publishers:
+            self.watch_clock()
+
+    def _quiet(self, kind: str) -> dict:
+        """A lean node's entities come without rclpy's default QoS-event handlers."""
+        return _QUIET[kind] if self._lean else {}
+
+    def emit(self, feed, item) -> None:
+        """Publish ``item`` on every topic ``feed`` feeds (a lean node skips a topic nobody in the process reads:
+        its private graph has no one unseen; a recorder or a probe subscribes, and then the topic is published)."""
+        for publisher, message, write, always in self._feeds.get(feed, ()):
+            if always or publisher.get_subscription_count():
+                publisher.publish(write(message, item, self))
+
+    def emit_all(self, items) -> None:
+        """:meth:`emit` each item of a runtime output, in order, under its type."""
+        for item in items:
+            self.emit(type(item), item)
+
+    def take_output(self, output) -> None:
+        """What a runtime input returned: its log lines (if it has any) to the node's log, then what it publishes,
+        in order."""
+        if output is None:
+            return
+        for line in getattr(output, "log", ()):  # two call sites: rclpy's logger refuses two severities from one
+            if line.level == "error":
+                self.get_logger().error(line.text)
+            else:
+                self.get_logger().info(line.text)
+        self.emit_all(output.published)
+
+    def publisher(self, message_type, topic: str):
+        """A publisher with the project QoS (outside the table: tests, benchmarks)."""
+        return self.create_publisher(message_type, topic, QOS, **self._quiet("Publisher"))
+
+    def subscription(self, message_type, topic: str, callback, qos: QoSProfile = QOS):
+        """A subscription with the project QoS (outside the table: the report collector, benchmarks)."""
+        return self.create_subscription(message_type, topic, callback, qos, **self._quiet("Subscription"))
+
+    # -- inputs: one source each, then the runtime (at once, or once per wake-up) -----------------------
+
+    def _input(self, declared: Sub, source_timeout_s: float) -> None:
+        """Subscribe to ``declared``: only the locked publisher's messages pass (:class:`SourceLock`, the rule is
+        there), timed on the node clock through a jump detector (a single forged /clock cannot make the locked
+        source look silent); keyed by the name resolved in the node's namespace (one lock per spacecraft)."""
+        lock, clock, read, to = SourceLock(source_timeout_s), self.get_clock(), declared.read, declared.to
+
+        def on_message(message, info) -> None:
+            now_s = clock.now().nanoseconds * 1e-9  # one reading: the arrival and the input's clock
+            stamp = message.header.stamp
+            if lock.admit(self._arrival_s(now_s), gid=_publisher_gid(info),
+                          sequence=info.get("publication_sequence_number"), stamp_s=stamp.sec + stamp.nanosec * 1e-9):
+                self._take_input(to, read(message), self.input_clock(now_s))
+
+        subscription = self.create_subscription(declared.type, declared.topic, on_message, self._input_qos,
+                                                **self._quiet("Subscription"))
+        self.source_locks[subscription.topic_name] = lock
+        self._input_names[subscription.topic_name] = declared.topic
+
+    def input_clock(self, now_s: float) -> float | None:
+        """The node clock as an input sees it: None before simulation time started (a node overrides this)."""
+        return now_s if now_s > 0.0 else None
+
+    def _take_input(self, to: str, arguments: tuple, now_s) -> None:
+        if not self.BATCHED:
+            self.take_output(getattr(self._runtime, to)(*arguments, now_s))
+            return
+        if not self._queued and not self._flushed_by_caller:
+            self._wake.trigger()  # ready at the next wait: handled after that wake-up's messages of this node
+        self._queued.append((to, arguments, now_s))
+        if len(self._queued) >= MAX_QUEUED_INPUTS:
+            self.flush_inputs()
+
+    def flush_inputs(self) -> bool:
+        """Hand the queued inputs to the runtime as one batch (``add_inputs``), in arrival order, and publish;
+        whether that gave anything to publish."""
+        if not self._queued:
+            return False
+        events, self._queued = self._queued, []
+        output = self._runtime.add_inputs(events)
+        self.take_output(output)
+        return bool(output.published)
+
+    def _arrival_s(self, now_s: float) -> float:
+        """The node clock as the source locks see it (a jump counts once the next reading confirms it), s."""
+        self._arrival_clock.observe(now_s)
+        return self._arrival_clock.latest_s
+
+    def input_source_problems(self, max_age_s: float = GRAPH_CHECK_PERIOD_S) -> list[str]:
+        """One phrase per input with more than one publisher (an ERROR on /diagnostics); [] when none has.
+        The graph is asked at most every ``max_age_s`` of wall time (a caller with its own cadence passes 0)."""
+        wall = time.monotonic()
+        if wall - self._source_checked_s < max_age_s:
+            return list(self._source_problems)
+        self._source_checked_s, problems = wall, []
+        now = self._arrival_s(self.get_clock().now().nanoseconds * 1e-9)
+        clocks = self.clock_check.sources.sources_heard(wall)
+        if self._guarded_clock_subscription is not None:  # on use_sim_time: /clock is an input like the others
+            clocks = max(clocks, self.count_publishers("/clock"))
+        if clocks > 1:
+            problems.append(f"{clocks} publishers of /clock: only the first one heard sets the time "
+                            f"({self.clock_check.counts['other_source']} messages of others dropped)")
+        for topic, lock in self.source_locks.items():
+            count = max(self.count_publishers(topic), lock.sources_heard(now))
+            if count > 1:
+                problems.append(f"{count} publishers of {topic}: only the first one heard is used "
+                                f"({lock.other_source_messages} messages of others dropped)")
+        self._source_problems = problems
+        return list(problems)
+
+    def set_source_timeout(self, timeout_s: float) -> None:
+        """A new ``input.source_timeout_s`` for every input's source lock (a parameter change)."""
+        for lock in self.source_locks.values():
+            lock.timeout_s = timeout_s
+
+    def input_source_counters(self) -> dict:
+        """``other_source_<topic>``: messages dropped per input because a second publisher sent them;
+        ``rejected_clock_<reason>``: /clock messages that did not set the time (see :meth:`_guard_clock`)."""
+        counters = {f"other_source_{self._input_names[topic].strip('/').replace('/', '_')}": lock.other_source_messages
+                    for topic, lock in self.source_locks.items() if lock.other_source_messages}
+        counters.update({f"rejected_clock_{reason}": count for reason, count in self.clock_check.counts.items()
+                         if count})
+        return counters
+
+    # -- /clock -----------------------------------------------------------------------------------
 
     def _guard_clock(self) -> None:
         """Put :class:`~pmv_ros.runtime.common.validation.ClockCheck` in front of rclpy's /clock callback.
 
-        rclpy's time source (created by ``use_sim_time``) hands every /clock
-        message straight to its clocks; a negative time raised there and
-        stopped the node, and any publisher could set the time. The
-        subscription rclpy made is kept (so rclpy can remove it when
-        ``use_sim_time`` goes off); only its callback is wrapped: a message
-        the check refuses is counted (``rejected_clock_<reason>`` on
-        /diagnostics) and never reaches the time source.
+        rclpy's time source hands every /clock message straight to its clocks (a negative time raised there and
+        stopped the node; any publisher could set the time). Its subscription is kept (rclpy removes it when
+        ``use_sim_time`` goes off); only the callback is wrapped: a message the check refuses is counted
+        (``rejected_clock_<reason>`` on /diagnostics) and never reaches the time source.
         """
         time_source = getattr(self, "_time_source", None)  # rclpy's, created by Node.__init__
         subscription = getattr(time_source, "_clock_sub", None)
@@ -197,15 +349,13 @@ class PmvNode(Node):
         subscription.callback = on_clock
         self._guarded_clock_subscription = subscription
 
-    def watch_clock(self, diagnostics_publisher) -> None:
-        """Say on /diagnostics (through ``diagnostics_publisher``, status ``<node>: clock``) when this node's /clock
-        stops, and when it
-        moves again (:class:`pmv_ros.runtime.common.clock_watch.ClockWatch`): on a steady wall-clock timer, which runs
-        while the node clock stands. Only under ``use_sim_time``, and not for the in-process pipeline's lean
-        nodes, whose clocks the pipeline sets itself."""
+    def watch_clock(self) -> None:
+        """Say on /diagnostics (status ``<node>: clock``) when this node's /clock stops and when it moves again
+        (:class:`~pmv_ros.runtime.common.clock_watch.ClockWatch`), on a steady wall-clock timer that runs while
+        the node clock stands. Only under ``use_sim_time``, and not for lean nodes (the pipeline sets their clocks)."""
         if self._lean:
             return
-        watch, message = ClockWatch(CLOCK_STALL_S), DiagnosticArray()
+        watch, message, publisher = ClockWatch(CLOCK_STALL_S), DiagnosticArray(), self.topic_publishers["/diagnostics"]
 
         def on_watch() -> None:
             if not self.get_parameter("use_sim_time").value:
@@ -213,11 +363,9 @@ class PmvNode(Node):
             clock_s = self.get_clock().now().nanoseconds * 1e-9
             report = watch.observe(clock_s, time.monotonic())
             if report is not None:
-                diagnostics_publisher.publish(shim.write_health(message, shim.HealthReport(
-                    stamp_s=max(clock_s, 0.0), statuses=(shim.HealthStatus(
-                        name=self.status_name("clock"), level=report.level, message=report.message,
-                        hardware_id=self.hardware_id("clock"),
-                        values={"clock_stalls": watch.stalls}),))))
+                publisher.publish(shim.write_health(message, shim.HealthReport(stamp_s=max(clock_s, 0.0), statuses=(
+                    shim.HealthStatus(name=self.status_name("clock"), level=report.level, message=report.message,
+                                      hardware_id=self.hardware_id("clock"), values={"clock_stalls": watch.stalls}),))))
 
         self.clock_watch = watch
         self.create_timer(CLOCK_WATCH_PERIOD_S, on_watch, clock=Clock(clock_type=ClockType.STEADY_TIME))
@@ -245,107 +393,6 @@ class PmvNode(Node):
         if problem:
             return SetParametersResult(successful=False, reason=problem)
         return super().set_parameters_atomically(checked)
-
-    # -- topics -------------------------------------------------------------------------------
-
-    def publisher(self, message_type, topic: str):
-        """A publisher with the project QoS."""
-        if self._lean:
-            return self.create_publisher(message_type, topic, QOS,
-                                         event_callbacks=PublisherEventCallbacks(use_default_callbacks=False))
-        return self.create_publisher(message_type, topic, QOS)
-
-    def listened(self, publisher) -> bool:
-        """Whether a message on ``publisher`` can reach anyone: False only for a lean node's publisher that has
-        no subscription (the in-process pipeline's graph is private, so nothing else can join it unseen; a
-        recorder or a probe in the process subscribes, and then the topic is published). The main job skips
-        building and publishing what nobody reads (its /clock, raw angles, crossings and Imu output)."""
-        return not self._lean or publisher.get_subscription_count() > 0
-
-    def subscription(self, message_type, topic: str, callback, qos: QoSProfile = QOS):
-        """A subscription with the project QoS."""
-        if self._lean:
-            return self.create_subscription(message_type, topic, callback, qos,
-                                            event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False))
-        return self.create_subscription(message_type, topic, callback, qos)
-
-    def input_subscription(self, message_type, topic: str, callback, source_timeout_s: float = 1.0):
-        """A subscription to an input, from one source only: ``callback(message)`` for the locked publisher's messages.
-
-        ``topic`` is resolved in the node's namespace (a relative name moves with it); the lock is kept under
-        the resolved name in :attr:`source_locks`, so each spacecraft's stream has its own.
-
-        Best effort unless the node takes its inputs reliably (see ``__init__``).
-        The message info's publisher GID, or on Jazzy its publication
-        sequence number, goes to a :class:`pmv_ros.runtime.common.validation.SourceLock`
-        (the rule is there): the first publisher heard is kept, a second one's
-        messages are dropped and counted, never interleaved;
-        :meth:`input_source_problems` says so for ``/diagnostics``. Silence
-        is measured on the node clock (simulation time under ``use_sim_time``:
-        a source restarted in a fast-time run is taken over after
-        ``source_timeout_s`` of simulation time), through a jump detector: a
-        single forged ``/clock`` cannot make the locked source look silent.
-        """
-        lock = SourceLock(source_timeout_s)
-
-        def on_message(message, info) -> None:
-            stamp = message.header.stamp
-            if lock.admit(self._arrival_s(), gid=_publisher_gid(info), sequence=info.get("publication_sequence_number"),
-                          stamp_s=stamp.sec + stamp.nanosec * 1e-9):
-                callback(message)
-
-        subscription = self.subscription(message_type, topic, on_message, self._input_qos)
-        # Keyed by the name resolved in the node's namespace: one lock per stream of one spacecraft.
-        self.source_locks[subscription.topic_name] = lock
-        self._input_names[subscription.topic_name] = topic
-        return subscription
-
-    def _arrival_s(self) -> float:
-        """Now on the node clock, s, as the source locks see it (a jump counts once the next reading confirms it)."""
-        self._arrival_clock.observe(self.get_clock().now().nanoseconds * 1e-9)
-        return self._arrival_clock.latest_s
-
-    def input_source_problems(self, max_age_s: float = GRAPH_CHECK_PERIOD_S) -> list[str]:
-        """One phrase per input that has more than one publisher (an ERROR on /diagnostics); [] when none has.
-
-        The graph is asked at most every ``max_age_s`` of wall time (a caller with its own cadence passes 0).
-        """
-        wall = time.monotonic()
-        if wall - self._source_checked_s < max_age_s:
-            return list(self._source_problems)
-        self._source_checked_s, problems = wall, []
-        now = self._arrival_s()
-        clocks = self.clock_check.sources.sources_heard(wall)
-        if self._guarded_clock_subscription is not None:  # on use_sim_time: /clock is an input like the others
-            clocks = max(clocks, self.count_publishers("/clock"))
-        if clocks > 1:
-            problems.append(f"{clocks} publishers of /clock: only the first one heard sets the time "
-                            f"({self.clock_check.counts['other_source']} messages of others dropped)")
-        for topic, lock in self.source_locks.items():
-            count = self.count_publishers(topic)
-            if count > 1 or lock.sources_heard(now) > 1:
-                problems.append(f"{max(count, lock.sources_heard(now))} publishers of {topic}: only the first one "
-                                f"heard is used ({lock.other_source_messages} messages of others dropped)")
-        self._source_problems = problems
-        return list(problems)
-
-    def set_source_timeout(self, timeout_s: float) -> None:
-        """A new ``input.source_timeout_s`` for every input's source lock (a parameter change)."""
-        for lock in self.source_locks.values():
-            lock.timeout_s = timeout_s
-
-    def input_source_counters(self) -> dict:
-        """``other_source_<topic>``: messages dropped per input because a second publisher sent them;
-        ``rejected_clock_<reason>``: /clock messages that did not set the time (see :meth:`_guard_clock`)."""
-        # Keys from the names the node gave (other_source_attitude_truth), the same in every namespace.
-        counters = {}
-        for topic, lock in self.source_locks.items():
-            if lock.other_source_messages:
-                stream = self._input_names[topic].strip("/").replace("/", "_")
-                counters[f"other_source_{stream}"] = lock.other_source_messages
-        counters.update({f"rejected_clock_{reason}": count for reason, count in self.clock_check.counts.items()
-                         if count})
-        return counters
 
 
 def _publisher_gid(info):

@@ -9,8 +9,8 @@ import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.impl.implementation_singleton import rclpy_implementation
 from rclpy.signals import SignalHandlerOptions
+from threadpoolctl import ThreadpoolController
 
-from .base import hold_single_threaded_blas
 from .managed import managed, managed_requested
 from .params import ParameterError, check_params_files
 
@@ -18,6 +18,28 @@ from .params import ParameterError, check_params_files
 STOP_CHECK_S = 0.1
 
 _STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+_blas = {"holders": 0, "limiter": None}
+
+
+def hold_single_threaded_blas() -> None:
+    """Run BLAS on one thread in this process until the last holder releases it.
+
+    The nodes' products are small; left to itself OpenBLAS splits them over every core, where on a 2-core machine
+    its threads contend with the executor and DDS (a block of sensor samples took 4–10× longer). Holders are
+    counted: overlapping pipelines restore the original setting only when the last is released.
+    """
+    if _blas["holders"] == 0:
+        _blas["limiter"] = ThreadpoolController().limit(limits=1, user_api="blas")
+    _blas["holders"] += 1
+
+
+def release_single_threaded_blas() -> None:
+    """Undo one :func:`hold_single_threaded_blas`; the last release restores the original BLAS threads."""
+    if _blas["holders"]:
+        _blas["holders"] -= 1
+        if _blas["holders"] == 0:
+            _blas["limiter"].restore_original_limits()
 
 
 class StopRequest:

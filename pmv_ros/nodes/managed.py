@@ -9,9 +9,10 @@ configured, the node's parameters on its own parameter services.
   read, no parameter declared, nothing published or subscribed;
 * configure — the node's own constructor runs on it: it declares and checks the
   parameters, reads the files, builds the models and makes its publishers,
-  subscriptions and timers, all held still. A failure (a bad ``sensor.correction``
-  file, a value out of range) leaves it unconfigured, with what was made released
-  and the reason logged (also on /rosout) and kept in :attr:`configure_error`;
+  subscriptions, timers and wake-up guard (its declared topics), all held still.
+  A failure (a bad ``sensor.correction`` file, a value out of range) leaves it
+  unconfigured, with what was made released and the reason logged (also on
+  /rosout) and kept in :attr:`configure_error`;
 * activate — its timers run and its subscriptions deliver; it publishes;
 * deactivate — its timers stop; a message that arrives meanwhile is dropped, not
   processed late; nothing is published (a latched, transient-local message made
@@ -19,6 +20,9 @@ configured, the node's parameters on its own parameter services.
 * cleanup, shutdown — everything configure made is destroyed. Declared parameters
   stay declared with their values (rclpy has no public way to undeclare a
   read-only one); a new configure checks them again and builds anew.
+
+What the node makes after configure (a timer rebuilt for a new rate) joins what cleanup destroys and is held
+still while the node is inactive.
 """
 
 from __future__ import annotations
@@ -47,6 +51,8 @@ _ENTITY_KINDS = (("publishers", "destroy_publisher"), ("subscriptions", "destroy
                  ("timers", "destroy_timer"), ("clients", "destroy_client"), ("services", "destroy_service"),
                  ("guards", "destroy_guard_condition"))
 
+_SUCCESS = TransitionCallbackReturn.SUCCESS
+
 
 def managed_requested(args=None) -> bool:
     """True when ``--managed`` is among the node's own arguments (those before ``--ros-args``)."""
@@ -67,14 +73,14 @@ class _Managed:
         self.configuring = False  # PmvNode.__init__ then builds on this node instead of making one
         self.configured = self.active = False
         self.configure_error = None  # why the last configure failed
-        self._made = {}  # kind → entities configure made
         self._parameter_callbacks = []  # (remove method name, callback) added by configure
-        self._resume = []  # timers to start again at activation
         self._held = {}  # transient-local publisher → its last message made while inactive
-        # What PmvNode.__init__ sets before anything can call it, for the time before the first configure: the
-        # parameter services (the type gate) and destroy_node work on an unconfigured node too.
+        # What PmvNode.__init__ sets before anything can call it: the parameter services (the type gate) and
+        # destroy_node work on an unconfigured node too.
         self.parameter_specs, self._detached = {}, []
         LifecycleNode.__init__(self, self.node_name, **node_arguments)
+        # The lifecycle node's own entities: everything else is configure's (or later changes') and goes at cleanup.
+        self._own = {kind: set(getattr(self, kind)) for kind, _ in _ENTITY_KINDS}
         # rclpy raises out of the change_state service for a transition the current state does not have (and so
         # ends the spin): refused here with success = false and a warning, like a transition that failed.
         # (LifecycleNode has no public accessor for the service: its attribute is used.)
@@ -92,105 +98,106 @@ class _Managed:
 
         service.callback = guarded_change_state
 
+    def _made(self, kind: str) -> list:
+        """The entities of ``kind`` configure (and later changes) made."""
+        return [entity for entity in getattr(self, kind) if entity not in self._own[kind]]
+
     # -- transitions ----------------------------------------------------------------------------
 
     def on_configure(self, state: State) -> TransitionCallbackReturn:
-        before = {kind: set(getattr(self, kind)) for kind, _ in _ENTITY_KINDS}
         self.configuring = True
         try:
             super().__init__(**self._own_arguments)  # the node class's constructor, on this node
         except Exception as error:  # a bad value or file; anything else too: what was made is released
             expected = isinstance(error, (ParameterError, ValueError, OSError))
             self.configure_error = str(error) if expected else f"{type(error).__name__}: {error}"
-            self._take_made(before)
-            self._release()
+            self._release(state)
             self.get_logger().error(f"configure failed, still unconfigured: {self.configure_error}")
             return TransitionCallbackReturn.FAILURE
         finally:
             self.configuring = False
-        self._take_made(before)
-        self._hold_still()
         self.configure_error, self.configured = None, True
-        return TransitionCallbackReturn.SUCCESS
+        return self.on_deactivate(state)  # configured, inactive: timers stopped (the rest is gated as it is made)
 
     def on_activate(self, state: State) -> TransitionCallbackReturn:
         self.active = True
         for publisher, message in list(self._held.items()):
-            publisher.publish(message)
+            if publisher in self.publishers:
+                publisher.publish(message)
         self._held.clear()
-        for timer in self._resume:
-            timer.reset()
-        self._resume = []
-        return TransitionCallbackReturn.SUCCESS
+        for timer in self._made("timers"):
+            if getattr(timer, "_held_still", False):
+                timer._held_still = False
+                timer.reset()
+        return _SUCCESS
 
     def on_deactivate(self, state: State) -> TransitionCallbackReturn:
-        self._stop()
-        return TransitionCallbackReturn.SUCCESS
+        if self.active and self._queued:  # what a batching node took while active goes through first
+            self.flush_inputs()
+        self.active = False
+        for timer in self._made("timers"):
+            self._hold_still(timer)
+        return _SUCCESS
 
-    def on_cleanup(self, state: State) -> TransitionCallbackReturn:
-        self._release()
-        return TransitionCallbackReturn.SUCCESS
+    def _release(self, state: State) -> TransitionCallbackReturn:
+        """Destroy what configure made and remove its parameter callbacks: back to unconfigured."""
+        self.on_deactivate(state)
+        self._held = {}
+        for kind, destroy in _ENTITY_KINDS:
+            for entity in self._made(kind):
+                getattr(self, destroy)(entity)
+        for remover, callback in self._parameter_callbacks:
+            try:
+                getattr(self, remover)(callback)
+            except ValueError:  # already removed
+                pass
+        self._parameter_callbacks = []
+        self.configured = False
+        return _SUCCESS
 
-    def on_shutdown(self, state: State) -> TransitionCallbackReturn:
-        self._release()
-        return TransitionCallbackReturn.SUCCESS
-
-    def on_error(self, state: State) -> TransitionCallbackReturn:
-        self._release()
-        return TransitionCallbackReturn.SUCCESS
+    on_cleanup = on_shutdown = on_error = _release
 
     # -- what configure makes is gated from the start: silent until activation ---------------------
 
-    # (Also what the node makes after configure, say a timer rebuilt for a new rate: it joins what cleanup
-    # destroys, and is held still while the node is inactive.)
+    @staticmethod
+    def _hold_still(timer) -> None:
+        if not timer.is_canceled():
+            timer.cancel()
+            timer._held_still = True  # started again at activation
 
     def create_publisher(self, *args, **kwargs):
         publisher = super().create_publisher(*args, **kwargs)
         if self.configuring or self.configured:
-            publisher.publish = self._gated_publish(publisher)
-            self._note_made("publishers", publisher)
+            publish = publisher.publish
+            latched = publisher.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
+
+            def gated(message) -> None:
+                if self.active:
+                    publish(message)
+                elif latched:
+                    self._held[publisher] = message
+
+            publisher.publish = gated
         return publisher
 
     def create_subscription(self, *args, **kwargs):
         subscription = super().create_subscription(*args, **kwargs)
         if self.configuring or self.configured:
-            subscription.callback = self._gated(subscription.callback)
-            self._note_made("subscriptions", subscription)
+            callback = subscription.callback
+
+            def gated(*message_and_info) -> None:
+                if self.active:
+                    callback(*message_and_info)
+
+            gated.__signature__ = inspect.signature(callback)  # rclpy passes the info as the callback wants it
+            subscription.callback = gated
         return subscription
 
     def create_timer(self, *args, **kwargs):
         timer = super().create_timer(*args, **kwargs)
-        if self.configured and not self.configuring:
-            self._note_made("timers", timer)
-            if not self.active:
-                timer.cancel()
-                self._resume.append(timer)
+        if self.configured and not self.configuring and not self.active:
+            self._hold_still(timer)
         return timer
-
-    def destroy_timer(self, timer) -> bool:
-        self._forget("timers", timer)
-        if timer in self._resume:
-            self._resume.remove(timer)
-        return super().destroy_timer(timer)
-
-    def destroy_publisher(self, publisher) -> bool:
-        self._forget("publishers", publisher)
-        self._held.pop(publisher, None)
-        return super().destroy_publisher(publisher)
-
-    def destroy_subscription(self, subscription) -> bool:
-        self._forget("subscriptions", subscription)
-        return super().destroy_subscription(subscription)
-
-    def _note_made(self, kind: str, entity) -> None:
-        """After configure (not during it: configure's own are listed when it ends), into what cleanup destroys."""
-        if self.configured and not self.configuring:
-            self._made.setdefault(kind, []).append(entity)
-
-    def _forget(self, kind: str, entity) -> None:
-        made = self._made.get(kind, [])
-        if entity in made:
-            made.remove(entity)
 
     # -- parameter callbacks added while configuring are removed at cleanup ---------------------
 
@@ -209,73 +216,6 @@ class _Managed:
     def _note_parameter_callback(self, remover: str, callback) -> None:
         if self.configuring:
             self._parameter_callbacks.append((remover, callback))
-
-    # -- what configure made ----------------------------------------------------------------------
-
-    def _take_made(self, before: dict) -> None:
-        self._made = {kind: [entity for entity in getattr(self, kind) if entity not in before[kind]]
-                      for kind, _ in _ENTITY_KINDS}
-
-    def _hold_still(self) -> None:
-        """Configured, inactive: timers stopped (subscriptions and publishers are gated as they are made)."""
-        self.active = False
-        self._resume = []
-        for timer in self._made["timers"]:
-            if not timer.is_canceled():
-                timer.cancel()
-                self._resume.append(timer)
-
-    def _gated(self, callback):
-        """``callback`` run only while active, with the same arguments (message [, info]: rclpy passes the info
-        to a callback that cannot be called with the message alone, and so to this one)."""
-        try:
-            inspect.signature(callback).bind(object())
-            with_info = False
-        except TypeError:
-            with_info = True
-        if with_info:
-            def gated(message, info):
-                if self.active:
-                    callback(message, info)
-        else:
-            def gated(message):
-                if self.active:
-                    callback(message)
-        return gated
-
-    def _gated_publish(self, publisher):
-        publish = publisher.publish
-        latched = publisher.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
-
-        def gated(message) -> None:
-            if self.active:
-                publish(message)
-            elif latched:
-                self._held[publisher] = message
-
-        return gated
-
-    def _stop(self) -> None:
-        self.active = False
-        self._resume = [timer for timer in self._made.get("timers", ()) if not timer.is_canceled()]
-        for timer in self._resume:
-            timer.cancel()
-
-    def _release(self) -> None:
-        """Destroy what configure made and remove its parameter callbacks: back to unconfigured."""
-        self._stop()
-        self._resume, self._held = [], {}
-        made, self._made = self._made, {}
-        for kind, destroy in _ENTITY_KINDS:
-            for entity in made.get(kind, ()):
-                getattr(self, destroy)(entity)
-        for remover, callback in self._parameter_callbacks:
-            try:
-                getattr(self, remover)(callback)
-            except ValueError:  # already removed
-                pass
-        self._parameter_callbacks = []
-        self.configured = False
 
 
 def managed(node_class, name: str):

@@ -25,7 +25,8 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 
 import pmv_msgs_shim as shim
 from ..runtime.common.assembly import NODE_PARAMS
-from .base import PmvNode, hold_single_threaded_blas, release_single_threaded_blas
+from .base import PmvNode
+from .launch import hold_single_threaded_blas, release_single_threaded_blas
 from .error_monitor_node import ErrorMonitorNode
 from .params import check_params_files
 from .sensor_node import SensorNode
@@ -33,21 +34,23 @@ from .star_tracker_node import StarTrackerNode
 from .tf import tf_message_type
 
 
-def drain(executor, max_callbacks: int = 100_000) -> int:
+def drain(executor, max_callbacks: int = 100_000, on_idle=None) -> int:
     """Run an executor's ready callbacks until the graph is idle; returns how many ran.
 
     With Fast DDS, a zero-timeout wait right after a take can report nothing
     although more samples of that subscription are queued (the take clears
     the data-available status; the following wait raises it again). So idle
     means two empty waits in a row: stopping at the first one leaves messages
-    behind and lets a backlog build up tick after tick.
+    behind and lets a backlog build up tick after tick. ``on_idle()`` is called
+    at every empty wait; when it says it published something (handing queued
+    inputs over), the graph is not idle yet.
     """
     ran = empty = 0
     while empty < 2 and ran < max_callbacks:
         try:
             handler, _, _ = executor.wait_for_ready_callbacks(timeout_sec=0.0)
         except TimeoutException:
-            empty += 1
+            empty = 0 if on_idle is not None and on_idle() else empty + 1
             continue
         empty = 0
         handler()
@@ -165,8 +168,8 @@ class Pipeline:
 
     #: The pipeline's nodes by role: (class, on the simulation time, constructor arguments).
     ROLES = {"sensor": (SensorNode, False, {"external_drive": True}),
-             "star_tracker": (StarTrackerNode, True, {}),
-             "monitor": (ErrorMonitorNode, True, {})}
+             "star_tracker": (StarTrackerNode, True, {"flushed_by_caller": True}),
+             "monitor": (ErrorMonitorNode, True, {"flushed_by_caller": True})}
 
     def _start_recorder(self, path) -> None:
         """Record every topic the graph has now (all nodes are up) into ``path``, logged at simulation time."""
@@ -222,8 +225,18 @@ class Pipeline:
         setattr(self, role, None)
 
     def drain(self, max_callbacks: int = 100_000) -> int:
-        """Run ready callbacks until the graph is idle (see :func:`drain`); returns how many ran."""
-        return drain(self.executor, max_callbacks)
+        """Run ready callbacks until the graph is idle (see :func:`drain`); returns how many ran. Whenever the
+        graph looks idle, the batching nodes (the star tracker, the monitor) hand over what they queued, in
+        node order, and the drain goes on: a message waits at most until the graph is idle in the same tick."""
+        return drain(self.executor, max_callbacks, self._hand_over)
+
+    def _hand_over(self) -> bool:
+        """Every batching node's queued inputs to its runtime; whether that published anything."""
+        handed = False
+        for node in self.nodes:
+            if getattr(node, "BATCHED", False):
+                handed = node.flush_inputs() or handed
+        return handed
 
     def step(self, ticks: int = 1) -> int:
         """Advance the simulation by ``ticks`` sensor periods, draining the graph after each; returns callbacks run."""

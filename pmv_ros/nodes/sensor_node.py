@@ -1,18 +1,11 @@
 """``sensor_node``: the PMV horizon sensor in a ROS 2 graph.
 
-Propagates the orbit on the ROS clock (or on its own simulation clock in
-fast-time mode, publishing ``/clock``), takes the body attitude from its own
-profile (published on ``/attitude/truth``) or follows the user's
-``/attitude/truth``, and publishes crossings, roll/pitch (REP-103, corrected
-and uncorrected), the same as an orientation with covariance for estimators
-(``pmv/attitude_imu``), odometry, /tf and health. The node only wires: its
-runtime (:mod:`pmv_ros.runtime.sensor.runtime`, which says what each input
-and tick does) returns what to publish, :mod:`pmv_msgs_shim` lays it out.
-
-Topic names are relative (a namespace moves them), frames come from the
-``frames.*`` parameters, transforms go out when tf2_msgs is there
-(:mod:`pmv_ros.nodes.tf`). ``sensor.correction`` is read once, at start-up,
-and is read-only: nothing from the network makes the node read a file.
+Flies the orbit on the ROS clock (or its own simulation clock in fast time, publishing ``/clock``) with its own
+attitude profile (published on ``/attitude/truth``) or the user's, and publishes crossings, roll/pitch (REP-103,
+corrected and uncorrected), the same for estimators (``pmv/attitude_imu``), odometry, /tf and health. The node
+only wires (:data:`TOPICS`): its runtime (:mod:`pmv_ros.runtime.sensor.runtime`: what each input and tick does)
+returns what to publish, :mod:`pmv_msgs_shim` lays it out; transforms: :mod:`pmv_ros.nodes.tf`.
+``sensor.correction`` is read once, at start-up, and is read-only: nothing from the network makes it read a file.
 """
 
 from __future__ import annotations
@@ -27,31 +20,59 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import Imu
 
 import pmv_msgs_shim as shim
-from .base import PmvNode
+from .base import PmvNode, Pub, Sub, read_odometry, read_quaternion
 from ..runtime.common.assembly import SENSOR_PARAMS as PARAMS, read_correction
 from ..runtime.common.frames import Mounting
-from ..runtime.sensor.runtime import SamplePublication, SensorOutput, SensorRuntime
+from ..runtime.sensor.runtime import HealthAt, SamplePublication, SensorRuntime
 from .launch import node_main
 from .params import ParameterError, declare, install_validation
-from .tf import NO_TF2_MSGS, SensorTransforms, tf_message_type
+from .tf import NO_TF2_MSGS, tf_message_type, transform_topics
+
+
+def _sample(write):
+    """A writer of one sample's message: ``write(message, sample, frames)``."""
+    return lambda message, item, node: write(message, item.sample, node._runtime.frames)
+
+
+#: What the sensor publishes and takes (relative names: in a namespace, every topic of the spacecraft moves
+#: under it, interfaces.md "Topics"), in publication order per sample; /tf and /tf_static: :mod:`.tf`.
+TOPICS = (
+    Pub("attitude/truth", QuaternionStamped, SamplePublication, _sample(
+        lambda m, s, f: shim.write_attitude_quaternion(m, s.t_s, f.orbital, s.q_xyzw)),
+        when=lambda n: not n._runtime.following),
+    Pub("orbit/odometry", Odometry, SamplePublication, _sample(lambda m, s, f: shim.write_orbit_state(
+        m, s.t_s, f.eci, f.orbital, s.position_eci_m, s.velocity_eci_m_s)),
+        when=lambda n: not n._runtime.orbit_following),  # orbit.source follow: the user's (its TF is still ours)
+    Pub("pmv/horizon_crossings", PolygonStamped, SamplePublication, _sample(
+        lambda m, s, f: shim.write_horizon_crossings(m, s.t_s, f.sensor, s.line_of_sight))),
+    Pub("pmv/attitude", Vector3Stamped, SamplePublication, _sample(
+        lambda m, s, f: shim.write_attitude_angles(m, s.t_s, f.sensor, s.roll_rad, s.pitch_rad))),
+    Pub("pmv/attitude_uncorrected", Vector3Stamped, SamplePublication, _sample(lambda m, s, f: (
+        shim.write_attitude_angles(m, s.t_s, f.sensor, s.roll_uncorrected_rad, s.pitch_uncorrected_rad)))),
+    Pub("pmv/attitude_imu", Imu, SamplePublication, lambda m, p, n: shim.write_attitude_imu(
+        m, p.sample.t_s, n._runtime.frames.sensor, p.imu.q_xyzw, p.imu.variances_rad2)),
+    Pub("/diagnostics", DiagnosticArray, HealthAt, lambda m, h, n: shim.write_health(m, n.health_report(
+        h.stamp_s, h.health, "horizon", others=(n._orbit_status,) if n._orbit_status else ()))),
+    Pub("/clock", ClockMsg, "clock", lambda m, t_s, n: shim.write_clock(m, t_s),
+        when=lambda n: n._values["sim.fast_time"]),
+    Sub("attitude/truth", QuaternionStamped, read_quaternion, "add_truth", when=lambda n: n._runtime.following),
+    Sub("orbit/odometry", Odometry, read_odometry, "add_odometry", when=lambda n: n._runtime.orbit_following),
+)
 
 
 class SensorNode(PmvNode):
     """The PMV sensor: orbit + attitude → 4-chord crossings and roll/pitch.
 
     Args:
-        external_drive: fast time stepped by the caller through :meth:`step`
-            (``pmv simulate``) instead of by the node's own wall-clock timer.
-        publish_tf: publish /tf and /tf_static (when tf2_msgs is there). The
-            in-process pipeline turns it off unless it records: nothing else
-            in its private graph listens, and every message per tick costs
-            the main job time.
+        external_drive: fast time stepped by the caller through :meth:`step` (``pmv simulate``), not by a timer.
+        publish_tf: publish /tf and /tf_static (when tf2_msgs is there). The in-process pipeline turns it off
+            unless it records: nothing else in its private graph listens.
     """
 
     def __init__(self, *, external_drive: bool = False, publish_tf: bool = True, **kwargs):
         super().__init__("sensor_node", **kwargs)
         self._values = v = declare(self, PARAMS)
-        self._orbit_status = self._pub_truth = self._pub_clock = self._transforms = self._timer = None
+        self._orbit_status = self._timer = None
         try:
             self._runtime = SensorRuntime(
                 v, clock_epoch_s=self.get_clock().now().nanoseconds * 1e-9, stepped=external_drive,
@@ -63,48 +84,23 @@ class SensorNode(PmvNode):
         except ValueError as error:  # a combination, a date or a file the ranges cannot check
             raise ParameterError(str(error)) from None
         install_validation(self, PARAMS, v, self._rebuild_live)
-        runtime, frames = self._runtime, self._runtime.frames
-        # Relative names: in a namespace, every topic of this spacecraft moves under it (interfaces.md "Topics").
-        self._pub_crossings = self.publisher(PolygonStamped, "pmv/horizon_crossings")
-        self._pub_attitude = self.publisher(Vector3Stamped, "pmv/attitude")
-        self._pub_attitude_raw = self.publisher(Vector3Stamped, "pmv/attitude_uncorrected")
-        self._pub_imu = self.publisher(Imu, "pmv/attitude_imu")
-        # orbit.source follow: the user's stack owns orbit/odometry and the sensor flies it (runtime/common/orbit_buffer.py).
-        self._pub_odometry = None if runtime.orbit_following else self.publisher(Odometry, "orbit/odometry")
-        self._pub_diagnostics = self.publisher(DiagnosticArray, "/diagnostics")
-        self.watch_clock(self._pub_diagnostics)
-        # One message per topic, filled in place for every sample (rclpy serialises at publish).
-        self._out = dict(truth=QuaternionStamped(), odometry=Odometry(), crossings=PolygonStamped(),
-                         attitude=Vector3Stamped(), attitude_raw=Vector3Stamped(), imu=Imu(), clock=ClockMsg(),
-                         diagnostics=DiagnosticArray())
-        if runtime.following:
-            self.input_subscription(QuaternionStamped, "attitude/truth", self._on_truth, v["input.source_timeout_s"])
-        else:
-            self._pub_truth = self.publisher(QuaternionStamped, "attitude/truth")
-        if runtime.orbit_following:
-            self.input_subscription(Odometry, "orbit/odometry", self._on_odometry, v["input.source_timeout_s"])
+        self.q_body_to_sensor = Mounting.from_values(v).q_body_to_sensor
         tf_message = tf_message_type() if publish_tf else None
         if publish_tf and tf_message is None:
             self.get_logger().warning(NO_TF2_MSGS)
-        elif tf_message is not None:
-            self._transforms = SensorTransforms(self, tf_message, frames, Mounting.from_values(v).q_body_to_sensor,
-                                                own_attitude=not runtime.following, stamp_s=self._now_s())
-        if v["sim.fast_time"]:
-            self._pub_clock = self.publisher(ClockMsg, "/clock")
+        self.wire(TOPICS + (transform_topics(tf_message) if tf_message else ()), v["input.source_timeout_s"])
+        self.emit("mounting", self._runtime.now_s(self.get_clock().now().nanoseconds * 1e-9))
         if not (v["sim.fast_time"] and external_drive):
             self._start_timer(v)
+        f = self._runtime.frames
         pacing = ("fast time, publishing its own /clock" if v["sim.fast_time"]
                   else "paced by its clock, " + self.clock_name())
-        self.get_logger().info(
-            f"sensor_node: H = {v['orbit.altitude_km']:g} km, i = {v['orbit.inclination_deg']:g}°, "
-            f"{v['sensor.rate_hz']:g} Hz, attitude from {v['attitude.source']}, {pacing}; "
-            f"frames {frames.eci} → {frames.orbital} → {frames.base_link} → {frames.sensor}")
-
-    # -- parameters ---------------------------------------------------------------------------
+        self.get_logger().info(f"sensor_node: H = {v['orbit.altitude_km']:g} km, i = {v['orbit.inclination_deg']:g}°, "
+                               f"{v['sensor.rate_hz']:g} Hz, attitude from {v['attitude.source']}, {pacing}; "
+                               f"frames {f.eci} → {f.orbital} → {f.base_link} → {f.sensor}")
 
     def _orbit_status_of(self, values: dict):
-        """Epoch and elements on every /diagnostics, so that recordings can be analysed; a followed orbit has
-        none (the user's odometry is the record of it)."""
+        """Epoch and elements on every /diagnostics (for analysis); none for a followed orbit (the user's odometry)."""
         return None if values["orbit.source"] == "follow" else shim.orbit_elements_status(
             shim.OrbitElements.from_orbit(self._runtime.orbit, values["sim.epoch_utc"]), self.status_name("orbit"),
             self.hardware_id("pmv"))
@@ -119,115 +115,40 @@ class SensorNode(PmvNode):
             self._start_timer(values)
 
     def _start_timer(self, values: dict) -> None:
+        rate, scale = values["sensor.rate_hz"], values["sim.time_scale"]
         if not values["sim.fast_time"]:
-            self._timer = self.create_timer(1.0 / values["sensor.rate_hz"], self._on_real_time_tick)
-            return
-        scale = values["sim.time_scale"]
-        period = 0.0 if scale == 0.0 else 1.0 / (values["sensor.rate_hz"] * scale)
-        self._timer = self.create_timer(period, self.step, clock=Clock(clock_type=ClockType.STEADY_TIME))
+            self._timer = self.create_timer(1.0 / rate, self._on_real_time_tick)
+        else:  # fast time paced on the wall clock (time_scale 0: as fast as it goes)
+            self._timer = self.create_timer(0.0 if scale == 0.0 else 1.0 / (rate * scale), self.step,
+                                            clock=Clock(clock_type=ClockType.STEADY_TIME))
 
-    # -- inputs and ticks -------------------------------------------------------------------------
-
-    def _now_s(self) -> float:
-        """Now on the sensor's own clock: simulation time in fast time, the node clock otherwise."""
-        return self._runtime.now_s(self.get_clock().now().nanoseconds * 1e-9)
-
-    def _on_truth(self, message: QuaternionStamped) -> None:
-        try:
-            record = shim.attitude_quaternion_from_msg(message)
-            stamp_s, q_xyzw = record.stamp_s, record.q_xyzw
-        except ValueError:  # negative or non-finite stamp
-            stamp_s = q_xyzw = None
-        self._publish(self._runtime.add_truth(message.header.frame_id, stamp_s, q_xyzw, self._now_s()))
-
-    def _on_odometry(self, message: Odometry) -> None:
-        try:
-            state = shim.read_orbit_state(message)
-        except ValueError:  # an orientation that is no rotation, or a bad stamp
-            state = None
-        self._runtime.add_odometry(message.header.frame_id, message.child_frame_id, state, self._now_s())
+    def input_clock(self, now_s: float) -> float:
+        """The node clock as the runtime takes it with an input (it makes it its own: ``SensorRuntime.now_s``)."""
+        return now_s
 
     def step(self) -> None:
         """Fast time: advance the simulation clock by one sensor period and publish that sample."""
-        out = self._runtime.step()
-        if self.listened(self._pub_clock):
-            self._pub_clock.publish(shim.write_clock(self._out["clock"], self._runtime.sim_time_s))
-        self._publish(out)
+        output = self._runtime.step()
+        self.emit("clock", self._runtime.sim_time_s)
+        self.take_output(output)
 
     def _on_real_time_tick(self) -> None:
         """Publish every sample of the sensor's grid due since the last tick (:meth:`SensorRuntime.tick`)."""
-        self._publish(self._runtime.tick(self.get_clock().now().nanoseconds * 1e-9))
-
-    @property
-    def sim_time_s(self) -> float:
-        """Current simulation time of the fast-time clock, s."""
-        return self._runtime.sim_time_s
-
-    @property
-    def orbit(self):
-        """The orbit the sensor flies (:class:`pmv_ros.physics.orbit.two_body.CircularOrbit`)."""
-        return self._runtime.orbit
-
-    @property
-    def samples_computed_ahead(self) -> int:
-        """Fast-time samples computed ahead and not yet published (at most one block)."""
-        return self._runtime.stream.pending
-
-    @property
-    def samples_published(self) -> int:
-        """Samples published on /pmv/attitude since the start."""
-        return self._runtime.health.samples_published
-
-    @property
-    def fast_time_block(self) -> int:
-        """Samples computed per call in fast time (:func:`pmv_ros.runtime.sensor.sample_stream.fast_time_block`)."""
-        return self._runtime.fast_time_block
-
-    # -- outputs --------------------------------------------------------------------------------
+        self.take_output(self._runtime.tick(self.get_clock().now().nanoseconds * 1e-9))
 
     def _graph_problems(self) -> tuple[int, tuple]:
-        """The graph as :class:`SensorRuntime` asks for it: publishers of /attitude/truth besides our own model
-        (0 when following) and the second sources of our inputs."""
-        others = 0 if self._pub_truth is None else self.count_publishers(self._pub_truth.topic_name) - 1
+        """Publishers of /attitude/truth besides our own model (0 when following), second sources of our inputs."""
+        truth = self.topic_publishers.get("attitude/truth")
+        others = 0 if truth is None else self.count_publishers(truth.topic_name) - 1
         return others, tuple(self.input_source_problems(max_age_s=0.0))
 
-    def _publish(self, output: SensorOutput) -> None:
-        for line in output.log:  # two call sites: rclpy's logger refuses two severities from one
-            if line.level == "error":
-                self.get_logger().error(line.text)
-            else:
-                self.get_logger().info(line.text)
-        out, frames = self._out, self._runtime.frames
-        listened = self.listened
-        crossings, raw, imu_output = listened(self._pub_crossings), listened(self._pub_attitude_raw), \
-            listened(self._pub_imu)
-        for item in output.published:
-            if type(item) is not SamplePublication:  # a /diagnostics report, HealthAt
-                self._pub_diagnostics.publish(shim.write_health(out["diagnostics"], self.health_report(
-                    item.stamp_s, item.health, "horizon", others=(self._orbit_status,) if self._orbit_status else ())))
-                continue
-            sample, imu, t_s = item.sample, item.imu, item.sample.t_s
-            if self._pub_truth is not None:
-                self._pub_truth.publish(shim.write_attitude_quaternion(out["truth"], t_s, frames.orbital,
-                                                                       sample.q_xyzw))
-            odometry = shim.write_orbit_state(out["odometry"], t_s, frames.eci, frames.orbital,
-                                              sample.position_eci_m, sample.velocity_eci_m_s)
-            if self._pub_odometry is not None:  # a followed orbit's odometry is the user's (its TF is still ours)
-                self._pub_odometry.publish(odometry)
-            if self._transforms is not None:
-                self._transforms.publish(odometry, t_s, sample.q_xyzw)
-            if crossings:
-                self._pub_crossings.publish(shim.write_horizon_crossings(out["crossings"], t_s, frames.sensor,
-                                                                         sample.line_of_sight))
-            self._pub_attitude.publish(shim.write_attitude_angles(out["attitude"], t_s, frames.sensor,
-                                                                  sample.roll_rad, sample.pitch_rad))
-            if raw:
-                self._pub_attitude_raw.publish(shim.write_attitude_angles(
-                    out["attitude_raw"], t_s, frames.sensor, sample.roll_uncorrected_rad,
-                    sample.pitch_uncorrected_rad))
-            if imu_output:
-                self._pub_imu.publish(shim.write_attitude_imu(out["imu"], t_s, frames.sensor, imu.q_xyzw,
-                                                              imu.variances_rad2))
+    sim_time_s = property(lambda self: self._runtime.sim_time_s, doc="Simulation time of the fast-time clock, s.")
+    orbit = property(lambda self: self._runtime.orbit, doc="The orbit the sensor flies.")
+    samples_computed_ahead = property(lambda self: self._runtime.stream.pending,
+                                      doc="Fast-time samples computed ahead and not yet published (≤ one block).")
+    samples_published = property(lambda self: self._runtime.health.samples_published,
+                                 doc="Samples published on /pmv/attitude since the start.")
+    fast_time_block = property(lambda self: self._runtime.fast_time_block, doc="Samples computed per fast-time call.")
 
 
 def main(args=None) -> int:

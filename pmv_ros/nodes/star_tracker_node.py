@@ -11,9 +11,12 @@ Frames are driven by the truth stream, so the node runs the same on the wall
 clock and on a fast-time ``/clock``. QoS: reliable, keep-last 100; the
 release queue holds at most ``latency_s × rate_hz`` frames.
 
-The node only wires: its runtime (:class:`pmv_ros.runtime.tracker.runtime.TrackerRuntime`)
-checks each truth message, runs the frame loop and assembles ``/diagnostics``;
-what it does with bad input and discontinuities: :mod:`pmv_ros.runtime.tracker.runtime`.
+The node only wires (:data:`TOPICS`). It queues the truth messages of one executor wake-up and hands them to its
+runtime (:class:`pmv_ros.runtime.tracker.runtime.TrackerRuntime`) as one batch when its wake-up guard is handled,
+after that wake-up's messages: a message waits at most until the end of the next wake-up, never for a timer or
+for simulated time, and what is published — and in which order — is what one message at a time gives. The
+runtime checks each message, runs the frame loop and assembles ``/diagnostics``; what it does with bad input and
+discontinuities: :mod:`pmv_ros.runtime.tracker.runtime`.
 """
 
 from __future__ import annotations
@@ -24,16 +27,28 @@ from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import QuaternionStamped
 
 import pmv_msgs_shim as shim
-from .base import PmvNode
+from .base import PmvNode, Pub, Sub, read_quaternion
 from ..runtime.common.assembly import STAR_TRACKER_PARAMS as PARAMS
-from ..runtime.common.records import HealthSummary
-from ..runtime.tracker.runtime import TrackerRuntime
+from ..runtime.common.records import HealthAt
+from ..runtime.tracker.runtime import ReleasedFrame, TrackerRuntime
 from .launch import node_main
 from .params import ParameterError, declare, install_validation
+
+#: What the star tracker publishes and takes (relative names: in a namespace, this spacecraft's topics move under
+#: it, interfaces.md "Topics").
+TOPICS = (
+    Pub("star_tracker/attitude", QuaternionStamped, ReleasedFrame, lambda m, frame, n: shim.write_attitude_quaternion(
+        m, frame.frame_s, n._runtime.frames.orbital, frame.q_measured)),
+    Pub("/diagnostics", DiagnosticArray, HealthAt, lambda m, h, n: shim.write_health(
+        m, n.health_report(h.stamp_s, h.health, device="star_tracker"))),
+    Sub("attitude/truth", QuaternionStamped, read_quaternion, "receive_truth"),
+)
 
 
 class StarTrackerNode(PmvNode):
     """BOKZ-class star tracker fed with the true attitude."""
+
+    BATCHED = True
 
     def __init__(self, **kwargs):
         super().__init__("star_tracker_node", **kwargs)
@@ -45,58 +60,35 @@ class StarTrackerNode(PmvNode):
         except ValueError as error:  # a combination the ranges cannot check
             raise ParameterError(str(error)) from None
         install_validation(self, PARAMS, self._values, self._rebuild)
-        # Relative names: in a namespace, this spacecraft's topics move under it (interfaces.md "Topics").
-        self._publisher = self.publisher(QuaternionStamped, "star_tracker/attitude")
-        self._diagnostics = self.publisher(DiagnosticArray, "/diagnostics")
-        self.watch_clock(self._diagnostics)
-        self.input_subscription(QuaternionStamped, "attitude/truth", self._on_truth,
-                                self._values["input.source_timeout_s"])
-        # Filled in place for every publication (rclpy serialises at publish).
-        self._out, self._out_diagnostics = QuaternionStamped(), DiagnosticArray()
+        self.wire(TOPICS, self._values["input.source_timeout_s"])
         # Stale input: no truth for a while is reported even though no truth callback runs.
         self.create_timer(1.0, self._on_timer)
         self.get_logger().info(f"star_tracker_node: ready, {self._values['rate_hz']:g} Hz frames, "
                                f"latency {self._values['latency_s']:g} s, {self.clock_name()}")
 
     def _rebuild(self, values: dict) -> None:
+        self.flush_inputs()  # what arrived before the change goes through the configuration it arrived under
         self._runtime.reconfigure(values)  # a combination it refuses (ValueError) changes nothing
         self.set_source_timeout(values["input.source_timeout_s"])
 
-    def _now_s(self) -> float | None:
-        now = self.get_clock().now().nanoseconds * 1e-9
-        return now if now > 0.0 else None  # sim time before the first /clock: unknown
-
-    def _on_truth(self, message: QuaternionStamped) -> None:
-        try:
-            t_s, q_xyzw = shim.read_attitude_quaternion(message)
-        except ValueError:  # a negative or non-finite stamp
-            t_s = q_xyzw = None
-        output = self._runtime.receive_truth(message.header.frame_id, t_s, q_xyzw, self._now_s())
-        for frame_s, q_measured in output.released:
-            self._publisher.publish(shim.write_attitude_quaternion(self._out, frame_s, self._runtime.frames.orbital,
-                                                                     q_measured))
-        if output.health is not None:
-            self._publish_health(t_s, output.health)
-
     def _on_timer(self) -> None:
         """Report a stale input: no truth for longer than max_truth_gap_s (nothing else would say so)."""
-        now = self._now_s()
+        self.flush_inputs()
+        now = self.input_clock(self.get_clock().now().nanoseconds * 1e-9)
         health = self._runtime.stale_health(now)
         if health is not None:
-            self._publish_health(now, health)
-
-    def _publish_health(self, t_s: float, health: HealthSummary) -> None:
-        self._diagnostics.publish(shim.write_health(self._out_diagnostics,
-                                                    self.health_report(t_s, health, device="star_tracker")))
+            self.emit(HealthAt, HealthAt(now, health))
 
     @property
     def release_queue_length(self) -> int:
         """Measured frames waiting for their release (at most latency × rate)."""
+        self.flush_inputs()
         return len(self._runtime.queue)
 
     @property
     def counters(self) -> dict:
         """Frame outcomes and input counters (a copy), as on /diagnostics."""
+        self.flush_inputs()
         return self._runtime.counters
 
 

@@ -5,7 +5,7 @@ install), so it is imported here only, and its absence is a state, not an
 error: :func:`tf_message_type` is None, the sensor says so once at start-up
 and publishes no transforms; everything else runs as before.
 
-Published (interfaces.md "Topics", /tf and /tf_static):
+Published (interfaces.md "Topics", /tf and /tf_static; declared by :func:`transform_topics`):
 
 * ``/tf_static``, once, reliable and transient local (a late listener gets
   it): ``base_link → pmv_sensor``, the mounting;
@@ -18,10 +18,12 @@ Published (interfaces.md "Topics", /tf and /tf_static):
 from __future__ import annotations
 
 from geometry_msgs.msg import TransformStamped
+from nav_msgs.msg import Odometry
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 import pmv_msgs_shim as shim
-from ..runtime.common.frames import Frames
+from ..runtime.sensor.runtime import SamplePublication
+from .base import Pub
 
 #: /tf: as tf2_ros's TransformBroadcaster (reliable, volatile, keep-last 100).
 TF_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
@@ -33,6 +35,7 @@ NO_TF2_MSGS = ("tf2_msgs cannot be imported (it comes with a ROS 2 install, not 
                "no /tf or /tf_static from this node; every other topic is published as usual")
 
 _ORIGIN = (0.0, 0.0, 0.0)
+_ODOMETRY = Odometry()  # scratch: the orbital transform is the pose an odometry message of the sample holds
 
 
 def tf_message_type():
@@ -44,33 +47,29 @@ def tf_message_type():
     return TFMessage
 
 
-class SensorTransforms:
-    """The sensor node's transform publishers: the static mounting once, the orbit (and attitude) per sample.
+def _write_mounting(message, stamp_s: float, node):
+    frames = node._runtime.frames
+    shim.write_transform(message.transforms[0], max(stamp_s, 0.0), frames.base_link, frames.sensor, _ORIGIN,
+                         node.q_body_to_sensor)
+    return message
 
-    Args:
-        node: the sensor node (publishers are made on it).
-        message_type: ``TFMessage`` (:func:`tf_message_type`).
-        frames: the spacecraft's frame ids.
-        q_body_to_sensor: the mounting, (x, y, z, w).
-        own_attitude: publish ``orbital → base_link`` (the sensor's own attitude model).
-        stamp_s: stamp of the static transform, s (the node clock at start-up).
-    """
 
-    def __init__(self, node, message_type, frames: Frames, q_body_to_sensor, own_attitude: bool, stamp_s: float):
-        self._frames, self._own_attitude = frames, own_attitude
-        self._static = node.create_publisher(message_type, "/tf_static", TF_STATIC_QOS)
-        self._dynamic = node.create_publisher(message_type, "/tf", TF_QOS)
-        mounting = shim.write_transform(TransformStamped(), max(stamp_s, 0.0), frames.base_link, frames.sensor,
-                                        _ORIGIN, q_body_to_sensor)
-        self._static.publish(message_type(transforms=[mounting]))
-        # One message filled in place for every sample (rclpy serialises at publish).
-        self._orbital, self._body = TransformStamped(), TransformStamped()
-        self._out = message_type(transforms=[self._orbital, self._body] if own_attitude else [self._orbital])
+def _write_sample(message, item: SamplePublication, node):
+    """``eci → orbital`` at the sample and, with the own attitude model, ``orbital → base_link``."""
+    frames, sample = node._runtime.frames, item.sample
+    shim.write_orbit_state(_ODOMETRY, sample.t_s, frames.eci, frames.orbital, sample.position_eci_m,
+                           sample.velocity_eci_m_s)
+    shim.write_orbital_transform(message.transforms[0], _ODOMETRY)
+    if len(message.transforms) > 1:
+        shim.write_transform(message.transforms[1], sample.t_s, frames.orbital, frames.base_link, _ORIGIN,
+                             sample.q_xyzw)
+    return message
 
-    def publish(self, odometry, t_s: float, q_orbital_to_body) -> None:
-        """``eci → orbital`` from the odometry message just written, and ``orbital → base_link`` at ``t_s``."""
-        shim.write_orbital_transform(self._orbital, odometry)
-        if self._own_attitude:
-            shim.write_transform(self._body, t_s, self._frames.orbital, self._frames.base_link, _ORIGIN,
-                                 q_orbital_to_body)
-        self._dynamic.publish(self._out)
+
+def transform_topics(message_type) -> tuple:
+    """The sensor's /tf_static (fed once, under ``"mounting"``, with the node clock at start-up) and /tf (fed by
+    every sample) with ``message_type`` (``TFMessage``)."""
+    return (Pub("/tf_static", message_type, "mounting", _write_mounting, qos=TF_STATIC_QOS,
+                make=lambda node: message_type(transforms=[TransformStamped()])),
+            Pub("/tf", message_type, SamplePublication, _write_sample, qos=TF_QOS, make=lambda node: message_type(
+                transforms=[TransformStamped() for _ in range(1 if node._runtime.following else 2)])))

@@ -99,7 +99,7 @@ def test_estimator_orientation_is_finite_for_every_lost_combination():
 
 def test_the_main_job_builds_no_imu_message_nobody_reads_and_a_probe_gets_every_one(monkeypatch):
     """The in-process pipeline's graph is private: with no subscriber of /pmv/attitude_imu the sensor builds and
-    publishes none (PmvNode.listened); once one subscribes, every sample's message comes."""
+    publishes none (PmvNode.emit); once one subscribes, every sample's message comes."""
     built = []
     write = shim.write_attitude_imu
     monkeypatch.setattr(shim, "write_attitude_imu", lambda *args: built.append(args[1]) or write(*args))

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import math
+from dataclasses import astuple
 
 import numpy as np
+import pytest
 import yaml
 
 from flights import REPO
@@ -69,3 +71,75 @@ def test_residuals_statistics_schedule_and_health_of_the_monitor():
     assert health.level is Level.ERROR and health.values["used"] == runtime.monitor.counters["used"] > 0
     runtime.reconfigure(values)  # new statistics: the next sample publishes at once
     assert runtime.add_sensor(frames.sensor, 21.0, 0.0, 0.0, 21.0).statistics.stamp_s == 21.0
+
+
+def _hostile_messages(runtime, seconds: float = 120.0):
+    """The node's messages of a 10 Hz sensor with 2 Hz truth (0.25 s late), interleaved as a wake-up takes them,
+    with refused and bad ones, a star-tracker outage, samples before the clock starts and a clock restart."""
+    frames = runtime.frames
+    values = runtime.values
+    orbit = CircularOrbit(values["orbit.altitude_km"] * 1e3, math.radians(values["orbit.inclination_deg"]))
+    rng = np.random.default_rng(5)
+    events = []
+    for k in range(int(seconds * 10)):
+        clock = 100.0 + 0.1 * k - (40.0 if k >= 700 else 0.0)  # the clock restarts 40 s back at 70 s
+        now = None if k < 3 else clock
+        roll, pitch = 1e-3 * math.sin(clock / 30.0) + 1e-4 * rng.standard_normal(), -5e-4 + 1e-4 * rng.standard_normal()
+        if k % 37 == 5:
+            roll = math.nan
+        if k % 41 == 9:
+            roll, pitch = 1e3, 0.0
+        position, velocity = orbit.state_eci(clock)
+        sensor = ("add_sensor", (frames.sensor, clock, roll, pitch), now)
+        odometry = ("add_odometry", (frames.eci, frames.orbital, (clock, position, velocity)), now)
+        events += [sensor, odometry] if k % 2 else [odometry, sensor]
+        if k % 5 == 2 and not 300 <= k < 450:  # truth at 2 Hz, 0.25 s late; an outage of 15 s
+            stamp = clock - 0.25
+            q = quaternion_from_roll_pitch_yaw(1e-3 * math.sin(stamp / 30.0), -5e-4, 0.01)
+            events.insert(len(events) - int(rng.integers(0, 3)), ("add_truth", (frames.orbital, stamp, q), now))
+        if k % 53 == 11:
+            events += [("add_sensor", ("eci", clock, 0.0, 0.0), now),
+                       ("add_sensor", (frames.sensor, None, None, None), now),
+                       ("add_truth", (frames.orbital, None, None), now),
+                       ("add_truth", ("eci", clock, (0, 0, 0, 1)), now),
+                       ("add_odometry", (frames.eci, "body", None), now),
+                       ("add_odometry", (frames.eci, frames.orbital, None), now)]
+    return events
+
+
+def test_messages_cut_into_wake_up_batches_publish_what_one_at_a_time_does():
+    """add_inputs (a wake-up's messages at once, the node's way) against the one-message inputs, on a hostile
+    stream cut at random: the same residuals in the same order (bit for bit), the statistics at the same stamps
+    with the same counters (their sums within 1e-9 arcmin: taken in another order), the same refusals."""
+    from pmv_ros.runtime.monitor.records import Outcome
+    from pmv_ros.runtime.monitor.runtime import MonitorStatistics
+
+    values = values_of({"statistics_rate_hz": 1.0}).monitor
+    one, cut = MonitorRuntime(values), MonitorRuntime(values)
+    events = _hostile_messages(one)
+    methods = {"add_sensor": one.add_sensor, "add_truth": one.add_truth, "add_odometry": one.add_odometry}
+    expected = [item for to, arguments, now in events for item in methods[to](*arguments, now).published]
+    rng = np.random.default_rng(9)
+    published, lo = [], 0
+    while lo < len(events):
+        hi = lo + int(rng.choice([1, 2, 3, 5, 30, 200]))
+        published += cut.add_inputs(events[lo:hi]).published
+        lo = hi
+    assert [type(item) for item in published] == [type(item) for item in expected]
+    residuals = [(a, b) for a, b in zip(published, expected) if type(a) is Outcome]
+    same = [all(x == y or (x != x and y != y) for x, y in zip(astuple(a), astuple(b))) for a, b in residuals]
+    assert len(residuals) > 700 and all(same)  # NaN where an angle is lost
+    statistics = [(a, b) for a, b in zip(published, expected) if type(a) is MonitorStatistics]
+    assert len(statistics) > 100
+    for a, b in statistics:
+        assert a.stamp_s == b.stamp_s and a.summary.counters == b.summary.counters
+        for x, y in zip(a.summary.channels, b.summary.channels):
+            assert x.count == y.count
+            for name in ("mean_rad", "sigma_rad", "max_abs_rad", "ground_sigma_m"):
+                assert getattr(x, name) == pytest.approx(getattr(y, name), abs=1e-9 * ARCMIN_RAD, rel=1e-9,
+                                                         nan_ok=True)
+    counters = one.monitor.counters
+    assert counters == cut.monitor.counters and one.rejected_messages == cut.rejected_messages
+    assert counters["clock_jumps"] == 1 and counters["skipped_stale_truth"]
+    assert counters["rejected_sensor_implausible_angle"] and counters["used_one_angle"]
+    assert all(one.rejected_messages.values())

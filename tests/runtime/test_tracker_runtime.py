@@ -92,3 +92,45 @@ def test_a_refused_reconfiguration_leaves_the_tracker_as_it_was():
     with pytest.raises(ValueError):
         runtime.reconfigure({**values, "rate_hz": 5.0, "clock_jump_s": 1e-6})
     assert runtime.tracker is tracker and runtime.stamps is stamps and runtime.grid.period_s == 1.0 / values["rate_hz"]
+
+
+def test_truth_cut_into_wake_up_batches_publishes_what_one_message_at_a_time_does():
+    """add_inputs (the node's messages of one executor wake-up, handed over at once) against receive_truth one
+    message at a time, on a hostile stream with random failures on: bad frames, unreadable stamps, NaN and
+    near-unit quaternions, a duplicate, an outlier stamp, and a confirmed clock jump back. The same frames (bit for
+    bit: the same draws), the same statuses in the same places, the same counters, whatever the cuts."""
+    from pmv_ros.runtime.common.records import HealthAt
+    from pmv_ros.runtime.tracker.runtime import ReleasedFrame
+
+    values = values_of({"random_failure_probability": 0.05}).star_tracker
+    t, q = truth_stream(10.0, 40.0)
+    t[200:] -= 15.0  # the clock restarts (a jump back, confirmed by the next stamp)
+    orbital = "orbital"
+    events = []
+    for k, (t_s, q_k) in enumerate(zip(t.tolist(), q.T.tolist())):
+        events.append(("receive_truth", (orbital, t_s, q_k), t_s))
+        if k % 13 == 5:
+            events += [("receive_truth", ("eci", t_s + 0.05, q_k), t_s), ("receive_truth", (orbital, None, q_k), t_s),
+                       ("receive_truth", (orbital, t_s + 0.05, [math.nan, 0.0, 0.0, 1.0]), t_s),
+                       ("receive_truth", (orbital, t_s, q_k), t_s)]  # a duplicate
+        if k % 29 == 7:
+            events.append(("receive_truth", (orbital, t_s + 0.05, [c * (1 + 1e-4) for c in q_k]), t_s))
+        if k == 120:
+            events.append(("receive_truth", (orbital, t_s - 5.0, q_k), t_s))  # one stamp back: an outlier
+    one, cut = TrackerRuntime(values, 0.0), TrackerRuntime(values, 0.0)
+    expected = [item for to, arguments, now in events for item in one.receive_truth(*arguments, now).published]
+    rng = np.random.default_rng(3)
+    published, lo = [], 0
+    while lo < len(events):
+        hi = lo + int(rng.choice([1, 2, 3, 7, 40]))
+        published += cut.add_inputs(events[lo:hi]).published
+        lo = hi
+    assert [type(item) for item in published] == [type(item) for item in expected]
+    frames = [(a, b) for a, b in zip(published, expected) if type(a) is ReleasedFrame]
+    assert len(frames) > 50 and all(a.frame_s == b.frame_s and np.array_equal(a.q_measured, b.q_measured,
+                                                                               equal_nan=True) for a, b in frames)
+    statuses = [(a, b) for a, b in zip(published, expected) if type(a) is HealthAt]
+    assert len(statuses) > 20 and all(a == b for a, b in statuses)
+    counters = one.counters
+    assert counters == cut.counters and counters["clock_jumps"] == 1 and counters["clock_outliers"] == 1
+    assert counters["frames_random_failure"] and counters["rejected_truth_duplicate"]

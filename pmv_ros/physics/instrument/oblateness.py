@@ -100,7 +100,7 @@ def closed_form_oblateness(u_rad, altitude_m, inclination_rad, ellipsoid: Ellips
         (meridional_rad, roll_rad, pitch_rad) shaped like ``u_rad``: (Δβ)m as the
         paper defines it, roll and pitch in REP-103.
     """
-    if all(type(value) is float for value in (u_rad, altitude_m, inclination_rad)):
+    if type(u_rad) is float and type(altitude_m) is float and type(inclination_rad) is float:
         if not (math.isfinite(u_rad) and math.isfinite(inclination_rad) and 0.0 < altitude_m < math.inf):
             return math.nan, math.nan, math.nan  # what the array path gives (without its warnings)
         return _closed_form_oblateness_scalar(u_rad, altitude_m, inclination_rad, ellipsoid, mean_radius_m)

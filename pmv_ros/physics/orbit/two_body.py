@@ -191,7 +191,7 @@ def orbit_angles_from_state(position_eci_m, velocity_eci_m_s):
     message, where numpy's per-call overhead on 3-vectors would dominate;
     ``(3, N)`` arrays give ``(N,)`` arrays (the batch monitor), the same steps.
     """
-    if np.ndim(position_eci_m) == 2:
+    if type(position_eci_m) is not tuple and np.ndim(position_eci_m) == 2:  # (a tuple is one state: no numpy)
         return _orbit_angles_arrays(np.asarray(position_eci_m, float), np.asarray(velocity_eci_m_s, float))
     rx, ry, rz = (float(c) for c in position_eci_m)
     vx, vy, vz = (float(c) for c in velocity_eci_m_s)
@@ -232,11 +232,33 @@ def _orbit_angles_arrays(r: np.ndarray, v: np.ndarray):
     return np.mod(u, 2.0 * np.pi), inclination, radius - EARTH_MEAN_RADIUS_M
 
 
+def orbital_axes_of_state(position_eci_m, velocity_eci_m_s) -> tuple[tuple, tuple, tuple]:
+    """:func:`orbital_frame_from_state` of one state in plain floats: the axes X, Y, Z in ECI as 3-tuples.
+
+    The same steps in the same order, so the same bits (the sensor writes one odometry message per sample,
+    where numpy's per-call cost on 3-vectors dominates); NaN axes where r or its horizontal velocity is zero
+    or not finite.
+    """
+    rx, ry, rz = (float(c) for c in position_eci_m)
+    vx, vy, vz = (float(c) for c in velocity_eci_m_s)
+    radius = math.sqrt(rx * rx + ry * ry + rz * rz)
+    if not 0.0 < radius < math.inf:
+        return ((math.nan,) * 3,) * 3
+    zx, zy, zz = rx / radius, ry / radius, rz / radius
+    radial = vx * zx + vy * zy + vz * zz
+    xx, xy, xz = vx - radial * zx, vy - radial * zy, vz - radial * zz
+    along = math.sqrt(xx * xx + xy * xy + xz * xz)
+    if not 0.0 < along < math.inf:
+        return ((math.nan,) * 3,) * 3
+    xx, xy, xz = xx / along, xy / along, xz / along
+    return (xx, xy, xz), (zy * xz - zz * xy, zz * xx - zx * xz, zx * xy - zy * xx), (zx, zy, zz)
+
+
 def orbital_frame_from_state(position_eci_m, velocity_eci_m_s):
     """Orbital-frame axes (columns X, Y, Z) in ECI from ``(3[, N])`` r and v: ``(3, 3[, N])``.
 
     Z along r, X the velocity without its radial part (the along-track
-    horizontal), Y = Z × X (the orbit normal).
+    horizontal), Y = Z × X (the orbit normal). One state in plain floats: :func:`orbital_axes_of_state`.
     """
     r = np.asarray(position_eci_m, float)
     v = np.asarray(velocity_eci_m_s, float)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from enum import IntEnum
+from typing import NamedTuple
 
 
 class Level(IntEnum):
@@ -29,3 +30,10 @@ class HealthSummary:
     level: Level
     message: str
     values: dict
+
+
+class HealthAt(NamedTuple):
+    """A runtime's status on ``/diagnostics`` at time ``stamp_s`` (s): an item of what a runtime publishes."""
+
+    stamp_s: float
+    health: HealthSummary

@@ -443,13 +443,13 @@ class SourceLock:
                 if track.gid == key:
                     return track
             return self._new_track(_Track(gid=key))
+        candidates = [track for track in tracks if track.gid is None and track.sequence is not None
+                      and 0 < sequence - track.sequence <= self.max_sequence_gap]
+        if len(candidates) == 1:  # one source could take it (the usual case): nothing to weigh
+            return candidates[0]
         best, best_key = None, None
-        for track in tracks:
-            if track.gid is not None or track.sequence is None:
-                continue
+        for track in candidates:
             gap = sequence - track.sequence
-            if not 0 < gap <= self.max_sequence_gap:
-                continue
             # The step its source's rate explains first (messages get lost: a step of 2 after 0.2 s of a
             # 10 Hz source is as good as 1); where two sources could both take it (their counts met), the
             # one this message fits best in time.

@@ -60,11 +60,13 @@ class Segment:
 
     samples: np.ndarray        #: (7, n) :data:`SAMPLE_ROWS`: place in the caller's input (−1: an earlier
     #: input), stamp, roll, pitch, the oblateness model (NaN: none), altitude (NaN: none)
-    sensor_code: np.ndarray    #: (n,) PENDING_CODE (accepted) or the rejection's index in BATCH_STATUSES
+    sensor_code: np.ndarray    #: (n,) PENDING_CODE (accepted with an angle), or the code it settles with on
+    #: arrival: its rejection's or NO_VALID_ANGLE's index in BATCH_STATUSES
     sensor_event: np.ndarray   #: (n,) its event number
     truth: np.ndarray          #: (3, m) accepted truth (stamp, roll, pitch), in arrival order
     truth_event: np.ndarray    #: (m,)
     expiry_clock_s: np.ndarray  #: (events,)
+    on_arrival: bool = True    #: whether any sample settles on arrival (False: every code is PENDING_CODE)
 
 
 class Settled:
@@ -189,12 +191,14 @@ class Alignment:
         """Drop truth and the queue (a new time axis); the caller settles what was waiting first."""
         self.truth = np.empty((3, 0))  # stamp, roll, pitch
         self.truth_pruned = False  # something was pruned since the (re)start: NO_TRUTH becomes TOO_OLD
-        self.pending = np.empty((len(SAMPLE_ROWS), 0))
+        self._wait(np.empty((len(SAMPLE_ROWS), 0)))
         self._indexed = False  # the queue holds places in the current input
 
-    @property
-    def pending_count(self) -> int:
-        return self.pending.shape[1]
+    def _wait(self, pending: np.ndarray) -> None:
+        """The samples waiting from now on (their count and the oldest stamp kept as plain numbers for the scan)."""
+        self.pending = pending
+        self.pending_count = pending.shape[1]
+        self.oldest_pending_s = float(pending[1, 0]) if self.pending_count else math.inf
 
     def take_pending(self) -> Settled:
         """Every waiting sample as settled by a reset (RESET), and an empty queue."""
@@ -202,7 +206,7 @@ class Alignment:
         n = p.shape[1]
         nan = np.full(n, np.nan)
         settled = Settled(np.vstack((p[0], p[1], np.full(n, float(_RESET)), nan, nan, p[4], p[5], p[6])))
-        self.pending = p[:, :0]
+        self._wait(p[:, :0])
         return settled
 
     def forget_indices(self) -> None:
@@ -212,113 +216,149 @@ class Alignment:
             self._indexed = False
 
     def settle(self, segment: Segment) -> Settled:
-        """Settle a segment: every sensor sample's fate (or its wait), the buffer and queue it leaves."""
+        """Settle a segment: every sensor sample's fate (or its wait), the buffer and queue it leaves.
+
+        One path for any segment; what cannot happen in it (a sample settled on arrival, a timeout, an
+        overflow, a pruned buffer) is skipped after a scalar test, not computed as nothing.
+        """
         config = self.config
         events = segment.expiry_clock_s.size
         samples = segment.samples
-        # Rejected samples and those with neither angle settle on arrival.
-        code = segment.sensor_code
-        accepted = code == PENDING_CODE
-        no_angle = accepted & np.isnan(samples[2]) & np.isnan(samples[3])
-        own = ~accepted | no_angle
-        valid = ~own
-        # Candidates: the samples waiting from before (arrival −1), then this segment's valid ones, stamps rising.
+        # Refused samples and those with neither angle settle on arrival; the others are candidates.
+        own = segment.sensor_code != PENDING_CODE if segment.on_arrival else None
         prior = self.pending.shape[1]
-        if valid.all():
+        if own is None:
             candidates = np.concatenate((self.pending, samples), axis=1) if prior else samples
             arrive = segment.sensor_event
         else:
+            valid = ~own
             candidates = np.concatenate((self.pending, samples[:, valid]), axis=1)
             arrive = segment.sensor_event[valid]
-        if prior:
+        if prior:  # waiting from before: arrival −1; stamps rising
             arrive = np.concatenate((np.full(prior, -1, np.int64), arrive))
         stamp = candidates[1]
         count = stamp.size
         # Truth: the buffer (arrived before: event −1), then this segment's accepted samples.
         held = self.truth.shape[1]
-        truth = np.concatenate((self.truth, segment.truth), axis=1) if segment.truth.shape[1] else self.truth
+        new_truth = segment.truth.shape[1]
+        truth = np.concatenate((self.truth, segment.truth), axis=1) if new_truth else self.truth
         truth_t = truth[0]
-        truth_event = np.concatenate((np.full(held, -1, np.int64), segment.truth_event))
+        truth_event = np.concatenate((np.full(held, -1, np.int64), segment.truth_event)) if held else \
+            segment.truth_event
         total = truth_t.size
         # When each candidate settles: at once, when truth covers it, when its wait runs out, or never here.
         hi = np.searchsorted(truth_t, stamp, side="left")  # the first truth at or after the stamp
         covered = hi < total
         cover = np.where(covered, truth_event[np.minimum(hi, total - 1)] if total else 0, events)
         at_once = covered & (cover < arrive)
-        expire = first_expired(segment.expiry_clock_s, stamp, config.max_truth_wait_s, np.maximum(arrive, 0))
-        stale = ~at_once & (expire < cover)  # at a truth event, what it covers is aligned before the timeout
-        settle = np.where(at_once, arrive, np.minimum(cover, expire))  # `events`: still waiting
+        clocks, wait_s = segment.expiry_clock_s, config.max_truth_wait_s
+        stale = expire = None  # float subtraction is monotone: no clock past the oldest stamp, no timeout
+        if events and count and clocks.max() - stamp.min() > wait_s:
+            expire = first_expired(clocks, stamp, wait_s, np.maximum(arrive, 0))
+            stale = ~at_once & (expire < cover)  # at a truth event, what it covers is aligned before the timeout
+            if not stale.any():
+                stale = None
+        settle = np.where(at_once, arrive, cover if stale is None else np.minimum(cover, expire))  # events: waiting
         # The queue (candidates not aligned on arrival), FIFO: the sample max_pending places ahead of an
         # arrival is pushed out if it is still there — a stale one timed out at that event is (timeouts
         # come after the push).
         queued = np.flatnonzero(~at_once)
         limit = config.max_pending
-        overflow = np.zeros(count, bool)
+        overflow = None
         if queued.size > limit:
             pushed, pusher = queued[:-limit], queued[limit:]
             out = settle[pushed] >= arrive[pusher]
+            overflow = np.zeros(count, bool)
             overflow[pushed[out]] = True
             settle[pushed[out]] = arrive[pusher[out]]
         queue_settle = settle[queued]
-        if queued.size > 1 and (queue_settle[1:] < queue_settle[:-1]).any():
+        # Without a timeout or an overflow the queue settles by cover, which rises with the stamps.
+        if (stale is not None or overflow is not None) and queued.size > 1 and (
+                queue_settle[1:] < queue_settle[:-1]).any():
             raise RuntimeError("monitor alignment: the queue would not settle in order (stamps not increasing)")
-        # The buffer's first sample after each truth event (prune: history, the oldest waiting sample, capacity).
-        start_after = np.zeros(total, np.int64)
-        if total > held:
-            new = np.arange(held, total)
-            event = truth_event[held:]
+        # The buffer's first sample after each truth event (prune: history, the oldest waiting sample, capacity);
+        # it only moves forward.
+        start_after = None
+        if new_truth:
+            event = segment.truth_event
             front = np.searchsorted(queue_settle, event, side="right")  # the first not settled by then
-            front_stamp = np.full(new.size, np.inf)
+            front_stamp = np.inf
             if queued.size:
                 fronts = queued[np.minimum(front, queued.size - 1)]
-                waiting = (front < queued.size) & (arrive[fronts] < event)
-                front_stamp[waiting] = stamp[fronts[waiting]]
-            cutoff = np.minimum(truth_t[held:] - config.truth_history_s, front_stamp)
-            drop = np.maximum(np.searchsorted(truth_t, cutoff, side="right") - 1, new + 1 - config.truth_capacity)
-            start_after[held:] = np.maximum.accumulate(np.maximum(drop, 0))
+                front_stamp = np.where((front < queued.size) & (arrive[fronts] < event), stamp[fronts], np.inf)
+            cutoff = np.minimum(truth[0, held:] - config.truth_history_s, front_stamp)
+            drop = np.maximum(np.searchsorted(truth_t, cutoff, side="right") - 1,
+                              np.arange(held + 1 - config.truth_capacity, total + 1 - config.truth_capacity))
+            drop = np.maximum.accumulate(np.maximum(drop, 0))
+            if drop[-1] > 0:
+                start_after = np.concatenate((np.zeros(held, np.int64), drop))
         # The buffer each aligned sample sees: as left by the truth event before its settle event.
-        aligned = ~stale & ~overflow & (settle < events)
-        seen = np.where(at_once, np.searchsorted(truth_event, arrive, side="left") - 1, hi - 1)
-        start = np.where(seen >= 0, start_after[np.maximum(seen, 0)] if total else 0, 0)
-        pruned = self.truth_pruned | (start > 0)
+        aligned = settle < events
+        if stale is not None:
+            aligned &= ~stale
+        if overflow is not None:
+            aligned &= ~overflow
         at = np.minimum(hi, max(total - 1, 0))
         exact = covered & (truth_t[at] == stamp) if total else covered
-        lost = hi < start  # the covering truth itself was pruned: all the buffer is later
-        first = ~lost & ~exact & (hi == start)  # nothing before the stamp in the buffer
         low = np.maximum(hi - 1, 0)
-        gap = ~lost & ~exact & ~first & (truth_t[at] - truth_t[low] > config.max_truth_gap_s) if total else lost
-        used = aligned & ~lost & ~first & ~gap
-        candidate_code = np.where(used, _OK, np.where(aligned & gap, _GAP, np.where(pruned, _TOO_OLD, _NO_TRUTH)))
-        candidate_code = np.where(overflow, _OVERFLOW_CODE, np.where(stale, _STALE_CODE, candidate_code))
-        residual = np.full((2, count), np.nan)
+        if start_after is None:  # nothing pruned in this segment: each sees the buffer from its start
+            pruned, lost, first = self.truth_pruned, None, ~exact & (hi == 0)
+        else:
+            seen = np.where(at_once, np.searchsorted(truth_event, arrive, side="left") - 1, hi - 1)
+            start = np.where(seen >= 0, start_after[np.maximum(seen, 0)], 0)
+            pruned = self.truth_pruned | (start > 0)
+            lost = hi < start  # the covering truth itself was pruned: all the buffer is later
+            first = ~lost & ~exact & (hi == start)  # nothing before the stamp in the buffer
+        kept = ~first if lost is None else ~lost & ~first
+        gap = kept & ~exact & (truth_t[at] - truth_t[low] > config.max_truth_gap_s) if total else covered
+        used = aligned & kept & ~gap
+        # In settle order: per event, the sample's own fate (or what a truth pops), pushed out, timed out.
+        done = settle < events
+        block = np.empty((len(SETTLED_ROWS), count))
+        block[0:2] = candidates[0:2]
+        if pruned is True:
+            block[2] = np.where(used, _OK, np.where(aligned & gap, _GAP, _TOO_OLD))
+        else:
+            block[2] = np.where(used, _OK, np.where(aligned & gap, _GAP, np.where(pruned, _TOO_OLD, _NO_TRUTH)))
+        if stale is not None:
+            block[2] = np.where(stale, _STALE_CODE, block[2])
+        if overflow is not None:
+            block[2] = np.where(overflow, _OVERFLOW_CODE, block[2])
+        block[3:5] = np.nan
         k = np.flatnonzero(used)
         if k.size:
             h, lo, hit = hi[k], low[k], exact[k]
             weight = (stamp[k] - truth_t[lo]) / np.where(hit, 1.0, truth_t[h] - truth_t[lo])
             at_truth = np.where(hit, truth[1:3, h], truth[1:3, lo] + weight * (truth[1:3, h] - truth[1:3, lo]))
-            residual[:, k] = candidates[2:4, k] - at_truth
+            block[3:5, k] = candidates[2:4, k] - at_truth
+        block[5:8] = candidates[4:7]
         # What stays: the buffer as the last truth event left it, and the samples still waiting.
-        if total > held:
+        if start_after is not None:
             keep = start_after[-1]
             self.truth = truth[:, keep:]
-            self.truth_pruned = self.truth_pruned or keep > 0
-        waiting = settle >= events
-        done = ~waiting
-        self.pending = candidates[:, waiting] if waiting.any() else candidates[:, :0]
+            self.truth_pruned = True
+        elif new_truth:
+            self.truth = truth
+        all_done = bool(done.all())
+        self._wait(candidates[:, :0] if all_done else candidates[:, ~done])
         self._indexed = True
-        # In settle order: per event, the sample's own fate (or what a truth pops), pushed out, timed out.
-        block = np.vstack((candidates[0:2], candidate_code, residual, candidates[4:7]))[:, done]
-        if not own.any():
-            if stale.any() or overflow.any():
-                phase = np.where(overflow, _OVERFLOW, np.where(stale, _STALE, _OWN))
-                block = block[:, np.argsort((settle * 3 + phase)[done], kind="stable")]
+        if not all_done:
+            block = block[:, done]
+        if own is None:
+            if stale is not None or overflow is not None:
+                block = block[:, np.argsort((settle * 3 + _phase(stale, overflow))[done], kind="stable")]
             return Settled(block)
         immediate = np.flatnonzero(own)
-        nan = np.full(immediate.size, np.nan)
-        first_block = np.vstack((samples[0:2, immediate], np.where(no_angle[immediate], _NO_ANGLE, code[immediate]),
-                                 nan, nan, samples[4:7, immediate]))
-        phase = np.where(overflow, _OVERFLOW, np.where(stale, _STALE, _OWN))
-        key = np.concatenate((segment.sensor_event[immediate] * 3 + _OWN, (settle * 3 + phase)[done]))
+        first_block = np.empty((len(SETTLED_ROWS), immediate.size))
+        first_block[0:2] = samples[0:2, immediate]
+        first_block[2] = segment.sensor_code[immediate]
+        first_block[3:5] = np.nan
+        first_block[5:8] = samples[4:7, immediate]
+        key = np.concatenate((segment.sensor_event[immediate] * 3 + _OWN, (settle * 3 + _phase(stale, overflow))[done]))
         return Settled(np.concatenate((first_block, block), axis=1)[:, np.argsort(key, kind="stable")])
 
 
+def _phase(stale, overflow):
+    """Where in its settle event each candidate goes: its own fate, then pushed out, then timed out."""
+    phase = _OWN if stale is None else np.where(stale, _STALE, _OWN)
+    return phase if overflow is None else np.where(overflow, _OVERFLOW, phase)

@@ -80,6 +80,7 @@ from .alignment import Alignment, Segment, Settled
 from .records import (
     BATCH_STATUSES,
     COUNTER_NAMES,
+    SENSOR_REJECTIONS,
     SKIP_REASONS,
     BatchOutcome,
     Feed,
@@ -95,6 +96,7 @@ from ..common.validation import JumpDetector, Rejection, StampCheck
 
 _SKIP_CODES = {BATCH_STATUSES.index(status): f"skipped_{status.value}" for status in SKIP_REASONS}
 _OK = BATCH_STATUSES.index(Status.OK)
+_FIRST_REFUSAL = BATCH_STATUSES.index(SENSOR_REJECTIONS[0])  # codes from here on: refused on arrival
 _FIRST = (0,)  # the arrival of the one truth or odometry sample of a one-event input
 
 #: Used samples kept for the statistics before they go in whether or not anyone reads them (memory bound).
@@ -279,6 +281,8 @@ class ErrorMonitor(EventScan):
 
     def take_settled(self) -> list[Outcome]:
         """Outcomes settled by a call that returns no outcomes (an odometry message that reset the alignment)."""
+        if not self._later:
+            return []
         later, self._later = self._later, []
         return self._outcomes(Settled.concatenate(later))
 
@@ -316,6 +320,16 @@ class ErrorMonitor(EventScan):
                     model_roll_rad=_one(oblateness_roll_rad) if given else None,
                     model_pitch_rad=_one(oblateness_pitch_rad) if given else None)
         return self._outcomes(self._feed(feed))
+
+    def add_inputs(self, feed: Feed, place: int | None = None) -> tuple[list[Outcome], bool]:
+        """Any input in arrival order (a :class:`Feed`; a node's messages with their ``order``): the outcomes it
+        settled, in order, and whether its sensor sample at ``place`` was refused on arrival (False: no place)."""
+        settled = self._feed(feed)
+        outcomes = self.take_settled() + self._outcomes(settled)
+        if place is None or not settled.size:
+            return outcomes, False
+        refused = (settled.values[0] == place) & (settled.values[2] >= _FIRST_REFUSAL)
+        return outcomes, bool(refused.any())
 
     def poll(self, now_s: float | None = None) -> list[Outcome]:
         """Time out pending samples by the clock (call from a timer); returns their outcomes."""
@@ -437,30 +451,36 @@ class ErrorMonitor(EventScan):
         if not settled.size:
             return settled
         counters = self._counters
-        code = settled.code
-        for status, count in enumerate(np.bincount(code, minlength=len(BATCH_STATUSES)).tolist()):
-            if count and status in _SKIP_CODES:
-                counters[_SKIP_CODES[status]] += count
-        rows = np.flatnonzero(code == _OK)
-        if not rows.size:
-            return settled
+        ok = settled.values[2] == _OK
+        used = int(np.count_nonzero(ok))
+        if used < settled.size:  # skipped or refused samples among them: counted per reason
+            codes = np.bincount(settled.code, minlength=len(BATCH_STATUSES)).tolist()
+            for status, count in enumerate(codes):
+                if count and status in _SKIP_CODES:
+                    counters[_SKIP_CODES[status]] += count
+            if not used:
+                return settled
+        rows = ok if used < settled.size else slice(None)
         config = self.config
         _, t, _, residual_roll, residual_pitch, model_roll, model_pitch, altitude = settled.values[:, rows]
-        counters["used"] += int(rows.size)
+        counters["used"] += used
         counters["used_one_angle"] += int(np.count_nonzero(np.isnan(residual_roll) | np.isnan(residual_pitch)))
         has_model = np.isfinite(model_roll) & np.isfinite(model_pitch)
-        counters["used_without_oblateness_model"] += int(rows.size - np.count_nonzero(has_model))
+        counters["used_without_oblateness_model"] += used - int(np.count_nonzero(has_model))
         # Rows: roll, pitch, meridional with the oblateness model kept, then removed (NaN without a model).
-        angles = np.empty((6, rows.size))
+        angles = np.empty((6, used))
         angles[0] = residual_roll - config.roll_offset_rad
         angles[1] = residual_pitch - config.pitch_offset_rad
         angles[3] = np.where(has_model, angles[0] - model_roll, np.nan)
         angles[4] = np.where(has_model, angles[1] - model_pitch, np.nan)
         angles[2], angles[5] = np.hypot(angles[0], angles[1]), np.hypot(angles[3], angles[4])
         first = 3 if config.remove_oblateness else 0
-        settled.report()[:, rows] = angles[first:first + 3]
+        if used < settled.size:
+            settled.report()[:, rows] = angles[first:first + 3]
+        else:
+            settled.reported = angles[first:first + 3].copy()
         self._unaccounted.append((t, angles, altitude))
-        self._unaccounted_count += rows.size
+        self._unaccounted_count += used
         if self._unaccounted_count >= UNACCOUNTED_ROWS:
             self._account_statistics()
         return settled

@@ -228,13 +228,21 @@ class MonitorSummary:
         raise KeyError(name)
 
 
+#: The kinds of event in a :class:`Feed`'s ``order``.
+TRUTH_EVENT, ODOMETRY_EVENT, SENSOR_EVENT, POLL_EVENT = range(4)
+
+
 @dataclass
 class Feed:
     """One input of :class:`ErrorMonitor`, in arrival order: sensor samples, truth, odometry, a poll.
 
     Before sensor sample i arrive the truth samples with ``truth_arrival == i``, then the odometry with
-    ``odometry_arrival == i``; index N means after the last sample, and a poll (``poll_now_s``) comes last.
-    Times s, angles rad, ECI states m and m/s; ``*_now_s`` is the node clock at each arrival (None: none).
+    ``odometry_arrival == i``; index N means after the last sample, and a poll (``poll_now_s``) comes last —
+    unless ``order`` lists the events ``(kind, index)`` in arrival order itself (a node's messages: truth and
+    odometry interleaved as they came). Times s, angles rad, ECI states m and m/s; ``*_now_s`` is the node clock
+    at each arrival (None: none; an element None: none for that one). Columns are arrays, or — a node's few
+    messages, which go event by event — lists, ``truth`` then a list of per-sample tuples and the odometry's
+    states lists of 3-tuples.
     """
 
     t_s: np.ndarray
@@ -258,6 +266,7 @@ class Feed:
     model_roll_rad: np.ndarray | None = None  #: (N,) the oblateness model itself (None: from the orbit)
     model_pitch_rad: np.ndarray | None = None
     poll_now_s: float | None = None
+    order: list | None = None  #: ``(kind, index)`` per event in arrival order (kinds: the scan's), or None
 
 
 class StatisticsSet:
@@ -323,6 +332,6 @@ def orbit_record(t_s: float, position_eci_m, velocity_eci_m_s) -> tuple:
     """What the monitor keeps of an accepted odometry state: (stamp_s, u_rad, inclination_rad, altitude_m,
     mean motion rad/s) — the orbit of :meth:`ErrorMonitor.orbit_at`."""
     u, inclination, altitude = orbit_angles_from_state(position_eci_m, velocity_eci_m_s)
-    radius = math.hypot(*(float(c) for c in position_eci_m))
-    speed = math.hypot(*(float(c) for c in velocity_eci_m_s))
+    (rx, ry, rz), (vx, vy, vz) = position_eci_m, velocity_eci_m_s
+    radius, speed = math.hypot(float(rx), float(ry), float(rz)), math.hypot(float(vx), float(vy), float(vz))
     return (t_s, float(u), float(inclination), float(altitude), speed / radius)

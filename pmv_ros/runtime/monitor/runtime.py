@@ -9,6 +9,16 @@ the statistics come every ``1/statistics_rate_hz`` seconds of sample time
 vectors carry); :meth:`MonitorRuntime.health` is the ``/diagnostics``
 status. Each input returns a :class:`MonitorOutput`.
 
+The node hands over the messages of one executor wake-up at once
+(:meth:`MonitorRuntime.add_inputs`): they go to the monitor as one input, so
+its fixed cost (a settle of what they make due) is paid once per wake-up,
+not per message; the one-message inputs (:meth:`~MonitorRuntime.add_sensor`,
+:meth:`~MonitorRuntime.add_truth`, :meth:`~MonitorRuntime.add_odometry`) are
+batches of one. What comes out, and in which order, does not depend on
+where the messages are cut: a batch is cut only after a sensor sample at
+which the statistics fall due, and the statistics then are those of that
+moment.
+
 Bad input is dropped before it touches any state and counted per reason
 (``rejected_<stream>_<reason>``: the checks of :mod:`pmv_ros.runtime.common.validation`,
 with the ``input.*`` plausibility bounds), messages the shim cannot read as
@@ -36,7 +46,8 @@ from ...physics.constants import ARCMIN_RAD
 from ..common.assembly import orbit_bounds
 from ..common.frames import Frames
 from .core import ErrorMonitor
-from .records import SENSOR_REJECTIONS, MonitorConfig, BatchOutcome, MonitorSummary, Status
+from .records import (ODOMETRY_EVENT, SENSOR_EVENT, TRUTH_EVENT, BatchOutcome, Feed, MonitorConfig, MonitorSummary,
+                      Outcome, Status)
 from ..common.records import HealthSummary, Level
 from ..common.validation import Rejection, check_frame
 
@@ -91,10 +102,42 @@ class MonitorStatistics:
 
 @dataclass
 class MonitorOutput:
-    """What one input makes the monitor publish: residuals (OK outcomes, in order), maybe statistics."""
+    """What inputs make the monitor publish, in order: residuals (:class:`~pmv_ros.runtime.monitor.records.Outcome`
+    items, OK ones) and :class:`MonitorStatistics` when due."""
 
-    residuals: list = field(default_factory=list)  #: :class:`~pmv_ros.runtime.monitor.records.Outcome` items
-    statistics: MonitorStatistics | None = None
+    published: list = field(default_factory=list)
+
+    @property
+    def residuals(self) -> list[Outcome]:
+        """The aligned samples' outcomes, in order."""
+        return [item for item in self.published if type(item) is Outcome]
+
+    @property
+    def statistics(self) -> MonitorStatistics | None:
+        """The last statistics published (None: none)."""
+        computed = [item for item in self.published if type(item) is MonitorStatistics]
+        return computed[-1] if computed else None
+
+
+class _Batch:
+    """Messages gathered for one monitor input (a :class:`~pmv_ros.runtime.monitor.records.Feed` with its order)."""
+
+    def __init__(self) -> None:
+        self.order, self.sensor, self.truth, self.odometry = [], ([], [], [], []), ([], [], []), ([], [], [], [])
+
+    def add(self, kind: int, columns: tuple, values: tuple) -> None:
+        self.order.append((kind, len(columns[0])))
+        for column, value in zip(columns, values):
+            column.append(value)
+
+    def feed(self, values: dict) -> Feed:
+        (t, roll, pitch, now), (truth_t, q, truth_now), (odometry_t, position, velocity, odometry_now) = (
+            self.sensor, self.truth, self.odometry)
+        model = [0.0] * len(t) if oblateness_override(values) else None
+        return Feed(t, roll, pitch, now, truth_t_s=truth_t, truth=q, truth_now_s=truth_now, odometry_t_s=odometry_t,
+                    odometry_position_m=position, odometry_velocity_m_s=velocity, odometry_now_s=odometry_now,
+                    odometry_max_age_s=values["odometry_timeout_s"], model_roll_rad=model, model_pitch_rad=model,
+                    order=self.order)
 
 
 class MonitorRuntime:
@@ -136,45 +179,67 @@ class MonitorRuntime:
             self.rejected_messages[f"rejected_{stream}_{rejection.value}"] += 1
         return rejection is None
 
-    def _unreadable(self, stream: str) -> MonitorOutput:
-        self.rejected_messages[f"rejected_{stream}_unreadable"] += 1
-        return MonitorOutput()
+    def _readable(self, stream: str, value) -> bool:
+        if value is None:
+            self.rejected_messages[f"rejected_{stream}_unreadable"] += 1
+        return value is not None
+
+    def add_inputs(self, events) -> MonitorOutput:
+        """Messages in arrival order, as the node queued them in one executor wake-up: each ``(input, its
+        arguments, node clock s or None)`` with the input one of ``"add_sensor"``, ``"add_truth"``,
+        ``"add_odometry"`` and the arguments those take (below). What they make the node publish, in order: what
+        those methods give one message at a time, with the monitor fed once for the whole batch — cut only after a
+        sensor sample at which the statistics fall due (at most ``statistics_rate_hz`` times a second of samples).
+        """
+        output, batch, frames = MonitorOutput(), _Batch(), self.frames
+        for to, arguments, now_s in events:
+            if to == "add_sensor":
+                frame_id, stamp_s, roll_rad, pitch_rad = arguments
+                if self._in_frame("sensor", frame_id, frames.sensor) and self._readable("sensor", stamp_s):
+                    batch.add(SENSOR_EVENT, batch.sensor, (stamp_s, roll_rad, pitch_rad, now_s))
+                    if self._statistics_due(stamp_s):
+                        self._give(batch, output, stamp_s)
+                        batch = _Batch()
+            elif to == "add_truth":
+                frame_id, stamp_s, q_xyzw = arguments
+                if self._in_frame("truth", frame_id, frames.orbital) and self._readable("truth", stamp_s):
+                    batch.add(TRUTH_EVENT, batch.truth, (stamp_s, q_xyzw, now_s))
+            elif to == "add_odometry":
+                frame_id, child_frame_id, state = arguments
+                # nav_msgs: the pose in ``frame_id`` (ECI), the twist in ``child_frame_id`` (orbital).
+                if (self._in_frame("odometry", frame_id, frames.eci)
+                        and self._in_frame("odometry", child_frame_id, frames.orbital)
+                        and self._readable("odometry", state)):
+                    batch.add(ODOMETRY_EVENT, batch.odometry, (*state, now_s))
+            else:
+                raise ValueError(f"error monitor: no input {to!r}")
+        self._give(batch, output)
+        return output
+
+    def _give(self, batch: _Batch, output: MonitorOutput, due_s: float | None = None) -> None:
+        """Feed ``batch`` to the monitor; the residuals, then the statistics if the sample it ends with at
+        ``due_s`` was not refused (a refused sample must not move the statistics schedule)."""
+        if not batch.order:
+            return
+        outcomes, refused = self.monitor.add_inputs(batch.feed(self.values),
+                                                    None if due_s is None else len(batch.sensor[0]) - 1)
+        output.published += [outcome for outcome in outcomes if outcome.status is Status.OK]
+        if due_s is not None and not refused:
+            output.published.append(self._statistics_when_due(due_s))
 
     def add_odometry(self, frame_id: str, child_frame_id: str, state, now_s: float | None) -> MonitorOutput:
         """One /orbit/odometry message: ``state`` (stamp s, position m, velocity m/s in ECI), None if unreadable.
-
-        nav_msgs: the pose in ``frame_id`` (ECI), the twist in ``child_frame_id`` (orbital).
-        """
-        if not (self._in_frame("odometry", frame_id, self.frames.eci)
-                and self._in_frame("odometry", child_frame_id, self.frames.orbital)):
-            return MonitorOutput()
-        if state is None:
-            return self._unreadable("odometry")
-        # Validated (a bound Earth orbit, sane stamps) and kept in the monitor; a confirmed clock jump resets there.
-        self.monitor.add_odometry(*state, now_s=now_s)
-        return self._residuals(self.monitor.take_settled())
+        Validated (a bound Earth orbit, sane stamps) and kept in the monitor; a confirmed clock jump resets there."""
+        return self.add_inputs([("add_odometry", (frame_id, child_frame_id, state), now_s)])
 
     def add_truth(self, frame_id: str, stamp_s: float | None, q_xyzw, now_s: float | None) -> MonitorOutput:
         """One star-tracker attitude (orbital → body, x, y, z, w) at ``stamp_s`` (None: unreadable)."""
-        if not self._in_frame("truth", frame_id, self.frames.orbital):
-            return MonitorOutput()
-        if stamp_s is None:
-            return self._unreadable("truth")
-        return self._residuals(self.monitor.add_truth_quaternion(stamp_s, q_xyzw, now_s=now_s))
+        return self.add_inputs([("add_truth", (frame_id, stamp_s, q_xyzw), now_s)])
 
     def add_sensor(self, frame_id: str, stamp_s: float | None, roll_rad: float, pitch_rad: float,
                    now_s: float | None) -> MonitorOutput:
         """One sensor sample (roll, pitch, rad) at ``stamp_s`` (None: unreadable); the statistics when due."""
-        if not self._in_frame("sensor", frame_id, self.frames.sensor):
-            return MonitorOutput()
-        if stamp_s is None:
-            return self._unreadable("sensor")
-        outcomes = self.monitor.add_sensor(stamp_s, roll_rad, pitch_rad, now_s=now_s, **self._sample_orbit())
-        output = self._residuals(outcomes)
-        # A rejected sample (a zero or future stamp, say) must not move the statistics schedule.
-        if not any(outcome.status in SENSOR_REJECTIONS for outcome in outcomes):
-            output.statistics = self._statistics_when_due(stamp_s)
-        return output
+        return self.add_inputs([("add_sensor", (frame_id, stamp_s, roll_rad, pitch_rad), now_s)])
 
     def add_stream(self, t_s, roll_rad, pitch_rad, truth_t_s, q_truth, truth_arrival, position_eci_m,
                    velocity_eci_m_s) -> BatchOutcome:
@@ -192,13 +257,15 @@ class MonitorRuntime:
 
     def poll(self, now_s: float | None) -> MonitorOutput:
         """The node clock's tick: samples that waited too long for truth are settled."""
-        return self._residuals(self.monitor.poll(now_s))
-
-    @staticmethod
-    def _residuals(outcomes) -> MonitorOutput:
-        return MonitorOutput(residuals=[outcome for outcome in outcomes if outcome.status is Status.OK])
+        return MonitorOutput([outcome for outcome in self.monitor.poll(now_s) if outcome.status is Status.OK])
 
     # -- outputs -----------------------------------------------------------------------------------
+
+    def _statistics_due(self, stamp_s: float) -> bool:
+        """Whether a sample at ``stamp_s`` that is not refused makes the statistics due (see below)."""
+        following = self._next_statistics_s
+        return (following is None or stamp_s >= following
+                or stamp_s < following - 1.0 / self.values["statistics_rate_hz"])
 
     def _statistics_when_due(self, stamp_s: float) -> MonitorStatistics | None:
         period = 1.0 / self.values["statistics_rate_hz"]

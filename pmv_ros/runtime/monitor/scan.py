@@ -29,7 +29,8 @@ from ...physics.attitude import true_roll_pitch
 from ...physics.constants import GM_EARTH_M3_S2
 from ...physics.orbit.two_body import orbit_angles_from_state
 from .alignment import SAMPLE_ROWS, Segment, oblateness_model
-from .records import BATCH_STATUSES, PENDING_CODE, Feed, orbit_record
+from .records import BATCH_STATUSES, ODOMETRY_EVENT, PENDING_CODE, POLL_EVENT, SENSOR_EVENT, TRUTH_EVENT, Feed, \
+    Status, orbit_record
 from ..common.validation import (
     QUATERNION_NORM_TOLERANCE,
     UNIT_ROUNDING,
@@ -40,12 +41,18 @@ from ..common.validation import (
     check_quaternion,
 )
 
+_NO_ANGLE = BATCH_STATUSES.index(Status.NO_VALID_ANGLE)
+
 #: Below this many sensor samples a batch goes event by event.
 MIN_ARRAY_SAMPLES = 32
 
 #: ``math.hypot`` of four arrays, element by element: the norm check_quaternion takes (numpy's hypot has two
 #: arguments and rounds otherwise).
 _HYPOT_4 = np.frompyfunc(math.hypot, 4, 1)
+
+
+def _as_list(column) -> list:
+    return column if isinstance(column, list) else column.tolist()
 
 
 def _orbit_records(t_s: np.ndarray, position_eci_m: np.ndarray, velocity_eci_m_s: np.ndarray) -> np.ndarray:
@@ -82,6 +89,8 @@ def _odometry_at_sensors(feed: Feed) -> bool:
 def scan_clean(monitor, feed: Feed) -> Segment | None:
     """The segment of a clean batch, with ``monitor``'s counters, timelines and orbit moved past it; or None
     (nothing touched) for a batch that needs the event-by-event scan."""
+    if feed.order is not None:  # a node's messages, in the order they came: event by event
+        return None
     t, truth_t, arrival, now = feed.t_s, feed.truth_t_s, feed.truth_arrival, feed.sensor_now_s
     n, m = t.size, truth_t.size
     if n < MIN_ARRAY_SAMPLES or feed.poll_now_s is not None or feed.truth.shape[0] != 4:
@@ -151,6 +160,7 @@ def scan_clean(monitor, feed: Feed) -> Segment | None:
         return None
     # Clean: from here on the monitor's state moves.
     sensor_code = np.full(n, PENDING_CODE, np.int64)
+    sensor_code[sensor_ok & np.isnan(roll) & np.isnan(pitch)] = _NO_ANGLE  # settles on arrival
     sensor_code[infinite] = BATCH_STATUSES.index(Rejection.NON_FINITE)
     sensor_code[too_large] = BATCH_STATUSES.index(Rejection.IMPLAUSIBLE_ANGLE)
     counters["sensor_received"] = n
@@ -207,10 +217,9 @@ def scan_clean(monitor, feed: Feed) -> Segment | None:
     samples = np.vstack((np.arange(n, dtype=float), t, roll, pitch, np.broadcast_to(model_roll, (n,)),
                          np.broadcast_to(model_pitch, (n,)), np.broadcast_to(altitude, (n,))))
     truth = np.vstack((truth_t[truth_ok], np.atleast_1d(truth_roll), np.atleast_1d(truth_pitch)))
-    return Segment(samples, sensor_code, sensor_event, truth, truth_event[truth_ok], expiry_clock)
+    return Segment(samples, sensor_code, sensor_event, truth, truth_event[truth_ok], expiry_clock,
+                   bool(np.any(sensor_code != PENDING_CODE)))
 
-
-_TRUTH, _ODOMETRY, _SENSOR, _POLL = range(4)
 
 #: The open segment is settled at this many events whatever they are (memory stays bounded).
 OPEN_EVENTS = 256
@@ -231,6 +240,7 @@ class OpenSegment:
         self.truth: list = []       # (stamp, roll, pitch, event)
         self.expiry: list = []      # per event: what times waiting samples out
         self.due = False
+        self.on_arrival = False     # a sample in it settles on arrival (refused, or with neither angle)
         self.waiting = 0            # samples in it that may wait for truth
         self.oldest_s = math.inf    # the oldest of them
 
@@ -250,31 +260,37 @@ class EventScan:
     def _segment(self, gathered: OpenSegment) -> Segment:
         """The open segment's events as a :class:`Segment`, with each sample's oblateness model and altitude."""
         rows = np.array(gathered.sensor, float).reshape(-1, len(_SAMPLE_COLUMNS)).T
-        rows[1] = np.where(rows[0] == self._serial, rows[1], -1.0)  # a place in an earlier input means nothing
+        if gathered.sensor and gathered.sensor[0][0] != self._serial:  # gathered in order: the first is the oldest
+            rows[1] = np.where(rows[0] == self._serial, rows[1], -1.0)  # a place in an earlier input means nothing
         truth = np.array(gathered.truth, float).reshape(-1, 4).T
         return Segment(rows[_SAMPLE_ROWS], rows[2].astype(np.int64), rows[3].astype(np.int64), truth[:3],
-                       truth[3].astype(np.int64), np.array(gathered.expiry, float))
+                       truth[3].astype(np.int64), np.array(gathered.expiry, float), gathered.on_arrival)
 
     def _scan_events(self, feed: Feed) -> None:
         """Validate ``feed`` event by event into the open segment; a confirmed clock jump settles what came
         before it and resets."""
-        n, m, k = len(feed.t_s), len(feed.truth_t_s), len(feed.odometry_t_s)
-        if n + m + k == 1:
-            order = [(_SENSOR, 0)] if n else [(_TRUTH, 0)] if m else [(_ODOMETRY, 0)]
-        else:
-            truth_at = np.searchsorted(feed.truth_arrival, np.arange(n + 2), side="left").tolist()
-            odometry_at = np.searchsorted(feed.odometry_arrival, np.arange(n + 2), side="left").tolist()
-            order = []
-            for i in range(n + 1):
-                order += [(_TRUTH, j) for j in range(truth_at[i], truth_at[i + 1])]
-                order += [(_ODOMETRY, j) for j in range(odometry_at[i], odometry_at[i + 1])]
-                if i < n:
-                    order.append((_SENSOR, i))
-        if feed.poll_now_s is not None:
-            order.append((_POLL, 0))
-        handlers = (self._truth_event, self._odometry_event, self._sensor_event, self._poll_event)
-        for kind, k in order:
-            handlers[kind](feed, k)
+        order = feed.order
+        if order is None:
+            n, m, k = len(feed.t_s), len(feed.truth_t_s), len(feed.odometry_t_s)
+            if n + m + k == 1:
+                order = [(SENSOR_EVENT, 0)] if n else [(TRUTH_EVENT, 0)] if m else [(ODOMETRY_EVENT, 0)]
+            else:  # before sensor sample i, the truth arriving at i, then the odometry arriving at i
+                truth_at, odometry_at = _as_list(feed.truth_arrival), _as_list(feed.odometry_arrival)
+                order, j, o = [], 0, 0
+                for i in range(n + 1):
+                    while j < m and truth_at[j] <= i:
+                        order.append((TRUTH_EVENT, j))
+                        j += 1
+                    while o < k and odometry_at[o] <= i:
+                        order.append((ODOMETRY_EVENT, o))
+                        o += 1
+                    if i < n:
+                        order.append((SENSOR_EVENT, i))
+            if feed.poll_now_s is not None:
+                order.append((POLL_EVENT, 0))
+        handlers = self._HANDLERS
+        for kind, index in order:
+            handlers[kind](self, feed, index)
 
     def _restart(self) -> None:
         """A confirmed jump mid-input: settle the events before it, then reset (a new segment)."""
@@ -318,26 +334,28 @@ class EventScan:
         expiry = -math.inf if latest is None else latest
         gathered = self._open
         gathered.expiry.append(expiry)
-        oldest = self._alignment.pending[1, 0] if self._alignment.pending_count else gathered.oldest_s
+        oldest = self._alignment.oldest_pending_s if self._alignment.pending_count else gathered.oldest_s
         if expiry - oldest > self.config.max_truth_wait_s or len(gathered.expiry) >= OPEN_EVENTS:
             gathered.due = True
 
     @staticmethod
     def _now(column, k: int):
-        return None if column is None else float(column[k])
+        value = None if column is None else column[k]
+        return None if value is None else float(value)
 
     def _truth_event(self, feed: Feed, j: int) -> None:
         self._counters["truth_received"] += 1
         now_s = self._now(feed.truth_now_s, j)
         clock_s = self._observe(now_s)
         t_s = float(feed.truth_t_s[j])
-        if feed.truth.shape[0] == 4:
-            unit, rejection, normalised = check_quaternion(feed.truth[:, j])
+        truth = feed.truth[j] if isinstance(feed.truth, list) else feed.truth[:, j]
+        if len(truth) == 4:
+            unit, rejection, normalised = check_quaternion(truth)
             if rejection is None:
                 self._counters["truth_quaternions_normalised"] += normalised
                 roll, pitch = true_roll_pitch(unit)
         else:
-            roll, pitch = float(feed.truth[0, j]), float(feed.truth[1, j])
+            roll, pitch = float(truth[0]), float(truth[1])
             # Truth is complete, or it is no truth.
             rejection = None if math.isfinite(roll) and math.isfinite(pitch) else Rejection.NON_FINITE
         if rejection is None:
@@ -355,7 +373,10 @@ class EventScan:
         now_s = self._now(feed.odometry_now_s, k)
         self._observe(now_s)
         t_s = float(feed.odometry_t_s[k])
-        position, velocity = feed.odometry_position_m[:, k], feed.odometry_velocity_m_s[:, k]
+        if isinstance(feed.odometry_position_m, list):
+            position, velocity = feed.odometry_position_m[k], feed.odometry_velocity_m_s[k]
+        else:
+            position, velocity = feed.odometry_position_m[:, k], feed.odometry_velocity_m_s[:, k]
         rejection = check_orbit_state(position, velocity, self.config.bounds)
         if rejection is None:
             rejection = self._check_stamp("odometry", t_s, now_s)
@@ -378,9 +399,10 @@ class EventScan:
         if rejection is not None:
             self._counters[f"rejected_sensor_{rejection.value}"] += 1
             code = BATCH_STATUSES.index(rejection)
-            gathered.due = True
+            gathered.due = gathered.on_arrival = True
         elif math.isnan(roll) and math.isnan(pitch):
-            gathered.due = True
+            code = _NO_ANGLE
+            gathered.due = gathered.on_arrival = True
         elif (self._stamps["truth"].latest_s or -math.inf) >= t_s:
             gathered.due = True  # covered on arrival
         else:
@@ -395,13 +417,16 @@ class EventScan:
     def _model(self, feed: Feed, i: int, t_s: float) -> tuple:
         """(model roll, model pitch, altitude) of sensor sample ``i`` of ``feed``: the model given with it, or
         the closed form at its orbit (the odometry's, or the orbit columns); NaN where unknown."""
-        if feed.odometry_max_age_s is not None:
-            orbit = self.orbit_at(t_s, feed.odometry_max_age_s)
-            config = self.config
-            u = orbit.get("u_rad", math.nan)
-            inclination = orbit.get("inclination_rad", math.nan if config.inclination_rad is None
-                                    else config.inclination_rad)
-            altitude = orbit.get("altitude_m", math.nan if config.altitude_m is None else config.altitude_m)
+        if feed.odometry_max_age_s is not None:  # the orbit of ErrorMonitor.orbit_at, or the configured one
+            orbit = self._orbit
+            if orbit is not None and abs(t_s - orbit[0]) <= feed.odometry_max_age_s:
+                stamp, u, inclination, altitude, rate = orbit
+                u += rate * (t_s - stamp)
+            else:
+                config = self.config
+                u = math.nan
+                inclination = math.nan if config.inclination_rad is None else config.inclination_rad
+                altitude = math.nan if config.altitude_m is None else config.altitude_m
         else:
             u, inclination, altitude = float(feed.u_rad[i]), float(feed.inclination_rad[i]), float(feed.altitude_m[i])
         if feed.model_roll_rad is not None:
@@ -410,3 +435,6 @@ class EventScan:
 
     def _poll_event(self, feed: Feed, _: int) -> None:
         self._close_event(self._observe(feed.poll_now_s))
+
+    #: The handler of each kind of event (TRUTH_EVENT, ODOMETRY_EVENT, SENSOR_EVENT, POLL_EVENT).
+    _HANDLERS = (_truth_event, _odometry_event, _sensor_event, _poll_event)

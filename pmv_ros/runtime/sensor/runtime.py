@@ -53,7 +53,7 @@ from ..common.assembly import build_models, orbit_bounds
 from .estimator_output import EstimatorOrientation, estimator_orientation, variance_from_rms_arcmin
 from ..common.frames import Frames
 from ..common.orbit_buffer import FollowedOrbit, OrbitAt
-from ..common.records import HealthSummary, Level
+from ..common.records import HealthAt, HealthSummary, Level  # HealthAt: the sensor's ``horizon`` status
 from .sample_stream import SampleGrid, SampleStream, SensorSample, fast_time_block
 from .health import SensorHealth, truth_source_warnings
 from ..common.truth_buffer import PendingSamples, TruthAt, TruthBuffer
@@ -66,13 +66,6 @@ class SamplePublication(NamedTuple):
 
     sample: SensorSample
     imu: EstimatorOrientation
-
-
-class HealthAt(NamedTuple):
-    """The sensor's ``horizon`` status on ``/diagnostics`` at sample time ``stamp_s``, s."""
-
-    stamp_s: float
-    health: HealthSummary
 
 
 class LogLine(NamedTuple):

@@ -8,7 +8,9 @@ sample completes as one call would (:meth:`StarTracker.measure_groups`, at
 the nadir-pointing inertial rate), and the good ones wait ``latency_s`` in the
 :class:`LatencyQueue`. Outcomes are counted as ``/diagnostics`` shows them.
 
-The node's input side is here too (:meth:`TrackerRuntime.receive_truth`), and
+The node's input side is here too (:meth:`TrackerRuntime.add_inputs`: the
+messages the node queued in one executor wake-up, the good ones measured as one
+batch; :meth:`TrackerRuntime.receive_truth`: one message, a batch of one), and
 its ``/diagnostics`` status (:meth:`TrackerRuntime.health`).
 
 Bad input (the checks are :mod:`pmv_ros.runtime.common.validation`): a truth message
@@ -38,7 +40,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Callable, NamedTuple
 
 import numpy as np
 
@@ -46,19 +48,37 @@ from ...physics.orbit.two_body import circular_mean_motion_rad_s
 from ...physics.star_tracker import FrameGrid, LatencyQueue, Outcome, inertial_rate_of_nadir_pointing, read_only
 from ..common.assembly import build_tracker
 from ..common.frames import Frames
-from ..common.records import HealthSummary, Level
+from ..common.records import HealthAt, HealthSummary, Level
 from ..common.validation import TRUTH_REJECTIONS, Rejection, StampCheck, check_frame, check_quaternion_sample
 
 #: Why a truth message is dropped: the checks of the stream, and a frame other than the orbital one.
 REJECTIONS = TRUTH_REJECTIONS + (Rejection.WRONG_FRAME,)
 
 
+class ReleasedFrame(NamedTuple):
+    """A measured frame whose latency has passed: its time (s) and the measured attitude (x, y, z, w)."""
+
+    frame_s: float
+    q_measured: np.ndarray
+
+
 @dataclass
 class TrackerOutput:
-    """What one truth message makes the star tracker publish: released frames, maybe a /diagnostics status."""
+    """What truth messages make the star tracker publish, in order: :class:`ReleasedFrame` items and
+    :class:`~pmv_ros.runtime.common.records.HealthAt` statuses (stamped with the truth sample's time)."""
 
-    released: list = field(default_factory=list)  #: (frame time s, measured (x, y, z, w)) in frame order
-    health: HealthSummary | None = None  #: stamped with the truth sample's time
+    published: list = field(default_factory=list)
+
+    @property
+    def released(self) -> list[ReleasedFrame]:
+        """The released frames, in frame order."""
+        return [item for item in self.published if type(item) is ReleasedFrame]
+
+    @property
+    def health(self) -> HealthSummary | None:
+        """The last /diagnostics status (None: none)."""
+        statuses = [item.health for item in self.published if type(item) is HealthAt]
+        return statuses[-1] if statuses else None
 
 
 @dataclass(frozen=True)
@@ -181,37 +201,60 @@ class TrackerRuntime:
         return values
 
     def receive_truth(self, frame_id: str, stamp_s: float | None, q_xyzw, now_s: float | None) -> TrackerOutput:
-        """One /attitude/truth message (``stamp_s`` None: unreadable) at node clock ``now_s`` (None: unknown).
+        """One /attitude/truth message (``stamp_s`` None: unreadable) at node clock ``now_s`` (None: unknown): a batch
+        of one (:meth:`add_inputs`)."""
+        return self.add_inputs([("receive_truth", (frame_id, stamp_s, q_xyzw), now_s)])
 
-        A bad one is counted and changes nothing else; a good one adds frames and releases those due, and a
-        /diagnostics status comes at most once a second of truth time.
+    def add_inputs(self, events) -> TrackerOutput:
+        """/attitude/truth messages in arrival order, each ``("receive_truth", (frame id, stamp s or None when
+        unreadable, (x, y, z, w)), node clock s or None)``: what they make the tracker publish, in order.
+
+        A bad one is counted and changes nothing else; a good one adds frames and releases those due at its stamp,
+        and a /diagnostics status comes at most once a second of truth time. The good messages between two
+        statuses (or clock jumps) are measured as one batch (:meth:`add_truth_batch`, the same draws as one by one).
         """
-        counts = self.input_counts
-        rejection = check_frame(frame_id, self.frames.orbital)  # an inertial quaternion, say
-        if rejection is not None:
-            counts[f"rejected_truth_{rejection.value}"] += 1
-            return TrackerOutput()
-        if stamp_s is None:  # a negative or non-finite stamp
-            counts[f"rejected_truth_{Rejection.ZERO_STAMP.value}"] += 1
-            return TrackerOutput()
-        self.last_arrival_s = now_s
-        sample = check_quaternion_sample(self.stamps, stamp_s, q_xyzw, now_s)
-        counts["clock_outliers"] += sample.outliers
-        if sample.jumped:  # the truth clock went back: frames of the old timeline not yet released are dropped
-            counts["clock_jumps"] += 1
-            counts["frames_dropped_at_clock_jump"] += self.new_timeline()
-            self._last_health_s = -math.inf
-        if sample.rejection is not None:
-            counts[f"rejected_truth_{sample.rejection.value}"] += 1
-            return TrackerOutput()
-        counts["truth_quaternions_normalised"] += sample.normalised
-        self.add_truth_batch(stamp_s, sample.q_xyzw)
-        output = TrackerOutput(released=self.release(stamp_s))
-        if stamp_s - self._last_health_s >= 1.0:
-            self._last_health_s = stamp_s
-            last = self.last_outcome
-            output.health = self.health(
-                [] if last == Outcome.OK else [f"star-tracker outage: {last.name.lower().replace('_', ' ')}"])
+        output, counts = TrackerOutput(), self.input_counts
+        stamps, quaternions = [], []
+
+        def measure() -> None:  # the good messages so far: their frames, then the releases at each stamp
+            if len(stamps) == 1:
+                self.add_truth_batch(stamps[0], quaternions[0])
+                output.published += [ReleasedFrame(*frame) for frame in self.release(stamps[0])]
+            elif stamps:
+                self.add_truth_batch(np.array(stamps), np.array(quaternions).T)
+                frame_s, q_measured, _ = self.release_batch(np.array(stamps))
+                output.published += [ReleasedFrame(t, q_measured[:, k]) for k, t in enumerate(frame_s.tolist())]
+            stamps.clear()
+            quaternions.clear()
+
+        for _, (frame_id, stamp_s, q_xyzw), now_s in events:
+            rejection = check_frame(frame_id, self.frames.orbital)  # an inertial quaternion, say
+            if rejection is None and stamp_s is None:  # a negative or non-finite stamp
+                rejection = Rejection.ZERO_STAMP
+            if rejection is not None:
+                counts[f"rejected_truth_{rejection.value}"] += 1
+                continue
+            self.last_arrival_s = now_s
+            sample = check_quaternion_sample(self.stamps, stamp_s, q_xyzw, now_s)
+            counts["clock_outliers"] += sample.outliers
+            if sample.jumped:  # the truth clock went back: frames of the old timeline not yet released are dropped
+                measure()
+                counts["clock_jumps"] += 1
+                counts["frames_dropped_at_clock_jump"] += self.new_timeline()
+                self._last_health_s = -math.inf
+            if sample.rejection is not None:
+                counts[f"rejected_truth_{sample.rejection.value}"] += 1
+                continue
+            counts["truth_quaternions_normalised"] += sample.normalised
+            stamps.append(stamp_s)
+            quaternions.append(sample.q_xyzw)
+            if stamp_s - self._last_health_s >= 1.0:
+                measure()
+                self._last_health_s = stamp_s
+                last = self.last_outcome
+                output.published.append(HealthAt(stamp_s, self.health(
+                    [] if last == Outcome.OK else [f"star-tracker outage: {last.name.lower().replace('_', ' ')}"])))
+        measure()
         return output
 
     def stale_health(self, now_s: float | None) -> HealthSummary | None:

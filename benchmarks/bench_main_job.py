@@ -1,0 +1,250 @@
+"""The main job against the rclpy floor of its own messages, in one process and one run.
+
+(a) The main job: ``pmv simulate``'s pipeline (:class:`pmv_ros.nodes.pipeline.Pipeline`, lean nodes, the
+report collector) on the Kondor preset at 10 Hz, stepped for ``--orbits`` (default 0.2) of an orbit.
+
+(b) The floor: bare rclpy publishing and taking exactly the messages the main job published and took, tick by
+tick — the same topics and message types (each message a copy of one the main job sent, so the same sizes), from
+nodes of the same names holding the same publishers and the same subscriptions (the same QoS, in the same order),
+on the same executor drained the same way after every tick (:func:`pmv_ros.nodes.pipeline.drain`) — and no
+computation: every callback only counts, and a tick publishes its messages at once. What the main job does
+besides (the sensor's physics, the star tracker, the monitor, writing the messages, its timers and wake-up
+guards, the messages one callback publishes for the next node) is the ratio's excess over 1.
+
+The tick-by-tick schedule of (b) is recorded from (a)'s first round (which messages went out at which tick, and
+one copy of each topic's message); the rounds then alternate, (a) (b) (a) (b) …, and each figure is the median of
+its rounds; the ratio of every round is printed. The last line is the ratio of the medians.
+
+    .venv/bin/python benchmarks/bench_main_job.py [--orbits 0.2] [--rounds 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import tempfile
+import time
+from collections import Counter
+from pathlib import Path
+
+os.environ.setdefault("ROS_LOG_DIR", tempfile.mkdtemp(prefix="pmv_bench_log_"))
+os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "OFF"
+
+import rclpy  # noqa: E402
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.publisher import Publisher  # noqa: E402
+from rclpy.serialization import deserialize_message, serialize_message  # noqa: E402
+
+from pmv_ros.nodes.base import PmvNode  # noqa: E402
+from pmv_ros.nodes.pipeline import Pipeline, drain  # noqa: E402
+
+KONDOR = Path(__file__).resolve().parents[1] / "config" / "kondor.yaml"
+
+
+class Recorder:
+    """While installed: every publish in the process, by tick — (node, topic) and one copy of each topic's message."""
+
+    def __init__(self):
+        self.tick, self.schedule, self.messages, self.takes = 0, [], {}, []
+        self._original = Publisher.publish
+
+    def __enter__(self):
+        original, recorder = self._original, self
+
+        def recorded(publisher, message):
+            topic = publisher.topic_name
+            recorder.schedule[-1].append(topic)
+            if topic not in recorder.messages:
+                recorder.messages[topic] = (type(message), serialize_message(message))
+            return original(publisher, message)
+
+        Publisher.publish = recorded
+        return self
+
+    def __exit__(self, *exc):
+        Publisher.publish = self._original
+
+
+def graph_of(pipeline: Pipeline) -> list[dict]:
+    """Per node of the pipeline: its name, its publishers' (topic, type, QoS), its subscriptions' in order."""
+    return [{"name": node.get_name(),
+             "publishers": [(p.topic_name, p.msg_type, p.qos_profile) for p in node.publishers],
+             "subscriptions": [(s.topic_name, s.msg_type, s.qos_profile) for s in node.subscriptions]}
+            for node in pipeline.nodes]
+
+
+def main_job(ticks: int, record: bool = False) -> dict:
+    """Wall time of ``ticks`` pipeline steps on the Kondor preset (construction not counted)."""
+    with Pipeline(KONDOR) as pipeline:
+        graph = graph_of(pipeline)
+        taken = Counter()
+        recorder = Recorder() if record else None
+        for node in pipeline.nodes:  # count what each subscription takes (and, recording, which node, which tick)
+            for subscription in node.subscriptions:
+                subscription.callback = _counting(subscription.callback, taken, subscription.topic_name,
+                                                  recorder, node.get_name())
+        started, cpu = time.perf_counter(), time.process_time()
+        if recorder is None:
+            pipeline.step(ticks)
+        else:
+            with recorder:
+                for _ in range(ticks):
+                    recorder.schedule.append([])
+                    recorder.takes.append(Counter())
+                    pipeline.step()
+        wall, cpu = time.perf_counter() - started, time.process_time() - cpu
+        used = pipeline.monitor.monitor.counters["used"]
+    result = {"wall_s": wall, "cpu_s": cpu, "ticks": ticks, "taken": dict(taken), "used": used, "graph": graph}
+    if recorder is not None:
+        owner = {topic: spec["name"] for spec in graph for topic, _, _ in spec["publishers"]}
+        result.update(schedule=recorder.schedule, messages=recorder.messages, takes=recorder.takes, owner=owner)
+    return result
+
+
+def _counting(callback, counter: Counter, topic: str, recorder=None, node_name: str = ""):
+    import inspect
+
+    def counted(*arguments):
+        counter[topic] += 1
+        if recorder is not None and recorder.takes:
+            recorder.takes[-1][node_name] += 1
+        return callback(*arguments)
+
+    counted.__signature__ = inspect.signature(callback)
+    return counted
+
+
+def floor(recorded: dict) -> dict:
+    """Wall time of the recorded ticks' messages through bare rclpy (see the module docstring)."""
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    executor = SingleThreadedExecutor(context=context)
+    taken = Counter()
+    publishers, nodes = {}, []
+    for spec in recorded["graph"]:
+        node = PmvNode(spec["name"], lean=True, context=context)
+        # the main job's nodes are lean: rclpy's /parameter_events publisher is theirs too (made by the node)
+        for topic, kind, qos in spec["publishers"]:
+            if topic not in ("/parameter_events",):
+                publishers[topic] = node.create_publisher(kind, topic, qos, **node._quiet("Publisher"))
+        for topic, kind, qos in spec["subscriptions"]:
+            node.create_subscription(kind, topic, lambda message, topic=topic: taken.update((topic,)), qos,
+                                     **node._quiet("Subscription"))
+        nodes.append(node)
+        executor.add_node(node)
+    messages = {topic: deserialize_message(data, kind) for topic, (kind, data) in recorded["messages"].items()}
+    schedule = [[(publishers[topic], messages[topic]) for topic in tick] for tick in recorded["schedule"]]
+    drain(executor)
+    started, cpu = time.perf_counter(), time.process_time()
+    for tick in schedule:
+        for publisher, message in tick:
+            publisher.publish(message)
+        drain(executor)
+    return _closed(executor, nodes, context, time.perf_counter() - started, time.process_time() - cpu, taken)
+
+
+def _closed(executor, nodes, context, wall_s: float, cpu_s: float, taken: Counter) -> dict:
+    """Tear a floor's graph down; its figures."""
+    executor.shutdown()
+    for node in nodes:
+        node.destroy_node()
+    rclpy.shutdown(context=context)
+    return {"wall_s": wall_s, "cpu_s": cpu_s, "taken": dict(taken)}
+
+
+def graph_floor(recorded: dict) -> dict:
+    """The recorded messages along the main job's own chain, with no computation: each node publishes its tick's
+    messages (copies) from the callback that takes its last input of that tick, as an unbatched node would; the
+    sensor's at the tick. The same nodes, topics, types, subscriptions and drain — not the timers, the time
+    sources or the hand-overs. A diagnosis beside the floor: what the chain itself costs."""
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    executor = SingleThreadedExecutor(context=context)
+    taken, got, nodes, publishers = Counter(), Counter(), [], {}
+    state = {"tick": 0}
+    messages = {topic: deserialize_message(data, kind) for topic, (kind, data) in recorded["messages"].items()}
+    owner = recorded["owner"]
+    by_node = [{} for _ in recorded["schedule"]]  # tick → node → [(topic)…]
+    for tick, topics in enumerate(recorded["schedule"]):
+        for topic in topics:
+            by_node[tick].setdefault(owner[topic], []).append(topic)
+
+    def publish(name: str) -> None:
+        for topic in by_node[state["tick"]].get(name, ()):
+            publishers[topic].publish(messages[topic])
+
+    for spec in recorded["graph"]:
+        name = spec["name"]
+        node = PmvNode(name, lean=True, context=context)
+        for topic, kind, qos in spec["publishers"]:
+            if topic != "/parameter_events":
+                publishers[topic] = node.create_publisher(kind, topic, qos, **node._quiet("Publisher"))
+
+        def on_message(message, topic=None, name=name):
+            taken[topic] += 1
+            got[name] += 1
+            if got[name] == recorded["takes"][state["tick"]][name]:
+                publish(name)
+
+        for topic, kind, qos in spec["subscriptions"]:
+            node.create_subscription(kind, topic, lambda message, topic=topic, callback=on_message:
+                                     callback(message, topic), qos, **node._quiet("Subscription"))
+        nodes.append(node)
+        executor.add_node(node)
+    drain(executor)
+    started, cpu = time.perf_counter(), time.process_time()
+    for tick in range(len(recorded["schedule"])):
+        state["tick"] = tick
+        got.clear()
+        for name in by_node[tick]:
+            if not recorded["takes"][tick][name]:  # the sensor (and a node that took nothing this tick)
+                publish(name)
+        drain(executor)
+    return _closed(executor, nodes, context, time.perf_counter() - started, time.process_time() - cpu, taken)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--orbits", type=float, default=0.2, help="orbits of the main job per round (default 0.2)")
+    parser.add_argument("--rounds", type=int, default=3, help="alternating rounds of each (default 3)")
+    args = parser.parse_args()
+    with Pipeline(KONDOR) as probe:
+        ticks = round(args.orbits * probe.sensor.orbit.period_s * probe.sensor.get_parameter("sensor.rate_hz").value)
+    print(f"load average at the start: {os.getloadavg()[0]:.2f} (2-core machines vary 2–3× hour to hour: "
+          f"only the ratio of one run means anything)")
+    recorded = main_job(ticks, record=True)
+    published = Counter(topic for tick in recorded["schedule"] for topic in tick)
+    print(f"main job: {ticks} ticks; per tick it publishes "
+          + ", ".join(f"{topic} {count / ticks:.2f}" for topic, count in sorted(published.items()))
+          + "; takes " + ", ".join(f"{topic} {count / ticks:.2f}" for topic, count in sorted(recorded["taken"].items())))
+    jobs, floors, job_cpu, floor_cpu, chains = [], [], [], [], []
+    for round_number in range(1, args.rounds + 1):
+        job = main_job(ticks)
+        base = floor(recorded)
+        chain = graph_floor(recorded)
+        for name, other in (("floor", base), ("graph floor", chain)):
+            if other["taken"] != recorded["taken"]:
+                raise RuntimeError(f"the {name} took {other['taken']}, the main job {recorded['taken']}")
+        chains.append(chain["wall_s"])
+        jobs.append(job["wall_s"])
+        floors.append(base["wall_s"])
+        job_cpu.append(job["cpu_s"])
+        floor_cpu.append(base["cpu_s"])
+        print(f"round {round_number}: main job {job['wall_s']:.2f} s ({job['wall_s'] / ticks * 1e6:.0f} µs/tick), "
+              f"floor {base['wall_s']:.2f} s ({base['wall_s'] / ticks * 1e6:.0f} µs/tick), "
+              f"ratio {job['wall_s'] / base['wall_s']:.2f}x; by CPU time {job['cpu_s'] / base['cpu_s']:.2f}x; "
+              f"graph floor {chain['wall_s'] / ticks * 1e6:.0f} µs/tick (load {os.getloadavg()[0]:.2f})")
+    job_s, floor_s = statistics.median(jobs), statistics.median(floors)
+    print(f"medians: main job {job_s / ticks * 1e6:.0f} µs/tick, floor {floor_s / ticks * 1e6:.0f} µs/tick; "
+          f"by the process's CPU time {statistics.median(job_cpu) / statistics.median(floor_cpu):.2f}x (a busy "
+          f"neighbour stretches wall time more than CPU time); load average at the end: {os.getloadavg()[0]:.2f}")
+    chain_s = statistics.median(chains)
+    print(f"graph floor (the same messages along the main job's own chain of nodes, no computation): "
+          f"{chain_s / ticks * 1e6:.0f} µs/tick, {chain_s / floor_s:.2f}x the floor; main job / graph floor "
+          f"{job_s / chain_s:.2f}x")
+    print(f"main job / floor ratio: {job_s / floor_s:.2f}x")
+
+
+if __name__ == "__main__":
+    main()
