@@ -412,3 +412,15 @@ def test_a_quaternion_sample_moves_the_timeline_only_when_the_quaternion_is_vali
     assert good.rejection is None and good.normalised and np.allclose(good.q_xyzw, [0, 0, 0, 1])
     assert stamps.latest_s == 10.0
     assert check_quaternion_sample(stamps, 10.0, (0.0, 0.0, 0.0, 1.0), None).rejection is not None  # duplicate
+
+
+def test_a_storm_of_refusals_is_counted_whole_and_said_once_a_period():
+    from pmv_ros.runtime.common.validation import RefusalTally
+
+    tally = RefusalTally("a parameter update", period_s=60.0)
+    said = [tally.refuse(f"reason {k}", now_s=0.001 * k) for k in range(5000)]  # 5 s of 1,000 a second
+    assert tally.count == 5000
+    assert [line for line in said if line] == ["refused a parameter update: reason 0"]
+    line = tally.refuse("reason late", now_s=61.0)  # the next period: one line with the count since
+    assert line.startswith("refused a parameter update: reason late (5000 refused since the last line, 5001 in all")
+    assert tally.refuse("again", now_s=62.0) is None and tally.count == 5002
