@@ -14,7 +14,8 @@ from threadpoolctl import ThreadpoolController
 
 import pmv_msgs_shim as shim
 from ..runtime.common.clock_watch import CLOCK_STALL_S, CLOCK_WATCH_PERIOD_S, ClockWatch
-from ..runtime.common.validation import ClockCheck, JumpDetector, SourceLock
+from ..runtime.common.parameters import unknown_parameter_problem
+from ..runtime.common.validation import ClockCheck, JumpDetector, RefusalTally, SourceLock
 from .params import coerce_parameters
 
 #: How often (wall clock, s) the graph is asked how many publishers an input has.
@@ -133,6 +134,8 @@ class PmvNode(Node):
             kwargs.setdefault("start_parameter_services", False)
             kwargs.setdefault("enable_rosout", False)  # logs still reach the console and the log file
         self.parameter_specs = {}  # name → ParamSpec, filled by install_validation
+        if not hasattr(self, "parameter_refusals"):  # a managed node keeps its count over configure and cleanup
+            self.parameter_refusals = RefusalTally("a parameter update")  # counted on /diagnostics, said sparingly
         if not getattr(self, "configuring", False):  # a managed node (nodes/managed.py) is a node already
             super().__init__(name, **kwargs)
         self._lean = lean
@@ -227,8 +230,22 @@ class PmvNode(Node):
     def _gate(self, parameters):
         checked, problem = coerce_parameters(self.parameter_specs, parameters)
         if problem:
-            self.get_logger().warning(f"rejected parameter update: {problem}")
+            self.note_parameter_refusal(problem)
+        else:  # a name the node does not have: rclpy refuses it; counted here as every other refusal
+            unknown = [p.name for p in parameters if not self.has_parameter(p.name)]
+            if unknown:
+                self.note_parameter_refusal(unknown_parameter_problem(unknown[0], self.get_name(), ())
+                                            or f"{unknown[0]!r} is not declared")
         return checked, problem
+
+    def note_parameter_refusal(self, reason: str) -> None:
+        """Count one refused parameter update (``rejected_parameter_updates`` on /diagnostics); log it only if
+        :class:`~pmv_ros.runtime.common.validation.RefusalTally` says so (a storm is not a line per request)."""
+        if not hasattr(self, "parameter_refusals"):  # a managed node before its first configure
+            self.parameter_refusals = RefusalTally("a parameter update")
+        line = self.parameter_refusals.refuse(reason, time.monotonic())
+        if line is not None:
+            self.get_logger().warning(line)
 
     def set_parameters(self, parameter_list):
         """Set parameters one by one (rclpy semantics), each through the type gate first."""
@@ -345,6 +362,9 @@ class PmvNode(Node):
                 counters[f"other_source_{stream}"] = lock.other_source_messages
         counters.update({f"rejected_clock_{reason}": count for reason, count in self.clock_check.counts.items()
                          if count})
+        refusals = getattr(self, "parameter_refusals", None)
+        if refusals is not None and refusals.count:
+            counters["rejected_parameter_updates"] = refusals.count
         return counters
 
 
