@@ -155,10 +155,11 @@ class Neighbour:
 
 @contextmanager
 def running_nodes(tmp_path, params: str = PARAMS, nodes=("error_monitor_node", "star_tracker_node", "sensor_node"),
-                  arguments: dict | None = None, domain: int = DOMAIN_ID):
+                  arguments: dict | None = None, ros_arguments: dict | None = None, domain: int = DOMAIN_ID):
     """Node console scripts as children on ``domain`` with the params file ``params``, each node's extra
-    command-line ``arguments`` (name → list) before ``--ros-args``; {name: Popen}. Stopped with SIGINT at the end
-    (killed if one hangs); ``<name>.out`` in ``tmp_path`` holds what each printed."""
+    command-line ``arguments`` (name → list) before ``--ros-args`` and ``ros_arguments`` after it; {name: Popen}.
+    A name ``sensor_node:sat1`` is a second instance of ``sensor_node``. Stopped with SIGINT at the end (killed if
+    one hangs); ``<name>.out`` in ``tmp_path`` holds what each printed."""
     path = tmp_path / "stack.yaml"
     path.write_text(params)
     processes = {}
@@ -166,8 +167,8 @@ def running_nodes(tmp_path, params: str = PARAMS, nodes=("error_monitor_node", "
         for name in nodes:
             executable = name.split(":")[0]  # "sensor_node:sat1": a second instance, told apart by the suffix
             processes[name] = subprocess.Popen(
-                [str(VENV_BIN / executable), *(arguments or {}).get(name, ()), "--ros-args", "--params-file",
-                 str(path)], env=child_env(tmp_path / "log", domain), cwd=tmp_path, stdin=subprocess.DEVNULL,
+                [str(VENV_BIN / executable), *(arguments or {}).get(name, ()), "--ros-args",
+                 *(ros_arguments or {}).get(name, ()), "--params-file", str(path)], env=child_env(tmp_path / "log", domain), cwd=tmp_path, stdin=subprocess.DEVNULL,
                 stdout=open(tmp_path / f"{name.replace(':', '_')}.out", "w"), stderr=subprocess.STDOUT)
         yield processes
     finally:
