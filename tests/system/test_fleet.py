@@ -10,7 +10,7 @@ it measures for 60 s:
   stamp), every sample and residual in its own spacecraft's sensor frame (none took another's samples);
 * no process's resident memory grew by 10 MB or more over the window (RSS flat after the warm-up).
 
-Marked ``long``: the default run flies two spacecraft for 8 s; ``--run-long`` the eight for 60 s.
+Marked ``long``: the default run flies two spacecraft for 5 s; ``--run-long`` the eight for 60 s.
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ import pmv_msgs_shim as shim
 pytestmark = pytest.mark.adversarial
 
 NODES = ("sensor_node", "star_tracker_node", "error_monitor_node")
-SHORT, FULL = (2, 8.0), (8, 60.0)
+SHORT, FULL = (2, 5.0), (8, 60.0)
 RSS_GROWTH_MB, TAKEN = 10.0, 0.99
 
 
