@@ -387,7 +387,12 @@ class SourceLock:
     * The lock moves only when the locked source has been silent (by arrival
       time, on the clock the caller gives) for ``timeout_s`` — it stopped, or was restarted (a restarted
       publisher numbers from 1 again: a new track); the next source heard is
-      then locked (counted in :attr:`lock_changes`).
+      then locked (counted in :attr:`lock_changes`) — unless it is a known
+      *intruder*: a source refused while the locked one was still talking
+      (heard between two of its messages) never inherits the lock. A flood
+      that outlasts a real source's stall (a starved process on a busy
+      machine falls silent for a second) cannot become the source; a
+      restarted publisher, which is heard only after the old one stopped, can.
     * A message with neither GID nor sequence number (an in-process call)
       counts as the locked source.
 
@@ -420,14 +425,20 @@ class SourceLock:
             return True
         track = self._track_for(gid, sequence, stamp_s, arrival_s)
         locked = self._locked
-        # Silent for the timeout — or the clock went back by more (a restarted simulation): given up.
-        if locked is None or (locked is not track and abs(arrival_s - locked.arrival_s) > self.timeout_s):
+        # Silent for the timeout — or the clock went back by more (a restarted simulation): given up, to any
+        # source but one refused while the locked one was still talking.
+        if locked is None or (locked is not track and not track.intruder
+                              and abs(arrival_s - locked.arrival_s) > self.timeout_s):
             if locked is not None:
                 self.lock_changes += 1
             self._locked = locked = track
         track.hear(sequence, stamp_s, arrival_s)
         if track is locked:
+            for other in self._tracks:  # refused since its previous message: they spoke while it was alive
+                if other.refused and other is not track:
+                    other.intruder = True
             return True
+        track.refused = True
         self.other_source_messages += 1
         return False
 
@@ -470,7 +481,8 @@ class SourceLock:
 class _Track:
     """What a :class:`SourceLock` remembers of one source."""
 
-    __slots__ = ("gid", "sequence", "stamp_s", "interval_s", "arrival_s", "sequence_rate_hz", "stamp_jitter_s")
+    __slots__ = ("gid", "sequence", "stamp_s", "interval_s", "arrival_s", "sequence_rate_hz", "stamp_jitter_s",
+                 "refused", "intruder")
 
     #: Stamp jitter below which a source's stamps count as exact (a double holds ~1e-7 s at 2e9 s), s.
     STAMP_JITTER_FLOOR_S = 1e-5
@@ -483,6 +495,8 @@ class _Track:
         self.arrival_s = -math.inf
         self.sequence_rate_hz = math.nan  # numbers per second of arrival time, smoothed
         self.stamp_jitter_s = math.nan  # how far its stamps fall from one interval on, smoothed
+        self.refused = False  # a message of it was refused (it is not the locked source)
+        self.intruder = False  # refused while the locked source was still talking: never given the lock
 
     def misfit(self, gap: int, stamp_s: float, arrival_s: float) -> float:
         """How badly a message ``gap`` numbers on, stamped ``stamp_s``, fits this source (0: perfectly).
