@@ -357,9 +357,11 @@ class PmvNode(Node):
         # Keys from the names the node gave (other_source_attitude_truth), the same in every namespace.
         counters = {}
         for topic, lock in self.source_locks.items():
+            stream = self._input_names[topic].strip("/").replace("/", "_")
             if lock.other_source_messages:
-                stream = self._input_names[topic].strip("/").replace("/", "_")
                 counters[f"other_source_{stream}"] = lock.other_source_messages
+            if lock.lock_changes:  # the source given up after its silence, another taken
+                counters[f"source_changes_{stream}"] = lock.lock_changes
         counters.update({f"rejected_clock_{reason}": count for reason, count in self.clock_check.counts.items()
                          if count})
         refusals = getattr(self, "parameter_refusals", None)
