@@ -107,6 +107,7 @@ def test_a_hostile_neighbour_changes_nothing_it_should_not(stack, tmp_path):
             assert f"2 publishers of {topic}" in status.message, status.message
         assert int(values["other_source_star_tracker_attitude"]) > 0.5 * flood_sent
         assert "rejected_truth_backwards" not in values
+        assert not [key for key in values if key.startswith("source_changes_")], values  # no input changed hands
         assert "clock_jumps" not in values and "alignment_resets" not in values
         # The forged /clock is a second publisher of /clock: dropped before it reaches the time source.
         assert int(values.get("rejected_clock_other_source", 0)) >= 1
