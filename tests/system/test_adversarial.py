@@ -51,6 +51,10 @@ def test_a_hostile_neighbour_changes_nothing_it_should_not(stack, tmp_path):
     neighbour = Neighbour()
     try:
         neighbour.wait_for_stack()
+        # The residual rate without an attack, for comparison (a rate of wall time: on a busy machine it is lower).
+        start = len(neighbour.got["residual"])
+        neighbour.spin(3.0)
+        rate_before = (len(neighbour.got["residual"]) - start) / 3.0
         before = len(neighbour.got["residual"])
         tracker_rss = rss_mb(stack["star_tracker_node"].pid)
 
@@ -73,6 +77,7 @@ def test_a_hostile_neighbour_changes_nothing_it_should_not(stack, tmp_path):
             flood_sent += 50
             neighbour.spin(0.05)
 
+        rate_during = (len(neighbour.got["residual"]) - before) / (time.monotonic() - end + 3.0)
         # 2. One forged /clock an hour ahead.
         neighbour.pub["clock"].publish(shim.write_clock(Clock(), neighbour.now_s + 3600.0))
         neighbour.spin(0.5)
@@ -93,7 +98,8 @@ def test_a_hostile_neighbour_changes_nothing_it_should_not(stack, tmp_path):
         for name, process in stack.items():
             assert process.poll() is None, f"{name} died: {(tmp_path / (name + '.out')).read_text()[-2000:]}"
         residuals = neighbour.got["residual"]
-        assert len(residuals) > before + 40  # the real pair kept being aligned through the attack
+        # The real pair kept being aligned through the attack, at half the rate of before at least.
+        assert rate_during >= 0.5 * rate_before > 0, (rate_before, rate_during)
         worst = max(max(abs(m.vector.x), abs(m.vector.y)) for m in residuals) / ARCMIN_RAD
         assert worst < 1.0, f"a hostile sample was used: residual {worst:.1f}′"
         statistics = shim.error_statistics_from_msg(neighbour.wait_for_statistics())
@@ -113,7 +119,8 @@ def test_a_hostile_neighbour_changes_nothing_it_should_not(stack, tmp_path):
         assert int(values.get("rejected_clock_other_source", 0)) >= 1
         growth_mb = rss_mb(stack["star_tracker_node"].pid) - tracker_rss
         print(f"adversarial: {flood_sent} flood messages, {values['other_source_star_tracker_attitude']} dropped as "
-              f"another source; worst residual {worst:.3f}′; {len(residuals) - before} residuals during the attack; "
+              f"another source; worst residual {worst:.3f}′; {len(residuals) - before} residuals since the attack began "
+              f"({rate_during:.1f}/s during the flood, {rate_before:.1f}/s before); "
               f"tracker RSS {growth_mb:+.1f} MB after a 200,000-element list")
         assert growth_mb < 20.0
     finally:
