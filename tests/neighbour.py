@@ -51,6 +51,22 @@ sensor_node:
     sensor.earth_model: sphere
 """
 
+#: The three nodes on the wall clock (no /clock): a quick sensor (10 Hz, the geometric horizon on a sphere), the
+#: monitor keeping the oblateness — for attacks that need the chain running, not its physics.
+WALL_CLOCK_PARAMS = """\
+/**:
+  ros__parameters:
+    orbit.altitude_km: 500.0
+sensor_node:
+  ros__parameters:
+    sensor.rate_hz: 10.0
+    sensor.detector: ideal
+    sensor.earth_model: sphere
+error_monitor_node:
+  ros__parameters:
+    remove_oblateness: false
+"""
+
 
 def rss_mb(pid: int) -> float:
     for line in Path(f"/proc/{pid}/status").read_text().splitlines():
@@ -77,9 +93,11 @@ class Neighbour:
         self.node = Node("neighbour", context=self.context)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
-        self.got = {"residual": [], "diagnostics": [], "statistics": []}
+        self.got = {"residual": [], "diagnostics": [], "statistics": [], "attitude": []}
         self.sim_now_s = None
         qos = QoSProfile(depth=100)
+        self.node.create_subscription(Vector3Stamped, "/pmv/attitude", self.got["attitude"].append,
+                                      QoSProfile(depth=1000))
         self.node.create_subscription(Vector3Stamped, "/pmv/residual", self.got["residual"].append, qos)
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self.got["diagnostics"].append, qos)
         self.node.create_subscription(DiagnosticArray, "/pmv/error_statistics", self.got["statistics"].append, qos)

@@ -24,7 +24,6 @@ import time
 
 import numpy as np
 import pytest
-from geometry_msgs.msg import Vector3Stamped
 from nav_msgs.msg import Odometry
 from neighbour import Neighbour, node_statuses, output_of, proc_status, running_nodes
 from rclpy.qos import QoSProfile
@@ -100,8 +99,7 @@ def test_hostile_odometry_is_counted_and_loses_no_sample(follow_stack, tmp_path)
     neighbour = Neighbour()
     try:
         node = neighbour.node
-        attitude = []
-        node.create_subscription(Vector3Stamped, "/pmv/attitude", attitude.append, QoSProfile(depth=1000))
+        attitude = neighbour.got["attitude"]
         locked = neighbour.pub["odometry"]
         second = node.create_publisher(Odometry, "/orbit/odometry", QoSProfile(depth=100))
         t0 = time.time()

@@ -22,24 +22,12 @@ import time
 import pytest
 from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState, GetState
-from neighbour import Neighbour, output_of, proc_status, running_nodes
+from neighbour import WALL_CLOCK_PARAMS, Neighbour, output_of, proc_status, running_nodes
 
 pytestmark = pytest.mark.adversarial
 
 NODES = ("error_monitor_node", "star_tracker_node", "sensor_node")
-PARAMS = """\
-/**:
-  ros__parameters:
-    orbit.altitude_km: 500.0
-sensor_node:
-  ros__parameters:
-    sensor.rate_hz: 10.0
-    sensor.detector: ideal
-    sensor.earth_model: sphere
-error_monitor_node:
-  ros__parameters:
-    remove_oblateness: false
-"""
+PARAMS = WALL_CLOCK_PARAMS
 CYCLE = (Transition.TRANSITION_CONFIGURE, Transition.TRANSITION_ACTIVATE, Transition.TRANSITION_DEACTIVATE,
          Transition.TRANSITION_CLEANUP)
 PRIMARY = {"unconfigured", "inactive", "active", "finalized"}

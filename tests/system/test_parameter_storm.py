@@ -19,30 +19,16 @@ import time
 
 import numpy as np
 import pytest
-from geometry_msgs.msg import Vector3Stamped
-from neighbour import Neighbour, node_statuses, output_of, proc_status, running_nodes
+from neighbour import WALL_CLOCK_PARAMS, Neighbour, node_statuses, output_of, proc_status, running_nodes
 from rcl_interfaces.srv import GetParameters, SetParameters
 from rclpy.parameter import Parameter
 from rclpy.parameter import parameter_value_to_python
-from rclpy.qos import QoSProfile
 
 import pmv_msgs_shim as shim
 
 pytestmark = pytest.mark.adversarial
 
-PARAMS = """\
-/**:
-  ros__parameters:
-    orbit.altitude_km: 500.0
-sensor_node:
-  ros__parameters:
-    sensor.rate_hz: 10.0
-    sensor.detector: ideal
-    sensor.earth_model: sphere
-error_monitor_node:
-  ros__parameters:
-    remove_oblateness: false
-"""
+PARAMS = WALL_CLOCK_PARAMS
 #: Per node: (a parameter it has, a value of the wrong type, one out of range); every node has input.max_rate_hz
 #: (read-only) and none has "no_such.parameter".
 STORM = {"sensor_node": ("sensor.rate_hz", "fast", 1e9), "star_tracker_node": ("rate_hz", "fast", 1e9),
@@ -66,8 +52,7 @@ def test_a_parameter_storm_is_refused_counted_and_said_once(stack, tmp_path):
     neighbour = Neighbour()
     try:
         node = neighbour.node
-        attitude = []
-        node.create_subscription(Vector3Stamped, "/pmv/attitude", attitude.append, QoSProfile(depth=1000))
+        attitude = neighbour.got["attitude"]
         clients = {name: node.create_client(SetParameters, f"/{name}/set_parameters") for name in STORM}
         getters = {name: node.create_client(GetParameters, f"/{name}/get_parameters") for name in STORM}
         neighbour.wait_until(lambda: all(c.service_is_ready() for c in [*clients.values(), *getters.values()]),
