@@ -75,7 +75,7 @@ MULTI_PROCESS_MODULES = (
 )
 
 
-#: pytest-timeout's limit (pyproject.toml has the default, 300 s) for a test of a module that uses a session
+#: pytest-timeout's limit (pyproject.toml has the default, 600 s: ≈ 4× the slowest test on a loaded machine) for a test of a module that uses a session
 #: fixture built early (it may wait for the build: the colcon build, the vendored tools, the Kondor orbit), and for
 #: the full-length runs of tests marked ``long`` (--run-long: the 24 h soak takes ≈ 20 min).
 EARLY_USER_TIMEOUT_S, LONG_RUN_TIMEOUT_S = 900, 3600

@@ -45,6 +45,21 @@ TOPICS = {"/pmv/attitude": ("geometry_msgs/msg/Vector3Stamped",),
           "/star_tracker/attitude": ("geometry_msgs/msg/QuaternionStamped",)}
 
 
+#: Every Recorder made, so that the fixture below can end those a failed test left running (a 2-orbit run
+#: goes on for minutes on its own otherwise).
+_MADE: list = []
+
+
+@pytest.fixture(autouse=True)
+def _no_recorder_outlives_its_test():
+    yield
+    while _MADE:
+        recorder = _MADE.pop()
+        if recorder.process.poll() is None:
+            recorder.process.kill()
+            recorder.process.wait()
+
+
 class Recorder:
     """``pmv simulate --record`` as a child, with the count of messages it has written."""
 
@@ -56,6 +71,7 @@ class Recorder:
             stdout=subprocess.PIPE, stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, pass_fds=(writer,),
             preexec_fn=preexec, env=dict(env or os.environ, ROS_LOG_DIR=str(tmp / "log"), PMV_COUNT_FD=str(writer)),
             cwd=tmp)
+        _MADE.append(self)
         os.close(writer)
         self._reader, self._buffer, self.written = reader, b"", 0
         self.closing = None  # messages in the recording when its finalisation began (PMV_CLOSE_PAUSE_S)
