@@ -101,7 +101,10 @@ def test_a_hostile_neighbour_changes_nothing_it_should_not(stack, tmp_path):
         # The real pair kept being aligned through the attack, at half the rate of before at least.
         assert rate_during >= 0.5 * rate_before > 0, (rate_before, rate_during)
         worst = max(max(abs(m.vector.x), abs(m.vector.y)) for m in residuals) / ARCMIN_RAD
-        assert worst < 1.0, f"a hostile sample was used: residual {worst:.1f}′"
+        report = monitor_status(neighbour.got["diagnostics"])
+        assert worst < 1.0, (f"a hostile sample was used: residual {worst:.1f}′ at "
+                             f"{[shim.time_from_msg(m.header.stamp) for m in residuals if abs(m.vector.x) > 1e-3][:5]}"
+                             f"; monitor: {report.message if report else None} {dict(report.values) if report else {}}")
         statistics = shim.error_statistics_from_msg(neighbour.wait_for_statistics())
         for channel in statistics.channels:
             for value in (channel.mean_rad, channel.sigma_rad, channel.max_abs_rad):

@@ -172,8 +172,8 @@ def test_hostile_odometry_is_counted_and_loses_no_sample(follow_stack, tmp_path)
         gaps = np.diff(stamps)
         # The longest the user's own good stream stalled (this process starved on a busy machine): a sample can
         # be missing only where the stream it flies was itself late — never because of the attack.
-        sent = np.array([t for t in good_sent if stamps[0] - 2.0 <= t <= stamps[-1]])
-        stall_s = float(np.diff(sent).max()) if sent.size > 1 else 0.0
+        good = np.array([t for t in good_sent if stamps[0] - 2.0 <= t <= stamps[-1]])
+        stall_s = float(np.diff(good).max()) if good.size > 1 else 0.0
         skipped = {k: v for k, v in values.items() if k.startswith("skipped_")}
         residuals = neighbour.got["residual"]
         aligned = {round(shim.time_from_msg(m.header.stamp), 3) for m in residuals}
