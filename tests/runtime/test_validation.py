@@ -203,6 +203,22 @@ def test_a_flood_that_outlasts_a_stall_of_the_real_source_never_takes_the_lock()
     assert not any(ok for who, ok in admitted if who == "flood") and lock.lock_changes == 0
 
 
+def test_a_flood_thinned_by_thousands_stays_the_same_intruder_through_a_stall():
+    # As above, but the subscriber keeps one flood message in 1,500 (a best-effort queue on a busy machine): the
+    # flood's numbers jump by more than max_sequence_gap, and must not come back as a new source in the stall.
+    lock = SourceLock(timeout_s=1.0)
+    real, admitted = 0, []
+    for k in range(6000):
+        arrival = k / 1000.0
+        if k % 500 == 0 and not 2.0 <= arrival < 3.5:
+            real += 1
+            admitted.append(("real", lock.admit(arrival, sequence=real, stamp_s=10.0 + arrival - 0.25)))
+        if k % 150 == 0:
+            admitted.append(("flood", lock.admit(arrival, sequence=10 * k + 1, stamp_s=10.0 + arrival)))
+    assert all(ok for who, ok in admitted if who == "real")
+    assert not any(ok for who, ok in admitted if who == "flood") and lock.lock_changes == 0
+
+
 def test_two_publishers_in_lockstep_are_told_apart_by_sequence_and_stamp():
     # Jazzy: no GID. Two sensors at 10 Hz started together number their messages alike; their
     # stamps are 37 ms apart. Arrival order flips at random; the lock must stay on the first.

@@ -393,6 +393,8 @@ class SourceLock:
       that outlasts a real source's stall (a starved process on a busy
       machine falls silent for a second) cannot become the source; a
       restarted publisher, which is heard only after the old one stopped, can.
+      An intruder's numbering is followed across any gap (a flood that a busy
+      subscriber thins by thousands stays the same intruder).
     * A message with neither GID nor sequence number (an in-process call)
       counts as the locked source.
 
@@ -459,7 +461,9 @@ class SourceLock:
             if track.gid is not None or track.sequence is None:
                 continue
             gap = sequence - track.sequence
-            if not 0 < gap <= self.max_sequence_gap:
+            # An intruder's numbering is followed across any loss: a flood whose messages a busy subscriber
+            # drops by the thousand must not come back as a new source, one no stall has yet shown up.
+            if not 0 < gap <= (math.inf if track.intruder else self.max_sequence_gap):
                 continue
             # The step its source's rate explains first (messages get lost: a step of 2 after 0.2 s of a
             # 10 Hz source is as good as 1); where two sources could both take it (their counts met), the
