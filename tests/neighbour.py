@@ -51,6 +51,22 @@ sensor_node:
     sensor.earth_model: sphere
 """
 
+#: The three nodes on the wall clock (no /clock): a quick sensor (10 Hz, the geometric horizon on a sphere), the
+#: monitor keeping the oblateness — for attacks that need the chain running, not its physics.
+WALL_CLOCK_PARAMS = """\
+/**:
+  ros__parameters:
+    orbit.altitude_km: 500.0
+sensor_node:
+  ros__parameters:
+    sensor.rate_hz: 10.0
+    sensor.detector: ideal
+    sensor.earth_model: sphere
+error_monitor_node:
+  ros__parameters:
+    remove_oblateness: false
+"""
+
 
 def rss_mb(pid: int) -> float:
     for line in Path(f"/proc/{pid}/status").read_text().splitlines():
@@ -77,9 +93,11 @@ class Neighbour:
         self.node = Node("neighbour", context=self.context)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
-        self.got = {"residual": [], "diagnostics": [], "statistics": []}
+        self.got = {"residual": [], "diagnostics": [], "statistics": [], "attitude": []}
         self.sim_now_s = None
         qos = QoSProfile(depth=100)
+        self.node.create_subscription(Vector3Stamped, "/pmv/attitude", self.got["attitude"].append,
+                                      QoSProfile(depth=1000))
         self.node.create_subscription(Vector3Stamped, "/pmv/residual", self.got["residual"].append, qos)
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self.got["diagnostics"].append, qos)
         self.node.create_subscription(DiagnosticArray, "/pmv/error_statistics", self.got["statistics"].append, qos)
@@ -102,7 +120,41 @@ class Neighbour:
             if condition():
                 return True
             self.executor.spin_once(timeout_sec=0.05)
-        return False
+        return condition()
+
+    def wait_until(self, condition, seconds: float, what: str) -> None:
+        """Spin until ``condition()`` holds; fail naming ``what`` did not arrive within ``seconds``."""
+        if not self.wait_for(condition, seconds):
+            raise AssertionError(f"{what} did not arrive within {seconds:g} s (domain {DOMAIN_ID})")
+
+    def wait_for_stack(self, residuals: int = 20, seconds: float = 90.0) -> None:
+        """The stack is up as the attacks need it: more than ``residuals`` residuals *and* a /clock heard
+        (a neighbour can hear residuals before its first /clock: the attacks stamp with the clock)."""
+        self.wait_until(lambda: len(self.got["residual"]) > residuals, seconds, f"more than {residuals} residuals")
+        self.wait_until(lambda: self.sim_now_s is not None, seconds, "a /clock message")
+
+    @property
+    def now_s(self) -> float:
+        """The stack's simulation time as last heard on /clock (after :meth:`wait_for_stack`: never None)."""
+        if self.sim_now_s is None:
+            raise AssertionError("no /clock heard yet: wait_for_stack() first")
+        return self.sim_now_s
+
+    def wait_for_reports(self, *nodes: str, count: int = 2, seconds: float = 30.0) -> None:
+        """Spin until each of ``nodes`` (``error_monitor_node``, …) has sent ``count`` more /diagnostics statuses
+        from now on: the second one was made after everything sent before this call had been taken."""
+        start = len(self.got["diagnostics"])
+
+        def reported() -> bool:
+            later = self.got["diagnostics"][start:]
+            return all(len(node_statuses(later, node)) >= count for node in nodes)
+
+        self.wait_until(reported, seconds, f"{count} /diagnostics reports of each of {', '.join(nodes)}")
+
+    def wait_for_statistics(self, seconds: float = 30.0):
+        """The newest /pmv/error_statistics message, waiting for one if none has come yet."""
+        self.wait_until(lambda: self.got["statistics"], seconds, "a /pmv/error_statistics message")
+        return self.got["statistics"][-1]
 
     def set_parameter(self, node_name: str, name: str, value):
         client = AsyncParameterClient(self.node, node_name)
@@ -110,6 +162,7 @@ class Neighbour:
         started = time.monotonic()
         future = client.set_parameters([Parameter(name, value=value)])
         self.executor.spin_until_future_complete(future, timeout_sec=10.0)
+        assert future.done(), f"no answer from /{node_name}/set_parameters within 10 s"
         return future.result().results[0], time.monotonic() - started
 
     def close(self) -> None:
@@ -119,28 +172,58 @@ class Neighbour:
 
 
 @contextmanager
+def running_nodes(tmp_path, params: str = PARAMS, nodes=("error_monitor_node", "star_tracker_node", "sensor_node"),
+                  arguments: dict | None = None, ros_arguments: dict | None = None, domain: int = DOMAIN_ID):
+    """Node console scripts as children on ``domain`` with the params file ``params``, each node's extra
+    command-line ``arguments`` (name → list) before ``--ros-args`` and ``ros_arguments`` after it; {name: Popen}.
+    A name ``sensor_node:sat1`` is a second instance of ``sensor_node``. Stopped with SIGINT at the end (killed if
+    one hangs); ``<name>.out`` in ``tmp_path`` holds what each printed."""
+    path = tmp_path / "stack.yaml"
+    path.write_text(params)
+    processes = {}
+    try:
+        for name in nodes:
+            executable = name.split(":")[0]  # "sensor_node:sat1": a second instance, told apart by the suffix
+            processes[name] = subprocess.Popen(
+                [str(VENV_BIN / executable), *(arguments or {}).get(name, ()), "--ros-args",
+                 *(ros_arguments or {}).get(name, ()), "--params-file", str(path)], env=child_env(tmp_path / "log", domain), cwd=tmp_path, stdin=subprocess.DEVNULL,
+                stdout=open(tmp_path / f"{name.replace(':', '_')}.out", "w"), stderr=subprocess.STDOUT)
+        yield processes
+    finally:
+        for process in processes.values():
+            if process.poll() is None:
+                process.send_signal(signal.SIGINT)
+        for process in processes.values():
+            try:
+                process.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                process.wait()
+
+
+@contextmanager
 def running_stack(tmp_path):
     """The three nodes as console scripts on the neighbour's domain with PARAMS; stopped with SIGINT at the end."""
-    params = tmp_path / "stack.yaml"
-    params.write_text(PARAMS)
-    processes = {}
-    for name in ("error_monitor_node", "star_tracker_node", "sensor_node"):
-        processes[name] = subprocess.Popen(
-            [str(VENV_BIN / name), "--ros-args", "--params-file", str(params)], env=child_env(tmp_path / "log", DOMAIN_ID),
-            cwd=tmp_path, stdin=subprocess.DEVNULL, stdout=open(tmp_path / f"{name}.out", "w"),
-            stderr=subprocess.STDOUT)
-    yield processes
-    for process in processes.values():
-        if process.poll() is None:
-            process.send_signal(signal.SIGINT)
-    for process in processes.values():
-        try:
-            process.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            process.kill()
-            process.wait()
+    with running_nodes(tmp_path) as processes:
+        yield processes
+
+
+def output_of(tmp_path, name: str) -> str:
+    """What node process ``name`` of :func:`running_nodes` printed so far."""
+    return (tmp_path / f"{name.replace(':', '_')}.out").read_text(errors="replace")
+
+
+def proc_status(pid: int) -> dict:
+    """Resident memory (MB) and thread count of a live process, from /proc."""
+    fields = dict(line.split(":", 1) for line in Path(f"/proc/{pid}/status").read_text().splitlines() if ":" in line)
+    return {"rss_mb": int(fields["VmRSS"].split()[0]) / 1024.0, "threads": int(fields["Threads"])}
+
+
+def node_statuses(messages, node: str) -> list:
+    """The /diagnostics statuses of node ``node`` (``pmv_ros/<node>``) in ``messages``, in order."""
+    return [s for m in messages for s in shim.health_from_msg(m).statuses if s.name == f"pmv_ros/{node}"]
 
 
 def monitor_status(messages):
-    statuses = [s for m in messages for s in shim.health_from_msg(m).statuses if s.name == "pmv_ros/error_monitor_node"]
+    statuses = node_statuses(messages, "error_monitor_node")
     return statuses[-1] if statuses else None

@@ -94,6 +94,9 @@ def run(args) -> int:
     SIGINT or SIGTERM stops the run between two ticks: the recording is
     closed whole, one line says where the run stopped, and the status is
     128 + the signal's number (130, 143), as for a shell's interrupted job.
+    A signal while the recording is being finalised lets the finalisation
+    end (the file is complete) and then stops the run the same way, without
+    the report.
     """
     from ..runtime.common.assembly import parse_epoch
 
@@ -188,6 +191,8 @@ def _fly(args, overrides: dict, stop: _StopOnSignal) -> int:
         })
         if pipeline.recording is not None:
             pipeline.recording.close()
+            if stop.number is not None:  # a signal while the recording was being finalised: it was closed whole
+                return _stopped(args, pipeline, stop.number, done, ticks)
             result["recording"] = {"file": str(pipeline.recording.path), "messages": dict(pipeline.recording.counts)}
         if args.report:
             live = {name: {int(k): v for k, v in c["harmonics_arcmin"].items()}

@@ -19,7 +19,8 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 import pmv_msgs_shim as shim
 from ..runtime.common.clock_watch import CLOCK_STALL_S, CLOCK_WATCH_PERIOD_S, ClockWatch
-from ..runtime.common.validation import ClockCheck, JumpDetector, SourceLock
+from ..runtime.common.parameters import unknown_parameter_problem
+from ..runtime.common.validation import ClockCheck, JumpDetector, RefusalTally, SourceLock
 from .params import coerce_parameters
 
 #: How often (wall clock, s) the graph is asked how many publishers an input has.
@@ -149,6 +150,8 @@ class PmvNode(Node):
             kwargs.setdefault("start_parameter_services", False)
             kwargs.setdefault("enable_rosout", False)  # logs still reach the console and the log file
         self.parameter_specs = {}  # name → ParamSpec, filled by install_validation
+        if not hasattr(self, "parameter_refusals"):  # a managed node keeps its count over configure and cleanup
+            self.parameter_refusals = RefusalTally("a parameter update")  # counted on /diagnostics, said sparingly
         if not getattr(self, "configuring", False):  # a managed node (nodes/managed.py) is a node already
             super().__init__(name, **kwargs)
         self._lean, self._flushed_by_caller = lean, flushed_by_caller
@@ -317,11 +320,21 @@ class PmvNode(Node):
 
     def input_source_counters(self) -> dict:
         """``other_source_<topic>``: messages dropped per input because a second publisher sent them;
-        ``rejected_clock_<reason>``: /clock messages that did not set the time (see :meth:`_guard_clock`)."""
-        counters = {f"other_source_{self._input_names[topic].strip('/').replace('/', '_')}": lock.other_source_messages
-                    for topic, lock in self.source_locks.items() if lock.other_source_messages}
+        ``source_changes_<topic>``: sources given up after their silence and another taken;
+        ``rejected_clock_<reason>``: /clock messages that did not set the time (see :meth:`_guard_clock`);
+        ``rejected_parameter_updates``: refused parameter requests."""
+        counters = {}
+        for topic, lock in self.source_locks.items():  # keys from the names the node gave, the same in any namespace
+            stream = self._input_names[topic].strip("/").replace("/", "_")
+            if lock.other_source_messages:
+                counters[f"other_source_{stream}"] = lock.other_source_messages
+            if lock.lock_changes:
+                counters[f"source_changes_{stream}"] = lock.lock_changes
         counters.update({f"rejected_clock_{reason}": count for reason, count in self.clock_check.counts.items()
                          if count})
+        refusals = getattr(self, "parameter_refusals", None)
+        if refusals is not None and refusals.count:
+            counters["rejected_parameter_updates"] = refusals.count
         return counters
 
     # -- /clock -----------------------------------------------------------------------------------
@@ -375,8 +388,22 @@ class PmvNode(Node):
     def _gate(self, parameters):
         checked, problem = coerce_parameters(self.parameter_specs, parameters)
         if problem:
-            self.get_logger().warning(f"rejected parameter update: {problem}")
+            self.note_parameter_refusal(problem)
+        else:  # a name the node does not have: rclpy refuses it; counted here as every other refusal
+            unknown = [p.name for p in parameters if not self.has_parameter(p.name)]
+            if unknown:
+                self.note_parameter_refusal(unknown_parameter_problem(unknown[0], self.get_name(), ())
+                                            or f"{unknown[0]!r} is not declared")
         return checked, problem
+
+    def note_parameter_refusal(self, reason: str) -> None:
+        """Count one refused parameter update (``rejected_parameter_updates`` on /diagnostics); log it only if
+        :class:`~pmv_ros.runtime.common.validation.RefusalTally` says so (a storm is not a line per request)."""
+        if not hasattr(self, "parameter_refusals"):  # a managed node before its first configure
+            self.parameter_refusals = RefusalTally("a parameter update")
+        line = self.parameter_refusals.refuse(reason, time.monotonic())
+        if line is not None:
+            self.get_logger().warning(line)
 
     def set_parameters(self, parameter_list):
         """Set parameters one by one (rclpy semantics), each through the type gate first."""

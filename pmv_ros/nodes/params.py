@@ -183,6 +183,15 @@ def coerce_parameters(specs: dict, parameters: Sequence[Parameter]) -> tuple[lis
     return checked, None
 
 
+def _refused(node, reason: str) -> None:
+    """A refused update: counted and said sparingly by a pmv_ros node, logged by any other."""
+    note = getattr(node, "note_parameter_refusal", None)
+    if note is not None:
+        note(reason)
+    else:
+        node.get_logger().warning(f"rejected parameter update: {reason}")
+
+
 def install_validation(node, specs: Sequence[ParamSpec], values: dict,
                        rebuild: Callable[[dict], None]) -> None:
     """Validate run-time parameter updates and apply the accepted ones.
@@ -208,7 +217,7 @@ def install_validation(node, specs: Sequence[ParamSpec], values: dict,
             value, problem = spec.coerce(parameter.value)
             problem = problem or spec.check(value)
             if problem:
-                node.get_logger().warning(f"rejected parameter update: {problem}")
+                _refused(node, problem)
                 return SetParametersResult(successful=False, reason=problem)
             candidate[parameter.name] = value
         try:
@@ -218,7 +227,7 @@ def install_validation(node, specs: Sequence[ParamSpec], values: dict,
             changed = [parameter.name for parameter in parameters if parameter.name in by_name]
             if not any(name in reason for name in changed):
                 reason = f"{', '.join(changed)}: {reason}"
-            node.get_logger().warning(f"rejected parameter update: {reason}")
+            _refused(node, reason)
             return SetParametersResult(successful=False, reason=reason)
         values.update(candidate)
         return SetParametersResult(successful=True)

@@ -50,7 +50,11 @@ def stack(tmp_path):
 def test_a_hostile_neighbour_changes_nothing_it_should_not(stack, tmp_path):
     neighbour = Neighbour()
     try:
-        assert neighbour.wait_for(lambda: len(neighbour.got["residual"]) > 20, 60.0), "the stack did not start"
+        neighbour.wait_for_stack()
+        # The residual rate without an attack, for comparison (a rate of wall time: on a busy machine it is lower).
+        start = len(neighbour.got["residual"])
+        neighbour.spin(3.0)
+        rate_before = (len(neighbour.got["residual"]) - start) / 3.0
         before = len(neighbour.got["residual"])
         tracker_rss = rss_mb(stack["star_tracker_node"].pid)
 
@@ -59,7 +63,7 @@ def test_a_hostile_neighbour_changes_nothing_it_should_not(stack, tmp_path):
         flood_sent = 0
         end = time.monotonic() + 3.0
         while time.monotonic() < end:
-            t = neighbour.sim_now_s
+            t = neighbour.now_s
             neighbour.pub["attitude"].publish(shim.write_attitude_angles(
                 Vector3Stamped(), t, shim.SENSOR_FRAME, 1e308, 1e308))
             neighbour.pub["attitude"].publish(shim.write_attitude_angles(
@@ -73,8 +77,9 @@ def test_a_hostile_neighbour_changes_nothing_it_should_not(stack, tmp_path):
             flood_sent += 50
             neighbour.spin(0.05)
 
+        rate_during = (len(neighbour.got["residual"]) - before) / (time.monotonic() - end + 3.0)
         # 2. One forged /clock an hour ahead.
-        neighbour.pub["clock"].publish(shim.write_clock(Clock(), neighbour.sim_now_s + 3600.0))
+        neighbour.pub["clock"].publish(shim.write_clock(Clock(), neighbour.now_s + 3600.0))
         neighbour.spin(0.5)
 
         # 3. Parameter requests that would read a file, or fill memory.
@@ -87,16 +92,20 @@ def test_a_hostile_neighbour_changes_nothing_it_should_not(stack, tmp_path):
         result, _ = neighbour.set_parameter("star_tracker_node", "outage_start_s", [1.0] * 200_000)
         assert not result.successful and "more than the" in result.reason, result.reason
 
-        neighbour.spin(2.5)  # the monitor's /diagnostics at 1 Hz
+        neighbour.wait_for_reports("error_monitor_node")  # one made after the attacks had all been taken
 
         # What the nodes did.
         for name, process in stack.items():
             assert process.poll() is None, f"{name} died: {(tmp_path / (name + '.out')).read_text()[-2000:]}"
         residuals = neighbour.got["residual"]
-        assert len(residuals) > before + 40  # the real pair kept being aligned through the attack
+        # The real pair kept being aligned through the attack, at half the rate of before at least.
+        assert rate_during >= 0.5 * rate_before > 0, (rate_before, rate_during)
         worst = max(max(abs(m.vector.x), abs(m.vector.y)) for m in residuals) / ARCMIN_RAD
-        assert worst < 1.0, f"a hostile sample was used: residual {worst:.1f}′"
-        statistics = shim.error_statistics_from_msg(neighbour.got["statistics"][-1])
+        report = monitor_status(neighbour.got["diagnostics"])
+        assert worst < 1.0, (f"a hostile sample was used: residual {worst:.1f}′ at "
+                             f"{[shim.time_from_msg(m.header.stamp) for m in residuals if abs(m.vector.x) > 1e-3][:5]}"
+                             f"; monitor: {report.message if report else None} {dict(report.values) if report else {}}")
+        statistics = shim.error_statistics_from_msg(neighbour.wait_for_statistics())
         for channel in statistics.channels:
             for value in (channel.mean_rad, channel.sigma_rad, channel.max_abs_rad):
                 assert math.isfinite(value), channel
@@ -107,12 +116,14 @@ def test_a_hostile_neighbour_changes_nothing_it_should_not(stack, tmp_path):
             assert f"2 publishers of {topic}" in status.message, status.message
         assert int(values["other_source_star_tracker_attitude"]) > 0.5 * flood_sent
         assert "rejected_truth_backwards" not in values
+        assert not [key for key in values if key.startswith("source_changes_")], values  # no input changed hands
         assert "clock_jumps" not in values and "alignment_resets" not in values
         # The forged /clock is a second publisher of /clock: dropped before it reaches the time source.
         assert int(values.get("rejected_clock_other_source", 0)) >= 1
         growth_mb = rss_mb(stack["star_tracker_node"].pid) - tracker_rss
         print(f"adversarial: {flood_sent} flood messages, {values['other_source_star_tracker_attitude']} dropped as "
-              f"another source; worst residual {worst:.3f}′; {len(residuals) - before} residuals during the attack; "
+              f"another source; worst residual {worst:.3f}′; {len(residuals) - before} residuals since the attack began "
+              f"({rate_during:.1f}/s during the flood, {rate_before:.1f}/s before); "
               f"tracker RSS {growth_mb:+.1f} MB after a 200,000-element list")
         assert growth_mb < 20.0
     finally:

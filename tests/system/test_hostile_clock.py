@@ -28,7 +28,7 @@ from rosgraph_msgs.msg import Clock
 
 import pmv_msgs_shim as shim
 from pmv_ros.physics.constants import ARCMIN_RAD
-from neighbour import Neighbour, monitor_status, running_stack
+from neighbour import Neighbour, monitor_status, node_statuses, running_stack
 
 pytestmark = pytest.mark.adversarial
 
@@ -51,14 +51,14 @@ def _forged(kind: int, now_s: float) -> Clock:
 
 
 def _status_of(messages, node: str):
-    statuses = [s for m in messages for s in shim.health_from_msg(m).statuses if s.name == f"pmv_ros/{node}"]
+    statuses = node_statuses(messages, node)
     return statuses[-1] if statuses else None
 
 
 def test_no_clock_message_stops_a_node(clock_stack, tmp_path):
     neighbour = Neighbour()
     try:
-        assert neighbour.wait_for(lambda: len(neighbour.got["residual"]) > 20, 90.0), "the stack did not start"
+        neighbour.wait_for_stack()
         residuals = neighbour.got["residual"]
         start = len(residuals)
         neighbour.spin(3.0)
@@ -67,11 +67,11 @@ def test_no_clock_message_stops_a_node(clock_stack, tmp_path):
         start, sent = len(residuals), 0
         end = time.monotonic() + 3.0
         while time.monotonic() < end:
-            neighbour.pub["clock"].publish(_forged(sent % 4, neighbour.sim_now_s))
+            neighbour.pub["clock"].publish(_forged(sent % 4, neighbour.now_s))
             sent += 1
             neighbour.spin(0.05)
         during = (len(residuals) - start) / 3.0
-        neighbour.spin(2.5)  # /diagnostics at 1 Hz
+        neighbour.wait_for_reports("error_monitor_node", "star_tracker_node")  # made after the forged /clock
 
         for name, process in clock_stack.items():
             assert process.poll() is None, f"{name} died: {(tmp_path / (name + '.out')).read_text()[-2000:]}"
@@ -85,7 +85,7 @@ def test_no_clock_message_stops_a_node(clock_stack, tmp_path):
               f"{({k: v for k, v in tracker_values.items() if 'clock' in k})}")
         assert during >= 0.8 * before > 0
         assert worst < 1.0
-        statistics = shim.error_statistics_from_msg(neighbour.got["statistics"][-1])
+        statistics = shim.error_statistics_from_msg(neighbour.wait_for_statistics())
         assert all(math.isfinite(v) for c in statistics.channels for v in (c.mean_rad, c.sigma_rad, c.max_abs_rad))
         assert "clock_jumps" not in values and "alignment_resets" not in values
         for counters in (values, tracker_values):

@@ -16,7 +16,7 @@ from ...physics.instrument.correction import load_correction
 from ...physics.environment import CLIMATOLOGY_SAMPLINGS, YEAR_DAYS, EnvironmentParameters
 from ...physics.orbit.ephemeris import Epoch, raan_from_local_time_of_node
 from .orbit_buffer import FollowedOrbit, OrbitBuffer
-from ...physics.orbit.two_body import CircularOrbit
+from ...physics.orbit.two_body import MAX_ALTITUDE_M, MIN_ALTITUDE_M, CircularOrbit
 from .frames import FRAME_PARAMS, MOUNTING_PARAMS, Mounting
 from .parameters import ParamSpec
 from .truth_buffer import DEFAULT_BRIDGE_S
@@ -351,7 +351,17 @@ def build_source_orbit(values: dict, epoch_s: float, check_span_s: float | None 
 def nominal_altitude_m(values: dict) -> float:
     """The orbit's nominal altitude, m: ``orbit.altitude_km``, or an element set's mean one (orbit.source tle)."""
     if values.get("orbit.source", "circular") == "tle":
-        return element_set_altitude_m(values["orbit.tle_line1"], values["orbit.tle_line2"])
+        altitude_m = element_set_altitude_m(values["orbit.tle_line1"], values["orbit.tle_line2"])
+        # Before anything is built for it (the correction table's rig runs at this altitude): a decayed or
+        # absurd element set is one line here, as TleOrbit would say it, not a failure of whatever came first.
+        if not math.isfinite(altitude_m) or altitude_m < MIN_ALTITUDE_M:
+            raise ValueError(f"orbit.tle_line2: the orbit is below the atmosphere: mean altitude "
+                             f"{altitude_m / 1e3:.1f} km above the mean radius, at least {MIN_ALTITUDE_M / 1e3:g} km "
+                             "is needed (mean motion)")
+        if altitude_m > MAX_ALTITUDE_M:
+            raise ValueError(f"orbit.tle_line2: mean altitude {altitude_m / 1e3:.0f} km is above the allowed "
+                             f"{MAX_ALTITUDE_M / 1e3:g} km (mean motion)")
+        return altitude_m
     return values["orbit.altitude_km"] * 1e3
 
 

@@ -387,7 +387,14 @@ class SourceLock:
     * The lock moves only when the locked source has been silent (by arrival
       time, on the clock the caller gives) for ``timeout_s`` — it stopped, or was restarted (a restarted
       publisher numbers from 1 again: a new track); the next source heard is
-      then locked (counted in :attr:`lock_changes`).
+      then locked (counted in :attr:`lock_changes`) — unless it is a known
+      *intruder*: a source refused while the locked one was still talking
+      (heard between two of its messages) never inherits the lock. A flood
+      that outlasts a real source's stall (a starved process on a busy
+      machine falls silent for a second) cannot become the source; a
+      restarted publisher, which is heard only after the old one stopped, can.
+      An intruder's numbering is followed across any gap (a flood that a busy
+      subscriber thins by thousands stays the same intruder).
     * A message with neither GID nor sequence number (an in-process call)
       counts as the locked source.
 
@@ -420,14 +427,20 @@ class SourceLock:
             return True
         track = self._track_for(gid, sequence, stamp_s, arrival_s)
         locked = self._locked
-        # Silent for the timeout — or the clock went back by more (a restarted simulation): given up.
-        if locked is None or (locked is not track and abs(arrival_s - locked.arrival_s) > self.timeout_s):
+        # Silent for the timeout — or the clock went back by more (a restarted simulation): given up, to any
+        # source but one refused while the locked one was still talking.
+        if locked is None or (locked is not track and not track.intruder
+                              and abs(arrival_s - locked.arrival_s) > self.timeout_s):
             if locked is not None:
                 self.lock_changes += 1
             self._locked = locked = track
         track.hear(sequence, stamp_s, arrival_s)
         if track is locked:
+            for other in self._tracks:  # refused since its previous message: they spoke while it was alive
+                if other.refused and other is not track:
+                    other.intruder = True
             return True
+        track.refused = True
         self.other_source_messages += 1
         return False
 
@@ -443,8 +456,10 @@ class SourceLock:
                 if track.gid == key:
                     return track
             return self._new_track(_Track(gid=key))
+        # An intruder's numbering is followed across any loss: a flood whose messages a busy subscriber drops by
+        # the thousand must not come back as a new source, one no stall has yet shown up.
         candidates = [track for track in tracks if track.gid is None and track.sequence is not None
-                      and 0 < sequence - track.sequence <= self.max_sequence_gap]
+                      and 0 < sequence - track.sequence <= (math.inf if track.intruder else self.max_sequence_gap)]
         if len(candidates) == 1:  # one source could take it (the usual case): nothing to weigh
             return candidates[0]
         best, best_key = None, None
@@ -470,7 +485,8 @@ class SourceLock:
 class _Track:
     """What a :class:`SourceLock` remembers of one source."""
 
-    __slots__ = ("gid", "sequence", "stamp_s", "interval_s", "arrival_s", "sequence_rate_hz", "stamp_jitter_s")
+    __slots__ = ("gid", "sequence", "stamp_s", "interval_s", "arrival_s", "sequence_rate_hz", "stamp_jitter_s",
+                 "refused", "intruder")
 
     #: Stamp jitter below which a source's stamps count as exact (a double holds ~1e-7 s at 2e9 s), s.
     STAMP_JITTER_FLOOR_S = 1e-5
@@ -483,6 +499,8 @@ class _Track:
         self.arrival_s = -math.inf
         self.sequence_rate_hz = math.nan  # numbers per second of arrival time, smoothed
         self.stamp_jitter_s = math.nan  # how far its stamps fall from one interval on, smoothed
+        self.refused = False  # a message of it was refused (it is not the locked source)
+        self.intruder = False  # refused while the locked source was still talking: never given the lock
 
     def misfit(self, gap: int, stamp_s: float, arrival_s: float) -> float:
         """How badly a message ``gap`` numbers on, stamped ``stamp_s``, fits this source (0: perfectly).
@@ -589,3 +607,36 @@ class ClockCheck:
         if reason is not None:
             self.counts[reason] += 1
         return reason
+
+
+# ------------------------------------------------------------------------------- refused requests
+
+#: Wall time between two log lines about refused requests of one kind, s (the first one is said at once).
+REFUSAL_LOG_PERIOD_S = 60.0
+
+
+class RefusalTally:
+    """Requests refused (parameter updates, …): every one counted, the first said at once, then at most one
+    line per ``period_s`` with the count since — a storm of refusals is a counter on /diagnostics, never a log
+    line per request.
+
+    Memory is bounded: one count and the time it was last said, whatever the requests were.
+    """
+
+    def __init__(self, what: str, period_s: float = REFUSAL_LOG_PERIOD_S) -> None:
+        self.what = what
+        self.period_s = float(period_s)
+        self.count = 0
+        self._said_s: float | None = None
+        self._said_count = 0
+
+    def refuse(self, reason: str, now_s: float) -> str | None:
+        """Count one refusal for ``reason``; the line to log now, or None (said already in this period)."""
+        self.count += 1
+        if self._said_s is not None and now_s - self._said_s < self.period_s:
+            return None
+        since, self._said_s, self._said_count = self.count - self._said_count, now_s, self.count
+        if since == 1:
+            return f"refused {self.what}: {reason}"
+        return (f"refused {self.what}: {reason} ({since} refused since the last line, {self.count} in all; "
+                f"counted on /diagnostics, said at most every {self.period_s:g} s)")

@@ -1,0 +1,126 @@
+"""A parameter storm (issue 29): ``set_parameters`` at up to 1,000 requests a second on every node, every one bad.
+
+The three nodes run as their console scripts on the wall clock, on a domain of their own. For 3 s this test
+process sends each node ``set_parameters`` requests as fast as it can up to 1,000 a second per node, without
+waiting for the answers: a value of the wrong type, one out of range, a read-only name (``input.max_rate_hz``)
+and a name the node does not have, in turn. Measured:
+
+* every answer is a refusal with a reason; each node's /diagnostics counts ``rejected_parameter_updates`` —
+  at least every answered request, at most every one sent (a request the node's service queue dropped is
+  never answered nor counted);
+* the storm is said once: at most three log lines per node about refused parameters;
+* nothing is lost: the sensor published every sample of its 10 Hz grid through the storm, the monitor
+  aligned ≥ 99 % of them; no node's memory grows by 20 MB or more; every parameter kept its value.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+from neighbour import WALL_CLOCK_PARAMS, Neighbour, node_statuses, output_of, proc_status, running_nodes
+from rcl_interfaces.srv import GetParameters, SetParameters
+from rclpy.parameter import Parameter
+from rclpy.parameter import parameter_value_to_python
+
+import pmv_msgs_shim as shim
+
+pytestmark = pytest.mark.adversarial
+
+PARAMS = WALL_CLOCK_PARAMS
+#: Per node: (a parameter it has, a value of the wrong type, one out of range); every node has input.max_rate_hz
+#: (read-only) and none has "no_such.parameter".
+STORM = {"sensor_node": ("sensor.rate_hz", "fast", 1e9), "star_tracker_node": ("rate_hz", "fast", 1e9),
+         "error_monitor_node": ("statistics_rate_hz", "often", 1e9)}
+STORM_S, TARGET_HZ = 3.0, 1000.0
+
+
+def _requests(node: str) -> list:
+    name, wrong_type, out_of_range = STORM[node]
+    return [SetParameters.Request(parameters=[Parameter(n, value=v).to_parameter_msg()]) for n, v in (
+        (name, wrong_type), (name, out_of_range), ("input.max_rate_hz", 100.0), ("no_such.parameter", 1.0))]
+
+
+@pytest.fixture
+def stack(tmp_path):
+    with running_nodes(tmp_path, PARAMS) as processes:
+        yield processes
+
+
+def test_a_parameter_storm_is_refused_counted_and_said_once(stack, tmp_path):
+    neighbour = Neighbour()
+    try:
+        node = neighbour.node
+        attitude = neighbour.got["attitude"]
+        clients = {name: node.create_client(SetParameters, f"/{name}/set_parameters") for name in STORM}
+        getters = {name: node.create_client(GetParameters, f"/{name}/get_parameters") for name in STORM}
+        neighbour.wait_until(lambda: all(c.service_is_ready() for c in [*clients.values(), *getters.values()]),
+                             90.0, "the parameter services of the three nodes")
+        neighbour.wait_until(lambda: len(neighbour.got["residual"]) > 10, 90.0, "residuals from the chain")
+
+        def value(name: str, parameter: str):
+            future = getters[name].call_async(GetParameters.Request(names=[parameter]))
+            neighbour.wait_until(future.done, 20.0, f"{parameter} of {name}")
+            return parameter_value_to_python(future.result().values[0])
+
+        kept = {name: value(name, STORM[name][0]) for name in STORM}
+        rss_before = {name: proc_status(process.pid)["rss_mb"] for name, process in stack.items()}
+        storm_from = time.time()
+
+        requests = {name: _requests(name) for name in STORM}
+        futures = {name: [] for name in STORM}
+        began, k = time.monotonic(), 0
+        while time.monotonic() - began < STORM_S:
+            for name, client in clients.items():
+                futures[name].append(client.call_async(requests[name][k % 4]))
+            k += 1
+            if k % 20 == 0:
+                neighbour.executor.spin_once(timeout_sec=0.0)
+            pause = began + k / TARGET_HZ - time.monotonic()
+            if pause > 0:
+                time.sleep(pause)
+        storm_s, storm_to = time.monotonic() - began, time.time()
+        neighbour.spin(1.0)  # the answers and the samples on their way
+        window = sorted(t for t in (shim.time_from_msg(m.header.stamp) for m in attitude) if storm_from <= t <= storm_to)
+        neighbour.wait_for_reports("sensor_node: horizon", "star_tracker_node", "error_monitor_node")
+        deadline = time.monotonic() + 30.0  # the residual of the storm's last sample comes with its truth
+        while max(shim.time_from_msg(m.header.stamp) for m in neighbour.got["residual"]) < window[-1]:
+            assert time.monotonic() < deadline, "no residual for the last sample of the storm within 30 s"
+            neighbour.spin(0.2)
+        rss_after = {name: proc_status(process.pid)["rss_mb"] for name, process in stack.items()}
+
+        for name, process in stack.items():
+            assert process.poll() is None, f"{name} died: {output_of(tmp_path, name)[-2000:]}"
+        figures = {}
+        for name in STORM:
+            answered = [f.result() for f in futures[name] if f.done()]
+            results = [r for response in answered for r in response.results]
+            status = (node_statuses(neighbour.got["diagnostics"], "sensor_node: horizon") if name == "sensor_node"
+                      else node_statuses(neighbour.got["diagnostics"], name))[-1]
+            counted = int(dict(status.values).get("rejected_parameter_updates", 0))
+            lines = [line for line in output_of(tmp_path, name).splitlines() if "refused a parameter update" in line]
+            figures[name] = dict(sent=len(futures[name]), answered=len(answered), counted=counted, lines=lines,
+                                 rss=(round(rss_before[name], 1), round(rss_after[name], 1)))
+        stamps = np.array(window)
+        aligned = {round(shim.time_from_msg(m.header.stamp), 3) for m in neighbour.got["residual"]}
+        taken = sum(round(t, 3) in aligned for t in window) / max(1, len(window))
+        rate = {name: round(len(futures[name]) / storm_s) for name in STORM}
+        shown = {name: {**f, "lines": len(f["lines"])} for name, f in figures.items()}
+        print(f"parameter storm, {storm_s:.1f} s at {rate} requests/s: {shown}; {stamps.size} samples in the storm, "
+              f"largest gap {np.diff(stamps).max():.3f} s, {taken:.1%} aligned")
+        for name in STORM:
+            answered = [f.result() for f in futures[name] if f.done()]
+            results = [r for response in answered for r in response.results]
+            counted, lines = figures[name]["counted"], figures[name]["lines"]
+            assert results and not any(r.successful for r in results), name
+            assert all(r.reason for r in results), name
+            assert len(answered) <= counted <= len(futures[name]), (name, figures[name])
+            assert 1 <= len(lines) <= 3, (name, lines)
+            assert rss_after[name] - rss_before[name] < 20.0, (name, figures[name])
+            assert value(name, STORM[name][0]) == kept[name], name
+        assert min(rate.values()) >= 0.3 * TARGET_HZ, rate  # as close to 1,000/s as this process gets on 2 cores
+        assert stamps.size >= 20 and np.allclose(np.diff(stamps), 0.1, atol=1e-6), np.diff(stamps).max()
+        assert taken >= 0.99, taken
+    finally:
+        neighbour.close()
