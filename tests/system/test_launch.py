@@ -300,19 +300,51 @@ FLEET = {"sat1": "kondor", "sat2": "meteor_m2"}
 #: How far a monitor's residuals may trail its sensor's samples in the lockstep: the truth that aligns a sample
 #: comes with the next 2 Hz star-tracker frame and its 0.25 s latency (≤ 8 samples at 10 Hz), with room to spare.
 RESIDUAL_LAG = 20
+#: Wall time the lockstep lets pass without a new star-tracker frame before a whole second of /clock, s.
+BOUNDARY_QUIET_S = 0.2
 
 
-def _lockstep(spin, clock_publisher, counts, ticks: int, timeout_s: float) -> None:
+def _caught_up(got: dict) -> bool:
+    """Whether a monitor has formed the residual of the newest sample the star-tracker frames seen here cover (the
+    residuals a statistics message counts then no longer depend on how busy the monitor's process is; a sample
+    before the second frame may never have one)."""
+    truth = sorted(_stamp_s(m) for m in got["truth"])
+    if len(truth) < 2:
+        return True
+    covered = [t for t in map(_stamp_s, got["attitude"]) if truth[1] - 1e-6 <= t <= truth[-1] + 1e-6]
+    return not covered or any(_stamp_s(m) >= covered[-1] - 1e-6 for m in got["residual"][-20:])
+
+
+def _stamp_s(message) -> float:
+    return message.header.stamp.sec + message.header.stamp.nanosec * 1e-9
+
+
+def _lockstep(spin, clock_publisher, counts, ticks: int, timeout_s: float, runs=()) -> None:
     """Advance /clock by one sensor period (0.1 s) at a time, each step once every sensor has published its sample.
 
     One step per sample: a sensor paced by its clock computes exactly one sample per step, so the runs compare
-    sample for sample (a step of several periods would let a busy process skip one).
+    sample for sample (a step of several periods would let a busy process skip one). Before each whole second,
+    when the monitors publish their statistics, every monitor of ``runs`` must have caught up with the truth
+    frames seen so far (`_caught_up`), so that a statistics message covers the same residuals in every run.
     """
     message = Clock()
     for k in range(1, ticks + 1):
+        deadline = time.monotonic() + timeout_s
+        if k % 10 == 0:
+            seen, quiet_until = None, 0.0
+            while True:
+                frames = sum(len(got["truth"]) for got in runs)
+                if frames != seen:
+                    seen, quiet_until = frames, time.monotonic() + BOUNDARY_QUIET_S
+                if time.monotonic() >= quiet_until and all(_caught_up(got) for got in runs):
+                    break
+                if time.monotonic() > deadline:
+                    pytest.fail(f"step {k}: a monitor did not catch up with its truth frames: "
+                                + repr([{key: [_stamp_s(m) for m in got[key][-5:]] for key in ("truth", "residual")}
+                                        for got in runs]))
+                spin()
         message.clock.sec, message.clock.nanosec = divmod(k * 100_000_000, 1_000_000_000)
         clock_publisher.publish(message)
-        deadline = time.monotonic() + timeout_s
         while min(count() for count in counts) < k:
             if time.monotonic() > deadline:
                 pytest.fail(f"step {k}: the counts were {[count() for count in counts]}")
@@ -330,7 +362,7 @@ def _one_spacecraft(preset: str, ticks: int, domain: int) -> dict:
     preset_path = REPO / "config" / f"{preset}.yaml"
     rclpy.init(args=["--ros-args", "--params-file", str(preset_path)], context=context, domain_id=domain)
     executor = SingleThreadedExecutor(context=context)
-    nodes, got = [], {"residual": [], "statistics": [], "attitude": []}
+    nodes, got = [], {"residual": [], "statistics": [], "attitude": [], "truth": []}
     try:
         for node_class in (SensorNode, StarTrackerNode, ErrorMonitorNode):
             nodes.append(node_class(context=context, parameter_overrides=[Parameter("use_sim_time", value=True)]))
@@ -341,10 +373,12 @@ def _one_spacecraft(preset: str, ticks: int, domain: int) -> dict:
         tester.create_subscription(Vector3Stamped, "/pmv/residual", got["residual"].append, 1000)
         tester.create_subscription(DiagnosticArray, "/pmv/error_statistics", got["statistics"].append, 1000)
         tester.create_subscription(Vector3Stamped, "/pmv/attitude", got["attitude"].append, 1000)
+        tester.create_subscription(QuaternionStamped, "/star_tracker/attitude", got["truth"].append, 1000)
         clock = tester.create_publisher(Clock, "/clock", 10)
         for _ in range(20):
             executor.spin_once(timeout_sec=0.01)
-        _lockstep(lambda: executor.spin_once(timeout_sec=0.01), clock, [lambda: len(got["attitude"])], ticks, 10.0)
+        _lockstep(lambda: executor.spin_once(timeout_sec=0.01), clock, [lambda: len(got["attitude"])], ticks, 10.0,
+                  [got])
         for _ in range(50):  # the last residuals and statistics of the last step
             executor.spin_once(timeout_sec=0.01)
     finally:
@@ -374,12 +408,14 @@ def test_two_spacecraft_share_only_clock_diagnostics_and_tf_and_fly_as_alone(col
     no topic of one reaches the other, no source lock complains, and each one's residuals and statistics after
     LOCKSTEP_SAMPLES samples equal those of the same preset and seeds flown alone."""
     node, executor = graph
-    got = {name: {"residual": [], "statistics": [], "attitude": []} for name in FLEET}
+    got = {name: {"residual": [], "statistics": [], "attitude": [], "truth": []} for name in FLEET}
     for name in FLEET:
         node.create_subscription(Vector3Stamped, f"/{name}/pmv/residual", got[name]["residual"].append, 1000)
         node.create_subscription(DiagnosticArray, f"/{name}/pmv/error_statistics", got[name]["statistics"].append,
                                  1000)
         node.create_subscription(Vector3Stamped, f"/{name}/pmv/attitude", got[name]["attitude"].append, 1000)
+        node.create_subscription(QuaternionStamped, f"/{name}/star_tracker/attitude", got[name]["truth"].append,
+                                 1000)
     diagnostics = []
     node.create_subscription(DiagnosticArray, "/diagnostics", diagnostics.append, 1000)
     clock = node.create_publisher(Clock, "/clock", 10)
@@ -409,7 +445,7 @@ def test_two_spacecraft_share_only_clock_diagnostics_and_tf_and_fly_as_alone(col
         _lockstep(lambda: executor.spin_once(timeout_sec=0.01), clock,
                   [lambda name=name: len(got[name]["attitude"]) for name in FLEET]
                   + [lambda name=name: len(got[name]["residual"]) + RESIDUAL_LAG for name in FLEET],
-                  LOCKSTEP_SAMPLES, 20.0)
+                  LOCKSTEP_SAMPLES, 20.0, list(got.values()))
         for _ in range(30):
             executor.spin_once(timeout_sec=0.05)
         topics = {topic for topic, _ in node.get_topic_names_and_types()}
