@@ -7,6 +7,9 @@ without ``rclpy.init()``.
 
 from .conversions import (
     PENDING,
+    angles_input,
+    odometry_input,
+    quaternion_input,
     SAMPLES_STATUS_NAME,
     STATISTICS_STATUS_PREFIX,
     attitude_angles_from_msg,
@@ -74,5 +77,5 @@ __all__ = [
     "write_orbit_state", "write_stamp", "read_transform", "write_orbital_transform", "write_transform",
     "PENDING", "ORBIT_STATUS_NAME", "orbit_status_name", "WIRE_CONVENTION", "OrbitElements", "find_orbit_elements",
     "orbit_elements_from_status",
-    "orbit_elements_status",
+    "orbit_elements_status", "angles_input", "quaternion_input", "odometry_input",
 ]

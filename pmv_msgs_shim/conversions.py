@@ -499,3 +499,31 @@ def health_from_msg(msg: DiagnosticArray) -> HealthReport:
                                   tuple((kv.key, kv.value) for kv in s.values)) for s in msg.status)
     return HealthReport(time_from_msg(msg.header.stamp), statuses)
 
+
+# ------------------------------------------------------------------ node inputs
+# What a node's subscription hands its runtime: the frame ids and the values, None where a message is unreadable
+# (the runtime counts it); these never raise.
+
+def angles_input(msg: Vector3Stamped) -> tuple:
+    """(frame id, stamp s, roll rad, pitch rad) of a Vector3Stamped; None for the three when unreadable."""
+    try:
+        return (msg.header.frame_id, *read_attitude_angles(msg))
+    except ValueError:  # a negative or non-finite stamp
+        return msg.header.frame_id, None, None, None
+
+
+def quaternion_input(msg: QuaternionStamped) -> tuple:
+    """(frame id, stamp s, (x, y, z, w)) of a QuaternionStamped; None for both when unreadable."""
+    try:
+        return (msg.header.frame_id, *read_attitude_quaternion(msg))
+    except ValueError:
+        return msg.header.frame_id, None, None
+
+
+def odometry_input(msg: Odometry) -> tuple:
+    """(frame id, child frame id, (stamp s, position m, velocity m/s) or None) of an Odometry."""
+    try:
+        state = read_orbit_state(msg)
+    except ValueError:  # an orientation that is no rotation, or a bad stamp
+        state = None
+    return msg.header.frame_id, msg.child_frame_id, state

@@ -74,31 +74,6 @@ class Sub(NamedTuple):
     when: Callable | None = None
 
 
-def read_angles(message) -> tuple:
-    """(frame id, stamp s, roll rad, pitch rad) of a Vector3Stamped; None for the three when unreadable."""
-    try:
-        return (message.header.frame_id, *shim.read_attitude_angles(message))
-    except ValueError:  # a negative or non-finite stamp
-        return message.header.frame_id, None, None, None
-
-
-def read_quaternion(message) -> tuple:
-    """(frame id, stamp s, (x, y, z, w)) of a QuaternionStamped; None for both when unreadable."""
-    try:
-        return (message.header.frame_id, *shim.read_attitude_quaternion(message))
-    except ValueError:
-        return message.header.frame_id, None, None
-
-
-def read_odometry(message) -> tuple:
-    """(frame id, child frame id, (stamp s, position m, velocity m/s) or None) of an Odometry."""
-    try:
-        state = shim.read_orbit_state(message)
-    except ValueError:  # an orientation that is no rotation, or a bad stamp
-        state = None
-    return message.header.frame_id, message.child_frame_id, state
-
-
 class PmvNode(Node):
     """A node with the project's QoS, a parameter type gate, declared topics and an optional lean mode.
 
@@ -150,8 +125,6 @@ class PmvNode(Node):
             kwargs.setdefault("start_parameter_services", False)
             kwargs.setdefault("enable_rosout", False)  # logs still reach the console and the log file
         self.parameter_specs = {}  # name → ParamSpec, filled by install_validation
-        if not hasattr(self, "parameter_refusals"):  # a managed node keeps its count over configure and cleanup
-            self.parameter_refusals = RefusalTally("a parameter update")  # counted on /diagnostics, said sparingly
         if not getattr(self, "configuring", False):  # a managed node (nodes/managed.py) is a node already
             super().__init__(name, **kwargs)
         self._lean, self._flushed_by_caller = lean, flushed_by_caller
@@ -399,7 +372,7 @@ class PmvNode(Node):
     def note_parameter_refusal(self, reason: str) -> None:
         """Count one refused parameter update (``rejected_parameter_updates`` on /diagnostics); log it only if
         :class:`~pmv_ros.runtime.common.validation.RefusalTally` says so (a storm is not a line per request)."""
-        if not hasattr(self, "parameter_refusals"):  # a managed node before its first configure
+        if not hasattr(self, "parameter_refusals"):  # made at the first; a managed node keeps it over cleanup
             self.parameter_refusals = RefusalTally("a parameter update")
         line = self.parameter_refusals.refuse(reason, time.monotonic())
         if line is not None:

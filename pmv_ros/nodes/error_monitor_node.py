@@ -38,7 +38,7 @@ from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
 from nav_msgs.msg import Odometry
 
 import pmv_msgs_shim as shim
-from .base import PmvNode, Pub, Sub, read_angles, read_odometry, read_quaternion
+from .base import PmvNode, Pub, Sub
 from ..runtime.common.assembly import MONITOR_PARAMS as PARAMS
 from ..runtime.common.records import HealthAt
 from ..runtime.monitor.core import ErrorMonitor
@@ -63,9 +63,9 @@ TOPICS = (
         m, shim.ErrorStatistics.from_summary(s.summary, s.stamp_s))),
     *(_statistics_vector(name) for name in STATISTICS_VECTORS),
     Pub("/diagnostics", DiagnosticArray, HealthAt, lambda m, h, n: shim.write_health(m, n.health_report(*h))),
-    Sub("pmv/attitude", Vector3Stamped, read_angles, "add_sensor"),
-    Sub("star_tracker/attitude", QuaternionStamped, read_quaternion, "add_truth"),
-    Sub("orbit/odometry", Odometry, read_odometry, "add_odometry"),
+    Sub("pmv/attitude", Vector3Stamped, shim.angles_input, "add_sensor"),
+    Sub("star_tracker/attitude", QuaternionStamped, shim.quaternion_input, "add_truth"),
+    Sub("orbit/odometry", Odometry, shim.odometry_input, "add_odometry"),
 )
 
 

@@ -20,7 +20,7 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 from sensor_msgs.msg import Imu
 
 import pmv_msgs_shim as shim
-from .base import PmvNode, Pub, Sub, read_odometry, read_quaternion
+from .base import PmvNode, Pub, Sub
 from ..runtime.common.assembly import SENSOR_PARAMS as PARAMS, read_correction
 from ..runtime.common.frames import Mounting
 from ..runtime.sensor.runtime import HealthAt, SamplePublication, SensorRuntime
@@ -55,8 +55,8 @@ TOPICS = (
         h.stamp_s, h.health, "horizon", others=(n._orbit_status,) if n._orbit_status else ()))),
     Pub("/clock", ClockMsg, "clock", lambda m, t_s, n: shim.write_clock(m, t_s),
         when=lambda n: n._values["sim.fast_time"]),
-    Sub("attitude/truth", QuaternionStamped, read_quaternion, "add_truth", when=lambda n: n._runtime.following),
-    Sub("orbit/odometry", Odometry, read_odometry, "add_odometry", when=lambda n: n._runtime.orbit_following),
+    Sub("attitude/truth", QuaternionStamped, shim.quaternion_input, "add_truth", when=lambda n: n._runtime.following),
+    Sub("orbit/odometry", Odometry, shim.odometry_input, "add_odometry", when=lambda n: n._runtime.orbit_following),
 )
 
 

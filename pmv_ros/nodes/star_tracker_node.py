@@ -27,7 +27,7 @@ from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import QuaternionStamped
 
 import pmv_msgs_shim as shim
-from .base import PmvNode, Pub, Sub, read_quaternion
+from .base import PmvNode, Pub, Sub
 from ..runtime.common.assembly import STAR_TRACKER_PARAMS as PARAMS
 from ..runtime.common.records import HealthAt
 from ..runtime.tracker.runtime import ReleasedFrame, TrackerRuntime
@@ -41,7 +41,7 @@ TOPICS = (
         m, frame.frame_s, n._runtime.frames.orbital, frame.q_measured)),
     Pub("/diagnostics", DiagnosticArray, HealthAt, lambda m, h, n: shim.write_health(
         m, n.health_report(h.stamp_s, h.health, device="star_tracker"))),
-    Sub("attitude/truth", QuaternionStamped, read_quaternion, "receive_truth"),
+    Sub("attitude/truth", QuaternionStamped, shim.quaternion_input, "receive_truth"),
 )
 
 
