@@ -232,6 +232,7 @@ class PmvNode(Node):
 
         subscription = self.create_subscription(declared.type, declared.topic, on_message, self._input_qos,
                                                 **self._quiet("Subscription"))
+        lock.crowded = lambda: self.count_publishers(subscription.topic_name) > 1  # a starved source stays locked
         self.source_locks[subscription.topic_name] = lock
         self._input_names[subscription.topic_name] = declared.topic
 

@@ -22,6 +22,7 @@ from pmv_ros.physics.orbit.two_body import CircularOrbit
 from pmv_ros.runtime.monitor.core import ErrorMonitor
 from pmv_ros.runtime.monitor.records import MonitorConfig
 from pmv_ros.runtime.common.validation import (
+    CROWDED_TIMEOUT_FACTOR,
     QUATERNION_NORM_TOLERANCE,
     InputBounds,
     Jump,
@@ -462,3 +463,29 @@ def test_a_storm_of_refusals_is_counted_whole_and_said_once_a_period():
     line = tally.refuse("reason late", now_s=61.0)  # the next period: one line with the count since
     assert line.startswith("refused a parameter update: reason late (5000 refused since the last line, 5001 in all")
     assert tally.refuse("again", now_s=62.0) is None and tally.count == 5002
+
+
+def test_a_flood_during_a_stall_waits_while_the_graph_shows_the_starved_source():
+    # The real source (2 Hz) falls silent for 3 s — starved, or drowned in the subscriber's queue — and a flood
+    # first heard after its last message fills the silence: while the graph shows two publishers, the flood does
+    # not inherit the lock until CROWDED_TIMEOUT_FACTOR timeouts; the real one's next message is still taken.
+    graph = {"publishers": 2}
+    lock = SourceLock(timeout_s=1.0, crowded=lambda: graph["publishers"] > 1)
+    assert all(lock.admit(0.5 * k, sequence=k, stamp_s=0.5 * k) for k in range(1, 11))  # the last at 5.0 s
+    flood = [lock.admit(5.0 + 0.01 * n, sequence=n, stamp_s=100.0 + n) for n in range(1, 301)]  # to 8.0 s
+    assert not any(flood) and lock.lock_changes == 0
+    assert lock.admit(8.2, sequence=11, stamp_s=8.2)
+    # The flood spoke while the real one was alive: an intruder now. A third publisher, first heard after the
+    # real one's last message, takes over once the silence is longer than the crowded limit.
+    assert not lock.admit(8.2 + 0.5 * CROWDED_TIMEOUT_FACTOR, sequence=1, stamp_s=500.0)
+    assert lock.admit(8.3 + CROWDED_TIMEOUT_FACTOR, sequence=2, stamp_s=501.0) and lock.lock_changes == 1
+    assert not lock.admit(8.4 + CROWDED_TIMEOUT_FACTOR, sequence=301, stamp_s=401.0)  # the flood never
+
+
+def test_a_restarted_publisher_is_locked_after_the_timeout_once_the_old_one_left_the_graph():
+    graph = {"publishers": 2}  # the old process's endpoint lingers until the middleware's lease ends
+    lock = SourceLock(timeout_s=1.0, crowded=lambda: graph["publishers"] > 1)
+    assert all(lock.admit(0.5 * k, sequence=k, stamp_s=0.5 * k) for k in range(1, 20))  # the last at 9.5 s
+    assert not lock.admit(11.0, sequence=1, stamp_s=11.0)  # silent 1.5 s, but two publishers in the graph
+    graph["publishers"] = 1
+    assert lock.admit(11.5, sequence=2, stamp_s=11.5) and lock.lock_changes == 1

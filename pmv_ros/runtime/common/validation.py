@@ -36,7 +36,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from enum import Enum
-from typing import NamedTuple
+from typing import Callable, NamedTuple
 
 import numpy as np
 
@@ -357,6 +357,12 @@ def check_quaternion_sample(stamps: StampCheck, t_s: float, q_xyzw, now_s: float
 
 # ------------------------------------------------------------------------------- one source
 
+#: How many source timeouts a silent locked source keeps its lock while the graph shows another publisher
+#: beside the one that would take over (:class:`SourceLock`): a flood lasting this long while the real source
+#: is starved or drowned takes over; at the default timeout of 1 s that is 10 s.
+CROWDED_TIMEOUT_FACTOR = 10.0
+
+
 class SourceLock:
     """Keep one publisher per input stream: the first heard; drop the others' messages, never interleave.
 
@@ -394,7 +400,15 @@ class SourceLock:
       machine falls silent for a second) cannot become the source; a
       restarted publisher, which is heard only after the old one stopped, can.
       An intruder's numbering is followed across any gap (a flood that a busy
-      subscriber thins by thousands stays the same intruder).
+      subscriber thins by thousands stays the same intruder). And where the
+      caller can ask the graph (``crowded``: more than one publisher of the
+      input there now), a source first heard during the stall — a flood that
+      began while the real one was starved, or whose messages pushed the real
+      one's out of the subscriber's queue — still waits
+      :data:`CROWDED_TIMEOUT_FACTOR` timeouts: the silent source is still in
+      the graph, so it may be starved, not gone. A restarted publisher's old
+      self leaves the graph (at once on a clean exit; after the middleware's
+      lease on kill -9), and the new one is locked after ``timeout_s``.
     * A message with neither GID nor sequence number (an in-process call)
       counts as the locked source.
 
@@ -405,9 +419,12 @@ class SourceLock:
         timeout_s: silence after which the locked source is given up, s (arrival clock).
         max_sequence_gap: largest jump in a source's sequence numbers still taken as the same source.
         max_tracks: sources remembered at once.
+        crowded: whether the graph shows more than one publisher of the input now (asked only when the lock
+            would move); None: not known, the lock moves after ``timeout_s``.
     """
 
-    def __init__(self, timeout_s: float = 1.0, *, max_sequence_gap: int = 1000, max_tracks: int = 8) -> None:
+    def __init__(self, timeout_s: float = 1.0, *, max_sequence_gap: int = 1000, max_tracks: int = 8,
+                 crowded: Callable[[], bool] | None = None) -> None:
         if not (math.isfinite(timeout_s) and timeout_s > 0.0):
             raise ValueError(f"timeout_s = {timeout_s} must be a positive number of seconds")
         if max_tracks < 2 or max_sequence_gap < 1:
@@ -415,6 +432,7 @@ class SourceLock:
         self.timeout_s = float(timeout_s)
         self.max_sequence_gap = int(max_sequence_gap)
         self.max_tracks = int(max_tracks)
+        self.crowded = crowded
         self._tracks: list[_Track] = []
         self._locked: _Track | None = None
         self.lock_changes = 0
@@ -428,9 +446,12 @@ class SourceLock:
         track = self._track_for(gid, sequence, stamp_s, arrival_s)
         locked = self._locked
         # Silent for the timeout — or the clock went back by more (a restarted simulation): given up, to any
-        # source but one refused while the locked one was still talking.
+        # source but one refused while the locked one was still talking; while the graph still shows another
+        # publisher beside the new one, only after CROWDED_TIMEOUT_FACTOR timeouts.
         if locked is None or (locked is not track and not track.intruder
-                              and abs(arrival_s - locked.arrival_s) > self.timeout_s):
+                              and abs(arrival_s - locked.arrival_s) > self.timeout_s
+                              and (abs(arrival_s - locked.arrival_s) > CROWDED_TIMEOUT_FACTOR * self.timeout_s
+                                   or self.crowded is None or not self.crowded())):
             if locked is not None:
                 self.lock_changes += 1
             self._locked = locked = track
