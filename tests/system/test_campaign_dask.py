@@ -2,7 +2,7 @@
 
 A scheduler and two workers are started with Dask's own command line
 (``python -m dask scheduler|worker``) on 127.0.0.1 at free ports; every wait
-is bounded. Tasks are short (a fraction of an orbit at 10 Hz, ≈ 0.5–1 s each).
+is bounded. Tasks are short (a tenth of an orbit at 10 Hz, ≈ 0.2–0.4 s each).
 """
 
 from __future__ import annotations
@@ -24,9 +24,12 @@ from pmv_ros.apps import campaign
 REPO = Path(__file__).resolve().parents[2]
 METEOR = REPO / "config" / "meteor_m2.yaml"
 
-#: Three days × two seeds, 0.3 orbit each (≈ 18 000 samples, ≈ 0.5–1 s a task on one core).
-CAMPAIGN = ["--config", str(METEOR), "--days", "1,120,240", "--seeds", "2", "--orbits-per-task", "0.3",
-            "--rate-hz", "10", "--quiet", "--json"]
+#: Three days × two seeds, 0.1 orbit each (≈ 6,100 samples, ≈ 0.2–0.4 s a task on one core). What the tests
+#: compare is bit for bit and counts every sample, so any length shows a lost, doubled or different task; a
+#: task lasts long enough that the worker killed below is busy and tasks are left when the first file lands.
+DAYS, SEEDS, ORBITS_PER_TASK = [1, 120, 240], 2, 0.1
+CAMPAIGN = ["--config", str(METEOR), "--days", ",".join(map(str, DAYS)), "--seeds", str(SEEDS),
+            "--orbits-per-task", str(ORBITS_PER_TASK), "--rate-hz", "10", "--quiet", "--json"]
 TASKS = 6
 WAIT_S = 120.0
 
@@ -134,7 +137,9 @@ def external(cluster, tmp_path_factory):
 
 
 def test_external_scheduler_gives_the_embedded_results(tmp_path, external):
-    embedded = _pmv([*CAMPAIGN, "--workers", "2", "--out", str(tmp_path / "embedded")])
+    # One embedded worker runs the six tasks one after another in one process; the external cluster spreads
+    # them over two: the same files whatever the placement.
+    embedded = _pmv([*CAMPAIGN, "--workers", "1", "--out", str(tmp_path / "embedded")])
     assert embedded["ran"] == TASKS
     _same_results(tmp_path / "embedded", external)
     for name in ("budget.json", "sigma_limit.png", "latitude_season.png"):
@@ -165,7 +170,7 @@ def test_a_worker_killed_mid_campaign_loses_nothing_and_a_rerun_skips_all(tmp_pa
     assert report["ran"] == TASKS and report["skipped"] == 0
     # Nothing lost, nothing twice: one whole file per task, no temporary file left, every sample counted once.
     files = sorted(out.glob("*.parquet"))
-    assert [path.stem for path in files] == sorted(task.name for task in campaign.plan([1, 120, 240], 2, False))
+    assert [path.stem for path in files] == sorted(task.name for task in campaign.plan(DAYS, SEEDS, False))
     assert not list(out.glob(".*tmp*"))
     budget = json.loads((out / "budget.json").read_text())
     assert len(budget["tasks"]) == TASKS
@@ -175,6 +180,21 @@ def test_a_worker_killed_mid_campaign_loses_nothing_and_a_rerun_skips_all(tmp_pa
     assert sum(task["samples"] for task in budget["tasks"]) == sum(t.num_rows for t, _ in _tables(out).values())
     # The same results as the run with both workers alive.
     _same_results(out, external)
-    # A re-run finds every task done.
-    again = _pmv([*CAMPAIGN, "--scheduler", address, "--out", str(out)])
-    assert again["ran"] == 0 and again["skipped"] == TASKS
+    # A re-run finds every task done and trusts it: what ``pmv campaign --scheduler`` runs (run_campaign, with the
+    # command's settings: the folder's campaign.json must match them) returns before it would ask the cluster.
+    settings = _settings()
+    campaign.prepare_folder(out, settings)
+    again = campaign.run_campaign(settings, campaign.plan(DAYS, SEEDS, False), out, scheduler=address, progress=False)
+    assert again["ran"] == 0 and again["skipped"] == TASKS and again["recomputed"] == {}
+
+
+def _settings():
+    """The Settings ``pmv campaign CAMPAIGN`` makes (Meteor-M's preset epoch, 10 Hz)."""
+    import yaml
+
+    from pmv_ros.runtime.common.assembly import SENSOR_PARAMS
+    from pmv_ros.runtime.common.parameters import preset_values
+
+    document = yaml.safe_load(METEOR.read_text())
+    epoch_utc = preset_values(document, "sensor_node", SENSOR_PARAMS)["sim.epoch_utc"]
+    return campaign.Settings(document, epoch_utc, 10.0, ORBITS_PER_TASK)

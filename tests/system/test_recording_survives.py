@@ -6,8 +6,8 @@ recording, every 100th). Then:
 
 * SIGINT or SIGTERM: the run stops between two ticks, the MCAP file is
   closed whole (footer and summary: ``scan_mcap`` says complete, and it holds
-  every message handed to it), one line says so, status 130 / 143, within a
-  second of the signal (plus the process's own exit);
+  every message handed to it), one line says so, status 130 / 143; the
+  recording's close begins within seconds of the signal (ms on a quiet machine);
 * ``kill -9``: ``pmv analyze`` reads the file without its footer and says how
   much it recovered; the messages recovered are at least 95 % of those
   handed to the recording before the kill (counted to within 100, the
@@ -127,16 +127,19 @@ def test_a_signal_stops_the_run_and_closes_the_recording_whole(tmp_path):
     for stop, run in runs.items():
         sent = time.monotonic()
         run.process.send_signal(stop)
-        status, stderr = run.finish()
+        closing = run.wait_for_closing(timeout_s=60.0)  # the run stopped and began to close the recording
         took_s = time.monotonic() - sent
+        status, stderr = run.finish()
         lines = _own_lines(stderr)
-        print(f"{stop.name}: status {status} {took_s:.2f} s after the signal; {lines}")
+        print(f"{stop.name}: status {status}; the recording's close began {took_s:.2f} s after the signal; {lines}")
         assert status == 128 + stop and "Traceback" not in stderr
         assert len(lines) == 1 and f"stopped by {stop.name}" in lines[0] and "recording closed" in lines[0], lines
         scan = scan_mcap(tmp_path / f"{stop.name}.mcap")
         written = int(lines[0].rsplit(", ", 1)[1].split()[0])
-        assert scan.complete and scan.messages == written >= 2000, (scan, written)
-        assert took_s < 5.0  # the stop itself is between two ticks (ms); the rest is the interpreter's exit
+        assert scan.complete and scan.messages == written == closing >= 2000, (scan, written, closing)
+        # The stop is between two ticks (ms on a quiet machine); timed to the start of the recording's close, not
+        # to the interpreter's exit (rclpy's shutdown: seconds on a loaded machine, nothing the run decides).
+        assert took_s < 5.0
 
 
 def test_kill_9_leaves_a_recording_analyze_reads(tmp_path, run_long, capsys):

@@ -29,14 +29,19 @@ QUIET_DIAGNOSTICS = {"distributed.worker.profile.enabled": False,
                      "distributed.admin.tick.interval": "1s"}
 
 
-def open_client(scheduler: str | None, workers: int, timeout_s: float = 10.0):
+#: How long a campaign waits for the scheduler of ``--scheduler`` to answer, s (read when the client is opened).
+SCHEDULER_TIMEOUT_S = 10.0
+
+
+def open_client(scheduler: str | None, workers: int, timeout_s: float | None = None):
     """A Dask client: on the scheduler at ``scheduler``, or on an embedded LocalCluster of ``workers`` processes.
 
     The embedded cluster runs one thread per worker process, no dashboard, few
     diagnostics (:data:`QUIET_DIAGNOSTICS`), and reschedules a task whose worker
     died (``allowed-failures``).
     Returns ``(client, cluster or None)``; ValueError naming the address if
-    the scheduler cannot be reached within ``timeout_s``.
+    the scheduler cannot be reached within ``timeout_s`` (default
+    :data:`SCHEDULER_TIMEOUT_S`).
     """
     import logging
 
@@ -44,7 +49,7 @@ def open_client(scheduler: str | None, workers: int, timeout_s: float = 10.0):
     from distributed import Client, LocalCluster
 
     if scheduler:
-        return _connect(scheduler, timeout_s), None
+        return _connect(scheduler, SCHEDULER_TIMEOUT_S if timeout_s is None else timeout_s), None
     with dask.config.set({"distributed.scheduler.allowed-failures": 3,
                           "distributed.nanny.pre-spawn-environ": WORKER_ENVIRONMENT, **QUIET_DIAGNOSTICS}):
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
