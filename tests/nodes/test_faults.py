@@ -469,28 +469,31 @@ def test_following_sensor_on_the_wall_clock_takes_truth_stamped_now(harness):
 # ---------------------------------------------------------------------- 4. truth outages and discontinuities
 
 def test_hours_long_star_tracker_outage_neither_stalls_nor_invents_truth():
-    # Two hours without truth (a solar-flare outage, physics.md §6) in a 2.5 h run at 0.2 Hz.
-    start_s, duration_s, run_s = 600.0, 7200.0, 9000.0
+    # Two hours without truth (a solar-flare outage, physics.md §6) in a 2¼ h run at 0.125 Hz. The cost is one
+    # pipeline step a sample: 5 min before the outage fill the truth history (60 s) many times over, 10 min
+    # after it show the alignment resumed for good, and an 8 s sample period stays clear of the monitor's
+    # 10 s forward-jump threshold (max_truth_wait_s), so a step of the clock is never a suspected jump.
+    start_s, duration_s, run_s, rate_hz = 300.0, 7200.0, 8100.0, 0.125
     overrides = {**PERFECT_TRACKER, "outage_start_s": [start_s], "outage_duration_s": [duration_s],
-                 "sensor.rate_hz": 0.2, "max_truth_gap_s": 10.0}
+                 "sensor.rate_hz": rate_hz, "max_truth_gap_s": 10.0}
     with Pipeline(None, overrides) as pipeline:
         got = probe(pipeline, {"/diagnostics": DiagnosticArray})
         pending_max = truth_buffer_max = 0
-        for _ in range(int(run_s * 0.2)):
+        for _ in range(int(run_s * rate_hz)):
             pipeline.step()
             pending_max = max(pending_max, pipeline.monitor.monitor.pending_count)
             truth_buffer_max = max(truth_buffer_max, pipeline.monitor.monitor.truth_buffer_length)
         statistics = pipeline.monitor.publish_statistics(pipeline.sensor.sim_time_s)
         stamps = pipeline.collector.residual_array()[0]
     counters = statistics.counters
-    # Samples give up after max_truth_wait_s = 10 s: at 0.2 Hz never more than 3 wait.
-    assert pending_max <= 3
+    # Samples give up after max_truth_wait_s = 10 s: 8 s apart, never more than 2 wait (3 at 0.2 Hz before).
+    assert 1 <= pending_max <= 2
     assert truth_buffer_max <= 60.0 * 2.0 + 2  # truth_history_s at 2 Hz
     skipped = sum(v for k, v in counters.items() if k.startswith("skipped_"))
-    assert abs(skipped - duration_s * 0.2) <= 4, counters
+    assert abs(skipped - duration_s * rate_hz) <= 4, counters
     assert not np.any((stamps > start_s + 1.0) & (stamps < start_s + duration_s - 1.0))
-    assert np.sum(stamps > start_s + duration_s) >= (run_s - start_s - duration_s) * 0.2 - 4  # resumed
-    assert counters["used"] >= (run_s - duration_s) * 0.2 - 6
+    assert np.sum(stamps > start_s + duration_s) >= (run_s - start_s - duration_s) * rate_hz - 4  # resumed
+    assert counters["used"] >= (run_s - duration_s) * rate_hz - 6
     assert counters["clock_jumps"] == 0
     monitor_reports = health(got["/diagnostics"], "pmv_ros/error_monitor_node")
     in_outage = [s for t, s in monitor_reports if start_s + 3600.0 < t < start_s + duration_s]
