@@ -209,8 +209,13 @@ def test_attitude_excursion_loses_the_chord_without_horizon_and_recovers():
 
 # ------------------------------------------------------------------------------------ 2. bad messages
 
+#: Length of the monitor's stream, s: one period of the truth's motion (60 s), 600 samples — each of the 14 kinds
+#: of bad message comes 5 or 6 times (every ninth clean message is followed by one, the kinds in turn).
+MONITOR_STREAM_S = 60
+
+
 def _monitor_stream(bad: bool):
-    """(kind, payload) of a 100 s stream: sensor at 10 Hz, truth at 2 Hz, /clock at 10 Hz; ~10 % bad if ``bad``.
+    """(kind, payload) of a 60 s stream: sensor at 10 Hz, truth at 2 Hz, /clock at 10 Hz; ~10 % bad if ``bad``.
 
     Truth: roll 5′ sin, pitch −2′ cos (period 60 s); the sensor reads 1.5′ more roll, 0.5′ less pitch
     plus 0.3′ noise. Bad messages of every kind are inserted between the clean ones (never instead of
@@ -223,7 +228,7 @@ def _monitor_stream(bad: bool):
                  "sensor_duplicate", "sensor_inf", "sensor_unreadable")
     clean_count = 0
     last_truth = last_sensor = None
-    for k in range(1, 1001):
+    for k in range(1, 10 * MONITOR_STREAM_S + 1):
         t = round(0.1 * k, 10)
         events.append(("clock", t))
         roll, pitch = 5 * ARCMIN_RAD * math.sin(2 * math.pi * t / 60), -2 * ARCMIN_RAD * math.cos(2 * math.pi * t / 60)
@@ -262,7 +267,7 @@ def _monitor_stream(bad: bool):
                     "sensor_inf": ("sensor", (t + 0.05, math.inf, 0.0)),
                     "sensor_unreadable": ("sensor_raw", -5),
                 }[kind])
-    events.append(("clock", 101.5))  # let the 1 Hz diagnostics timer report the end
+    events.append(("clock", MONITOR_STREAM_S + 1.5))  # let the 1 Hz diagnostics timer report the end
     return events, counts, clean_count
 
 
@@ -302,7 +307,7 @@ def test_monitor_with_ten_percent_bad_messages_gives_the_clean_statistics_and_co
     # Residuals: the same samples, the same values.
     clean_residuals = [(shim.time_from_msg(m.header.stamp), m.vector.x, m.vector.y) for m in clean[0]]
     dirty_residuals = [(shim.time_from_msg(m.header.stamp), m.vector.x, m.vector.y) for m in dirty[0]]
-    assert len(clean_residuals) > 950
+    assert len(clean_residuals) > 10 * MONITOR_STREAM_S - 50
     assert [r[0] for r in dirty_residuals] == [r[0] for r in clean_residuals]
     np.testing.assert_allclose(np.array(dirty_residuals), np.array(clean_residuals), rtol=0, atol=1e-15)
     # Statistics: published at the same stamps, with the same numbers (normalising a quaternion
@@ -312,7 +317,7 @@ def test_monitor_with_ten_percent_bad_messages_gives_the_clean_statistics_and_co
     assert [s.stamp_s for s in dirty_stats] == [s.stamp_s for s in clean_stats]
     for name in ("roll", "pitch", "meridional"):
         a, b = clean_stats[-1].channel(name), dirty_stats[-1].channel(name)
-        assert b.count == a.count > 950
+        assert b.count == a.count > 10 * MONITOR_STREAM_S - 50
         for field in ("mean_rad", "sigma_rad", "three_sigma_rad", "max_abs_rad"):
             assert getattr(b, field) == pytest.approx(getattr(a, field), rel=1e-12, abs=1e-18), (name, field)
     assert clean_stats[-1].channel("roll").mean_rad / ARCMIN_RAD == pytest.approx(1.5, abs=0.05)
