@@ -290,8 +290,10 @@ def test_launch_namespace_fast_time_keeps_the_preset_sections(colcon_install, ro
 
 # ------------------------------------------------------------------------- two spacecraft in one graph
 
-#: Samples each spacecraft takes in the two-spacecraft run (20 s of simulation time at 10 Hz).
-LOCKSTEP_SAMPLES = 200
+#: Samples each spacecraft takes in the two-spacecraft run (10 s of simulation time at 10 Hz): twenty star-tracker
+#: frames and ten statistics messages each, enough for a topic of one spacecraft reaching the other, or a sample of
+#: one aligned with the other's truth, to change residuals that must be bit-identical to the run alone.
+LOCKSTEP_SAMPLES = 100
 #: Wall time for the launched nodes to discover one another once this process sees them all, s (3 s lost the
 #: first samples of a run once at load 10).
 DISCOVERY_SETTLE_S = 10.0

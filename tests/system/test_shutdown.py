@@ -91,44 +91,56 @@ def _stops(repeats: int):
             yield first, (signal.SIGINT if k % 2 else None)
 
 
+@pytest.fixture(scope="module")
+def feeder(tmp_path_factory):
+    """The busy sensor that feeds the star tracker and the monitor: one process for every stop of both (started
+    when the first of them needs it, after the sensor's own stops, which run without it)."""
+    child = Child("sensor_node", BUSY_SENSOR, _env(tmp_path_factory.mktemp("feeder")))
+    try:
+        assert child.ready.wait(START_LIMIT_S), child.stderr
+        yield child
+    finally:
+        child.kill()
+
+
+def _fed(node: str, request) -> None:
+    """A star tracker or a monitor is stopped while a busy sensor feeds it: the module's feeder, still running."""
+    if node != "sensor_node":
+        child = request.getfixturevalue("feeder")
+        assert child.process.poll() is None, f"the feeding sensor ended: {child.stderr}"
+
+
 @pytest.mark.parametrize("node", NODES)
-def test_signals_stop_every_node_cleanly(node, tmp_path, run_long):
+def test_signals_stop_every_node_cleanly(node, tmp_path, run_long, request):
+    _fed(node, request)
     _run_stops(node, tmp_path, 2)
 
 
 @pytest.mark.long
 @pytest.mark.parametrize("node", NODES)
-def test_signals_stop_every_node_cleanly_twenty_times(node, tmp_path, run_long):
+def test_signals_stop_every_node_cleanly_twenty_times(node, tmp_path, run_long, request):
     if not run_long:
         pytest.skip("the 20 + 20 loop runs with --run-long (the default run does 2 + 2)")
+    _fed(node, request)
     _run_stops(node, tmp_path, 20)
 
 
 def _run_stops(node: str, tmp_path, repeats: int) -> None:
     env = _env(tmp_path)
-    feeder = None
-    if node != "sensor_node":
-        feeder = Child("sensor_node", BUSY_SENSOR, env)
     arguments = BUSY_SENSOR if node == "sensor_node" else []
     results = []
-    try:
-        if feeder is not None:
-            assert feeder.ready.wait(START_LIMIT_S), feeder.stderr
-        for first, second in _stops(repeats):
-            child = Child(node, arguments, env)
-            try:
-                assert child.ready.wait(START_LIMIT_S), f"{node} did not start: {child.stderr}"
-                time.sleep(0.3)  # spinning, in the middle of its work
-                status, took_s = _stop(child, first, second)
-            finally:
-                child.kill()
-            text = child.stderr
-            what = f"{node} {signal.Signals(first).name}{' + SIGINT' if second else ''}"
-            results.append((what, status, took_s))
-            assert status == 0, f"{what}: exit status {status}\n{text}"
-            assert "Traceback" not in text and "RCLError" not in text, f"{what}:\n{text}"
-            assert took_s < STOP_LIMIT_S, f"{what}: took {took_s:.1f} s"
-    finally:
-        if feeder is not None:
-            feeder.kill()
+    for first, second in _stops(repeats):
+        child = Child(node, arguments, env)
+        try:
+            assert child.ready.wait(START_LIMIT_S), f"{node} did not start: {child.stderr}"
+            time.sleep(0.3)  # spinning, in the middle of its work
+            status, took_s = _stop(child, first, second)
+        finally:
+            child.kill()
+        text = child.stderr
+        what = f"{node} {signal.Signals(first).name}{' + SIGINT' if second else ''}"
+        results.append((what, status, took_s))
+        assert status == 0, f"{what}: exit status {status}\n{text}"
+        assert "Traceback" not in text and "RCLError" not in text, f"{what}:\n{text}"
+        assert took_s < STOP_LIMIT_S, f"{what}: took {took_s:.1f} s"
     print(f"{node}: {len(results)} stops, slowest {max(r[2] for r in results):.2f} s")
