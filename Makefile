@@ -6,7 +6,6 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
 export ROS_LOG_DIR ?= $(CURDIR)/.ros_log
-export PYTHONDONTWRITEBYTECODE := 1
 
 .PHONY: demo test test-long bench venv clean
 

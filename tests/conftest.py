@@ -33,6 +33,11 @@ import pytest
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "OFF")
 os.environ.setdefault("ROS_LOG_DIR", tempfile.mkdtemp(prefix="pmv_ros_test_log_"))
 os.environ.setdefault("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
+# A run started in the background by a non-interactive shell (`make test &`) has SIGINT ignored, and an ignored
+# signal stays ignored across exec: every child (ros2 launch, the nodes) would ignore the SIGINT the tests send
+# it. With a handler here, the children start with the default action.
+if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -2,7 +2,7 @@
 
 Usage: ``python cli_cases.py CASES.json`` with ``{name: [pmv arguments]}``;
 prints one JSON line per case: its exit status, what it printed on stdout and
-stderr, its wall time, and this process's peak resident memory after it
+stderr, its wall and CPU time, and this process's peak resident memory after it
 (``VmHWM``: the peak so far, so the largest of these bounds every case; not
 ``ru_maxrss``, which a child inherits from the process that forked it — a
 test runner of several hundred MB).
@@ -46,7 +46,7 @@ def main() -> None:
     signal.signal(signal.SIGALRM, _alarm)
     for name, argv in cases.items():
         out, err = io.StringIO(), io.StringIO()
-        started = time.monotonic()
+        started, started_cpu = time.monotonic(), time.process_time()
         signal.alarm(CASE_LIMIT_S)
         try:
             with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
@@ -63,10 +63,10 @@ def main() -> None:
             err.write(traceback.format_exc())
         finally:
             signal.alarm(0)
-        wall_s = time.monotonic() - started
+        wall_s, cpu_s = time.monotonic() - started, time.process_time() - started_cpu
         peak_mb = _peak_rss_mb()
         print(json.dumps({"name": name, "status": status, "stdout": out.getvalue(), "stderr": err.getvalue(),
-                          "wall_s": wall_s, "peak_mb": peak_mb}), flush=True)
+                          "wall_s": wall_s, "cpu_s": cpu_s, "peak_mb": peak_mb}), flush=True)
 
 
 if __name__ == "__main__":
