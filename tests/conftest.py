@@ -120,11 +120,11 @@ def pytest_ignore_collect(collection_path, config):
 #: listed counts a quarter second a test. The early work below is not in these figures.
 GROUP_COST_S = {
     "colcon_install": 100.0,  # the colcon test, ros2 launch (seven launches), tf with the vendored tf2_msgs
-    "tests/system/test_campaign_dask.py": 90.0,
-    "tests/apps/test_campaign_trust.py": 85.0,
+    "tests/system/test_campaign_dask.py": 45.0,
+    "tests/apps/test_campaign_trust.py": 35.0,
     "tests/system/test_recording_survives.py": 65.0,
-    "kondor_orbit_run": 60.0,  # the recording and main-job tests beside the shared orbit
-    "tests/nodes/test_faults.py": 37.0,
+    "kondor_orbit_run": 45.0,  # the recording and main-job tests beside the shared orbit
+    "tests/nodes/test_faults.py": 28.0,
     "tests/system/test_shutdown.py": 35.0,
     "tests/system/test_golden.py": 32.0,
     "tests/runtime/test_flight_environment.py": 31.0,
@@ -137,7 +137,7 @@ GROUP_COST_S = {
     "tests/nodes/test_follow_hiccups.py": 21.0,
     "tests/nodes/test_statistics_topics.py": 19.0,
     "tests/apps/test_simulate_flight.py": 17.0,
-    "tests/apps/test_campaign.py": 17.0,
+    "tests/apps/test_campaign.py": 10.0,
     "tests/nodes/test_input_guards.py": 15.0,
     "tests/nodes/test_sim_clock.py": 12.0,
     "tests/system/test_tle_flight.py": 12.0,
