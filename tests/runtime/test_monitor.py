@@ -392,6 +392,67 @@ def test_one_batch_equals_the_same_input_message_by_message_with_bad_input(jump)
             assert y.harmonics_rad[k] == pytest.approx(x.harmonics_rad[k], abs=1e-9 * ARCMIN_RAD, nan_ok=True)
 
 
+def _every_outcome(monitor, t, roll, pitch, frames, q, arrival, now, position, velocity) -> list:
+    """Every outcome of a batch's events fed one message at a time, in order, as rows of floats (status as its
+    index, NaN where there is no value)."""
+    from pmv_ros.runtime.monitor.records import BATCH_STATUSES
+
+    rows = []
+
+    def keep(outcomes):
+        rows.extend([o.stamp_s, BATCH_STATUSES.index(o.status), o.residual_roll_rad, o.residual_pitch_rad,
+                     o.roll_rad, o.pitch_rad, o.meridional_rad, o.altitude_m] for o in outcomes)
+
+    j = 0
+    for i in range(t.size):
+        while j < frames.size and arrival[j] == i:
+            keep(monitor.add_truth_quaternion(frames[j], q[:, j], now_s=now[i]))
+            j += 1
+        monitor.add_odometry(t[i], position[:, i], velocity[:, i], now_s=now[i])
+        keep(monitor.take_settled())
+        keep(monitor.add_sensor(t[i], roll[i], pitch[i], now_s=now[i], odometry_max_age_s=5.0))
+        if i % 997 == 0:
+            keep(monitor.poll(now[i] + 0.05))
+    return np.array(rows, float)
+
+
+@pytest.mark.parametrize("jump", [False, True], ids=["one-timeline", "clock-jump"])
+@pytest.mark.parametrize("options", [{}, dict(max_pending=8, truth_capacity=3, truth_history_s=5.0,
+                                              max_truth_wait_s=0.8, max_truth_gap_s=1.1)],
+                         ids=["defaults", "tight-queue-and-buffer"])
+def test_a_small_segment_settles_in_floats_exactly_as_on_arrays(monkeypatch, jump, options):
+    """Alignment.settle_small (a node's message: a few samples, in floats) against Alignment.settle (arrays) on
+    the same messages: every outcome, counter, statistic, the queue and the truth buffer bit for bit.
+
+    The hostile stream message by message, once with every segment on arrays and once with the small ones in
+    floats; with a tight queue, buffer and wait the small path also meets overflows, timeouts, gaps and a full buffer.
+    """
+    from pmv_ros.runtime.monitor import alignment, core
+
+    small_calls = []
+    original = alignment.Alignment.settle_small
+    monkeypatch.setattr(alignment.Alignment, "settle_small",
+                        lambda self, *args: small_calls.append(1) or original(self, *args))
+    t, roll, pitch, frames, q, arrival, now, (position, velocity) = _hostile_batch(jump)
+    config = small_config(min_interval_s=0.002, **options)
+    in_floats = ErrorMonitor(config)
+    floats = _every_outcome(in_floats, t, roll, pitch, frames, q, arrival, now, position, velocity)
+    assert len(small_calls) > 2000
+    monkeypatch.setattr(core, "SMALL_SEGMENT", 0)
+    on_arrays = ErrorMonitor(config)
+    arrays = _every_outcome(on_arrays, t, roll, pitch, frames, q, arrival, now, position, velocity)
+    assert len(small_calls) > 2000 and floats.shape == arrays.shape and floats.shape[0] > 11000
+    assert np.array_equal(floats, arrays, equal_nan=True)
+    assert in_floats.counters == on_arrays.counters
+    codes = set(floats[:, 1].astype(int).tolist())
+    assert len(codes) >= (10 if options else 9), codes  # many fates met: rejections, gaps, timeouts, overflows
+    assert np.array_equal(in_floats._alignment.pending, on_arrays._alignment.pending, equal_nan=True)
+    assert np.array_equal(in_floats._alignment.truth, on_arrays._alignment.truth)
+    assert in_floats._alignment.truth_pruned == on_arrays._alignment.truth_pruned
+    for x, y in zip(in_floats.summary().channels, on_arrays.summary().channels):
+        assert x == y or repr(x) == repr(y)
+
+
 def _segments(monitor, feed):
     """The segment of ``feed`` as the array scan and as the event-by-event scan make it, each on its own copy
     of ``monitor`` (returned too)."""

@@ -29,6 +29,7 @@ samples settle in queue order, so its front at any event is one search away.
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass
 
@@ -45,6 +46,10 @@ _OK, _NO_ANGLE, _NO_TRUTH, _TOO_OLD, _GAP, _STALE_CODE, _OVERFLOW_CODE, _RESET =
                                                 Status.TRUTH_GAP, Status.STALE_TRUTH, Status.PENDING_OVERFLOW,
                                                 Status.RESET))
 
+
+#: A segment with at most this many samples (waiting and new) is settled in floats (:meth:`Alignment.settle_small`):
+#: below it, numpy's per-call cost is more than the loop's.
+SMALL_SEGMENT = 16
 
 #: The rows of a segment's sample matrix and of the pending queue.
 SAMPLE_ROWS = ("index", "t_s", "roll_rad", "pitch_rad", "model_roll_rad", "model_pitch_rad", "altitude_m")
@@ -194,11 +199,52 @@ class Alignment:
         self._wait(np.empty((len(SAMPLE_ROWS), 0)))
         self._indexed = False  # the queue holds places in the current input
 
-    def _wait(self, pending: np.ndarray) -> None:
-        """The samples waiting from now on (their count and the oldest stamp kept as plain numbers for the scan)."""
-        self.pending = pending
-        self.pending_count = pending.shape[1]
-        self.oldest_pending_s = float(pending[1, 0]) if self.pending_count else math.inf
+    # The buffer and the queue are kept as arrays (a segment settled on arrays) or as lists (a small one settled
+    # in floats), whichever settled last; each is converted when the other kind asks for it.
+
+    @property
+    def truth(self) -> np.ndarray:
+        """The truth buffer, ``(3, m)``: stamp, roll, pitch, in arrival order."""
+        if self._truth is None:
+            self._truth = np.array(self._truth_columns, float).reshape(3, -1)
+            self._truth_columns = None
+        return self._truth
+
+    @truth.setter
+    def truth(self, value: np.ndarray) -> None:
+        self._truth, self._truth_columns = value, None
+
+    @property
+    def truth_count(self) -> int:
+        """Truth samples held."""
+        return self._truth.shape[1] if self._truth is not None else len(self._truth_columns[0])
+
+    def _truth_lists(self) -> list:
+        """The truth buffer as three lists (stamp, roll, pitch), for a small settle (which replaces them)."""
+        if self._truth_columns is None:
+            self._truth_columns = self._truth.tolist()
+            self._truth = None
+        return self._truth_columns
+
+    @property
+    def pending(self) -> np.ndarray:
+        """The samples waiting, ``(7, k)``: :data:`SAMPLE_ROWS`, oldest first."""
+        if self._pending is None:
+            self._pending = np.array(self._pending_rows, float).reshape(-1, len(SAMPLE_ROWS)).T
+            self._pending_rows = None
+        return self._pending
+
+    def _wait(self, pending) -> None:
+        """The samples waiting from now on, ``(7, k)`` or k rows (their count and the oldest stamp kept as plain
+        numbers for the scan)."""
+        if isinstance(pending, list):
+            self._pending, self._pending_rows = None, pending
+            self.pending_count = len(pending)
+            self.oldest_pending_s = pending[0][1] if pending else math.inf
+        else:
+            self._pending, self._pending_rows = pending, None
+            self.pending_count = pending.shape[1]
+            self.oldest_pending_s = float(pending[1, 0]) if self.pending_count else math.inf
 
     def take_pending(self) -> Settled:
         """Every waiting sample as settled by a reset (RESET), and an empty queue."""
@@ -212,7 +258,11 @@ class Alignment:
     def forget_indices(self) -> None:
         """The samples still waiting belong to an earlier input from now on."""
         if self._indexed:
-            self.pending[0] = -1.0
+            if self._pending is None:
+                for row in self._pending_rows:
+                    row[0] = -1.0
+            else:
+                self._pending[0] = -1.0
             self._indexed = False
 
     def settle(self, segment: Segment) -> Settled:
@@ -356,6 +406,150 @@ class Alignment:
         first_block[5:8] = samples[4:7, immediate]
         key = np.concatenate((segment.sensor_event[immediate] * 3 + _OWN, (settle * 3 + _phase(stale, overflow))[done]))
         return Settled(np.concatenate((first_block, block), axis=1)[:, np.argsort(key, kind="stable")])
+
+
+    def settle_small(self, gathered: list, serial: int, truth: list, expiry: list, on_arrival: bool) -> Settled:
+        """:meth:`settle` of a short segment in floats, from the scan's lists: what :meth:`settle` gives, exactly.
+
+        A message from a node settles a handful of samples; the array path's fixed cost (≈ 100 numpy calls)
+        is then most of a message's. This is the same rules, step for step, per sample: the same searches
+        (``bisect`` for ``searchsorted``), the same float operations in the same order, the same order of
+        what settles. ``gathered``: the scan's sample tuples (:data:`GATHERED_COLUMNS`), ``truth`` its
+        accepted truth (stamp, roll, pitch, event), ``expiry`` each event's timeout clock.
+        """
+        config = self.config
+        events = len(expiry)
+        wait_s, limit = config.max_truth_wait_s, config.max_pending
+        if self._pending_rows is None:
+            self._pending_rows, self._pending = self._pending.T.tolist(), None
+        candidates = list(self._pending_rows)  # rows of SAMPLE_ROWS: waiting from before (arrival −1), then new
+        arrive = [-1] * len(candidates)
+        immediate = []  # (event, settled row) of the samples refused or without an angle
+        for own_serial, index, code, event, t, roll, pitch, model_roll, model_pitch, altitude in gathered:
+            place = float(index) if own_serial == serial else -1.0
+            if code != PENDING_CODE:
+                immediate.append((event * 3 + _OWN, [place, t, float(code), math.nan, math.nan, model_roll,
+                                                     model_pitch, altitude]))
+            else:
+                candidates.append([place, t, roll, pitch, model_roll, model_pitch, altitude])
+                arrive.append(event)
+        count = len(candidates)
+        truth_t, truth_roll, truth_pitch = self._truth_lists()
+        held = len(truth_t)
+        truth_event = [-1] * held
+        if truth:  # the buffer, then this segment's accepted truth
+            truth_t, truth_roll, truth_pitch = truth_t + [t for t, _, _, _ in truth], \
+                truth_roll + [roll for _, roll, _, _ in truth], truth_pitch + [pitch for _, _, pitch, _ in truth]
+            truth_event += [event for _, _, _, event in truth]
+        total = len(truth_t)
+        stamp = [row[1] for row in candidates]
+        hi = [bisect.bisect_left(truth_t, s) for s in stamp]
+        cover = [truth_event[h] if h < total else events for h in hi]
+        at_once = [c < a for c, a in zip(cover, arrive)]  # uncovered: cover = events, never before an arrival
+        settle = [a if now else c for a, c, now in zip(arrive, cover, at_once)]
+        stale = None
+        if events and count and max(expiry) - min(stamp) > wait_s:
+            stale = [False] * count
+            for i in range(count):
+                if at_once[i]:
+                    continue
+                s = stamp[i]
+                for j in range(max(arrive[i], 0), min(cover[i], events)):
+                    if expiry[j] - s > wait_s:
+                        stale[i], settle[i] = True, j
+                        break
+            if not any(stale):
+                stale = None
+        queued = [i for i in range(count) if not at_once[i]]
+        overflow = None
+        if len(queued) > limit:
+            overflow = [False] * count
+            for pushed, pusher in zip(queued[:-limit], queued[limit:]):
+                if settle[pushed] >= arrive[pusher]:
+                    overflow[pushed], settle[pushed] = True, arrive[pusher]
+        queue_settle = [settle[i] for i in queued]
+        if (stale is not None or overflow is not None) and any(b < a for a, b in zip(queue_settle, queue_settle[1:])):
+            raise RuntimeError("monitor alignment: the queue would not settle in order (stamps not increasing)")
+        start_after = None
+        if truth:
+            drop, dropped = [], 0
+            for j, (t, _, _, event) in enumerate(truth):
+                front = bisect.bisect_right(queue_settle, event)
+                front_stamp = math.inf
+                if front < len(queued) and arrive[queued[front]] < event:
+                    front_stamp = stamp[queued[front]]
+                cutoff = min(t - config.truth_history_s, front_stamp)
+                dropped = max(dropped, bisect.bisect_right(truth_t, cutoff) - 1, held + j + 1 - config.truth_capacity,
+                              0)
+                drop.append(dropped)
+            if dropped > 0:
+                start_after = [0] * held + drop
+        rows, waiting = [], []
+        for i in range(count):
+            row = candidates[i]
+            if settle[i] >= events:
+                waiting.append(row)
+                continue
+            h, s = hi[i], stamp[i]
+            covered = h < total
+            at = min(h, max(total - 1, 0))
+            exact = covered and truth_t[at] == s
+            low = max(h - 1, 0)
+            pruned = self.truth_pruned
+            lost = first = False
+            if start_after is None:
+                first = not exact and h == 0
+            else:
+                seen = bisect.bisect_left(truth_event, arrive[i]) - 1 if at_once[i] else h - 1
+                start = start_after[seen] if seen >= 0 else 0
+                pruned = pruned or start > 0
+                lost = h < start
+                first = not lost and not exact and h == start
+            kept = not lost and not first
+            gap = kept and not exact and truth_t[at] - truth_t[low] > config.max_truth_gap_s if total else False
+            timed_out = stale is not None and stale[i]
+            pushed_out = overflow is not None and overflow[i]
+            aligned = not timed_out and not pushed_out
+            residual_roll = residual_pitch = math.nan
+            if pushed_out:
+                code, phase = _OVERFLOW_CODE, _OVERFLOW
+            elif timed_out:
+                code, phase = _STALE_CODE, _STALE
+            else:
+                phase = _OWN
+                if kept and not gap:
+                    code = _OK
+                    if exact:
+                        residual_roll, residual_pitch = row[2] - truth_roll[h], row[3] - truth_pitch[h]
+                    else:
+                        weight = (s - truth_t[low]) / (truth_t[h] - truth_t[low])
+                        residual_roll = row[2] - (truth_roll[low] + weight * (truth_roll[h] - truth_roll[low]))
+                        residual_pitch = row[3] - (truth_pitch[low] + weight * (truth_pitch[h] - truth_pitch[low]))
+                else:
+                    code = _GAP if gap else _TOO_OLD if pruned else _NO_TRUTH
+            rows.append((settle[i] * 3 + phase, [row[0], s, float(code), residual_roll, residual_pitch, row[4],
+                                                 row[5], row[6]]))
+        # What stays: the buffer as the last truth event left it, and the samples still waiting.
+        if start_after is not None:
+            keep = start_after[-1]
+            self._truth_columns = [truth_t[keep:], truth_roll[keep:], truth_pitch[keep:]]
+            self.truth_pruned = True
+        elif truth:
+            self._truth_columns = [truth_t, truth_roll, truth_pitch]
+        self._wait(waiting)
+        self._indexed = True
+        if on_arrival:
+            rows = immediate + rows
+            rows.sort(key=_first)
+        elif stale is not None or overflow is not None:
+            rows.sort(key=_first)
+        if not rows:
+            return Settled(np.empty((len(SETTLED_ROWS), 0)))
+        return Settled(np.array([row for _, row in rows], float).T)
+
+
+def _first(item):
+    return item[0]
 
 
 def _phase(stale, overflow):

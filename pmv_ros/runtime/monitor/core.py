@@ -76,7 +76,7 @@ import math
 import numpy as np
 
 from ...analysis.statistics import CHANNELS, DEFAULT_MAX_CONDITION, ChannelStatistics, OrbitRing, update_rows
-from .alignment import Alignment, Segment, Settled
+from .alignment import SMALL_SEGMENT, Alignment, Segment, Settled
 from .records import (
     BATCH_STATUSES,
     COUNTER_NAMES,
@@ -189,7 +189,7 @@ class ErrorMonitor(EventScan):
     @property
     def truth_buffer_length(self) -> int:
         """Truth samples held (≤ truth_capacity)."""
-        return self._alignment.truth.shape[1]
+        return self._alignment.truth_count
 
     @property
     def latest_truth_stamp_s(self) -> float | None:
@@ -435,8 +435,12 @@ class ErrorMonitor(EventScan):
 
     def _settle_open(self) -> None:
         """Settle the open segment (its results go with the current input) and open a new one."""
-        if self._open.expiry:
-            self._parts.append(self._settle(self._segment(self._open)))
+        gathered = self._open
+        if gathered.expiry and len(gathered.sensor) + self._alignment.pending_count <= SMALL_SEGMENT:
+            self._parts.append(self._account(self._alignment.settle_small(
+                gathered.sensor, self._serial, gathered.truth, gathered.expiry, gathered.on_arrival)))
+        elif gathered.expiry:
+            self._parts.append(self._settle(self._segment(gathered)))
         elif self._open.truth or self._open.sensor:
             raise RuntimeError("monitor: samples gathered without an event")
         self._open = OpenSegment()
@@ -450,6 +454,8 @@ class ErrorMonitor(EventScan):
         """Count what settled; give the used samples their reported values and keep them for the statistics."""
         if not settled.size:
             return settled
+        if settled.size <= SMALL_SEGMENT:
+            return self._account_small(settled)
         counters = self._counters
         ok = settled.values[2] == _OK
         used = int(np.count_nonzero(ok))
@@ -477,6 +483,53 @@ class ErrorMonitor(EventScan):
         first = 3 if config.remove_oblateness else 0
         if used < settled.size:
             settled.report()[:, rows] = angles[first:first + 3]
+        else:
+            settled.reported = angles[first:first + 3].copy()
+        self._unaccounted.append((t, angles, altitude))
+        self._unaccounted_count += used
+        if self._unaccounted_count >= UNACCOUNTED_ROWS:
+            self._account_statistics()
+        return settled
+
+    def _account_small(self, settled: Settled) -> Settled:
+        """:meth:`_account` of a few samples in floats: the same counts and the same values (numpy's hypot)."""
+        counters, config = self._counters, self.config
+        places, used_rows = [], []
+        for place, row in enumerate(settled.values.T.tolist()):
+            code = int(row[2])
+            if code == _OK:
+                places.append(place)
+                used_rows.append(row)
+            elif code in _SKIP_CODES:
+                counters[_SKIP_CODES[code]] += 1
+        used = len(used_rows)
+        if not used:
+            return settled
+        one_angle = without_model = 0
+        kept_roll, kept_pitch, removed_roll, removed_pitch, t, altitude = [], [], [], [], [], []
+        for _, stamp, _, residual_roll, residual_pitch, model_roll, model_pitch, height in used_rows:
+            one_angle += math.isnan(residual_roll) or math.isnan(residual_pitch)
+            roll, pitch = residual_roll - config.roll_offset_rad, residual_pitch - config.pitch_offset_rad
+            kept_roll.append(roll)
+            kept_pitch.append(pitch)
+            if math.isfinite(model_roll) and math.isfinite(model_pitch):
+                removed_roll.append(roll - model_roll)
+                removed_pitch.append(pitch - model_pitch)
+            else:
+                without_model += 1
+                removed_roll.append(math.nan)
+                removed_pitch.append(math.nan)
+            t.append(stamp)
+            altitude.append(height)
+        counters["used"] += used
+        counters["used_one_angle"] += one_angle
+        counters["used_without_oblateness_model"] += without_model
+        parts = np.array((kept_roll, kept_pitch, removed_roll, removed_pitch))
+        meridional = np.hypot(parts[0::2], parts[1::2])
+        angles = np.vstack((parts[0:2], meridional[0:1], parts[2:4], meridional[1:2]))
+        first = 3 if config.remove_oblateness else 0
+        if used < settled.size:
+            settled.report()[:, places] = angles[first:first + 3]
         else:
             settled.reported = angles[first:first + 3].copy()
         self._unaccounted.append((t, angles, altitude))
