@@ -505,6 +505,8 @@ def test_launch_managed_configures_and_activates_and_a_deactivated_node_stays_qu
     launched = Launched(colcon_install, ros_tools, tmp_path, "managed:=true")
 
     def call(client, request):
+        # Topics matched says nothing of the service's endpoints: a request sent before they match is lost.
+        _spin_until(executor, launched, client.service_is_ready, FIRST_MESSAGE_TIMEOUT_S, f"no {client.srv_name}")
         future = client.call_async(request)
         _spin_until(executor, launched, future.done, 10.0, f"no answer from {client.srv_name}")
         return future.result()
