@@ -60,9 +60,10 @@ One path
     (:meth:`add_batch`). The inputs are validated in arrival order, into an
     open segment (:mod:`pmv_ros.runtime.monitor.scan`; on arrays when a batch
     is clean); a segment — never across a clock jump — is aligned on arrays
-    (:mod:`pmv_ros.runtime.monitor.alignment`) at the end of the input that
-    makes anything in it settle, and the used samples enter the statistics
-    when these are read (:meth:`summary`). How the same events are cut into
+    (:mod:`pmv_ros.runtime.monitor.alignment`), or in plain floats by the same
+    rules when it holds a few samples (a node's message), at the end of the
+    input that makes anything in it settle, and the used samples enter the
+    statistics when these are read (:meth:`summary`). How the same events are cut into
     batches changes nothing but the order in which sums are taken (≈ 1e-15
     relative).
 
