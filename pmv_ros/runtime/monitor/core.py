@@ -481,16 +481,7 @@ class ErrorMonitor(EventScan):
         angles[3] = np.where(has_model, angles[0] - model_roll, np.nan)
         angles[4] = np.where(has_model, angles[1] - model_pitch, np.nan)
         angles[2], angles[5] = np.hypot(angles[0], angles[1]), np.hypot(angles[3], angles[4])
-        first = 3 if config.remove_oblateness else 0
-        if used < settled.size:
-            settled.report()[:, rows] = angles[first:first + 3]
-        else:
-            settled.reported = angles[first:first + 3].copy()
-        self._unaccounted.append((t, angles, altitude))
-        self._unaccounted_count += used
-        if self._unaccounted_count >= UNACCOUNTED_ROWS:
-            self._account_statistics()
-        return settled
+        return self._keep(settled, rows, t, angles, altitude)
 
     def _account_small(self, settled: Settled) -> Settled:
         """:meth:`_account` of a few samples in floats: the same counts and the same values (numpy's hypot)."""
@@ -528,13 +519,18 @@ class ErrorMonitor(EventScan):
         parts = np.array((kept_roll, kept_pitch, removed_roll, removed_pitch))
         meridional = np.hypot(parts[0::2], parts[1::2])
         angles = np.vstack((parts[0:2], meridional[0:1], parts[2:4], meridional[1:2]))
-        first = 3 if config.remove_oblateness else 0
-        if used < settled.size:
-            settled.report()[:, places] = angles[first:first + 3]
+        return self._keep(settled, places if used < settled.size else slice(None), t, angles, altitude)
+
+    def _keep(self, settled: Settled, rows, t, angles: np.ndarray, altitude) -> Settled:
+        """Give the used samples (``rows`` of ``settled``) their reported values and keep them for the statistics:
+        ``angles`` (6, used) rows roll, pitch, meridional with the oblateness model kept, then removed."""
+        first = 3 if self.config.remove_oblateness else 0
+        if angles.shape[1] < settled.size:
+            settled.report()[:, rows] = angles[first:first + 3]
         else:
             settled.reported = angles[first:first + 3].copy()
         self._unaccounted.append((t, angles, altitude))
-        self._unaccounted_count += used
+        self._unaccounted_count += angles.shape[1]
         if self._unaccounted_count >= UNACCOUNTED_ROWS:
             self._account_statistics()
         return settled
