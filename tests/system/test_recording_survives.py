@@ -17,7 +17,7 @@ recording, every 100th). Then:
   that the write fails as on a full disk): one line, status 2, and the file
   is still analysable.
 
-Short runs by default (the kill after ≈ 4,000 messages); ``--run-long`` waits
+Short runs by default (the kill after ≈ 12,000 messages); ``--run-long`` waits
 for ≈ 30,000.
 """
 
