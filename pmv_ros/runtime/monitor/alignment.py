@@ -48,8 +48,9 @@ _OK, _NO_ANGLE, _NO_TRUTH, _TOO_OLD, _GAP, _STALE_CODE, _OVERFLOW_CODE, _RESET =
 
 
 #: A segment with at most this many samples (waiting and new) is settled in floats (:meth:`Alignment.settle_small`):
-#: below it, numpy's per-call cost is more than the loop's.
-SMALL_SEGMENT = 16
+#: numpy's fixed cost per call is then more than the loop's (one truth settling 4 waiting samples: 3.5× faster
+#: in floats, 64 samples: 1.3×; measured side by side with a 100 s truth history).
+SMALL_SEGMENT = 64
 
 #: The rows of a segment's sample matrix and of the pending queue.
 SAMPLE_ROWS = ("index", "t_s", "roll_rad", "pitch_rad", "model_roll_rad", "model_pitch_rad", "altitude_m")
