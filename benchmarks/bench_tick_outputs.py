@@ -27,6 +27,7 @@ from sensor_msgs.msg import Imu
 
 import pmv_msgs_shim as shim
 from pmv_ros.nodes.base import PmvNode
+from pmv_ros.runtime.common.assembly import IMU_DEFAULT_RMS_ARCMIN
 from pmv_ros.runtime.sensor.estimator_output import estimator_orientation, variance_from_rms_arcmin
 
 DEMO_TICKS = 56_681  # one Kondor orbit at 10 Hz
@@ -43,7 +44,7 @@ def main() -> None:
     node = PmvNode("bench_tick_outputs", lean=True, context=context)
     attitude_pub, imu_pub = node.publisher(Vector3Stamped, "pmv/attitude"), node.publisher(Imu, "pmv/attitude_imu")
     attitude_msg, imu_msg = Vector3Stamped(), Imu()
-    variances = (variance_from_rms_arcmin(6.38), variance_from_rms_arcmin(9.12))
+    variances = tuple(variance_from_rms_arcmin(rms) for rms in IMU_DEFAULT_RMS_ARCMIN)
 
     def baseline(k: int) -> None:
         attitude_pub.publish(shim.write_attitude_angles(attitude_msg, 0.1 * k, shim.SENSOR_FRAME, 1e-3, -2e-3))
