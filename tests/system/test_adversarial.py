@@ -5,7 +5,7 @@ time at real speed (the sensor publishes /clock, the others follow it), on a
 ROS domain of their own, discovery on this host only. This test process is
 the neighbour: it publishes on every input topic (1e308 angles, a plausible
 second sensor reading 20′ off, absurd odometry, a flood of quaternions far
-from the truth), forges one /clock a hour ahead, and asks the parameter
+from the truth), forges /clock an hour ahead, and asks the parameter
 services for a file read (/etc/passwd, a FIFO, /dev/zero) and a 200,000-
 element outage list. Then it checks what the nodes did:
 
@@ -80,9 +80,12 @@ def test_a_hostile_neighbour_changes_nothing_it_should_not(stack, tmp_path):
             neighbour.spin(0.05)
 
         rate_during = (len(neighbour.got["residual"]) - before) / (time.monotonic() - end + 3.0)
-        # 2. One forged /clock an hour ahead.
-        neighbour.pub["clock"].publish(shim.write_clock(Clock(), neighbour.now_s + 3600.0))
-        neighbour.spin(0.5)
+        # 2. A forged /clock an hour ahead, three times 0.2 s apart: rclpy's /clock subscription keeps one message,
+        # and on a busy machine the next real /clock can replace a single forged one before the node takes it.
+        for _ in range(3):
+            neighbour.pub["clock"].publish(shim.write_clock(Clock(), neighbour.now_s + 3600.0))
+            neighbour.spin(0.2)
+        neighbour.spin(0.3)
 
         # 3. Parameter requests that would read a file, or fill memory.
         fifo = tmp_path / "fifo"
