@@ -109,8 +109,8 @@ def test_a_hostile_neighbour_changes_nothing_it_should_not(stack, tmp_path):
         # The real pair kept being aligned through the attack, and at half its rate before at least once it was
         # over. How much of the rate the flood leaves depends on the CPU the monitor gets: its executor takes
         # ≈ 1,000 flood messages a second, and when it falls behind, the keep-last input queue holds fewer of the
-        # real tracker's frames (beside a busy process on each core: 15 % of the rate before once in 5 runs,
-        # ≥ 50 % in the others).
+        # real tracker's frames (beside a busy process on each core, 10 runs: 15–37 % of the rate before in three,
+        # ≥ 50 % in the others; at a load of 10 on 2 cores it fell to 0, and this test fails there).
         assert rate_during >= 0.1 * rate_before > 0, (rate_before, rate_during)
         assert rate_after >= 0.5 * rate_before, (rate_before, rate_after)
         worst = max(max(abs(m.vector.x), abs(m.vector.y)) for m in residuals) / ARCMIN_RAD
