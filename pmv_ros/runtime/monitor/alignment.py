@@ -415,7 +415,8 @@ class Alignment:
         A message from a node settles a handful of samples; the array path's fixed cost (≈ 100 numpy calls)
         is then most of a message's. This is the same rules, step for step, per sample: the same searches
         (``bisect`` for ``searchsorted``), the same float operations in the same order, the same order of
-        what settles. ``gathered``: the scan's sample tuples (:data:`GATHERED_COLUMNS`), ``truth`` its
+        what settles. ``gathered``: the scan's sample tuples (serial, place, code, event, stamp, roll, pitch, the
+        model's roll and pitch, altitude: ``scan._SAMPLE_COLUMNS``), ``truth`` its
         accepted truth (stamp, roll, pitch, event), ``expiry`` each event's timeout clock.
         """
         config = self.config
@@ -425,7 +426,7 @@ class Alignment:
             self._pending_rows, self._pending = self._pending.T.tolist(), None
         candidates = list(self._pending_rows)  # rows of SAMPLE_ROWS: waiting from before (arrival −1), then new
         arrive = [-1] * len(candidates)
-        immediate = []  # (event, settled row) of the samples refused or without an angle
+        immediate = []  # (sort key, settled row) of the samples refused or without an angle
         for own_serial, index, code, event, t, roll, pitch, model_roll, model_pitch, altitude in gathered:
             place = float(index) if own_serial == serial else -1.0
             if code != PENDING_CODE:
