@@ -270,7 +270,9 @@ class Alignment:
         """Settle a segment: every sensor sample's fate (or its wait), the buffer and queue it leaves.
 
         One path for any segment; what cannot happen in it (a sample settled on arrival, a timeout, an
-        overflow, a pruned buffer) is skipped after a scalar test, not computed as nothing.
+        overflow, a pruned buffer) is skipped after a scalar test, not computed as nothing. A short segment takes
+        :meth:`settle_small`, the same rules in floats: a change here is a change there (the test
+        ``test_a_small_segment_settles_in_floats_exactly_as_on_arrays`` holds the two equal bit for bit).
         """
         config = self.config
         events = segment.expiry_clock_s.size
