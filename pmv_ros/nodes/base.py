@@ -232,23 +232,9 @@ class PmvNode(Node):
 
         subscription = self.create_subscription(declared.type, declared.topic, on_message, self._input_qos,
                                                 **self._quiet("Subscription"))
-        lock.crowded = self._graph_answer(lambda: self.count_publishers(subscription.topic_name) > 1)
+        lock.crowded = lambda: self.count_publishers(subscription.topic_name) > 1  # a starved source stays locked
         self.source_locks[subscription.topic_name] = lock
         self._input_names[subscription.topic_name] = declared.topic
-
-    @staticmethod
-    def _graph_answer(ask: Callable[[], bool]) -> Callable[[], bool]:
-        """``ask`` (a graph query, ≈ 40 µs, asked per flood message while a locked source is silent) with a yes
-        kept for GRAPH_CHECK_PERIOD_S of wall time; a no is asked again."""
-        yes_at = [-GRAPH_CHECK_PERIOD_S]
-
-        def cached() -> bool:
-            if time.monotonic() - yes_at[0] >= GRAPH_CHECK_PERIOD_S:
-                if not ask():
-                    return False
-                yes_at[0] = time.monotonic()
-            return True
-        return cached
 
     def input_clock(self, now_s: float) -> float | None:
         """The node clock as an input sees it: None before simulation time started (a node overrides this)."""
