@@ -437,11 +437,12 @@ class ErrorMonitor(EventScan):
     def _settle_open(self) -> None:
         """Settle the open segment (its results go with the current input) and open a new one."""
         gathered = self._open
-        if gathered.expiry and len(gathered.sensor) + self._alignment.pending_count <= SMALL_SEGMENT:
-            self._parts.append(self._account(self._alignment.settle_small(
-                gathered.sensor, self._serial, gathered.truth, gathered.expiry, gathered.on_arrival)))
-        elif gathered.expiry:
-            self._parts.append(self._settle(self._segment(gathered)))
+        if gathered.expiry:
+            if len(gathered.sensor) + self._alignment.pending_count <= SMALL_SEGMENT:
+                self._parts.append(self._account(self._alignment.settle_small(
+                    gathered.sensor, self._serial, gathered.truth, gathered.expiry, gathered.on_arrival)))
+            else:
+                self._parts.append(self._settle(self._segment(gathered)))
         elif self._open.truth or self._open.sensor:
             raise RuntimeError("monitor: samples gathered without an event")
         self._open = OpenSegment()
@@ -519,7 +520,7 @@ class ErrorMonitor(EventScan):
         parts = np.array((kept_roll, kept_pitch, removed_roll, removed_pitch))
         meridional = np.hypot(parts[0::2], parts[1::2])
         angles = np.vstack((parts[0:2], meridional[0:1], parts[2:4], meridional[1:2]))
-        return self._keep(settled, places if used < settled.size else slice(None), t, angles, altitude)
+        return self._keep(settled, places, t, angles, altitude)
 
     def _keep(self, settled: Settled, rows, t, angles: np.ndarray, altitude) -> Settled:
         """Give the used samples (``rows`` of ``settled``) their reported values and keep them for the statistics:
