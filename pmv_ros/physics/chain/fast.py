@@ -48,7 +48,6 @@ import math
 from functools import lru_cache
 
 import numpy as np
-from scipy.signal import fftconvolve, lfilter
 
 from ..constants import EARTH_MEAN_RADIUS_M
 from ..radiance import CO2_RADIANCE_RU, CO2_TOP_HEIGHT_M, MAX_LAYER_HEIGHT_M
@@ -94,6 +93,10 @@ class ResponseTables:
     """
 
     def __init__(self, params: ChainParameters):
+        # scipy.signal costs ≈ 0.4 s of CPU to import: only a process that runs the chain pays it (the monitor
+        # and star-tracker nodes start without it).
+        from scipy.signal import fftconvolve, lfilter
+
         self.params = params
         m = TABLE_OVERSAMPLING
         self.spacing_rad = params.step_angle_rad / m

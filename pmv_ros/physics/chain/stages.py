@@ -34,7 +34,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import fftconvolve, lfilter
 
 from .parameters import DEFAULT_CHAIN_PARAMETERS, ChainParameters, DetectionStatus
 
@@ -130,6 +129,8 @@ def ifov_energy(radiance_ru, sample_spacing_rad, params: ChainParameters = DEFAU
         ``(..., L)`` energy with the field centred on each sample, r.u.
         (samples within γ of either end see zero radiance beyond the ends).
     """
+    from scipy.signal import fftconvolve  # imported where used: see ResponseTables (fast.py)
+
     kernel, half = _hat_kernel(sample_spacing_rad, params.ifov_half_angle_rad)
     p = np.asarray(radiance_ru, float)
     padded = np.pad(p, [(0, 0)] * (p.ndim - 1) + [(half, half)])
@@ -156,6 +157,8 @@ def detector_lag(energy_ru, params: ChainParameters = DEFAULT_CHAIN_PARAMETERS):
         energy_ru: ``(..., steps)`` energy U_v at the scan steps, r.u.
         params: dt and T_p.
     """
+    from scipy.signal import lfilter
+
     u = np.asarray(energy_ru, float)
     du = np.diff(u, axis=-1, prepend=0.0)
     z = lfilter([1.0], [1.0, -params.lag_decay_per_step], du, axis=-1)
