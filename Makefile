@@ -7,7 +7,7 @@ STAMP := $(VENV)/.installed
 
 export ROS_LOG_DIR ?= $(CURDIR)/.ros_log
 
-.PHONY: demo test test-long bench venv clean
+.PHONY: demo test test-long bench venv bytecode clean
 
 venv: $(STAMP)
 
@@ -18,14 +18,19 @@ $(STAMP): requirements.txt requirements-basilisk.txt setup.py setup.cfg package.
 	$(BIN)/python -m pip install --quiet --no-deps --no-build-isolation -e .
 	touch $(STAMP)
 
-demo: $(STAMP)
+# Where PYTHONDONTWRITEBYTECODE is set (it is on the machines this suite is timed on), nothing writes the package's bytecode: every
+# process would compile the modules it imports again (≈ 0.1 s of CPU each). Compiled here, at once, only what changed.
+bytecode: $(STAMP)
+	$(BIN)/python -m compileall -q pmv_ros pmv_msgs_shim tests
+
+demo: $(STAMP) bytecode
 	$(BIN)/pmv simulate --config config/kondor.yaml --orbits 1 --report report
 
 # Two workers: half the suite waits on child processes and simulated time, so two share the two cores well.
 # A test module runs whole on one worker (its module fixtures once); modules that share a session fixture
 # share a worker (tests/conftest.py, pytest_xdist_make_scheduler). Tests whose figures are rates of wall time
 # (marked serial) run afterwards, alone.
-test: $(STAMP)
+test: $(STAMP) bytecode
 	$(BIN)/python -m pytest -q -n 2 -m "not serial"
 	$(BIN)/python -m pytest -q -m serial
 
