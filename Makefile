@@ -18,8 +18,9 @@ $(STAMP): requirements.txt requirements-basilisk.txt setup.py setup.cfg package.
 	$(BIN)/python -m pip install --quiet --no-deps --no-build-isolation -e .
 	touch $(STAMP)
 
-# Where PYTHONDONTWRITEBYTECODE is set (it is on the machines this suite is timed on), nothing writes the package's bytecode: every
-# process would compile the modules it imports again (≈ 0.1 s of CPU each). Compiled here, at once, only what changed.
+# Where PYTHONDONTWRITEBYTECODE is set (it is on the machines this suite is timed on), nothing writes the
+# package's bytecode: every process would compile the modules it imports again (≈ 0.1 s of CPU each).
+# Compiled here, at once, only what changed.
 bytecode: $(STAMP)
 	$(BIN)/python -m compileall -q pmv_ros pmv_msgs_shim tests
 
