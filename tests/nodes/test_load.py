@@ -47,7 +47,7 @@ def _sustainable_rate_hz(seconds: float = 1.5, start_timeout_s: float = 60.0) ->
     work): (rate, how it was chosen). The CPU a tick costs is measured on the same three nodes in real time at
     RATE_HZ for ``seconds`` (process time of all threads per tick published: the machine's load does not stretch
     it), from the sensor's first tick on: that tick pays the start of the signal chain (its imports, response
-    tables and first block of samples, ≈ 1 s of CPU), which no later tick does — counted in a window that holds
+    tables and first block of samples, 0.5–1.5 s of CPU), which no later tick does — counted in a window that holds
     a few ticks on a loaded machine, it made the rate a fraction of a hertz and the run published nothing. The
     share of a core this process gets, by a busy loop."""
     began_wall, began_cpu = time.monotonic(), time.thread_time()
