@@ -38,6 +38,7 @@ from .fast import (
     TABLE_OVERSAMPLING,
     ResponseTables,
     disc_sample_profile,
+    prepare,
     response_tables,
     sense_horizon_chords,
 )
@@ -64,5 +65,5 @@ __all__ = [
     "ifov_energy", "ifov_line_spread", "pair_angles", "scan_nadir_angles", "sense_sampled_chords",
     "COARSE_POINTS", "COARSE_STRIDE", "DISC_SAMPLE_INWARD_RAD", "DISC_SAMPLE_POWERS", "EVALUATION_CHUNK",
     "GROUND_DISTANCE_FIT_RAD", "GROUND_DISTANCE_POWERS", "TABLE_OVERSAMPLING", "ResponseTables",
-    "disc_sample_profile", "response_tables", "sense_horizon_chords",
+    "disc_sample_profile", "prepare", "response_tables", "sense_horizon_chords",
 ]

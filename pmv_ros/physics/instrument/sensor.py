@@ -260,6 +260,10 @@ class ChainDetector:
                             if self.radiance.source == "environment" else None)
         self.grid_s, self.height_grid_s = self.radiance.grid_spacing_s()
 
+    def prepare(self) -> None:
+        """Pay the chain's one-off start now (:func:`pmv_ros.physics.chain.prepare`), not at the first sample."""
+        chain.prepare(self.params)
+
     def _chord_radiance(self, t_s, position_m, sensor_axes):
         """Horizon radiance B_m (r.u.), disc samples (r.u.) or None, and h_w (m) of each chord: ``(4, N)``, ``(4, N, 3)``.
 
@@ -399,6 +403,11 @@ class SensorModel:
         else:
             self.scan_start_rad = getattr(detector, "scan_start_rad", None) or nominal_scan_start_nadir_rad(
                 orbit.altitude_m)
+
+    def prepare(self) -> None:
+        """Build what the first :meth:`sense` would build once (the detector's tables); nothing random is drawn."""
+        if hasattr(self.detector, "prepare"):
+            self.detector.prepare()
 
     def _ideal_detection(self, position, axes):
         horizon = tangent_nadir_angles(position, axes, self.config.ellipsoid, self.config.ideal_layer_height_m)
