@@ -137,7 +137,7 @@ def test_a_host_steps_the_follower_to_its_own_times_as_the_node_clock_would():
 
 
 def test_a_built_sensor_is_ready_its_first_sample_builds_nothing_of_the_chain():
-    # The chain's one-off start (scipy.signal's import, the response tables: ≈ 0.4 s of CPU) is paid when the
+    # The chain's one-off start (its tables: ≈ 0.07 s of CPU) is paid when the
     # runtime is built, so a real-time node's first tick is on time: the first sample finds everything built.
     from pmv_ros.physics.chain import fast
 

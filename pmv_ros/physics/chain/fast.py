@@ -93,10 +93,6 @@ class ResponseTables:
     """
 
     def __init__(self, params: ChainParameters):
-        # scipy.signal costs ≈ 0.4 s of CPU to import: only a process that runs the chain pays it (the monitor
-        # and star-tracker nodes start without it).
-        from scipy.signal import fftconvolve, lfilter
-
         self.params = params
         m = TABLE_OVERSAMPLING
         self.spacing_rad = params.step_angle_rad / m
@@ -112,14 +108,14 @@ class ResponseTables:
         xi = (np.arange(length + 2 * half) - self.zero_index - half) * self.spacing_rad
         xi_pos = np.maximum(xi, 0.0)
         for row, power in _SHAPE_POWER.items():
-            energy[row] = fftconvolve(xi_pos**power, kernel[::-1], mode="valid")
+            energy[row] = _convolve_valid(xi_pos**power, kernel[::-1])
         energy[:, u < -gamma - self.spacing_rad] = 0.0  # FFT round-off where the field sees nothing
         # Detector lag at the sample times, for every sub-step phase at once:
         # G[n] = r·G[n − m] + E[n] − E[n − m]  (rows of the reshaped array are whole steps).
         blocks = energy.reshape(5, -1, m)
         increments = np.diff(blocks, axis=1, prepend=0.0)
-        lagged = lfilter([1.0], [1.0, -params.lag_decay_per_step], increments, axis=1)
-        self.values = (energy - lagged.reshape(5, length))
+        lagged = _first_order_lag(np.moveaxis(increments, 1, -1), params.lag_decay_per_step)
+        self.values = (energy - np.moveaxis(lagged, -1, 1).reshape(5, length))
         self.length = length
         # Flat table of value + i·(slope to the next entry): one gather per term and step.
         slopes = np.diff(self.values, axis=1, append=self.values[:, -1:])
@@ -132,6 +128,44 @@ class ResponseTables:
         frac = np.clip(f - i, 0.0, 1.0)
         row = self.values[shape]
         return row[i] + frac * (row[i + 1] - row[i])
+
+
+# scipy.signal would do the two operations below, but its import costs ≈ 0.3 s of CPU, and scipy.fft's ≈ 0.2 s, at
+# every start of a process that runs the chain (a sensor node, `pmv simulate`, a campaign worker). These are
+# fftconvolve's and lfilter's arithmetic, operation for operation, with numpy's FFT (the same pocketfft): the
+# tables come out bit for bit as with scipy.signal (tests/physics/test_chain.py).
+
+def _fast_size(n: int) -> int:
+    """The smallest 2^a·3^b·5^c ≥ n: the FFT length fftconvolve takes for real data (scipy's next_fast_len)."""
+    best, five = 2 * n, 1
+    while five < best:
+        three = five
+        while three < best:
+            size = three
+            while size < n:
+                size *= 2
+            best = min(best, size)
+            three *= 3
+        five *= 5
+    return best
+
+
+def _convolve_valid(signal, kernel):
+    """``fftconvolve(signal, kernel, mode="valid")`` of two 1-D arrays: real FFTs of a fast length, their product
+    transformed back, the part where the kernel lies wholly within the signal."""
+    full_size = signal.size + kernel.size - 1
+    size = _fast_size(full_size)
+    full = np.fft.irfft(np.fft.rfft(signal, size) * np.fft.rfft(kernel, size), size)[:full_size]
+    return full[kernel.size - 1:signal.size]
+
+
+def _first_order_lag(x, decay):
+    """y_k = x_k + decay·y_(k−1) along the last axis, from rest: ``lfilter([1], [1, −decay], x)``."""
+    y = np.empty_like(x)
+    y[..., 0] = x[..., 0]
+    for k in range(1, x.shape[-1]):
+        y[..., k] = x[..., k] + decay * y[..., k - 1]
+    return y
 
 
 @lru_cache(maxsize=8)
@@ -182,7 +216,7 @@ def _disc_sample_inverse():
 
 def prepare(params: ChainParameters = DEFAULT_CHAIN_PARAMETERS) -> None:
     """Build now what the chain's first :func:`sense_horizon_chords` of ``params`` would build: the response
-    tables (with scipy.signal's import, ≈ 0.4 s of CPU), the ground-distance table, the disc-sample inverse.
+    tables, the ground-distance table, the disc-sample inverse.
     All cached, none random: what the chain then reads is unchanged."""
     response_tables(params)
     _ground_distance_table()

@@ -129,7 +129,7 @@ def ifov_energy(radiance_ru, sample_spacing_rad, params: ChainParameters = DEFAU
         ``(..., L)`` energy with the field centred on each sample, r.u.
         (samples within γ of either end see zero radiance beyond the ends).
     """
-    from scipy.signal import fftconvolve  # imported where used: see ResponseTables (fast.py)
+    from scipy.signal import fftconvolve  # imported where used: the fast chain, what processes run, does without
 
     kernel, half = _hat_kernel(sample_spacing_rad, params.ifov_half_angle_rad)
     p = np.asarray(radiance_ru, float)

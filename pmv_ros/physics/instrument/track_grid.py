@@ -11,7 +11,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 #: Longest spacing of the coarse time grid on which the environment is evaluated along each chord's
 #: track, s (see :class:`~pmv_ros.physics.instrument.sensor.RadianceConfig`).
@@ -50,6 +49,10 @@ def interpolate_in_time(t, nodes, values):
     if nodes.size >= 4 and (t_nodes[1:] > t_nodes[:-1]).all():
         if nodes.size <= DENSE_SPLINE_NODES:
             return _hermite(t_nodes, values, values @ spline_slopes(t_nodes).T, t)
+        # Imported here: scipy.interpolate costs ≈ 0.1 s of CPU at every start of a node process, and only blocks
+        # longer than a real-time node's take this way.
+        from scipy.interpolate import CubicSpline
+
         return CubicSpline(t_nodes, values, axis=-1)(t)
     j = np.clip(np.searchsorted(t_nodes, t, side="right") - 1, 0, nodes.size - 2)
     span = t_nodes[j + 1] - t_nodes[j]

@@ -156,7 +156,7 @@ class SensorRuntime:
         if values["sim.fast_time"]:
             values = dict(values, **{"sim.start_time_s": self.values["sim.start_time_s"]})
         orbit, profile, model = build_models(values, clock_epoch_s=self.clock_epoch_s, correction=self._correction)
-        model.prepare()  # a sensor is ready when built: its first tick does not pay the chain's start (≈ 0.4 s)
+        model.prepare()  # a sensor is ready when built: its first tick does not build the chain's tables
         previous_orbit = self.stream.orbit if self.stream is not None else None
         if isinstance(orbit, FollowedOrbit) and isinstance(previous_orbit, FollowedOrbit):  # it keeps its states
             orbit.buffer.take_states(previous_orbit.buffer)
