@@ -32,10 +32,6 @@ bytecode: $(STAMP)
 demo: $(STAMP) bytecode
 	$(BIN)/pmv simulate --config config/kondor.yaml --orbits 1 --report report
 
-# Two workers: half the suite waits on child processes and simulated time, so two share the two cores well.
-# A test module runs whole on one worker (its module fixtures once); modules that share a session fixture
-# share a worker (tests/conftest.py, pytest_xdist_make_scheduler). Tests whose figures are rates of wall time
-# (marked serial) run afterwards, alone.
 # One BLAS thread in every process of the suite: two workers and their children already fill the two cores, and
 # a BLAS thread waiting for work spins. The parallel part, back to back on one machine: 319 s (560 s of CPU) with
 # the default threads, 277 s (479 s) with one. The campaign's Dask workers are set the same way (WORKER_ENVIRONMENT,
@@ -44,6 +40,10 @@ test test-long: export OPENBLAS_NUM_THREADS = 1
 test test-long: export OMP_NUM_THREADS = 1
 test test-long: export MKL_NUM_THREADS = 1
 
+# Two workers: half the suite waits on child processes and simulated time, so two share the two cores well.
+# A test module runs whole on one worker (its module fixtures once); modules that share a session fixture
+# share a worker (tests/conftest.py, pytest_xdist_make_scheduler). Tests whose figures are rates of wall time
+# (marked serial) run afterwards, alone.
 test: $(STAMP) bytecode
 	$(BIN)/python -m pytest -q -n 2 -m "not serial"
 	$(BIN)/python -m pytest -q -m serial
