@@ -130,32 +130,21 @@ class ResponseTables:
         return row[i] + frac * (row[i + 1] - row[i])
 
 
-# scipy.signal would do the two operations below, but its import costs ≈ 0.3 s of CPU, and scipy.fft's ≈ 0.2 s, at
-# every start of a process that runs the chain (a sensor node, `pmv simulate`, a campaign worker). These are
-# fftconvolve's and lfilter's arithmetic, operation for operation, with numpy's FFT (the same pocketfft): the
-# tables come out bit for bit as with scipy.signal (tests/physics/test_chain.py).
-
-def _fast_size(n: int) -> int:
-    """The smallest 2^a·3^b·5^c ≥ n: the FFT length fftconvolve takes for real data (scipy's next_fast_len)."""
-    best, five = 2 * n, 1
-    while five < best:
-        three = five
-        while three < best:
-            size = three
-            while size < n:
-                size *= 2
-            best = min(best, size)
-            three *= 3
-        five *= 5
-    return best
-
+# scipy.signal would do the two operations below, but its import costs ≈ 0.3 s of CPU at every start of a process
+# that runs the chain (a sensor node, `pmv simulate`, a campaign worker). These are fftconvolve's and lfilter's
+# arithmetic, operation for operation, on the same FFT (scipy.fft): the tables come out bit for bit as with
+# scipy.signal (tests/physics/test_chain.py). numpy's FFT gave the same bits here too, but in 1 of ≈ 40 Dask
+# worker processes of the campaign tests a table came out different in its last bits; scipy.fft is the FFT these
+# tables have always been built with.
 
 def _convolve_valid(signal, kernel):
-    """``fftconvolve(signal, kernel, mode="valid")`` of two 1-D arrays: real FFTs of a fast length, their product
-    transformed back, the part where the kernel lies wholly within the signal."""
+    """``fftconvolve(signal, kernel, mode="valid")`` of two 1-D arrays: real FFTs of the next fast length, their
+    product transformed back, the part where the kernel lies wholly within the signal."""
+    from scipy import fft
+
     full_size = signal.size + kernel.size - 1
-    size = _fast_size(full_size)
-    full = np.fft.irfft(np.fft.rfft(signal, size) * np.fft.rfft(kernel, size), size)[:full_size]
+    size = fft.next_fast_len(full_size, True)
+    full = fft.irfft(fft.rfft(signal, size) * fft.rfft(kernel, size), size)[:full_size]
     return full[kernel.size - 1:signal.size]
 
 
