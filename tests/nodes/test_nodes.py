@@ -40,7 +40,7 @@ def test_no_node_imports_scipys_signal_processing_or_interpolation():
     # Each costs ≈ 0.1–0.3 s of CPU at every start of a node process (scipy.signal ≈ 0.3 s, scipy.interpolate
     # ≈ 0.1 s); the sensor's chain builds its tables without the one, and a real-time block never needs the other.
     # The sensor here is built and has measured (its chain's tables built, its first samples taken).
-    code = ("import sys, rclpy\n"
+    code = ("import sys, time, rclpy\n"
             "from geometry_msgs.msg import Vector3Stamped\n"
             "from rclpy.executors import SingleThreadedExecutor\n"
             "from pmv_ros.nodes.error_monitor_node import ErrorMonitorNode\n"
@@ -53,7 +53,10 @@ def test_no_node_imports_scipys_signal_processing_or_interpolation():
             "probe = rclpy.create_node('probe')\n"
             "probe.create_subscription(Vector3Stamped, '/pmv/attitude', got.append, 10)\n"
             "[executor.add_node(node) for node in (*nodes, probe)]\n"
+            "deadline = time.monotonic() + 60.0\n"
             "while len(got) < 3:\n"
+            "    if time.monotonic() > deadline:\n"
+            "        sys.exit(f'no 3 samples on /pmv/attitude within 60 s: {len(got)}')\n"
             "    executor.spin_once(timeout_sec=0.1)\n"
             "loaded = [name for name in ('scipy.signal', 'scipy.interpolate') if name in sys.modules]\n"
             "[node.destroy_node() for node in nodes]\n"
