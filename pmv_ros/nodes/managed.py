@@ -17,9 +17,16 @@ configured, the node's parameters on its own parameter services.
 * deactivate — its timers stop; a message that arrives meanwhile is dropped, not
   processed late; nothing is published (a latched, transient-local message made
   while inactive goes out at the next activation);
-* cleanup, shutdown — everything configure made is destroyed. Declared parameters
-  stay declared with their values (rclpy has no public way to undeclare a
-  read-only one); a new configure checks them again and builds anew.
+* cleanup — everything configure made is released: timers and the wake-up guard
+  destroyed, publishers and subscriptions silenced and, after
+  :data:`PARKED_S` of wall time without a configure, destroyed. A configure
+  within that time takes back those it declares again (same topic, type and
+  QoS) instead of making new ones: a neighbour flapping transitions does not
+  make the node create and destroy DDS endpoints at its rate (Fast DDS 2.14
+  once crashed in a receive thread under that, README "Managed nodes");
+* shutdown, error — everything configure made is destroyed at once. Declared
+  parameters stay declared with their values (rclpy has no public way to
+  undeclare a read-only one); a new configure checks them again and builds anew.
 
 What the node makes after configure (a timer rebuilt for a new rate) joins what cleanup destroys and is held
 still while the node is inactive.
@@ -30,6 +37,7 @@ from __future__ import annotations
 import inspect
 import sys
 
+from rclpy.clock import Clock, ClockType
 from rclpy.impl.implementation_singleton import rclpy_implementation
 from rclpy.lifecycle import LifecycleNode, State, TransitionCallbackReturn
 from rclpy.node import Node
@@ -50,6 +58,12 @@ _NODE_KEYWORDS = frozenset(inspect.signature(Node.__init__).parameters) - {"self
 _ENTITY_KINDS = (("publishers", "destroy_publisher"), ("subscriptions", "destroy_subscription"),
                  ("timers", "destroy_timer"), ("clients", "destroy_client"), ("services", "destroy_service"),
                  ("guards", "destroy_guard_condition"))
+
+#: How long (s, wall clock) cleanup keeps the publishers and subscriptions of a configuration, silent, for a
+#: configure that declares them again; then they are destroyed.
+PARKED_S = 1.0
+
+_PARKED_KINDS = {"publishers": "destroy_publisher", "subscriptions": "destroy_subscription"}
 
 _SUCCESS = TransitionCallbackReturn.SUCCESS
 
@@ -78,7 +92,11 @@ class _Managed:
         # What PmvNode.__init__ sets before anything can call it: the parameter services (the type gate) and
         # destroy_node work on an unconfigured node too.
         self.parameter_specs, self._detached = {}, []
+        self._parked = []  # (kind, entity): the publishers and subscriptions cleanup silenced, for a configure
         LifecycleNode.__init__(self, self.node_name, **node_arguments)
+        self._parked_expiry = self.create_timer(PARKED_S, self._destroy_parked,
+                                                clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self._parked_expiry.cancel()  # started by each cleanup
         # The lifecycle node's own entities: everything else is configure's (or later changes') and goes at cleanup.
         self._own = {kind: set(getattr(self, kind)) for kind, _ in _ENTITY_KINDS}
         # rclpy raises out of the change_state service for a transition the current state does not have (and so
@@ -117,6 +135,7 @@ class _Managed:
         finally:
             self.configuring = False
         self.configure_error, self.configured = None, True
+        self._destroy_parked()  # what this configuration did not declare again
         return self.on_deactivate(state)  # configured, inactive: timers stopped (the rest is gated as it is made)
 
     def on_activate(self, state: State) -> TransitionCallbackReturn:
@@ -140,12 +159,29 @@ class _Managed:
         return _SUCCESS
 
     def _release(self, state: State) -> TransitionCallbackReturn:
-        """Destroy what configure made and remove its parameter callbacks: back to unconfigured."""
-        self.on_deactivate(state)
+        """Destroy what configure made and remove its parameter callbacks: back to unconfigured (shutdown, error)."""
+        self._release_made(park=False)
+        self._destroy_parked()
+        return _SUCCESS
+
+    def on_cleanup(self, state: State) -> TransitionCallbackReturn:
+        """As :meth:`_release`, but the publishers and subscriptions are parked for :data:`PARKED_S`."""
+        self._release_made(park=True)
+        self._parked_expiry.reset()
+        return _SUCCESS
+
+    def _release_made(self, park: bool) -> None:
+        self.on_deactivate(None)
         self._held = {}
+        parked = {id(entity) for _, entity in self._parked}
         for kind, destroy in _ENTITY_KINDS:
             for entity in self._made(kind):
-                getattr(self, destroy)(entity)
+                if id(entity) in parked:
+                    continue
+                if park and kind in _PARKED_KINDS:
+                    self._parked.append((kind, entity))
+                else:
+                    getattr(self, destroy)(entity)
         for remover, callback in self._parameter_callbacks:
             try:
                 getattr(self, remover)(callback)
@@ -153,9 +189,27 @@ class _Managed:
                 pass
         self._parameter_callbacks = []
         self.configured = False
-        return _SUCCESS
 
-    on_cleanup = on_shutdown = on_error = _release
+    def _destroy_parked(self) -> None:
+        """Destroy the parked publishers and subscriptions no configure took back."""
+        self._parked_expiry.cancel()
+        parked, self._parked = self._parked, []
+        for kind, entity in parked:
+            getattr(self, _PARKED_KINDS[kind])(entity)
+
+    def _unpark(self, kind: str, message_type, topic: str, qos, options: dict):
+        """The parked entity of ``kind`` with this type, topic and QoS, taken out of the park; None if there is
+        none (or the call asks for more than those: a callback group, QoS overrides, raw messages)."""
+        if not self.configuring or set(options) - {"event_callbacks"}:
+            return None
+        resolved = self.resolve_topic_name(topic)
+        for k, (parked_kind, entity) in enumerate(self._parked):
+            if (parked_kind, entity.msg_type, entity.topic_name, entity.qos_profile) == (kind, message_type,
+                                                                                         resolved, qos):
+                return self._parked.pop(k)[1]
+        return None
+
+    on_shutdown = on_error = _release
 
     # -- what configure makes is gated from the start: silent until activation ---------------------
 
@@ -165,8 +219,11 @@ class _Managed:
             timer.cancel()
             timer._held_still = True  # started again at activation
 
-    def create_publisher(self, *args, **kwargs):
-        publisher = super().create_publisher(*args, **kwargs)
+    def create_publisher(self, msg_type, topic, qos_profile, **options):
+        parked = self._unpark("publishers", msg_type, topic, qos_profile, options)
+        if parked is not None:
+            return parked  # gated already, on this node
+        publisher = super().create_publisher(msg_type, topic, qos_profile, **options)
         if self.configuring or self.configured:
             publish = publisher.publish
             latched = publisher.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
@@ -180,10 +237,11 @@ class _Managed:
             publisher.publish = gated
         return publisher
 
-    def create_subscription(self, *args, **kwargs):
-        subscription = super().create_subscription(*args, **kwargs)
+    def create_subscription(self, msg_type, topic, callback, qos_profile, **options):
+        subscription = self._unpark("subscriptions", msg_type, topic, qos_profile, options)
+        if subscription is None:
+            subscription = super().create_subscription(msg_type, topic, callback, qos_profile, **options)
         if self.configuring or self.configured:
-            callback = subscription.callback
 
             def gated(*message_and_info) -> None:
                 if self.active:

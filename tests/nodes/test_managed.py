@@ -19,7 +19,7 @@ from rclpy.parameter import parameter_value_to_python as parameter_value_from
 
 import pmv_msgs_shim as shim
 from pmv_ros.nodes.base import PmvNode
-from pmv_ros.nodes.managed import managed, managed_requested
+from pmv_ros.nodes.managed import PARKED_S, managed, managed_requested
 from pmv_ros.nodes.error_monitor_node import ErrorMonitorNode
 from pmv_ros.nodes.sensor_node import SensorNode
 from pmv_ros.nodes.star_tracker_node import StarTrackerNode
@@ -104,7 +104,8 @@ def test_each_lifecycle_state_publishes_what_it_should(harness):
     assert lifecycle.transition(Transition.TRANSITION_DEACTIVATE)
 
     assert lifecycle.transition(Transition.TRANSITION_CLEANUP)
-    assert lifecycle.state() == "unconfigured" and not h.node.configured  # what configure made is gone
+    assert lifecycle.state() == "unconfigured" and not h.node.configured
+    lifecycle.spin(PARKED_S + 0.3)  # what configure made is gone (its endpoints after PARKED_S)
     assert not h.tester.get_publisher_names_and_types_by_node("sensor_node", "/") or all(
         topic in ("/rosout", "/parameter_events", "/sensor_node/transition_event")
         for topic, _ in h.tester.get_publisher_names_and_types_by_node("sensor_node", "/"))
@@ -249,3 +250,58 @@ def test_an_unexpected_error_in_configure_releases_what_it_made(harness, monkeyp
     assert not lifecycle.transition(Transition.TRANSITION_CONFIGURE)
     assert lifecycle.state() == "unconfigured" and h.node.configure_error == "TypeError: a defect"
     assert {kind: len(list(getattr(h.node, kind))) for kind in before} == before
+
+
+class _Echo(PmvNode):
+    """A node that echoes what it hears on /echo_in to /echo_out and keeps it (a new list at each configure)."""
+
+    def __init__(self, **kwargs):
+        super().__init__("echo", **kwargs)
+        self.heard = []
+        out = self.publisher(String, "echo_out")
+        self.subscription(String, "echo_in", lambda message: (self.heard.append(message.data), out.publish(message)))
+
+
+def test_a_configure_soon_after_cleanup_takes_back_the_endpoints_which_go_after_a_while(harness):
+    """A neighbour flapping cleanup and configure does not make the node destroy and create DDS endpoints at its
+    rate (Fast DDS once crashed under that, README "Managed nodes"): cleanup parks the publishers and
+    subscriptions, silent; a configure within PARKED_S takes them back and wires them to its own callbacks; after
+    PARKED_S unconfigured they are destroyed, and shutdown destroys them at once."""
+    h = harness(managed(_Echo, "echo"), {})
+    echoed = h.record(String, "/echo_out")
+    send = h.tester.create_publisher(String, "/echo_in", 10)
+    lifecycle = Lifecycle(h, "echo")
+
+    def made() -> list:
+        return [*h.node._made("publishers"), *h.node._made("subscriptions")]
+
+    def echo(text: str) -> None:
+        send.publish(String(data=text))
+        deadline = time.monotonic() + 5.0
+        while text not in [m.data for m in echoed]:
+            assert time.monotonic() < deadline, f"{text!r} not echoed within 5 s"
+            lifecycle.spin(0.02)
+
+    assert lifecycle.transition(Transition.TRANSITION_CONFIGURE) and lifecycle.transition(Transition.TRANSITION_ACTIVATE)
+    first = made()
+    assert len(first) == 2
+    echo("a")
+    for _ in range(5):  # flapping: the same two endpoints throughout
+        for transition in (Transition.TRANSITION_DEACTIVATE, Transition.TRANSITION_CLEANUP,
+                           Transition.TRANSITION_CONFIGURE, Transition.TRANSITION_ACTIVATE):
+            assert lifecycle.transition(transition), transition
+            assert all(a is b for a, b in zip(made(), first)) and len(made()) == 2, transition
+    assert h.node.heard == []  # the new configuration's list: the subscription calls the new callback
+    echo("b")
+    assert h.node.heard == ["b"]
+
+    assert lifecycle.transition(Transition.TRANSITION_DEACTIVATE) and lifecycle.transition(Transition.TRANSITION_CLEANUP)
+    send.publish(String(data="c"))  # parked: silent, heard by nobody
+    lifecycle.spin(PARKED_S + 0.3)
+    assert made() == [] and "c" not in [m.data for m in echoed]
+    assert "/echo_out" not in dict(h.tester.get_publisher_names_and_types_by_node("echo", "/"))
+    assert lifecycle.transition(Transition.TRANSITION_CONFIGURE)  # after the park: new endpoints
+    assert len(made()) == 2 and not any(a is b for a in made() for b in first)
+    assert lifecycle.transition(Transition.TRANSITION_CLEANUP)
+    assert len(made()) == 2  # parked
+    assert lifecycle.transition(Transition.TRANSITION_UNCONFIGURED_SHUTDOWN) and made() == []  # gone at once

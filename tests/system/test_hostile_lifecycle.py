@@ -24,6 +24,8 @@ from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState, GetState
 from neighbour import WALL_CLOCK_PARAMS, Neighbour, output_of, proc_status, running_nodes
 
+from pmv_ros.nodes.managed import PARKED_S
+
 pytestmark = pytest.mark.adversarial
 
 NODES = ("error_monitor_node", "star_tracker_node", "sensor_node")
@@ -97,15 +99,15 @@ def _graph_entities(neighbour: Neighbour, name: str) -> tuple:
 
 
 def _settled_entities(neighbour: Neighbour) -> dict:
-    """Each node's entities once the graph of all three has stopped changing for 1 s (discovery of destroyed ones
-    takes a moment); the three are watched together, so one quiet second serves them all."""
+    """Each node's entities once the graph of all three has stopped changing for 1 s more than a cleanup keeps
+    its endpoints parked (discovery of destroyed ones takes a moment); the three are watched together."""
     last, steady_since = None, time.monotonic()
     deadline = time.monotonic() + 20.0
     while time.monotonic() < deadline:
         now = {name: _graph_entities(neighbour, name) for name in NODES}
         if now != last:
             last, steady_since = now, time.monotonic()
-        elif time.monotonic() - steady_since > 1.0:
+        elif time.monotonic() - steady_since > PARKED_S + 1.0:
             return now
         neighbour.spin(0.1)
     raise AssertionError(f"the graph of the nodes kept changing for 20 s: {last}")
