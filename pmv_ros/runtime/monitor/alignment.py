@@ -81,16 +81,39 @@ class Settled:
     ``values`` ``(8, k)``: :data:`SETTLED_ROWS`; ``reported`` ``(3, k)``: :data:`REPORTED_ROWS`, what the
     monitor's accounting adds — as the sample entered the reported statistics, rad, NaN unless the sample
     was used (None until then).
+
+    A few samples settled in floats (:meth:`Alignment.settle_small`) come as rows (:meth:`from_rows`), and a
+    node's message is accounted and reported from those rows: ``values`` is made from them only when asked
+    for (an array of a handful of samples costs more than the rows it is made from, and was read back as rows).
     """
 
-    __slots__ = ("values", "reported")
+    __slots__ = ("_values", "_rows", "reported")
 
     def __init__(self, values: np.ndarray, reported: np.ndarray | None = None) -> None:
-        self.values, self.reported = values, reported
+        self._values, self._rows, self.reported = values, None, reported
+
+    @classmethod
+    def from_rows(cls, rows: list) -> "Settled":
+        """Samples given as rows of :data:`SETTLED_ROWS` (lists of floats), at least one."""
+        settled = cls(None)
+        settled._rows = rows
+        return settled
+
+    @property
+    def values(self) -> np.ndarray:
+        if self._values is None:
+            self._values = np.array(self._rows, float).T
+        return self._values
+
+    def rows(self) -> list:
+        """The samples as rows of :data:`SETTLED_ROWS` (lists of floats, in settle order); not to be changed."""
+        if self._rows is None:
+            self._rows = self._values.T.tolist()
+        return self._rows
 
     @property
     def size(self) -> int:
-        return self.values.shape[1]
+        return self._values.shape[1] if self._values is not None else len(self._rows)
 
     @property
     def index(self) -> np.ndarray:
@@ -549,7 +572,7 @@ class Alignment:
             rows.sort(key=_first)
         if not rows:
             return Settled(np.empty((len(SETTLED_ROWS), 0)))
-        return Settled(np.array([row for _, row in rows], float).T)
+        return Settled.from_rows([row for _, row in rows])
 
 
 def _first(item):
