@@ -314,11 +314,13 @@ def read_orbit_state(msg: Odometry) -> tuple[float, tuple, tuple]:
     non-finite orientation is a ValueError (an Odometry that says nothing
     about where its twist points).
     """
-    p, v, o = msg.pose.pose.position, msg.twist.twist.linear, msg.pose.pose.orientation
-    norm = math.sqrt(o.x * o.x + o.y * o.y + o.z * o.z + o.w * o.w)
+    pose, v = msg.pose.pose, msg.twist.twist.linear
+    p, o = pose.position, pose.orientation
+    x, y, z, w = o.x, o.y, o.z, o.w  # each field read once: a message field is a property
+    norm = math.sqrt(x * x + y * y + z * z + w * w)
     if not (math.isfinite(norm) and norm > 0.0):
-        raise ValueError(f"odometry orientation ({o.x}, {o.y}, {o.z}, {o.w}) is not a rotation")
-    q = (o.x / norm, o.y / norm, o.z / norm, o.w / norm)
+        raise ValueError(f"odometry orientation ({x}, {y}, {z}, {w}) is not a rotation")
+    q = (x / norm, y / norm, z / norm, w / norm)
     return check_stamp(time_from_msg(msg.header.stamp)), (p.x, p.y, p.z), _rotate(q, (v.x, v.y, v.z))
 
 
@@ -395,7 +397,9 @@ def _write_statuses(msg: DiagnosticArray, stamp_s: float, statuses) -> Diagnosti
 
     The message's own DiagnosticStatus and KeyValue objects are reused where
     the counts match (the same keys come back at every publication), and made
-    anew where they do not.
+    anew where they do not; a field already holding its text is not set again
+    (a message's setter checks its type: ≈ 0.3 µs, and /pmv/error_statistics
+    has some 120 keys, most of them, and many values, the same as last time).
     """
     write_stamp(msg.header.stamp, stamp_s)
     targets = msg.status
@@ -410,7 +414,11 @@ def _write_statuses(msg: DiagnosticArray, stamp_s: float, statuses) -> Diagnosti
             pairs = [KeyValue() for _ in values]
             target.values = pairs
         for pair, (key, value) in zip(pairs, values):
-            pair.key, pair.value = str(key), str(value)
+            key, value = str(key), str(value)
+            if pair.key != key:
+                pair.key = key
+            if pair.value != value:
+                pair.value = value
     return msg
 
 

@@ -183,17 +183,21 @@ class PmvNode(Node):
         """A lean node's entities come without rclpy's default QoS-event handlers."""
         return _QUIET[kind] if self._lean else {}
 
-    def emit(self, feed, item) -> None:
+    def emit(self, feed, item, readers: dict | None = None) -> None:
         """Publish ``item`` on every topic ``feed`` feeds (a lean node skips a topic nobody in the process reads:
-        its private graph has no one unseen; a recorder or a probe subscribes, and then the topic is published)."""
+        its private graph has no one unseen; a recorder or a probe subscribes, and then the topic is published).
+        ``readers``: publisher → whether it has a subscriber, as far as known already (see :meth:`emit_all`)."""
         for publisher, message, write, always in self._feeds.get(feed, ()):
-            if always or publisher.get_subscription_count():
+            if always or _has_reader(publisher, readers):
                 publisher.publish(write(message, item, self))
 
     def emit_all(self, items) -> None:
-        """:meth:`emit` each item of a runtime output, in order, under its type."""
+        """:meth:`emit` each item of a runtime output, in order, under its type. The graph is asked once per
+        output whether a topic has a subscriber (≈ 1 µs a question): nothing in the process can subscribe
+        between two of its items, which are published one after another."""
+        readers = {}
         for item in items:
-            self.emit(type(item), item)
+            self.emit(type(item), item, readers)
 
     def take_output(self, output) -> None:
         """What a runtime input returned: its log lines (if it has any) to the node's log, then what it publishes,
@@ -394,6 +398,16 @@ class PmvNode(Node):
         if problem:
             return SetParametersResult(successful=False, reason=problem)
         return super().set_parameters_atomically(checked)
+
+
+def _has_reader(publisher, readers: dict | None) -> bool:
+    """Whether ``publisher`` has a subscriber: from ``readers`` if it was asked already (then kept there)."""
+    if readers is None:
+        return publisher.get_subscription_count() > 0
+    known = readers.get(publisher)
+    if known is None:
+        known = readers[publisher] = publisher.get_subscription_count() > 0
+    return known
 
 
 def _publisher_gid(info):

@@ -100,7 +100,7 @@ def true_roll_pitch(q_orbital_to_body):
         norm = math.sqrt(float(q @ q))
         if not (math.isfinite(norm) and norm > 0.0):
             raise ValueError(f"quaternion {q.tolist()} has no direction (zero or non-finite norm)")
-        x, y, z, w = (float(c) for c in q / norm)
+        x, y, z, w = (c / norm for c in q.tolist())  # float by float: the same quotients as numpy's q / norm
         # Nadir in the body frame: −(third row of the body-axes matrix R).
         n0, n1, n2 = -2.0 * (x * z - w * y), -2.0 * (y * z + w * x), -(1.0 - 2.0 * (x * x + y * y))
         return math.atan2(-n1, -n2), math.atan2(n0, math.hypot(n1, n2))

@@ -193,8 +193,8 @@ def orbit_angles_from_state(position_eci_m, velocity_eci_m_s):
     """
     if type(position_eci_m) is not tuple and np.ndim(position_eci_m) == 2:  # (a tuple is one state: no numpy)
         return _orbit_angles_arrays(np.asarray(position_eci_m, float), np.asarray(velocity_eci_m_s, float))
-    rx, ry, rz = (float(c) for c in position_eci_m)
-    vx, vy, vz = (float(c) for c in velocity_eci_m_s)
+    rx, ry, rz = map(float, position_eci_m)
+    vx, vy, vz = map(float, velocity_eci_m_s)
     hx, hy, hz = ry * vz - rz * vy, rz * vx - rx * vz, rx * vy - ry * vx
     h_norm = math.sqrt(hx * hx + hy * hy + hz * hz)
     if not (math.isfinite(h_norm) and h_norm > 0.0):
@@ -239,8 +239,8 @@ def orbital_axes_of_state(position_eci_m, velocity_eci_m_s) -> tuple[tuple, tupl
     where numpy's per-call cost on 3-vectors dominates); NaN axes where r or its horizontal velocity is zero
     or not finite.
     """
-    rx, ry, rz = (float(c) for c in position_eci_m)
-    vx, vy, vz = (float(c) for c in velocity_eci_m_s)
+    rx, ry, rz = map(float, position_eci_m)
+    vx, vy, vz = map(float, velocity_eci_m_s)
     radius = math.sqrt(rx * rx + ry * ry + rz * rz)
     if not 0.0 < radius < math.inf:
         return ((math.nan,) * 3,) * 3

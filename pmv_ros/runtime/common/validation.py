@@ -167,11 +167,11 @@ def check_orbit_state(position_m, velocity_m_s, bounds: InputBounds) -> Rejectio
     v²/2 − GM/r (a hyperbolic state is no orbit the sensor flies).
     """
     try:
-        rx, ry, rz = (float(c) for c in position_m)
-        vx, vy, vz = (float(c) for c in velocity_m_s)
+        rx, ry, rz = map(float, position_m)  # map, not a generator: this runs for every odometry message
+        vx, vy, vz = map(float, velocity_m_s)
     except (TypeError, ValueError):
         return Rejection.NON_FINITE
-    if not all(math.isfinite(c) for c in (rx, ry, rz, vx, vy, vz)):
+    if not all(map(math.isfinite, (rx, ry, rz, vx, vy, vz))):
         return Rejection.NON_FINITE
     radius, speed = math.hypot(rx, ry, rz), math.hypot(vx, vy, vz)
     if not (bounds.min_orbit_radius_m <= radius <= bounds.max_orbit_radius_m):

@@ -81,16 +81,39 @@ class Settled:
     ``values`` ``(8, k)``: :data:`SETTLED_ROWS`; ``reported`` ``(3, k)``: :data:`REPORTED_ROWS`, what the
     monitor's accounting adds — as the sample entered the reported statistics, rad, NaN unless the sample
     was used (None until then).
+
+    A few samples settled in floats (:meth:`Alignment.settle_small`) come as rows (:meth:`from_rows`), and a
+    node's message is accounted and reported from those rows: ``values`` is made from them only when asked
+    for (an array of a handful of samples costs more than the rows it is made from, and was read back as rows).
     """
 
-    __slots__ = ("values", "reported")
+    __slots__ = ("_values", "_rows", "reported")
 
     def __init__(self, values: np.ndarray, reported: np.ndarray | None = None) -> None:
-        self.values, self.reported = values, reported
+        self._values, self._rows, self.reported = values, None, reported
+
+    @classmethod
+    def from_rows(cls, rows: list) -> "Settled":
+        """Samples given as rows of :data:`SETTLED_ROWS` (lists of floats), at least one."""
+        settled = cls(None)
+        settled._rows = rows
+        return settled
+
+    @property
+    def values(self) -> np.ndarray:
+        if self._values is None:
+            self._values = np.array(self._rows, float).T
+        return self._values
+
+    def rows(self) -> list:
+        """The samples as rows of :data:`SETTLED_ROWS` (lists of floats, in settle order); not to be changed."""
+        if self._rows is None:
+            self._rows = self._values.T.tolist()
+        return self._rows
 
     @property
     def size(self) -> int:
-        return self.values.shape[1]
+        return self._values.shape[1] if self._values is not None else len(self._rows)
 
     @property
     def index(self) -> np.ndarray:
@@ -420,6 +443,9 @@ class Alignment:
         what settles. ``gathered``: the scan's sample tuples (serial, place, code, event, stamp, roll, pitch, the
         model's roll and pitch, altitude: ``scan._SAMPLE_COLUMNS``), ``truth`` its
         accepted truth (stamp, roll, pitch, event), ``expiry`` each event's timeout clock.
+
+        The buffer's lists grow and are pruned in place (a node's truth message moves them by a sample or so:
+        copying the whole minute of truth they hold cost more than aligning the samples).
         """
         config = self.config
         events = len(expiry)
@@ -440,15 +466,16 @@ class Alignment:
         count = len(candidates)
         truth_t, truth_roll, truth_pitch = self._truth_lists()
         held = len(truth_t)
-        truth_event = [-1] * held
-        if truth:  # the buffer, then this segment's accepted truth
-            truth_t, truth_roll, truth_pitch = truth_t + [t for t, _, _, _ in truth], \
-                truth_roll + [roll for _, roll, _, _ in truth], truth_pitch + [pitch for _, _, pitch, _ in truth]
-            truth_event += [event for _, _, _, event in truth]
+        # The buffer (arrived before: event −1), then this segment's accepted truth, whose events are these.
+        truth_event = [event for _, _, _, event in truth]
+        if truth:
+            truth_t += [t for t, _, _, _ in truth]
+            truth_roll += [roll for _, roll, _, _ in truth]
+            truth_pitch += [pitch for _, _, pitch, _ in truth]
         total = len(truth_t)
         stamp = [row[1] for row in candidates]
         hi = [bisect.bisect_left(truth_t, s) for s in stamp]
-        cover = [truth_event[h] if h < total else events for h in hi]
+        cover = [events if h >= total else -1 if h < held else truth_event[h - held] for h in hi]
         at_once = [c < a for c, a in zip(cover, arrive)]  # uncovered: cover = events, never before an arrival
         settle = [a if now else c for a, c, now in zip(arrive, cover, at_once)]
         stale = None
@@ -474,9 +501,9 @@ class Alignment:
         queue_settle = [settle[i] for i in queued]
         if (stale is not None or overflow is not None) and any(b < a for a, b in zip(queue_settle, queue_settle[1:])):
             raise RuntimeError("monitor alignment: the queue would not settle in order (stamps not increasing)")
-        start_after = None
+        drop = None  # the buffer's first sample after each of this segment's truth events, if any was pruned
         if truth:
-            drop, dropped = [], 0
+            after, dropped = [], 0
             for j, (t, _, _, event) in enumerate(truth):
                 front = bisect.bisect_right(queue_settle, event)
                 front_stamp = math.inf
@@ -485,10 +512,11 @@ class Alignment:
                 cutoff = min(t - config.truth_history_s, front_stamp)
                 dropped = max(dropped, bisect.bisect_right(truth_t, cutoff) - 1, held + j + 1 - config.truth_capacity,
                               0)
-                drop.append(dropped)
+                after.append(dropped)
             if dropped > 0:
-                start_after = [0] * held + drop
+                drop = after
         rows, waiting = [], []
+        last, pruned_before, gap_s = max(total - 1, 0), self.truth_pruned, config.max_truth_gap_s
         for i in range(count):
             row = candidates[i]
             if settle[i] >= events:
@@ -496,21 +524,21 @@ class Alignment:
                 continue
             h, s = hi[i], stamp[i]
             covered = h < total
-            at = min(h, max(total - 1, 0))
+            at = min(h, last)
             exact = covered and truth_t[at] == s
             low = max(h - 1, 0)
-            pruned = self.truth_pruned
+            pruned = pruned_before
             lost = first = False
-            if start_after is None:
+            if drop is None:
                 first = not exact and h == 0
-            else:
-                seen = bisect.bisect_left(truth_event, arrive[i]) - 1 if at_once[i] else h - 1
-                start = start_after[seen] if seen >= 0 else 0
+            else:  # the buffer as the truth event before its settle left it (an own arrival is ≥ 0: after −1)
+                seen = held + bisect.bisect_left(truth_event, arrive[i]) - 1 if at_once[i] else h - 1
+                start = drop[seen - held] if seen >= held else 0
                 pruned = pruned or start > 0
                 lost = h < start
                 first = not lost and not exact and h == start
             kept = not lost and not first
-            gap = kept and not exact and truth_t[at] - truth_t[low] > config.max_truth_gap_s if total else False
+            gap = kept and not exact and truth_t[at] - truth_t[low] > gap_s if total else False
             timed_out = stale is not None and stale[i]
             pushed_out = overflow is not None and overflow[i]
             aligned = not timed_out and not pushed_out
@@ -534,12 +562,10 @@ class Alignment:
             rows.append((settle[i] * 3 + phase, [row[0], s, float(code), residual_roll, residual_pitch, row[4],
                                                  row[5], row[6]]))
         # What stays: the buffer as the last truth event left it, and the samples still waiting.
-        if start_after is not None:
-            keep = start_after[-1]
-            self._truth_columns = [truth_t[keep:], truth_roll[keep:], truth_pitch[keep:]]
+        if drop is not None:  # the lists are the buffer's own (grown above)
+            for column in (truth_t, truth_roll, truth_pitch):
+                del column[:drop[-1]]
             self.truth_pruned = True
-        elif truth:
-            self._truth_columns = [truth_t, truth_roll, truth_pitch]
         self._wait(waiting)
         self._indexed = True
         if on_arrival:
@@ -549,7 +575,7 @@ class Alignment:
             rows.sort(key=_first)
         if not rows:
             return Settled(np.empty((len(SETTLED_ROWS), 0)))
-        return Settled(np.array([row for _, row in rows], float).T)
+        return Settled.from_rows([row for _, row in rows])
 
 
 def _first(item):

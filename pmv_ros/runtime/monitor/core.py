@@ -488,7 +488,7 @@ class ErrorMonitor(EventScan):
         """:meth:`_account` of a few samples in floats: the same counts and the same values (numpy's hypot)."""
         counters, config = self._counters, self.config
         places, used_rows = [], []
-        for place, row in enumerate(settled.values.T.tolist()):
+        for place, row in enumerate(settled.rows()):
             code = int(row[2])
             if code == _OK:
                 places.append(place)
@@ -517,9 +517,9 @@ class ErrorMonitor(EventScan):
         counters["used"] += used
         counters["used_one_angle"] += one_angle
         counters["used_without_oblateness_model"] += without_model
-        parts = np.array((kept_roll, kept_pitch, removed_roll, removed_pitch))
-        meridional = np.hypot(parts[0::2], parts[1::2])
-        angles = np.vstack((parts[0:2], meridional[0:1], parts[2:4], meridional[1:2]))
+        angles = np.empty((6, used))  # rows as _account's; the meridional ones (2 and 5) from the two before
+        angles[0], angles[1], angles[3], angles[4] = kept_roll, kept_pitch, removed_roll, removed_pitch
+        np.hypot(angles[0::3], angles[1::3], out=angles[2::3])
         return self._keep(settled, places, t, angles, altitude)
 
     def _keep(self, settled: Settled, rows, t, angles: np.ndarray, altitude) -> Settled:
@@ -566,7 +566,7 @@ class ErrorMonitor(EventScan):
         return [Outcome(t, BATCH_STATUSES[int(code)], residual_roll, residual_pitch, roll, pitch, meridional,
                         altitude)
                 for (_, t, code, residual_roll, residual_pitch, _, _, altitude), (roll, pitch, meridional)
-                in zip(settled.values.T.tolist(), settled.report().T.tolist())]
+                in zip(settled.rows(), settled.report().T.tolist())]
 
     # ---------------------------------------------------------------- summary
 

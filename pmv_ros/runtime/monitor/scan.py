@@ -426,7 +426,7 @@ class EventScan:
                 config = self.config
                 u = math.nan
                 inclination = math.nan if config.inclination_rad is None else config.inclination_rad
-                altitude = math.nan if config.altitude_m is None else config.altitude_m
+                altitude = math.nan if config.altitude_m is None else float(config.altitude_m)
         else:
             u, inclination, altitude = float(feed.u_rad[i]), float(feed.inclination_rad[i]), float(feed.altitude_m[i])
         if feed.model_roll_rad is not None:
