@@ -244,7 +244,8 @@ class Alignment:
         return self._truth.shape[1] if self._truth is not None else len(self._truth_columns[0])
 
     def _truth_lists(self) -> list:
-        """The truth buffer as three lists (stamp, roll, pitch), for a small settle (which replaces them)."""
+        """The truth buffer as three lists (stamp, roll, pitch), for a small settle (which grows and prunes them in
+        place)."""
         if self._truth_columns is None:
             self._truth_columns = self._truth.tolist()
             self._truth = None
