@@ -65,6 +65,12 @@ class Lifecycle:
         while time.monotonic() < end:
             self.h.executor.spin_once(timeout_sec=0.02)
 
+    def spin_until(self, condition, seconds: float, what: str) -> None:
+        deadline = time.monotonic() + seconds
+        while not condition():
+            assert time.monotonic() < deadline, f"{what}: not within {seconds:g} s"
+            self.spin(0.02)
+
 
 def test_each_lifecycle_state_publishes_what_it_should(harness):
     h = harness(managed_sensor, {"sensor.rate_hz": 20.0})
@@ -105,10 +111,10 @@ def test_each_lifecycle_state_publishes_what_it_should(harness):
 
     assert lifecycle.transition(Transition.TRANSITION_CLEANUP)
     assert lifecycle.state() == "unconfigured" and not h.node.configured
-    lifecycle.spin(PARKED_S + 0.3)  # what configure made is gone (its endpoints after PARKED_S)
-    assert not h.tester.get_publisher_names_and_types_by_node("sensor_node", "/") or all(
+    lifecycle.spin_until(lambda: all(  # what configure made is gone (its endpoints after PARKED_S)
         topic in ("/rosout", "/parameter_events", "/sensor_node/transition_event")
-        for topic, _ in h.tester.get_publisher_names_and_types_by_node("sensor_node", "/"))
+        for topic, _ in h.tester.get_publisher_names_and_types_by_node("sensor_node", "/")),
+        PARKED_S + 10.0, "the configured publishers gone from the graph")
     lifecycle.spin(0.2)
     count = len(attitude)
     lifecycle.spin(0.4)
@@ -297,9 +303,12 @@ def test_a_configure_soon_after_cleanup_takes_back_the_endpoints_which_go_after_
 
     assert lifecycle.transition(Transition.TRANSITION_DEACTIVATE) and lifecycle.transition(Transition.TRANSITION_CLEANUP)
     send.publish(String(data="c"))  # parked: silent, heard by nobody
-    lifecycle.spin(PARKED_S + 0.3)
-    assert made() == [] and "c" not in [m.data for m in echoed]
-    assert "/echo_out" not in dict(h.tester.get_publisher_names_and_types_by_node("echo", "/"))
+    began = time.monotonic()
+    lifecycle.spin_until(lambda: made() == [], PARKED_S + 10.0, "the parked endpoints destroyed")
+    assert time.monotonic() - began > 0.8 * PARKED_S  # not before their time (less the spin's own step)
+    lifecycle.spin_until(lambda: "/echo_out" not in dict(h.tester.get_publisher_names_and_types_by_node("echo", "/")),
+                         10.0, "/echo_out gone from the graph")
+    assert "c" not in [m.data for m in echoed] and h.node.heard == ["b"]
     assert lifecycle.transition(Transition.TRANSITION_CONFIGURE)  # after the park: new endpoints
     assert len(made()) == 2 and not any(a is b for a in made() for b in first)
     assert lifecycle.transition(Transition.TRANSITION_CLEANUP)
