@@ -63,7 +63,8 @@ _ENTITY_KINDS = (("publishers", "destroy_publisher"), ("subscriptions", "destroy
 #: configure that declares them again; then they are destroyed.
 PARKED_S = 1.0
 
-_PARKED_KINDS = {"publishers": "destroy_publisher", "subscriptions": "destroy_subscription"}
+#: What cleanup parks instead of destroying (the DDS endpoints).
+_PARKED_KINDS = ("publishers", "subscriptions")
 
 _SUCCESS = TransitionCallbackReturn.SUCCESS
 
@@ -195,7 +196,7 @@ class _Managed:
         self._parked_expiry.cancel()
         parked, self._parked = self._parked, []
         for kind, entity in parked:
-            getattr(self, _PARKED_KINDS[kind])(entity)
+            getattr(self, dict(_ENTITY_KINDS)[kind])(entity)
 
     def _unpark(self, kind: str, message_type, topic: str, qos, options: dict):
         """The parked entity of ``kind`` with this type, topic and QoS, taken out of the park; None if there is
