@@ -26,18 +26,40 @@ def _pair(seed: int, **options):
     ({"random_failure_probability": 1.0, "outages": ((5.0, 20.0),)}, 10.0, 1.0, Outcome.SCHEDULED_OUTAGE),
 ])
 def test_one_frame_measures_like_the_array_path(options, t_s, rate, expected):
-    # The node measures one 2 Hz frame at a time in plain floats; with the same seed it must
-    # give what the array path gives for that frame: the same draws, outcome and quaternion.
+    # The node measures one 2 Hz frame at a time in plain floats; with the same seed it must give, bit for bit,
+    # what the array path gives for the same frames measured as groups of one (the same draws, in the same order):
+    # the same outcome and quaternion, the random streams in step frame after frame.
     rng = np.random.default_rng(2)
     for _ in range(20):
         q = quaternion_from_roll_pitch_yaw(*rng.uniform(-0.1, 0.1, 3))
         one_tracker, array_tracker = _pair(seed=int(rng.integers(1000)), **options)
-        for step in range(3):  # the random streams stay in step frame after frame
-            one, outcome = one_tracker.measure(t_s + step, tuple(q.tolist()), rate)
-            many, outcomes = array_tracker.measure(np.array([t_s + step]), q[:, None], np.array([rate]))
-            assert outcome is Outcome(int(outcomes[0])) is expected
-            np.testing.assert_allclose(one, many[:, 0], atol=1e-15)
+        times = t_s + np.arange(3.0)
+        singles = [one_tracker.measure(float(t), tuple(q.tolist()), rate) for t in times]
+        many, outcomes = array_tracker.measure_groups(times, np.repeat(q[:, None], 3, axis=1), np.full(3, rate),
+                                                      [1, 1, 1])  # three groups: the array path
+        for k, (one, outcome) in enumerate(singles):
+            assert outcome is Outcome(int(outcomes[k])) is expected
+            np.testing.assert_array_equal(one, many[:, k])
             assert (outcome is Outcome.OK) == bool(np.all(np.isfinite(one)))
+
+
+def test_one_frame_of_a_random_stream_is_the_array_path_bit_for_bit():
+    # Many attitudes, rates about the limit and a failure rate that fails some: one frame at a time (the node)
+    # against the same frames as groups of one in one array call (a campaign's groups).
+    rng = np.random.default_rng(11)
+    parameters = StarTrackerParameters(random_failure_probability=0.2, outages=((30.0, 40.0),),
+                                       boresight_body=(0.3, -0.5, 0.8))  # oblique: every axis sums three terms
+    one_tracker, array_tracker = StarTracker(parameters, seed=3), StarTracker(parameters, seed=3)
+    n = 400
+    times = np.arange(n) * 0.5
+    q = np.array([quaternion_from_roll_pitch_yaw(*a) for a in rng.uniform(-3.0, 3.0, (n, 3))]).T
+    q[:, 7] = np.nan  # invalid truth: no attitude, and the draws still taken
+    rate = rng.uniform(0.0, 2.0, n) * parameters.max_rate_rad_s
+    many, outcomes = array_tracker.measure_groups(times, q, rate, [1] * n)
+    singles = [one_tracker.measure(float(times[k]), tuple(q[:, k].tolist()), float(rate[k])) for k in range(n)]
+    np.testing.assert_array_equal(np.array([one for one, _ in singles]).T, many)
+    assert [int(outcome) for _, outcome in singles] == outcomes.tolist()
+    assert set(outcomes.tolist()) == {int(o) for o in Outcome}  # every outcome came up
 
 
 def test_one_frame_with_invalid_truth_gives_no_attitude():
