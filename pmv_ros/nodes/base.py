@@ -15,6 +15,7 @@ from rcl_interfaces.msg import SetParametersResult
 from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import EventHandler, PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 import pmv_msgs_shim as shim
@@ -80,9 +81,9 @@ class PmvNode(Node):
     Args:
         name: node name.
         lean: for the in-process pipeline (``pmv simulate``), whose graph nothing outside the process can see:
-            no parameter services, no /rosout publisher, no default QoS-event handlers (each an entity the
-            executor re-examines on every wait), and nothing built or published on a topic nobody in the process
-            subscribes to. Parameters still work through ``set_parameters``, with the same validation.
+            no parameter or type-description services, no /rosout publisher, no default QoS-event handlers (each
+            an entity the executor re-examines on every wait), and nothing built or published on a topic nobody
+            in the process subscribes to. Parameters still work through ``set_parameters``, with the same validation.
         time_source: for the in-process pipeline: a ``rclpy.time_source.TimeSource`` the process drives itself;
             the node runs with ``use_sim_time``, its clock follows this source, and the /clock subscription
             ``use_sim_time`` made is dropped.
@@ -124,6 +125,8 @@ class PmvNode(Node):
         if lean:
             kwargs.setdefault("start_parameter_services", False)
             kwargs.setdefault("enable_rosout", False)  # logs still reach the console and the log file
+            kwargs["parameter_overrides"] = [*kwargs.get("parameter_overrides", ()),
+                                             Parameter("start_type_description_service", value=False)]
         self.parameter_specs = {}  # name → ParamSpec, filled by install_validation
         if not getattr(self, "configuring", False):  # a managed node (nodes/managed.py) is a node already
             super().__init__(name, **kwargs)

@@ -96,6 +96,19 @@ def test_sensor_reads_a_constant_body_roll_of_30_arcmin():
     assert all(m.vector.z == 0.0 for m in got)
 
 
+def test_the_in_process_pipelines_nodes_give_the_executor_no_service_to_wait_on():
+    # Lean nodes: no parameter services and no ~/get_type_description (nothing in the private graph calls them;
+    # each would be an entity of every executor wait); a plain node keeps rclpy's.
+    with Pipeline(None, {"sensor.rate_hz": 5.0}, collect=False) as pipeline:
+        assert [list(node.services) for node in pipeline.nodes] == [[]] * 3
+        assert pipeline.sensor.get_parameter("start_type_description_service").value is False
+        plain = Node("plain_probe", context=pipeline.context)
+        try:
+            assert "plain_probe/get_type_description" in [service.srv_name.lstrip("/") for service in plain.services]
+        finally:
+            plain.destroy_node()
+
+
 def test_perfect_tracker_sphere_uniform_horizon_gives_zero_mean_residual():
     # Issue 4: noise-free truth, spherical Earth, uniform radiance → residual mean within 0.1′ of zero.
     overrides = {**PERFECT_TRACKER, **IDEAL_EARTH, "attitude.roll_offset_arcmin": 12.0,
