@@ -139,7 +139,7 @@ class StarTracker:
         t = np.asarray(t_s, float)
         q_true = np.asarray(q_orbital_to_body, float)
         rate = np.asarray(inertial_rate_rad_s, float)
-        if t.size == 1 and len(group_sizes) == 1:  # a node's one frame: the same operations in plain floats
+        if t.size == 1 and list(group_sizes) == [1]:  # a node's one frame: the same operations in plain floats
             return self._measure_one(float(t[0]), tuple(q_true.ravel().tolist()), float(rate.ravel()[0]))
         p = self.parameters
         # Draw every frame's noise and failure dice, used or not, so that one
@@ -185,7 +185,6 @@ class StarTracker:
         measured *= np.where((measured * q_safe).sum(axis=0) < 0.0, -1.0, 1.0)
         measured[:, outcome != Outcome.OK.value] = np.nan
         return measured, outcome
-
 
     def _measure_one(self, t_s: float, q_true: tuple, rate_rad_s: float) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`measure_groups` of one frame, operation for operation in plain floats (the same draws, sums in
