@@ -296,7 +296,7 @@ def _subset(source: Path, target: Path, topics, replace: dict | None = None, sec
                 recording.add_topic(rename(channel.topic), summary.schemas[channel.schema_id].name)
         for topic, (type_name, _) in (replace or {}).items():
             recording.add_topic(topic, type_name)
-        for _, channel, message in reader.iter_messages(topics=list(topics), end_time=end_ns):
+        for _, channel, message in reader.iter_messages(topics=list(topics), ending_before=end_ns):
             recording.write(rename(channel.topic), message.log_time, message.data)
         for topic, (_, data) in (replace or {}).items():
             recording.write(topic, 1, data)
