@@ -11,6 +11,12 @@ and a name the node does not have, in turn. Measured:
 * the storm is said once: at most three log lines per node about refused parameters;
 * nothing is lost: the sensor published every sample of its 10 Hz grid through the storm, the monitor
   aligned ≥ 99 % of them; no node's memory grows by 20 MB or more; every parameter kept its value.
+
+And a storm of good requests: ``use_sim_time`` flipped at ≈ 100 Hz on the two nodes that follow the sensor's
+/clock, for 3 s (60 s with ``--run-long``). rclpy makes and destroys a node's /clock subscription at every flip,
+beside a live /clock publisher: the endpoint churn under which Fast DDS 2.14 crashed a flapping managed node
+(README "Managed nodes"). Every node runs on, the chain gives residuals again once ``use_sim_time`` is back on,
+and the /clock guard holds on the subscription the last flip made (a negative /clock is counted, not fatal).
 """
 
 from __future__ import annotations
@@ -19,8 +25,10 @@ import time
 
 import numpy as np
 import pytest
-from neighbour import WALL_CLOCK_PARAMS, Neighbour, node_statuses, output_of, proc_status, running_nodes
+from neighbour import (WALL_CLOCK_PARAMS, Neighbour, monitor_status, node_statuses, output_of, proc_status,
+                       running_nodes, running_stack)
 from rcl_interfaces.srv import GetParameters, SetParameters
+from rosgraph_msgs.msg import Clock
 from rclpy.parameter import Parameter
 from rclpy.parameter import parameter_value_to_python
 
@@ -34,6 +42,8 @@ PARAMS = WALL_CLOCK_PARAMS
 STORM = {"sensor_node": ("sensor.rate_hz", "fast", 1e9), "star_tracker_node": ("rate_hz", "fast", 1e9),
          "error_monitor_node": ("statistics_rate_hz", "often", 1e9)}
 STORM_S, TARGET_HZ = 3.0, 1000.0
+#: The use_sim_time flips: per node and second, and for how long (s): default, and with --run-long.
+FLIP_HZ, FLIP_S, FLIP_LONG_S = 100.0, 3.0, 60.0
 
 
 def _requests(node: str) -> list:
@@ -124,3 +134,59 @@ def test_a_parameter_storm_is_refused_counted_and_said_once(stack, tmp_path):
         assert taken >= 0.99, taken
     finally:
         neighbour.close()
+
+
+@pytest.mark.long
+def test_use_sim_time_flipped_beside_a_clock_publisher_stops_no_node(tmp_path, run_long):
+    flip_s = FLIP_LONG_S if run_long else FLIP_S
+    with running_stack(tmp_path) as stack:
+        neighbour = Neighbour()
+        try:
+            neighbour.wait_for_stack(residuals=5)
+            followers = ("star_tracker_node", "error_monitor_node")
+            clients = {name: neighbour.node.create_client(SetParameters, f"/{name}/set_parameters")
+                       for name in followers}
+            neighbour.wait_until(lambda: all(c.service_is_ready() for c in clients.values()), 30.0,
+                                 "the parameter services of the two nodes")
+            flips = {name: [] for name in followers}
+            began, k = time.monotonic(), 0
+            while time.monotonic() - began < flip_s:
+                request = SetParameters.Request(parameters=[Parameter("use_sim_time", value=k % 2 == 1)
+                                                            .to_parameter_msg()])  # false first, true last
+                for name, client in clients.items():
+                    flips[name].append(client.call_async(request))
+                k += 1
+                while time.monotonic() < began + k / FLIP_HZ:
+                    neighbour.executor.spin_once(timeout_sec=0.002)
+            if k % 2:  # an odd count ended on false: back on the sensor's /clock
+                for name, client in clients.items():
+                    flips[name].append(client.call_async(SetParameters.Request(parameters=[
+                        Parameter("use_sim_time", value=True).to_parameter_msg()])))
+            neighbour.wait_until(lambda: all(f.done() for futures in flips.values() for f in futures), 30.0,
+                                 "the answers to every use_sim_time request")
+            residuals = len(neighbour.got["residual"])
+            neighbour.wait_until(lambda: len(neighbour.got["residual"]) > residuals + 10, 60.0,
+                                 "residuals after the flips")
+            negative = Clock()
+            negative.clock.sec = -1
+            for _ in range(3):  # the guard on the last /clock subscription: counted, and the nodes run on
+                neighbour.pub["clock"].publish(negative)
+                neighbour.spin(0.1)
+            neighbour.spin(0.5)
+            for name, process in stack.items():
+                assert process.poll() is None, f"{name} died: {output_of(tmp_path, name)[-2000:]}"
+            neighbour.wait_for_reports("error_monitor_node", "star_tracker_node")
+            answers = {name: [r for f in futures for r in f.result().results] for name, futures in flips.items()}
+            rate = {name: round(len(futures) / flip_s) for name, futures in flips.items()}
+            monitor = dict(monitor_status(neighbour.got["diagnostics"]).values)
+            tracker = dict(node_statuses(neighbour.got["diagnostics"], "star_tracker_node")[-1].values)
+            print(f"use_sim_time flipped {flip_s:g} s at {rate} requests/s beside /clock: "
+                  f"{ {name: sum(r.successful for r in a) for name, a in answers.items()} } made; rejected "
+                  f"negative /clock after: monitor {monitor.get('rejected_clock_negative')}, star tracker "
+                  f"{tracker.get('rejected_clock_negative')}")
+            assert all(r.successful for a in answers.values() for r in a), answers
+            assert min(rate.values()) >= 0.5 * FLIP_HZ, rate
+            for counters in (monitor, tracker):
+                assert int(counters.get("rejected_clock_negative", 0)) >= 1, counters
+        finally:
+            neighbour.close()
