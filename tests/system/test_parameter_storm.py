@@ -28,9 +28,9 @@ import pytest
 from neighbour import (WALL_CLOCK_PARAMS, Neighbour, monitor_status, node_statuses, output_of, proc_status,
                        running_nodes, running_stack)
 from rcl_interfaces.srv import GetParameters, SetParameters
-from rosgraph_msgs.msg import Clock
 from rclpy.parameter import Parameter
 from rclpy.parameter import parameter_value_to_python
+from rosgraph_msgs.msg import Clock
 
 import pmv_msgs_shim as shim
 
