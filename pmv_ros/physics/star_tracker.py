@@ -89,9 +89,14 @@ class StarTracker:
         self._rng = np.random.default_rng(seed)
         self._tracker_axes = _frame_about(self.parameters.boresight_body)
         self._tracker_axes_rows = tuple(map(tuple, self._tracker_axes.tolist()))
+        #: 1σ of the noise rotation about the tracker's axes (cross, cross, boresight), rad.
+        p = self.parameters
+        self._noise_sigma_rad = np.array([p.noise_cross_rad, p.noise_cross_rad, p.noise_boresight_rad])
 
     def in_outage(self, t_s):
-        """True where ``t_s`` lies inside a scheduled outage window."""
+        """True where ``t_s`` lies inside a scheduled outage window (a float gives a bool)."""
+        if isinstance(t_s, float):
+            return any(start <= t_s < end for start, end in self.parameters.outages)
         t = np.asarray(t_s, float)
         inside = np.zeros(t.shape, bool)
         for start, end in self.parameters.outages:
@@ -163,7 +168,7 @@ class StarTracker:
             first = np.repeat(np.cumsum(sizes) - sizes, sizes)
             within = np.arange(t.size) - first
             noise = normals[3 * first + within + np.arange(3)[:, None] * np.repeat(sizes, sizes)]
-        noise *= np.array([p.noise_cross_rad, p.noise_cross_rad, p.noise_boresight_rad])[:, None]
+        noise *= self._noise_sigma_rad[:, None]
 
         norm = np.linalg.norm(q_true, axis=0)
         finite = np.isfinite(q_true).all(axis=0) & (norm > 0.5)
@@ -193,7 +198,7 @@ class StarTracker:
         p = self.parameters
         normals = self._rng.standard_normal(3)
         dice = float(self._rng.random(1)[0])
-        n0, n1, n2 = (normals * np.array([p.noise_cross_rad, p.noise_cross_rad, p.noise_boresight_rad])).tolist()
+        n0, n1, n2 = (normals * self._noise_sigma_rad).tolist()
         x, y, z, w = q_true
         norm = math.sqrt(x * x + y * y + z * z + w * w)
         finite = all(map(math.isfinite, q_true)) and norm > 0.5
@@ -202,7 +207,7 @@ class StarTracker:
             outcome = Outcome.RANDOM_FAILURE.value
         if rate_rad_s > p.max_rate_rad_s:
             outcome = Outcome.RATE_TOO_HIGH.value
-        if any(start <= t_s < end for start, end in p.outages):
+        if self.in_outage(t_s):
             outcome = Outcome.SCHEDULED_OUTAGE.value
         if not finite:
             return np.full((4, 1), np.nan), np.array([Outcome.INVALID_TRUTH.value], np.int8)
