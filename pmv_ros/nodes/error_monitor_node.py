@@ -95,7 +95,7 @@ class ErrorMonitorNode(PmvNode):
 
     def _on_timer(self) -> None:
         self.flush_inputs()
-        now = self.input_clock(self.get_clock().now().nanoseconds * 1e-9)
+        now = self.input_clock(self.now_s())
         self.take_output(self._runtime.poll(now))
         self.emit(HealthAt, HealthAt(now or 0.0, self._runtime.health(now)))
 

@@ -75,7 +75,7 @@ class SensorNode(PmvNode):
         self._orbit_status = self._timer = None
         try:
             self._runtime = SensorRuntime(
-                v, clock_epoch_s=self.get_clock().now().nanoseconds * 1e-9, stepped=external_drive,
+                v, clock_epoch_s=self.now_s(), stepped=external_drive,
                 correction=read_correction(v),  # the one file read: here, at start-up
                 check_lines_of_sight=shim.checked_lines_of_sight, truth_topic=self.resolve_topic_name("attitude/truth"),
                 odometry_topic=self.resolve_topic_name("orbit/odometry"), graph_problems=self._graph_problems,
@@ -89,7 +89,7 @@ class SensorNode(PmvNode):
         if publish_tf and tf_message is None:
             self.get_logger().warning(NO_TF2_MSGS)
         self.wire(TOPICS + (transform_topics(tf_message) if tf_message else ()), v["input.source_timeout_s"])
-        self.emit("mounting", self._runtime.now_s(self.get_clock().now().nanoseconds * 1e-9))
+        self.emit("mounting", self._runtime.now_s(self.now_s()))
         if not (v["sim.fast_time"] and external_drive):
             self._start_timer(v)
         f = self._runtime.frames
@@ -134,7 +134,7 @@ class SensorNode(PmvNode):
 
     def _on_real_time_tick(self) -> None:
         """Publish every sample of the sensor's grid due since the last tick (:meth:`SensorRuntime.tick`)."""
-        self.take_output(self._runtime.tick(self.get_clock().now().nanoseconds * 1e-9))
+        self.take_output(self._runtime.tick(self.now_s()))
 
     def _graph_problems(self) -> tuple[int, tuple]:
         """Publishers of /attitude/truth besides our own model (0 when following), second sources of our inputs."""

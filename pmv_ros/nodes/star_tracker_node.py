@@ -54,7 +54,7 @@ class StarTrackerNode(PmvNode):
         super().__init__("star_tracker_node", **kwargs)
         self._values = declare(self, PARAMS)
         try:
-            self._runtime = TrackerRuntime(self._values, self.get_clock().now().nanoseconds * 1e-9,
+            self._runtime = TrackerRuntime(self._values, self.now_s(),
                                            source_problems=self.input_source_problems,
                                            source_counters=self.input_source_counters)
         except ValueError as error:  # a combination the ranges cannot check
@@ -74,7 +74,7 @@ class StarTrackerNode(PmvNode):
     def _on_timer(self) -> None:
         """Report a stale input: no truth for longer than max_truth_gap_s (nothing else would say so)."""
         self.flush_inputs()
-        now = self.input_clock(self.get_clock().now().nanoseconds * 1e-9)
+        now = self.input_clock(self.now_s())
         health = self._runtime.stale_health(now)
         if health is not None:
             self.emit(HealthAt, HealthAt(now, health))
