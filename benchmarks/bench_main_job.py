@@ -5,9 +5,10 @@ report collector) on the Kondor preset at 10 Hz, stepped for ``--orbits`` (defau
 
 (b) The floor: bare rclpy publishing and taking exactly the messages the main job published and took, tick by
 tick — the same topics and message types (each message a copy of one the main job sent, so the same sizes), from
-nodes of the same names holding the same publishers and the same subscriptions (the same QoS, in the same order),
-on the same executor drained the same way after every tick (:func:`pmv_ros.nodes.pipeline.drain`) — and no
-computation: every callback only counts, and a tick publishes its messages at once. What the main job does
+nodes of the same names holding the same publishers and the same subscriptions (the same QoS, in the same order,
+each taking what is queued in one wake-up where the main job's does), on the same executor drained the same way
+after every tick (:func:`pmv_ros.nodes.pipeline.drain`) — and no computation: every callback only counts, and a
+tick publishes its messages at once. What the main job does
 besides (the sensor's physics, the star tracker, the monitor, writing the messages, its timers and wake-up
 guards, the messages one callback publishes for the next node) is the ratio's excess over 1.
 
@@ -37,7 +38,7 @@ from rclpy.publisher import Publisher  # noqa: E402
 from rclpy.serialization import deserialize_message, serialize_message  # noqa: E402
 
 from pmv_ros.nodes.base import PmvNode  # noqa: E402
-from pmv_ros.nodes.pipeline import Pipeline, drain  # noqa: E402
+from pmv_ros.nodes.pipeline import Pipeline, TakingQueued, drain  # noqa: E402
 
 KONDOR = Path(__file__).resolve().parents[1] / "config" / "kondor.yaml"
 
@@ -67,10 +68,12 @@ class Recorder:
 
 
 def graph_of(pipeline: Pipeline) -> list[dict]:
-    """Per node of the pipeline: its name, its publishers' (topic, type, QoS), its subscriptions' in order."""
+    """Per node of the pipeline: its name, its publishers' (topic, type, QoS), its subscriptions' (topic, type,
+    QoS, whether it takes what is queued in one wake-up: :class:`TakingQueued`) in order."""
     return [{"name": node.get_name(),
              "publishers": [(p.topic_name, p.msg_type, p.qos_profile) for p in node.publishers],
-             "subscriptions": [(s.topic_name, s.msg_type, s.qos_profile) for s in node.subscriptions]}
+             "subscriptions": [(s.topic_name, s.msg_type, s.qos_profile, isinstance(s.callback, TakingQueued))
+                               for s in node.subscriptions]}
             for node in pipeline.nodes]
 
 
@@ -82,8 +85,8 @@ def main_job(ticks: int, record: bool = False) -> dict:
         recorder = Recorder() if record else None
         for node in pipeline.nodes:  # count what each subscription takes (and, recording, which node, which tick)
             for subscription in node.subscriptions:
-                subscription.callback = _counting(subscription.callback, taken, subscription.topic_name,
-                                                  recorder, node.get_name())
+                holder = subscription.callback if isinstance(subscription.callback, TakingQueued) else subscription
+                holder.callback = _counting(holder.callback, taken, subscription.topic_name, recorder, node.get_name())
         started, cpu = time.perf_counter(), time.process_time()
         if recorder is None:
             pipeline.step(ticks)
@@ -128,9 +131,8 @@ def floor(recorded: dict) -> dict:
         for topic, kind, qos in spec["publishers"]:
             if topic not in ("/parameter_events",):
                 publishers[topic] = node.create_publisher(kind, topic, qos, **node._quiet("Publisher"))
-        for topic, kind, qos in spec["subscriptions"]:
-            node.create_subscription(kind, topic, lambda message, topic=topic: taken.update((topic,)), qos,
-                                     **node._quiet("Subscription"))
+        for topic, kind, qos, queued in spec["subscriptions"]:
+            _subscribe(node, kind, topic, lambda message, topic=topic: taken.update((topic,)), qos, queued)
         nodes.append(node)
         executor.add_node(node)
     messages = {topic: deserialize_message(data, kind) for topic, (kind, data) in recorded["messages"].items()}
@@ -142,6 +144,13 @@ def floor(recorded: dict) -> dict:
             publisher.publish(message)
         drain(executor)
     return _closed(executor, nodes, context, time.perf_counter() - started, time.process_time() - cpu, taken)
+
+
+def _subscribe(node, kind, topic: str, callback, qos, queued: bool) -> None:
+    """A floor's subscription as the main job's: taking what is queued in one wake-up where that one does."""
+    subscription = node.create_subscription(kind, topic, callback, qos, **node._quiet("Subscription"))
+    if queued:
+        subscription.callback = TakingQueued(subscription, callback)
 
 
 def _closed(executor, nodes, context, wall_s: float, cpu_s: float, taken: Counter) -> dict:
@@ -187,9 +196,9 @@ def graph_floor(recorded: dict) -> dict:
             if got[name] == recorded["takes"][state["tick"]][name]:
                 publish(name)
 
-        for topic, kind, qos in spec["subscriptions"]:
-            node.create_subscription(kind, topic, lambda message, topic=topic, callback=on_message:
-                                     callback(message, topic), qos, **node._quiet("Subscription"))
+        for topic, kind, qos, queued in spec["subscriptions"]:
+            _subscribe(node, kind, topic, lambda message, topic=topic, callback=on_message: callback(message, topic),
+                       qos, queued)
         nodes.append(node)
         executor.add_node(node)
     drain(executor)

@@ -25,7 +25,7 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 
 import pmv_msgs_shim as shim
 from ..runtime.common.assembly import NODE_PARAMS
-from .base import PmvNode
+from .base import QOS_DEPTH, PmvNode
 from .launch import hold_single_threaded_blas, release_single_threaded_blas
 from .error_monitor_node import ErrorMonitorNode
 from .params import check_params_files
@@ -60,6 +60,30 @@ def drain(executor, max_callbacks: int = 100_000, on_idle=None) -> int:
     return ran
 
 
+class TakingQueued:
+    """A subscription's callback that, in the wake-up the executor hands it one message, also takes the messages
+    queued behind it (at most :data:`~pmv_ros.nodes.base.QOS_DEPTH`), each to ``callback(message)`` in order.
+
+    rclpy's executor takes one message per subscription per wait, and with Fast DDS a wait costs ≈ 0.1 ms: the
+    five residuals the monitor publishes when a star-tracker frame settles its samples would cost the main job
+    five waits, ≈ 7 % of its time. ``callback`` is an attribute (a benchmark counts the takes through it).
+    """
+
+    def __init__(self, subscription, callback):
+        self.subscription, self.callback = subscription, callback
+
+    def __call__(self, message) -> None:
+        self.callback(message)
+        subscription = self.subscription
+        handle = subscription.handle
+        with handle:
+            for _ in range(QOS_DEPTH):
+                taken = handle.take_message(subscription.msg_type, subscription.raw)
+                if taken is None:
+                    return
+                self.callback(taken[0])
+
+
 class ReportCollector(PmvNode):
     """Keeps what a report needs: residuals (decimated to a bounded count) and the latest statistics."""
 
@@ -71,7 +95,8 @@ class ReportCollector(PmvNode):
         self._stride = 1
         self._statistics_msg = None
         self._statistics = None
-        self.subscription(Vector3Stamped, "pmv/residual", self._on_residual)
+        residuals = self.subscription(Vector3Stamped, "pmv/residual", self._on_residual)
+        residuals.callback = TakingQueued(residuals, self._on_residual)  # up to 5 at a time (a frame settles 5)
         self.subscription(DiagnosticArray, "pmv/error_statistics", self._on_statistics)
 
     def _on_residual(self, message) -> None:
