@@ -37,13 +37,14 @@ from .tf import tf_message_type
 def drain(executor, max_callbacks: int = 100_000, on_idle=None) -> int:
     """Run an executor's ready callbacks until the graph is idle; returns how many ran.
 
-    With Fast DDS, a zero-timeout wait right after a take can report nothing
-    although more samples of that subscription are queued (the take clears
-    the data-available status; the following wait raises it again). So idle
-    means two empty waits in a row: stopping at the first one leaves messages
-    behind and lets a backlog build up tick after tick. ``on_idle()`` is called
-    at every empty wait; when it says it published something (handing queued
-    inputs over), the graph is not idle yet.
+    With a zero timeout, rclpy's executor ends every wait with a
+    TimeoutException once it has handed out the callbacks that wait found (one
+    message per subscription: a second message queued on a subscription needs
+    another wait), so a timeout alone does not mean the graph is idle. Idle is
+    two timeouts with no callback between them: a wait after the last
+    callbacks that found nothing. ``on_idle()`` is called at every timeout;
+    when it says it published something (handing queued inputs over), the
+    graph is not idle yet.
     """
     ran = empty = 0
     while empty < 2 and ran < max_callbacks:
