@@ -65,9 +65,10 @@ class TakingQueued:
     """A subscription's callback that, in the wake-up the executor hands it one message, also takes the messages
     queued behind it (at most :data:`~pmv_ros.nodes.base.QOS_DEPTH`), each to ``callback(message)`` in order.
 
-    rclpy's executor takes one message per subscription per wait, and with Fast DDS a wait costs ≈ 0.1 ms: the
-    five residuals the monitor publishes when a star-tracker frame settles its samples would cost the main job
-    five waits, ≈ 7 % of its time. ``callback`` is an attribute (a benchmark counts the takes through it).
+    rclpy's executor takes one message per subscription per wait, and a wait costs ≈ 65 µs of rclpy's own Python
+    (its wait set is built anew): the five residuals the monitor publishes when a star-tracker frame settles its
+    samples would cost the main job five waits, ≈ 6 % of its time (README "Fast time"). ``callback`` is an
+    attribute (a benchmark counts the takes through it).
     """
 
     def __init__(self, subscription, callback):

@@ -135,9 +135,9 @@ def _collected(one_at_a_time: bool, ticks: int = 60) -> tuple[np.ndarray, int]:
 
 def test_the_report_collector_takes_a_frames_residuals_in_one_wake_up():
     # A star-tracker frame settles 5 samples: 5 residuals on one topic, which rclpy takes one per executor wait
-    # (≈ 0.1 ms each). The collector takes the queued ones in the same wake-up: the same residuals, in the same
-    # order, bit for bit, and 4 waits fewer per frame of 5 (10 of them in these 6 s: 190 against 150 waits here);
-    # asserted as 3 per frame, room for a wait Fast DDS may add now and then.
+    # (≈ 65 µs each). The collector takes the queued ones in the same wake-up: the same residuals, in the same
+    # order, bit for bit, and 4 waits fewer per frame of 5 (10 of them in these 6 s: 150 against 190 waits here);
+    # asserted as 3 per frame, with room to spare.
     one_by_one, waits_one_by_one = _collected(one_at_a_time=True)
     queued, waits_queued = _collected(one_at_a_time=False)
     assert one_by_one.shape[1] >= 50
