@@ -232,9 +232,10 @@ def inertial_rate_of_nadir_pointing(mean_motion_rad_s: float, relative_rate_rad_
     """
     if relative_rate_rad_s is None:
         return float(mean_motion_rad_s)
-    if isinstance(relative_rate_rad_s, tuple):  # one rate, plain floats
+    if isinstance(relative_rate_rad_s, tuple):  # one rate, plain floats: numpy's sums, in numpy's order
         x, y, z = relative_rate_rad_s
-        return math.sqrt(x * x + (y + mean_motion_rad_s) ** 2 + z * z)
+        y = y + mean_motion_rad_s
+        return math.sqrt(x * x + y * y + z * z)
     w = np.asarray(relative_rate_rad_s, float).copy()
     # The radial unit vector Z turns towards the velocity X at the rate n:
     # dZ/dt = n·X = ω × Z with ω = n·Y (Y = Z × X, the orbit normal).

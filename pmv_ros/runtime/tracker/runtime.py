@@ -163,7 +163,10 @@ class TrackerRuntime:
         grid = self.grid.add_many(t_s, q_xyzw)
         if not grid.frame_s.size:
             return _NO_MEASURED_FRAMES
-        rate = inertial_rate_of_nadir_pointing(self.mean_motion_rad_s, grid.turn_rate_rad_s)
+        turn = grid.turn_rate_rad_s
+        if grid.frame_s.size == 1:  # a node's one frame: its rate in plain floats (the same sums), not numpy's norm
+            turn = tuple(turn[:, 0].tolist())
+        rate = inertial_rate_of_nadir_pointing(self.mean_motion_rad_s, turn)
         measured, outcome = self.tracker.measure_groups(grid.frame_s, grid.attitude, rate, grid.group_sizes)
         for code, count in enumerate(np.bincount(outcome).tolist()):
             if count:
