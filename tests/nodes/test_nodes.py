@@ -145,20 +145,39 @@ def test_the_report_collector_takes_a_frames_residuals_in_one_wake_up():
     assert waits_one_by_one - waits_queued >= 3 * one_by_one.shape[1] // 5
 
 
-def test_taking_the_queued_messages_is_bounded_by_the_queue_depth():
-    # A callback that publishes on its own topic keeps the queue full: one wake-up still ends, after the message
-    # the executor gave and at most QOS_DEPTH more.
+def _echo_graph():
+    """A lean node publishing and subscribing to /echo on its own executor: (context, node, publisher, executor)."""
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
 
-    from pmv_ros.nodes.base import QOS_DEPTH, PmvNode
-    from pmv_ros.nodes.pipeline import drain
+    from pmv_ros.nodes.base import PmvNode
 
     context = rclpy.Context()
     rclpy.init(context=context)
+    node = PmvNode("echo", lean=True, context=context)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    return context, node, node.publisher(Vector3Stamped, "/echo"), executor
+
+
+def _close_echo_graph(context, node, executor) -> None:
+    import rclpy
+
+    executor.shutdown()
+    node.destroy_node()
+    rclpy.shutdown(context=context)
+
+
+def test_taking_the_queued_messages_is_bounded_by_the_queue_depth():
+    # A callback that publishes on its own topic keeps the queue full (a publish in one process is delivered at
+    # once, as the pipeline's drain relies on): one wake-up still ends, after the message the executor gave and
+    # at most QOS_DEPTH more.
+    from pmv_ros.nodes.base import QOS_DEPTH
+    from pmv_ros.nodes.pipeline import drain
+
+    context, node, publisher, executor = _echo_graph()
     try:
-        node = PmvNode("echo", lean=True, context=context)
-        publisher, heard = node.publisher(Vector3Stamped, "/echo"), []
+        heard = []
 
         def on_message(message) -> None:
             heard.append(message)
@@ -166,15 +185,40 @@ def test_taking_the_queued_messages_is_bounded_by_the_queue_depth():
 
         subscription = node.subscription(Vector3Stamped, "/echo", on_message)
         subscription.callback = TakingQueued(subscription, on_message)
-        executor = SingleThreadedExecutor(context=context)
-        executor.add_node(node)
         publisher.publish(Vector3Stamped())
         assert drain(executor, max_callbacks=1) == 1
         assert len(heard) == 1 + QOS_DEPTH
-        executor.shutdown()
-        node.destroy_node()
     finally:
-        rclpy.shutdown(context=context)
+        _close_echo_graph(context, node, executor)
+
+
+def test_taking_the_queued_messages_stops_at_a_subscription_destroyed_by_its_callback():
+    # rclpy's own take skips a destroyed subscription; so does the loop: the second message destroys it, and
+    # neither the three queued behind it nor an error come out of the wake-up. A callback that wants the message
+    # info too is refused at once (the loop passes the message only).
+    from pmv_ros.nodes.pipeline import drain
+
+    context, node, publisher, executor = _echo_graph()
+    try:
+        heard = []
+
+        def on_message(message) -> None:
+            heard.append(message.vector.x)
+            if len(heard) == 2:
+                node.destroy_subscription(subscription)
+
+        subscription = node.subscription(Vector3Stamped, "/echo", on_message)
+        subscription.callback = TakingQueued(subscription, on_message)
+        for k in range(5):
+            message = Vector3Stamped()
+            message.vector.x = float(k)
+            publisher.publish(message)
+        drain(executor)
+        assert heard == [0.0, 1.0]
+        with pytest.raises(TypeError):
+            TakingQueued(subscription, lambda message, info: None)
+    finally:
+        _close_echo_graph(context, node, executor)
 
 
 def test_perfect_tracker_sphere_uniform_horizon_gives_zero_mean_residual():
