@@ -169,17 +169,28 @@ def test_use_sim_time_flipped_beside_a_clock_publisher_stops_no_node(tmp_path, r
                                  "residuals after the flips")
             negative = Clock()
             negative.clock.sec = -1
-            for _ in range(3):  # the guard on the last /clock subscription: counted, and the nodes run on
+
+            def newest_values() -> tuple[dict, dict]:  # the two followers' newest /diagnostics values
+                monitor, tracker = (monitor_status(neighbour.got["diagnostics"]),
+                                    node_statuses(neighbour.got["diagnostics"], "star_tracker_node"))
+                return (dict(monitor.values) if monitor else {}), (dict(tracker[-1].values) if tracker else {})
+
+            def counted_or_dead() -> bool:
+                # The guard on the last /clock subscription: a negative /clock every 0.1 s until both nodes report
+                # one refused (their /clock queue keeps one message: a real one can replace a single negative).
                 neighbour.pub["clock"].publish(negative)
                 neighbour.spin(0.1)
-            neighbour.spin(0.5)
+                return (any(process.poll() is not None for process in stack.values())
+                        or all(int(c.get("rejected_clock_negative", 0)) >= 1 for c in newest_values()))
+
+            neighbour.wait_until(counted_or_dead, 30.0, "a negative /clock counted on /diagnostics by both followers")
+            if all(process.poll() is None for process in stack.values()):
+                neighbour.wait_for_reports("error_monitor_node", "star_tracker_node")  # and they run on
             for name, process in stack.items():
                 assert process.poll() is None, f"{name} died: {output_of(tmp_path, name)[-2000:]}"
-            neighbour.wait_for_reports("error_monitor_node", "star_tracker_node")
             answers = {name: [r for f in futures for r in f.result().results] for name, futures in flips.items()}
             rate = {name: round(len(futures) / flip_s) for name, futures in flips.items()}
-            monitor = dict(monitor_status(neighbour.got["diagnostics"]).values)
-            tracker = dict(node_statuses(neighbour.got["diagnostics"], "star_tracker_node")[-1].values)
+            monitor, tracker = newest_values()
             print(f"use_sim_time flipped {flip_s:g} s at {rate} requests/s beside /clock: "
                   f"{ {name: sum(r.successful for r in a) for name, a in answers.items()} } made; rejected "
                   f"negative /clock after: monitor {monitor.get('rejected_clock_negative')}, star tracker "
