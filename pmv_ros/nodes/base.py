@@ -20,16 +20,10 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 import pmv_msgs_shim as shim
 from ..runtime.common.clock_watch import CLOCK_STALL_S, CLOCK_WATCH_PERIOD_S, ClockWatch
+from ..runtime.common.input_sources import GRAPH_CHECK_PERIOD_S, InputSources
 from ..runtime.common.parameters import unknown_parameter_problem
-from ..runtime.common.validation import ClockCheck, JumpDetector, RefusalTally, SourceLock
+from ..runtime.common.validation import RefusalTally
 from .params import coerce_parameters
-
-#: How often (wall clock, s) the graph is asked how many publishers an input has.
-GRAPH_CHECK_PERIOD_S = 1.0
-
-#: The clock the source locks measure silence on: the node clock, with a single forged /clock
-#: (back by more than 1 s, or ahead by more than 10 s) not believed until the next reading confirms it.
-ARRIVAL_JUMP_BACK_S, ARRIVAL_JUMP_AHEAD_S = 1.0, 10.0
 
 #: A batching node hands its queued inputs to the runtime at the latest when this many wait (memory bound).
 MAX_QUEUED_INPUTS = 1000
@@ -135,15 +129,10 @@ class PmvNode(Node):
         if not getattr(self, "configuring", False):  # a managed node (nodes/managed.py) is a node already
             super().__init__(name, **kwargs)
         self._lean, self._flushed_by_caller = lean, flushed_by_caller
-        self.source_locks = {}  # input topic (resolved name) → SourceLock
-        self._input_names = {}  # input topic (resolved name) → the name the node gave (for counter keys)
+        self.sources = InputSources()  # the inputs' source locks and the /clock check
         self._feeds, self.topic_publishers, self._queued = {}, {}, []
-        self._arrival_clock = JumpDetector(ARRIVAL_JUMP_BACK_S, forward_threshold_s=ARRIVAL_JUMP_AHEAD_S)
-        self._source_problems, self._source_checked_s = [], -float("inf")
         self._input_qos = QOS if (lean if reliable_inputs is None else reliable_inputs) else INPUT_QOS
-        self._detached = []
-        self.clock_check = ClockCheck(ARRIVAL_JUMP_BACK_S, ARRIVAL_JUMP_AHEAD_S)
-        self._guarded_clock_subscription = None
+        self._detached, self._guarded_clock_subscription = [], None
         if time_source is None:
             self._guard_clock()
             # use_sim_time switched on later: rclpy subscribes to /clock then; guard that subscription too.
@@ -193,22 +182,15 @@ class PmvNode(Node):
     def emit(self, feed, item, readers: dict | None = None) -> None:
         """Publish ``item`` on every topic ``feed`` feeds (a lean node skips a topic nobody in the process reads:
         its private graph has no one unseen; a recorder or a probe subscribes, and then the topic is published).
-        ``readers``: publisher → whether it has a subscriber, as far as known already (see :meth:`emit_all`)."""
+        ``readers``: publisher → whether it has a subscriber, as far as known already (see :meth:`take_output`)."""
         for publisher, message, write, always in self._feeds.get(feed, ()):
             if always or _has_reader(publisher, readers):
                 publisher.publish(write(message, item, self))
 
-    def emit_all(self, items) -> None:
-        """:meth:`emit` each item of a runtime output, in order, under its type. The graph is asked once per
-        output whether a topic has a subscriber (≈ 1 µs a question): nothing in the process can subscribe
-        between two of its items, which are published one after another."""
-        readers = {}
-        for item in items:
-            self.emit(type(item), item, readers)
-
     def take_output(self, output) -> None:
-        """What a runtime input returned: its log lines (if it has any) to the node's log, then what it publishes,
-        in order."""
+        """What a runtime input returned: its log lines (if it has any) to the node's log, then each item it
+        publishes, in order, :meth:`emit` under its type. The graph is asked once per output whether a topic has a
+        subscriber (≈ 1 µs a question): nothing in the process can subscribe between two of its items."""
         if output is None:
             return
         for line in getattr(output, "log", ()):  # two call sites: rclpy's logger refuses two severities from one
@@ -216,7 +198,9 @@ class PmvNode(Node):
                 self.get_logger().error(line.text)
             else:
                 self.get_logger().info(line.text)
-        self.emit_all(output.published)
+        readers = {}
+        for item in output.published:
+            self.emit(type(item), item, readers)
 
     def publisher(self, message_type, topic: str):
         """A publisher with the project QoS (outside the table: tests, benchmarks)."""
@@ -229,23 +213,20 @@ class PmvNode(Node):
     # -- inputs: one source each, then the runtime (at once, or once per wake-up) -----------------------
 
     def _input(self, declared: Sub, source_timeout_s: float) -> None:
-        """Subscribe to ``declared``: only the locked publisher's messages pass (:class:`SourceLock`, the rule is
-        there), timed on the node clock through a jump detector (a single forged /clock cannot make the locked
-        source look silent); keyed by the name resolved in the node's namespace (one lock per spacecraft)."""
-        lock, clock, read, to = SourceLock(source_timeout_s), self.get_clock(), declared.read, declared.to
+        """Subscribe to ``declared``: only the locked publisher's messages pass (:class:`InputSources`: the locks
+        and their clock)."""
+        topic, clock, read, to = self.resolve_topic_name(declared.topic), self.get_clock(), declared.read, declared.to
+        lock, arrival_s = self.sources.lock(topic, declared.topic, source_timeout_s), self.sources.arrival_s
 
         def on_message(message, info) -> None:
             now_s = clock_s(clock)  # one reading: the arrival and the input's clock
             stamp = message.header.stamp
-            if lock.admit(self._arrival_s(now_s), gid=_publisher_gid(info),
+            if lock.admit(arrival_s(now_s), gid=_publisher_gid(info),
                           sequence=info.get("publication_sequence_number"), stamp_s=stamp.sec + stamp.nanosec * 1e-9):
                 self._take_input(to, read(message), self.input_clock(now_s))
 
-        subscription = self.create_subscription(declared.type, declared.topic, on_message, self._input_qos,
-                                                **self._quiet("Subscription"))
-        lock.crowded = lambda: self.count_publishers(subscription.topic_name) > 1  # a starved source stays locked
-        self.source_locks[subscription.topic_name] = lock
-        self._input_names[subscription.topic_name] = declared.topic
+        self.create_subscription(declared.type, topic, on_message, self._input_qos, **self._quiet("Subscription"))
+        lock.crowded = lambda: self.count_publishers(topic) > 1  # a starved source stays locked
 
     def input_clock(self, now_s: float) -> float | None:
         """The node clock as an input sees it: None before simulation time started (a node overrides this)."""
@@ -271,52 +252,14 @@ class PmvNode(Node):
         self.take_output(output)
         return bool(output.published)
 
-    def _arrival_s(self, now_s: float) -> float:
-        """The node clock as the source locks see it (a jump counts once the next reading confirms it), s."""
-        self._arrival_clock.observe(now_s)
-        return self._arrival_clock.latest_s
-
     def input_source_problems(self, max_age_s: float = GRAPH_CHECK_PERIOD_S) -> list[str]:
-        """One phrase per input with more than one publisher (an ERROR on /diagnostics); [] when none has.
-        The graph is asked at most every ``max_age_s`` of wall time (a caller with its own cadence passes 0)."""
-        wall = time.monotonic()
-        if wall - self._source_checked_s < max_age_s:
-            return list(self._source_problems)
-        self._source_checked_s, problems = wall, []
-        now = self._arrival_s(self.now_s())
-        clocks = self.clock_check.sources.sources_heard(wall)
-        if self._guarded_clock_subscription is not None:  # on use_sim_time: /clock is an input like the others
-            clocks = max(clocks, self.count_publishers("/clock"))
-        if clocks > 1:
-            problems.append(f"{clocks} publishers of /clock: only the first one heard sets the time "
-                            f"({self.clock_check.counts['other_source']} messages of others dropped)")
-        for topic, lock in self.source_locks.items():
-            count = max(self.count_publishers(topic), lock.sources_heard(now))
-            if count > 1:
-                problems.append(f"{count} publishers of {topic}: only the first one heard is used "
-                                f"({lock.other_source_messages} messages of others dropped)")
-        self._source_problems = problems
-        return list(problems)
-
-    def set_source_timeout(self, timeout_s: float) -> None:
-        """A new ``input.source_timeout_s`` for every input's source lock (a parameter change)."""
-        for lock in self.source_locks.values():
-            lock.timeout_s = timeout_s
+        """:meth:`InputSources.problems`, the graph asked at most every ``max_age_s`` of wall time."""
+        return self.sources.problems(self.now_s(), time.monotonic(), self.count_publishers,
+                                     self._guarded_clock_subscription is not None, max_age_s)
 
     def input_source_counters(self) -> dict:
-        """``other_source_<topic>``: messages dropped per input because a second publisher sent them;
-        ``source_changes_<topic>``: sources given up after their silence and another taken;
-        ``rejected_clock_<reason>``: /clock messages that did not set the time (see :meth:`_guard_clock`);
-        ``rejected_parameter_updates``: refused parameter requests."""
-        counters = {}
-        for topic, lock in self.source_locks.items():  # keys from the names the node gave, the same in any namespace
-            stream = self._input_names[topic].strip("/").replace("/", "_")
-            if lock.other_source_messages:
-                counters[f"other_source_{stream}"] = lock.other_source_messages
-            if lock.lock_changes:
-                counters[f"source_changes_{stream}"] = lock.lock_changes
-        counters.update({f"rejected_clock_{reason}": count for reason, count in self.clock_check.counts.items()
-                         if count})
+        """:meth:`InputSources.counters`, and ``rejected_parameter_updates``: refused parameter requests."""
+        counters = self.sources.counters()
         refusals = getattr(self, "parameter_refusals", None)
         if refusals is not None and refusals.count:
             counters["rejected_parameter_updates"] = refusals.count
@@ -336,7 +279,7 @@ class PmvNode(Node):
         subscription = getattr(time_source, "_clock_sub", None)
         if subscription is None or subscription is self._guarded_clock_subscription:
             return
-        forward, check = time_source.clock_callback, self.clock_check
+        forward, check = time_source.clock_callback, self.sources.clock
 
         def on_clock(message, info) -> None:
             clock = message.clock
@@ -356,14 +299,12 @@ class PmvNode(Node):
         watch, message, publisher = ClockWatch(CLOCK_STALL_S), DiagnosticArray(), self.topic_publishers["/diagnostics"]
 
         def on_watch() -> None:
-            if not self.get_parameter("use_sim_time").value:
-                return
-            now_s = self.now_s()
-            report = watch.observe(now_s, time.monotonic())
-            if report is not None:
-                publisher.publish(shim.write_health(message, shim.HealthReport(stamp_s=max(now_s, 0.0), statuses=(
-                    shim.HealthStatus(name=self.status_name("clock"), level=report.level, message=report.message,
-                                      hardware_id=self.hardware_id("clock"), values={"clock_stalls": watch.stalls}),))))
+            if self.get_parameter("use_sim_time").value:
+                now_s = self.now_s()
+                report = watch.observe(now_s, time.monotonic())
+                if report is not None:
+                    publisher.publish(shim.write_health(message, self.health_report(max(now_s, 0.0), report, "clock",
+                                                                                     "clock")))
 
         self.clock_watch = watch
         self.create_timer(CLOCK_WATCH_PERIOD_S, on_watch, clock=Clock(clock_type=ClockType.STEADY_TIME))

@@ -91,7 +91,7 @@ class ErrorMonitorNode(PmvNode):
     def _rebuild(self, values: dict) -> None:
         self.flush_inputs()  # what arrived before the change counts in the statistics it arrived under
         self._runtime.reconfigure(values)  # a new configuration starts new statistics
-        self.set_source_timeout(values["input.source_timeout_s"])
+        self.sources.set_timeout(values["input.source_timeout_s"])
 
     def _on_timer(self) -> None:
         self.flush_inputs()

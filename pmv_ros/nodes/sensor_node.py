@@ -107,7 +107,7 @@ class SensorNode(PmvNode):
 
     def _rebuild_live(self, values: dict) -> None:
         self._runtime.reconfigure(values)
-        self.set_source_timeout(values["input.source_timeout_s"])
+        self.sources.set_timeout(values["input.source_timeout_s"])
         self._orbit_status = self._orbit_status_of(values)
         if self._timer is not None and any(values[k] != self._values[k] for k in ("sensor.rate_hz", "sim.time_scale")):
             self._timer.cancel()

@@ -69,7 +69,7 @@ class StarTrackerNode(PmvNode):
     def _rebuild(self, values: dict) -> None:
         self.flush_inputs()  # what arrived before the change goes through the configuration it arrived under
         self._runtime.reconfigure(values)  # a combination it refuses (ValueError) changes nothing
-        self.set_source_timeout(values["input.source_timeout_s"])
+        self.sources.set_timeout(values["input.source_timeout_s"])
 
     def _on_timer(self) -> None:
         """Report a stale input: no truth for longer than max_truth_gap_s (nothing else would say so)."""

@@ -105,7 +105,7 @@ def test_a_second_truth_publisher_is_an_error_for_the_tracker_and_the_following_
         second.publish(quaternion_msg(t + 0.01, quaternion_from_roll_pitch_yaw(0.3, 0.0)))
         h.drain()
         time.sleep(0.05)
-    lock = h.node.source_locks["/attitude/truth"]
+    lock = h.node.sources.locks["/attitude/truth"]
     assert lock.other_source_messages > 10 and lock.lock_changes == 0
     errors = [s for s in statuses(diagnostics, prefix) if s.level == shim.Level.ERROR]
     assert errors and "2 publishers of /attitude/truth" in errors[-1].message
@@ -137,7 +137,7 @@ def test_a_flood_of_truth_cannot_push_the_real_tracker_out(harness):
     assert len(values) >= 14
     np.testing.assert_allclose(values, 1.0, atol=1e-6)
     assert counters["rejected_truth_backwards"] == 0
-    assert h.node.source_locks["/star_tracker/attitude"].other_source_messages >= 500
+    assert h.node.sources.locks["/star_tracker/attitude"].other_source_messages >= 500
 
 
 # ------------------------------------------------------------------------ no file read from the network

@@ -19,6 +19,7 @@ def test_a_clock_standing_longer_than_the_stall_time_warns_at_each_reading_and_i
     assert watch.stalled and watch.stalls == 1
     report = watch.observe(5.5, 115.2)
     assert report.level is Level.OK and "moves again" in report.message and not watch.stalled
+    assert report.values == {"clock_stalls": 1}
     assert watch.observe(6.0, 115.4) is None  # moving: nothing to say
     assert watch.observe(6.0, 116.0 + CLOCK_STALL_S).level is Level.WARN and watch.stalls == 2
     with pytest.raises(ValueError, match="stall time"):

@@ -1,7 +1,7 @@
 """What the node runtimes share: parameter specs and presets (:mod:`.parameters`, :mod:`.assembly`),
-input guards (:mod:`.validation`), frames and the mounting (:mod:`.frames`), health records
-(:mod:`.records`), the clock watch (:mod:`.clock_watch`), and the truth and orbit buffers
-(:mod:`.truth_buffer`, :mod:`.orbit_buffer`).
+input guards (:mod:`.validation`) and where a node's inputs come from (:mod:`.input_sources`), frames and the
+mounting (:mod:`.frames`), health records (:mod:`.records`), the clock watch (:mod:`.clock_watch`), and the truth
+and orbit buffers (:mod:`.truth_buffer`, :mod:`.orbit_buffer`).
 
 Nothing here imports a node's runtime package.
 """

@@ -11,9 +11,8 @@ has not moved for :data:`CLOCK_STALL_S` of wall time — a WARN on
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
 
-from .records import Level
+from .records import HealthSummary, Level
 
 #: Wall time without a change of the simulation clock after which it is reported stopped, s. A
 #: simulator's /clock ticks at tens to hundreds of Hz; even a coarse one stepping once a second stays
@@ -23,13 +22,6 @@ CLOCK_STALL_S = 1.5
 
 #: How often (wall clock, s) a node asks its watch; while the clock stands the WARN is repeated this often.
 CLOCK_WATCH_PERIOD_S = 0.25
-
-
-class ClockReport(NamedTuple):
-    """What to publish about the simulation clock: level and message."""
-
-    level: Level
-    message: str
 
 
 class ClockWatch:
@@ -48,17 +40,18 @@ class ClockWatch:
         self.stalled = False
         self.stalls = 0  #: how many times the clock stopped
 
-    def observe(self, clock_s: float, wall_s: float) -> ClockReport | None:
+    def observe(self, clock_s: float, wall_s: float) -> HealthSummary | None:
         """Take one reading of the simulation clock (s; 0: no /clock yet) at wall time ``wall_s`` (s, monotonic).
 
-        Returns a report to publish — a WARN at each reading while the clock
-        stands, one OK when it moves again — or None when there is nothing to say.
+        Returns a status to publish — a WARN at each reading while the clock
+        stands, one OK when it moves again, with ``clock_stalls`` (:attr:`stalls`)
+        — or None when there is nothing to say.
         """
         if self._clock_s is None or clock_s != self._clock_s:
             was_stalled = self.stalled
             self._clock_s, self._changed_wall_s, self.stalled = clock_s, wall_s, False
             if was_stalled:
-                return ClockReport(Level.OK, f"/clock moves again (simulation time {clock_s:.3f} s)")
+                return self._report(Level.OK, f"/clock moves again (simulation time {clock_s:.3f} s)")
             return None
         if clock_s <= 0.0:  # no /clock yet: waiting for a simulator is not a stall
             return None
@@ -67,5 +60,8 @@ class ClockWatch:
             return None
         if not self.stalled:
             self.stalled, self.stalls = True, self.stalls + 1
-        return ClockReport(Level.WARN, f"/clock has not moved for {still_s:.1f} s of wall time (simulation time "
-                                       f"stands at {clock_s:.3f} s): no samples until it moves")
+        return self._report(Level.WARN, f"/clock has not moved for {still_s:.1f} s of wall time (simulation time "
+                                        f"stands at {clock_s:.3f} s): no samples until it moves")
+
+    def _report(self, level: Level, message: str) -> HealthSummary:
+        return HealthSummary(level, message, {"clock_stalls": self.stalls})
