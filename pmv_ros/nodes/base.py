@@ -215,8 +215,7 @@ class PmvNode(Node):
     def _input(self, declared: Sub, source_timeout_s: float) -> None:
         """Subscribe to ``declared``: only the locked publisher's messages pass (:class:`InputSources`: the locks
         and their clock)."""
-        topic, clock, read, to = self.resolve_topic_name(declared.topic), self.get_clock(), declared.read, declared.to
-        lock, arrival_s = self.sources.lock(topic, declared.topic, source_timeout_s), self.sources.arrival_s
+        clock, read, to, arrival_s = self.get_clock(), declared.read, declared.to, self.sources.arrival_s
 
         def on_message(message, info) -> None:
             now_s = clock_s(clock)  # one reading: the arrival and the input's clock
@@ -225,7 +224,10 @@ class PmvNode(Node):
                           sequence=info.get("publication_sequence_number"), stamp_s=stamp.sec + stamp.nanosec * 1e-9):
                 self._take_input(to, read(message), self.input_clock(now_s))
 
-        self.create_subscription(declared.type, topic, on_message, self._input_qos, **self._quiet("Subscription"))
+        subscription = self.create_subscription(declared.type, declared.topic, on_message, self._input_qos,
+                                                **self._quiet("Subscription"))
+        topic = subscription.topic_name  # resolved once, by rcl (namespace and remapping): one lock per spacecraft
+        lock = self.sources.lock(topic, declared.topic, source_timeout_s)  # before any message: none is taken yet
         lock.crowded = lambda: self.count_publishers(topic) > 1  # a starved source stays locked
 
     def input_clock(self, now_s: float) -> float | None:
