@@ -1,8 +1,8 @@
 """What the pmv_ros nodes share: QoS, the parameter type gate, one source per input, a lean mode, and the wiring.
 
 A node declares its topics in a table (:class:`Pub`, :class:`Sub`: name, type, QoS, which runtime output feeds
-it or which runtime input a message goes to); :meth:`PmvNode.wire` builds them and the node only hands the
-runtime's outputs to :meth:`PmvNode.emit_all`.
+it or which runtime input a message goes to); :meth:`PmvNode.wire` builds them and the node only hands what a
+runtime input returned to :meth:`PmvNode.take_output`.
 """
 
 from __future__ import annotations

@@ -92,6 +92,7 @@ class StarTracker:
         #: 1σ of the noise rotation about the tracker's axes (cross, cross, boresight), rad.
         p = self.parameters
         self._noise_sigma_rad = np.array([p.noise_cross_rad, p.noise_cross_rad, p.noise_boresight_rad])
+        self._noise_sigma = tuple(self._noise_sigma_rad.tolist())
 
     def in_outage(self, t_s):
         """True where ``t_s`` lies inside a scheduled outage window (a float gives a bool)."""
@@ -145,7 +146,8 @@ class StarTracker:
         q_true = np.asarray(q_orbital_to_body, float)
         rate = np.asarray(inertial_rate_rad_s, float)
         if t.size == 1 and list(group_sizes) == [1]:  # a node's one frame: the same operations in plain floats
-            return self._measure_one(float(t[0]), tuple(q_true.ravel().tolist()), float(rate.ravel()[0]))
+            measured, code = self.measure_one(float(t[0]), tuple(q_true.ravel().tolist()), float(rate.ravel()[0]))
+            return np.array(measured).reshape(4, 1), np.array([code], np.int8)
         p = self.parameters
         # Draw every frame's noise and failure dice, used or not, so that one
         # frame's fate does not shift the random stream of the frames after it.
@@ -191,14 +193,15 @@ class StarTracker:
         measured[:, outcome != Outcome.OK.value] = np.nan
         return measured, outcome
 
-    def _measure_one(self, t_s: float, q_true: tuple, rate_rad_s: float) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`measure_groups` of one frame, operation for operation in plain floats (the same draws, sums in
-        the same order): a node measures a frame at a time, where ≈ 30 numpy calls cost far more than the
-        arithmetic. Returns arrays shaped as :meth:`measure_groups` gives them."""
+    def measure_one(self, t_s: float, q_true: tuple, rate_rad_s: float) -> tuple[tuple, int]:
+        """:meth:`measure_groups` of one frame, operation for operation in plain floats (the same draws, the
+        same products, sums in the same order): a node measures a frame at a time, where ≈ 30 numpy calls cost
+        far more than the arithmetic. Returns (the measured (x, y, z, w), NaN without output; the
+        :class:`Outcome` code)."""
         p = self.parameters
-        normals = self._rng.standard_normal(3)
-        dice = float(self._rng.random(1)[0])
-        n0, n1, n2 = (normals * self._noise_sigma_rad).tolist()
+        normals = self._rng.standard_normal(3).tolist()
+        dice = self._rng.random()  # the draw random(1) makes
+        n0, n1, n2 = (normal * sigma for normal, sigma in zip(normals, self._noise_sigma))
         x, y, z, w = q_true
         norm = math.sqrt(x * x + y * y + z * z + w * w)
         finite = all(map(math.isfinite, q_true)) and norm > 0.5
@@ -210,7 +213,7 @@ class StarTracker:
         if self.in_outage(t_s):
             outcome = Outcome.SCHEDULED_OUTAGE.value
         if not finite:
-            return np.full((4, 1), np.nan), np.array([Outcome.INVALID_TRUTH.value], np.int8)
+            return (math.nan,) * 4, Outcome.INVALID_TRUTH.value
         q_safe = (x / norm, y / norm, z / norm, w / norm)
         a = self._tracker_axes_rows
         error = tuple(row[0] * n0 + row[1] * n1 + row[2] * n2 for row in a)
@@ -220,7 +223,7 @@ class StarTracker:
             measured = (mx * -1.0, my * -1.0, mz * -1.0, mw * -1.0)
         if outcome != Outcome.OK.value:
             measured = (math.nan,) * 4
-        return np.array(measured).reshape(4, 1), np.array([outcome], np.int8)
+        return measured, outcome
 
 
 def inertial_rate_of_nadir_pointing(mean_motion_rad_s: float, relative_rate_rad_s=None):
@@ -241,6 +244,13 @@ def inertial_rate_of_nadir_pointing(mean_motion_rad_s: float, relative_rate_rad_
     # dZ/dt = n·X = ω × Z with ω = n·Y (Y = Z × X, the orbit normal).
     w[1] = w[1] + mean_motion_rad_s
     return np.linalg.norm(w, axis=0)
+
+
+def _four_floats(q_xyzw) -> tuple:
+    """A quaternion (a tuple, or an array of 4) as a tuple of 4 floats."""
+    if type(q_xyzw) is tuple and len(q_xyzw) == 4:
+        return tuple(map(float, q_xyzw))
+    return tuple(np.asarray(q_xyzw, float).reshape(4).tolist())
 
 
 def _grid_times(start: float, stop: float, step: float) -> list:
@@ -272,6 +282,14 @@ class GridFrames:
     attitude: np.ndarray
     turn_rate_rad_s: np.ndarray
     truth_index: np.ndarray
+
+    @classmethod
+    def of_one_turn(cls, times: list, attitude: list, rate: tuple) -> "GridFrames":
+        """The frames one truth sample completed (:meth:`FrameGrid.add`: floats) as arrays."""
+        if not times:
+            return _NO_FRAMES
+        return cls(np.array(times), np.array(attitude).T, np.array([rate] * len(times)).T,
+                   np.zeros(len(times), np.int64))
 
     @property
     def group_sizes(self) -> np.ndarray:
@@ -315,34 +333,47 @@ class FrameGrid:
         self._next_frame_s = None
 
     def add(self, t_s: float, q_xyzw) -> tuple[list, list, tuple]:
-        """Take one truth sample (stamp s, unit quaternion); return the frames it completes.
+        """Take one truth sample (stamp s, unit quaternion); return the frames it completes, in plain floats (a
+        node's message: kept as the grid loop takes it, no array built — most complete no frame, truth comes
+        faster than frames). The same frames as :meth:`add_many`.
 
         Returns:
             (frame times, true attitudes as (x, y, z, w) tuples, rate of the turn
             (3-tuple rad/s, orbital components; zeros when no frame)).
         """
-        frames = self.add_many(float(t_s), q_xyzw)
-        if not frames.frame_s.size:
+        t_s, q = float(t_s), _four_floats(q_xyzw)
+        times, _, previous = self._grid([t_s], q)
+        if not times:
             return [], [], (0.0, 0.0, 0.0)
-        return (frames.frame_s.tolist(), [tuple(q) for q in frames.attitude.T.tolist()],
-                tuple(frames.turn_rate_rad_s[:, 0].tolist()))
+        # Its frames on the one turn from the sample before.
+        attitude, rate = slerp(previous[0], previous[1], t_s, q, times)
+        return times, attitude, rate
 
     def add_many(self, t_s, q_xyzw) -> GridFrames:
         """Take truth samples in arrival order (stamps ``(N,)`` s, unit quaternions ``(4, N)``; or one sample,
         a float stamp and its (x, y, z, w)): the frames they complete, as :meth:`add` called sample by sample
         gives them."""
         if isinstance(t_s, float):
-            # One sample (a node's message): kept in plain floats, as the grid loop takes them, and made an
-            # array only if it completes a frame (most do not: truth comes faster than frames).
-            stamps, t, q = [float(t_s)], None, None
-            last_q = tuple(np.asarray(q_xyzw, float).reshape(4).tolist())
-        else:
-            t = np.asarray(t_s, float).ravel()
-            q = np.asarray(q_xyzw, float).reshape(4, t.size)
-            if not t.size:
-                return _NO_FRAMES
-            stamps, last_q = t.tolist(), tuple(q[:, -1].tolist())
-        # The grid itself, sample by sample in floats (a frame time is the previous one plus the period).
+            return GridFrames.of_one_turn(*self.add(t_s, q_xyzw))
+        t = np.asarray(t_s, float).ravel()
+        q = np.asarray(q_xyzw, float).reshape(4, t.size)
+        if not t.size:
+            return _NO_FRAMES
+        times, completed_by, previous = self._grid(t.tolist(), tuple(q[:, -1].tolist()))
+        if not times:
+            return _NO_FRAMES
+        # Each frame on the turn from the truth sample before the one that completed it.
+        earlier_t = np.concatenate([[np.nan if previous is None else previous[0]], t[:-1]])
+        earlier_q = np.concatenate([np.full((4, 1), np.nan) if previous is None else np.reshape(previous[1], (4, 1)),
+                                    q[:, :-1]], axis=1)
+        frame_s, index = np.array(times), np.array(completed_by, np.int64)
+        attitude, rate = slerp_each(earlier_t[index], earlier_q[:, index], t[index], q[:, index], frame_s)
+        return GridFrames(frame_s, attitude, rate, index)
+
+    def _grid(self, stamps: list, last_q: tuple) -> tuple[list, list, tuple | None]:
+        """Advance the grid over ``stamps`` (floats, in order; ``last_q`` the last one's attitude): (the frame
+        times they complete, the index of the stamp that completed each, the sample before the first)."""
+        # Sample by sample in floats (a frame time is the previous one plus the period).
         period, max_gap, next_frame = self.period_s, self.max_gap_s, self._next_frame_s
         previous_s = None if self.previous is None else self.previous[0]
         times, completed_by = [], []
@@ -361,19 +392,7 @@ class FrameGrid:
             next_frame = frames[-1] + period
         previous, self.previous = self.previous, (stamps[-1], last_q)
         self._next_frame_s = next_frame
-        if not times:  # most truth samples of a node (truth faster than frames): nothing to build
-            return _NO_FRAMES
-        if t is None:  # one sample: its frames on the one turn from the sample before, in plain floats
-            attitude, rate = slerp(previous[0], previous[1], stamps[0], last_q, times)
-            return GridFrames(np.array(times), np.array(attitude).T, np.array([rate] * len(times)).T,
-                              np.zeros(len(times), np.int64))
-        # Each frame on the turn from the truth sample before the one that completed it.
-        earlier_t = np.concatenate([[np.nan if previous is None else previous[0]], t[:-1]])
-        earlier_q = np.concatenate([np.full((4, 1), np.nan) if previous is None else np.reshape(previous[1], (4, 1)),
-                                    q[:, :-1]], axis=1)
-        frame_s, index = np.array(times), np.array(completed_by, np.int64)
-        attitude, rate = slerp_each(earlier_t[index], earlier_q[:, index], t[index], q[:, index], frame_s)
-        return GridFrames(frame_s, attitude, rate, index)
+        return times, completed_by, previous
 
 
 #: A frame whose release time is within this of a truth stamp is released with it, s (stamp rounding).
@@ -393,18 +412,33 @@ class LatencyQueue:
         self._release_s, self._frame_s = np.empty(0), np.empty(0)  # per frame, in frame order
         self._q, self._ready = np.empty((4, 0)), np.empty(0, np.int64)
         self._held_back = False  # some frame of ``_ready`` waits for a later stamp of the next release_many
+        # Frames pushed one at a time, after those of the arrays, in plain floats (a node's frame at a time: no
+        # array built) until a batch method needs them there: (release s, frame s, (x, y, z, w)).
+        self._single = []
 
     def __len__(self) -> int:
-        return int(self._release_s.size)
+        return int(self._release_s.size) + len(self._single)
 
     def push(self, frame_s: float, q_xyzw) -> None:
         """Queue a measured frame (stamp s, quaternion (x, y, z, w))."""
-        self.push_many(np.array([float(frame_s)]), np.asarray(q_xyzw, float).reshape(4, 1))
+        frame_s = float(frame_s)
+        self._single.append((frame_s + self.latency_s, frame_s, _four_floats(q_xyzw)))
+
+    def _merge(self) -> None:
+        """The frames pushed one at a time, appended to the arrays (as :meth:`push_many` would have)."""
+        single, self._single = self._single, []
+        if single:
+            release_s, frame_s, q = zip(*single)
+            self._release_s = np.concatenate([self._release_s, release_s])
+            self._frame_s = np.concatenate([self._frame_s, frame_s])
+            self._q = np.concatenate([self._q, np.array(q).T], axis=1)
+            self._ready = np.concatenate([self._ready, np.zeros(len(single), np.int64)])
 
     def push_many(self, frame_s, q_xyzw, not_before=None) -> None:
         """Queue measured frames in frame order (stamps ``(K,)`` s, quaternions ``(4, K)``); ``not_before``
         ``(K,)``: the index of the first stamp of the next :meth:`release_many` that may release each
         (the truth sample that completed it; default 0)."""
+        self._merge()
         frame_s = np.asarray(frame_s, float).ravel()
         ready = np.zeros(frame_s.size, np.int64) if not_before is None else np.asarray(not_before, np.int64)
         self._release_s = np.concatenate([self._release_s, frame_s + self.latency_s])
@@ -416,13 +450,22 @@ class LatencyQueue:
     def release(self, t_s: float) -> list:
         """The frames due at truth stamp ``t_s``: ``[(frame_s, q_xyzw), ...]``."""
         if not self._release_s.size:
-            return []
+            # Only frames pushed one at a time (a node's): each due once ``t_s`` reaches its release time, in
+            # frame order — what :meth:`release_many` gives for one stamp, in plain floats.
+            single, limit, count = self._single, t_s + RELEASE_TOLERANCE_S, 0
+            while count < len(single) and single[count][0] <= limit:
+                count += 1
+            if not count:
+                return []
+            self._single = single[count:]
+            return [(frame_s, q) for _, frame_s, q in single[:count]]
+        self._merge()
         # Frames go in frame order: while the first is not due, none is (most truth stamps of a node), and
         # :meth:`release_many` would change nothing but the held-back marks, if any.
         if self._release_s[0] > t_s + RELEASE_TOLERANCE_S and not self._held_back:
             return []
         frame_s, q, _ = self.release_many(np.array([float(t_s)]))
-        return list(zip(frame_s.tolist(), q.T))
+        return list(zip(frame_s.tolist(), map(tuple, q.T.tolist())))
 
     def release_many(self, stamps_s) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The frames due at each of increasing truth stamps, as :meth:`release` called stamp by stamp.
@@ -432,6 +475,7 @@ class LatencyQueue:
         it. Returns (frame times ``(R,)``, quaternions ``(4, R)``, the index of the
         stamp each is released at ``(R,)``); the frames not due stay queued.
         """
+        self._merge()
         stamps = np.asarray(stamps_s, float).ravel()
         if not self._release_s.size:
             return self._frame_s, self._q, self._ready
@@ -446,6 +490,7 @@ class LatencyQueue:
     def clear(self) -> int:
         """Drop every waiting frame (a new timeline); returns how many."""
         dropped = len(self)
+        self._single = []
         self._release_s, self._frame_s = self._release_s[:0], self._frame_s[:0]
         self._q, self._ready, self._held_back = self._q[:, :0], self._ready[:0], False
         return dropped

@@ -89,6 +89,34 @@ def test_the_latency_queue_releases_in_frame_order_and_never_before_a_frame_exis
     assert queue.clear() == 0 and Outcome.OK == 0
 
 
+def test_frames_pushed_one_at_a_time_leave_as_the_array_path_releases_them():
+    """A node's queue (push and release in floats) against the batch methods, stamp by stamp, with the latency
+    changed mid-stream and a batch pushed in between: the same frames at the same stamps, bit for bit."""
+    rng = np.random.default_rng(11)
+    one, batch = LatencyQueue(0.6), LatencyQueue(0.6)
+    frame_s, stamp = 0.0, 0.0
+    for k in range(3000):
+        stamp += rng.uniform(0.01, 0.2)
+        if k == 1500:
+            one.latency_s = batch.latency_s = 0.25  # a reconfigure: frames queued keep their release time
+        if k in (2000, 2600):  # a batch into both: the floats join the arrays in frame order
+            times, q = frame_s + np.array([0.1, 0.2]), rng.normal(size=(4, 2))
+            one.push_many(times, q)
+            batch.push_many(times, q)
+            frame_s += 0.2
+        elif rng.uniform() < 0.5:
+            frame_s += rng.uniform(0.05, 0.4)
+            q = tuple(rng.normal(size=4).tolist())
+            one.push(frame_s, q)
+            batch.push_many(np.array([frame_s]), np.array(q).reshape(4, 1))
+        got = one.release(stamp)
+        expected_s, expected_q, at = batch.release_many(np.array([stamp]))
+        assert [s for s, _ in got] == expected_s.tolist() and at.tolist() == [0] * len(got)
+        assert [list(q) for _, q in got] == expected_q.T.tolist()
+        assert len(one) == len(batch)
+    assert one.clear() == batch.clear()
+
+
 def test_frame_times_are_numpys_arange_value_for_value():
     rng = np.random.default_rng(5)
     for period in (0.5, 0.25, 1 / 3, 0.1, 1 / 7):

@@ -38,8 +38,6 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Callable, NamedTuple
 
-import numpy as np
-
 from ...physics.constants import EARTH_MEAN_RADIUS_M, GM_EARTH_M3_S2
 
 #: | |q| − 1 | up to which a quaternion is normalised (and counted); beyond it, rejected.
@@ -120,7 +118,8 @@ class InputBounds:
 
 
 def check_quaternion(q_xyzw, tolerance: float = QUATERNION_NORM_TOLERANCE):
-    """Validate a quaternion (x, y, z, w): (unit quaternion as a (4,) array or None, Rejection or None, normalised).
+    """Validate a quaternion (x, y, z, w): (unit quaternion as a tuple of 4 floats or None, Rejection or None,
+    normalised).
 
     Non-finite components give NON_FINITE; a norm further than ``tolerance``
     from 1 (a zero quaternion, a component of 1e308 whose square overflows)
@@ -139,7 +138,8 @@ def check_quaternion(q_xyzw, tolerance: float = QUATERNION_NORM_TOLERANCE):
     norm = math.hypot(*components)
     if not abs(norm - 1.0) <= tolerance:
         return None, Rejection.BAD_QUATERNION, False
-    return np.array(components) / norm, None, abs(norm - 1.0) > UNIT_ROUNDING
+    # Float by float (a message's one quaternion: no array to build): each quotient as an array's would be.
+    return tuple(c / norm for c in components), None, abs(norm - 1.0) > UNIT_ROUNDING
 
 
 def check_angles(roll_rad: float, pitch_rad: float, max_abs_rad: float, *, allow_nan: bool) -> Rejection | None:
@@ -333,7 +333,7 @@ class StampCheck:
 class QuaternionSample(NamedTuple):
     """What :func:`check_quaternion_sample` made of one stamped quaternion."""
 
-    q_xyzw: np.ndarray | None  #: the unit quaternion, None if rejected
+    q_xyzw: tuple | None  #: the unit quaternion (x, y, z, w), None if rejected
     rejection: Rejection | None
     jumped: bool  #: a confirmed clock jump: the caller starts a new timeline (once)
     outliers: int  #: suspected jumps this stamp contradicted (counted ``clock_outliers``)

@@ -45,7 +45,8 @@ from typing import Callable, NamedTuple
 import numpy as np
 
 from ...physics.orbit.two_body import circular_mean_motion_rad_s
-from ...physics.star_tracker import FrameGrid, LatencyQueue, Outcome, inertial_rate_of_nadir_pointing, read_only
+from ...physics.star_tracker import (FrameGrid, GridFrames, LatencyQueue, Outcome, inertial_rate_of_nadir_pointing,
+                                     read_only)
 from ..common.assembly import build_tracker
 from ..common.frames import Frames
 from ..common.records import HealthAt, HealthSummary, Level
@@ -59,7 +60,7 @@ class ReleasedFrame(NamedTuple):
     """A measured frame whose latency has passed: its time (s) and the measured attitude (x, y, z, w)."""
 
     frame_s: float
-    q_measured: np.ndarray
+    q_measured: tuple
 
 
 @dataclass
@@ -160,11 +161,17 @@ class TrackerRuntime:
         The frames whose outcome is OK wait in the queue for :meth:`release` / :meth:`release_batch`,
         each from the truth sample that completed it on.
         """
-        grid = self.grid.add_many(t_s, q_xyzw)
+        if isinstance(t_s, float):  # one sample, a node's message: its one frame, if any, in plain floats
+            times, attitudes, turn = self.grid.add(t_s, q_xyzw)
+            if len(times) == 1:
+                return self._measure_one(times[0], attitudes[0], turn)
+            grid = GridFrames.of_one_turn(times, attitudes, turn)
+        else:
+            grid = self.grid.add_many(t_s, q_xyzw)
         if not grid.frame_s.size:
             return _NO_MEASURED_FRAMES
         turn = grid.turn_rate_rad_s
-        if grid.frame_s.size == 1:  # a node's one frame: its rate in plain floats (the same sums), not numpy's norm
+        if grid.frame_s.size == 1:  # one frame: its rate in plain floats, as the one-sample path takes it
             turn = tuple(turn[:, 0].tolist())
         rate = inertial_rate_of_nadir_pointing(self.mean_motion_rad_s, turn)
         measured, outcome = self.tracker.measure_groups(grid.frame_s, grid.attitude, rate, grid.group_sizes)
@@ -176,6 +183,18 @@ class TrackerRuntime:
         self.queue.push_many(grid.frame_s[ok], measured[:, ok], grid.truth_index[ok])
         return MeasuredFrames(grid.frame_s, measured, outcome, grid.truth_index)
 
+    def _measure_one(self, frame_s: float, attitude: tuple, turn: tuple) -> MeasuredFrames:
+        """The one frame a truth sample completed, measured and queued as :meth:`add_truth_batch` does it, in
+        plain floats (the same draws and operations: ≈ 30 numpy calls fewer)."""
+        rate = inertial_rate_of_nadir_pointing(self.mean_motion_rad_s, turn)
+        measured, code = self.tracker.measure_one(frame_s, attitude, rate)
+        self.last_outcome = outcome = Outcome(code)
+        self.outcomes[outcome] += 1
+        if code == Outcome.OK.value:
+            self.queue.push(frame_s, measured)
+        return MeasuredFrames(np.array([frame_s]), np.array(measured).reshape(4, 1), np.array([code], np.int8),
+                              np.zeros(1, np.int64))
+
     def add_truth(self, t_s: float, q_xyzw) -> list[tuple[float, np.ndarray, Outcome]]:
         """One truth sample (a batch of one): (frame time s, measured (x, y, z, w), outcome) per frame it completes.
 
@@ -185,7 +204,7 @@ class TrackerRuntime:
         return [(frame_s, frames.q_measured[:, k], Outcome(code))
                 for k, (frame_s, code) in enumerate(zip(frames.frame_s.tolist(), frames.outcome.tolist()))]
 
-    def release(self, t_s: float) -> list[tuple[float, np.ndarray]]:
+    def release(self, t_s: float) -> list[tuple[float, tuple]]:
         """Frames whose latency has passed at ``t_s``, in frame order: (frame time s, measured quaternion)."""
         return self.queue.release(t_s)
 
@@ -226,7 +245,8 @@ class TrackerRuntime:
             elif stamps:
                 self.add_truth_batch(np.array(stamps), np.array(quaternions).T)
                 frame_s, q_measured, _ = self.release_batch(np.array(stamps))
-                output.published += [ReleasedFrame(t, q_measured[:, k]) for k, t in enumerate(frame_s.tolist())]
+                output.published += [ReleasedFrame(t, tuple(q))
+                                     for t, q in zip(frame_s.tolist(), q_measured.T.tolist())]
             stamps.clear()
             quaternions.clear()
 
