@@ -169,7 +169,7 @@ def _fly(args, overrides: dict, stop: _StopOnSignal) -> int:
             done += 1
             if (tick + 1) % refresh == 0:
                 bar.update(refresh)
-                statistics = pipeline.collector.statistics
+                statistics = pipeline.monitor.latest_statistics
                 if statistics is not None:
                     roll, pitch = statistics.channel("roll"), statistics.channel("pitch")
                     bar.set_postfix_str(f"σ roll {roll.sigma_rad / ARCMIN_RAD:.2f}′ "

@@ -107,6 +107,14 @@ class ErrorMonitorNode(PmvNode):
         return shim.ErrorStatistics.from_summary(computed.summary, computed.stamp_s)
 
     @property
+    def latest_statistics(self) -> shim.ErrorStatistics | None:
+        """The statistics last computed (on schedule, or by :meth:`publish_statistics`), as /pmv/error_statistics
+        carries them, whether or not anyone subscribes; None before the first (an in-process reader: a progress
+        line)."""
+        latest = self._runtime.latest_statistics
+        return None if latest is None else shim.ErrorStatistics.from_summary(latest.summary, latest.stamp_s)
+
+    @property
     def latest_orbit_stamp_s(self) -> float | None:
         """Stamp of the last /orbit/odometry taken, s (None before the first)."""
         return self.monitor.latest_orbit_stamp_s

@@ -16,7 +16,6 @@ from pathlib import Path
 
 import numpy as np
 import rclpy
-from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Vector3Stamped
 from rclpy.exceptions import InvalidHandle
 from rclpy.executors import SingleThreadedExecutor, TimeoutException
@@ -95,7 +94,13 @@ class TakingQueued:
 
 
 class ReportCollector(PmvNode):
-    """Keeps what a report needs: residuals (decimated to a bounded count) and the latest statistics."""
+    """Keeps what a report needs from the graph: the residuals, decimated to a bounded count.
+
+    The statistics are not taken from /pmv/error_statistics: the report asks the monitor node in the same process
+    (:meth:`~pmv_ros.nodes.error_monitor_node.ErrorMonitorNode.publish_statistics` at the end,
+    :attr:`~pmv_ros.nodes.error_monitor_node.ErrorMonitorNode.latest_statistics` for the progress line), so a
+    lean monitor builds and publishes that message only when someone subscribes (a recording, a probe).
+    """
 
     def __init__(self, max_points: int = 50_000, **kwargs):
         super().__init__("pmv_report_collector", **kwargs)
@@ -103,11 +108,8 @@ class ReportCollector(PmvNode):
         self.residuals = []  # (stamp_s, roll_rad, pitch_rad)
         self.residual_count = 0
         self._stride = 1
-        self._statistics_msg = None
-        self._statistics = None
         residuals = self.subscription(Vector3Stamped, "pmv/residual", self._on_residual)
         residuals.callback = TakingQueued(residuals, self._on_residual)  # up to 5 at a time (a frame settles 5)
-        self.subscription(DiagnosticArray, "pmv/error_statistics", self._on_statistics)
 
     def _on_residual(self, message) -> None:
         self.residual_count += 1
@@ -119,17 +121,6 @@ class ReportCollector(PmvNode):
             # Halve the resolution: memory stays bounded for any run length.
             self.residuals = self.residuals[::2]
             self._stride *= 2
-
-    def _on_statistics(self, message) -> None:
-        # Read when asked for: the progress display wants a few per second, the monitor publishes more.
-        self._statistics_msg, self._statistics = message, None
-
-    @property
-    def statistics(self):
-        """The latest /pmv/error_statistics as :class:`pmv_msgs_shim.ErrorStatistics` (None before the first)."""
-        if self._statistics is None and self._statistics_msg is not None:
-            self._statistics = shim.error_statistics_from_msg(self._statistics_msg)
-        return self._statistics
 
     def residual_array(self) -> np.ndarray:
         """``(3, N)``: stamp (s), roll and pitch residual (rad)."""

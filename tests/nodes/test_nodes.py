@@ -226,6 +226,7 @@ def test_perfect_tracker_sphere_uniform_horizon_gives_zero_mean_residual():
     overrides = {**PERFECT_TRACKER, **IDEAL_EARTH, "attitude.roll_offset_arcmin": 12.0,
                  "attitude.pitch_amplitude_arcmin": 20.0, "attitude.oscillation_period_s": 300.0}
     with Pipeline(None, overrides) as pipeline:
+        messages = _statistics_probe(pipeline)
         pipeline.step(3000)
         statistics = pipeline.monitor.publish_statistics(pipeline.sensor.sim_time_s)
         pipeline.drain()
@@ -234,8 +235,43 @@ def test_perfect_tracker_sphere_uniform_horizon_gives_zero_mean_residual():
     for name in ("roll", "pitch"):
         assert abs(statistics.channel(name).mean_rad) / ARCMIN_RAD < 0.1
     assert np.max(np.abs(residuals[1:])) / ARCMIN_RAD < 0.1
-    # the statistics message carried the same numbers to the collector
-    assert pipeline.collector.statistics.channel("pitch").count == statistics.channel("pitch").count
+    # the statistics message carried the same numbers to a subscriber
+    assert shim.error_statistics_from_msg(messages[-1]).channel("pitch").count == statistics.channel("pitch").count
+
+
+def _statistics_probe(pipeline) -> list:
+    """The /pmv/error_statistics messages of ``pipeline`` from now on (a subscriber in its process)."""
+    messages = []
+    probe = Node("statistics_probe", context=pipeline.context)
+    probe.create_subscription(DiagnosticArray, "/pmv/error_statistics", messages.append, 100)
+    pipeline.executor.add_node(probe)
+    pipeline.nodes.append(probe)
+    return messages
+
+
+def test_the_main_job_writes_no_statistics_message_nobody_reads_and_its_progress_asks_the_monitor(monkeypatch):
+    # pmv simulate's report and progress line ask the monitor node in the process: a lean monitor writes
+    # /pmv/error_statistics only for a subscriber (a recording, a probe). The statistics are computed on the same
+    # schedule either way, and the probe's messages carry what the node's latest_statistics gives.
+    written = []
+    write = shim.write_error_statistics
+    monkeypatch.setattr(shim, "write_error_statistics", lambda *arguments: written.append(1) or write(*arguments))
+    with Pipeline("config/kondor.yaml") as pipeline:
+        pipeline.step(35)  # 3.5 s at 10 Hz: statistics due three or four times
+        assert written == []
+        unread = pipeline.monitor.latest_statistics
+        assert unread is not None and unread.channel("roll").count > 0
+        messages = _statistics_probe(pipeline)
+        pipeline.step(25)
+        latest = pipeline.monitor.latest_statistics
+    assert len(written) == len(messages) in (2, 3)
+    assert latest.stamp_s - unread.stamp_s == pytest.approx(len(messages), abs=1e-6)  # one a second of samples
+    carried = shim.error_statistics_from_msg(messages[-1])
+    assert shim.time_from_msg(messages[-1].header.stamp) == pytest.approx(latest.stamp_s, abs=1e-9)
+    assert carried.counters == latest.counters
+    for name in ("roll", "pitch", "meridional"):
+        assert carried.channel(name).count == latest.channel(name).count
+        assert carried.channel(name).sigma_rad == pytest.approx(latest.channel(name).sigma_rad, rel=1e-6)
 
 
 def test_sensor_topics_types_frames_and_units():
@@ -394,6 +430,7 @@ def test_star_tracker_outage_does_not_stop_the_monitor():
     overrides = {"outage_start_s": [60.0], "outage_duration_s": [60.0], "random_failure_probability": 0.0,
                  "sensor.rate_hz": 2.0}
     with Pipeline("config/kondor.yaml", overrides) as pipeline:
+        messages = _statistics_probe(pipeline)
         pipeline.step(360)  # 180 s
         statistics = pipeline.monitor.publish_statistics(pipeline.sensor.sim_time_s)
         pipeline.drain()
@@ -406,7 +443,7 @@ def test_star_tracker_outage_does_not_stop_the_monitor():
     assert stamps.min() < 60.0 and stamps.max() > 170.0  # before and after the outage
     assert not np.any((stamps > 61.0) & (stamps < 119.0))  # never invented across the gap
     # the published statistics carry the skip counts for people and scripts
-    published = pipeline.collector.statistics.counters
+    published = shim.error_statistics_from_msg(messages[-1]).counters
     assert sum(v for k, v in published.items() if k.startswith("skipped_")) == skipped
 
 

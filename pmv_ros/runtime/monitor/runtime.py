@@ -163,6 +163,7 @@ class MonitorRuntime:
                                   for reason in ("unreadable", Rejection.WRONG_FRAME.value)}
         self._next_statistics_s = None
         self._rejected_reported = 0
+        self.latest_statistics = None  # the last MonitorStatistics computed (:meth:`statistics`)
 
     def reconfigure(self, values: dict) -> None:
         """New parameter values: new statistics (mixing two configurations would mean nothing)."""
@@ -277,11 +278,12 @@ class MonitorRuntime:
         return self.statistics(stamp_s)
 
     def statistics(self, stamp_s: float) -> MonitorStatistics:
-        """The current statistics, stamped ``stamp_s`` (s)."""
+        """The current statistics, stamped ``stamp_s`` (s); kept as :attr:`latest_statistics`."""
         summary = self.monitor.summary()
         vectors = {name: tuple(getattr(summary.channel(channel), statistic) for channel in CHANNELS)
                    for name, statistic in STATISTICS_VECTORS.items()}
-        return MonitorStatistics(stamp_s, summary, vectors)
+        self.latest_statistics = MonitorStatistics(stamp_s, summary, vectors)
+        return self.latest_statistics
 
     def period_mismatch(self) -> str | None:
         """A warning when /orbit/odometry flies another orbit than the parameters describe, else None."""
