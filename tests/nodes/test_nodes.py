@@ -12,6 +12,7 @@ import math
 import os
 import subprocess
 import sys
+import time
 
 import numpy as np
 import pytest
@@ -111,24 +112,14 @@ def test_the_in_process_pipelines_nodes_give_the_executor_no_service_to_wait_on(
 
 def _collected(one_at_a_time: bool, ticks: int = 60) -> tuple[np.ndarray, int]:
     """The collector's residuals after ``ticks`` of the preset, and the executor waits it took."""
-    from rclpy.executors import TimeoutException
-
     with Pipeline("config/kondor.yaml") as pipeline:
+        pipeline.take_when_idle = False  # every wait a wait (the idle check by takes: the test after the next)
         collector = pipeline.collector
         if one_at_a_time:  # rclpy's own way: one message per subscription per wait
             for subscription in collector.subscriptions:
                 if isinstance(subscription.callback, TakingQueued):
                     subscription.callback = subscription.callback.callback
-        waits, wait = [0], pipeline.executor.wait_for_ready_callbacks
-
-        def counted(*args, **kwargs):
-            try:
-                return wait(*args, **kwargs)
-            except TimeoutException:  # every zero-timeout wait ends in one, whatever it found
-                waits[0] += 1
-                raise
-
-        pipeline.executor.wait_for_ready_callbacks = counted
+        waits = _counted_waits(pipeline.executor)
         pipeline.step(ticks)
         return collector.residual_array(), waits[0]
 
@@ -143,6 +134,142 @@ def test_the_report_collector_takes_a_frames_residuals_in_one_wake_up():
     assert one_by_one.shape[1] >= 50
     np.testing.assert_array_equal(queued, one_by_one)
     assert waits_one_by_one - waits_queued >= 3 * one_by_one.shape[1] // 5
+
+
+def _counted_waits(executor) -> list:
+    """[n]: the executor's zero-timeout waits from now on (each ends in one TimeoutException, whatever it found)."""
+    from rclpy.executors import TimeoutException
+
+    waits, wait = [0], executor.wait_for_ready_callbacks
+
+    def counted(*args, **kwargs):
+        try:
+            return wait(*args, **kwargs)
+        except TimeoutException:
+            waits[0] += 1
+            raise
+
+    executor.wait_for_ready_callbacks = counted
+    return waits
+
+
+def test_the_drains_idle_check_by_takes_leaves_every_output_as_it_was_and_saves_a_wait_a_tick():
+    # The last wait of a drain finds nothing in almost every tick; asked of the entities directly, the pipeline
+    # publishes the same residuals and statistics, bit for bit, with one wait fewer per tick.
+    got = {}
+    for take_when_idle in (False, True):
+        with Pipeline("config/kondor.yaml") as pipeline:
+            pipeline.take_when_idle = take_when_idle
+            waits = _counted_waits(pipeline.executor)
+            pipeline.step(200)
+            statistics = pipeline.monitor.publish_statistics(pipeline.sensor.sim_time_s)
+            got[take_when_idle] = (pipeline.collector.residual_array(), statistics, waits[0])
+    (residuals, statistics, waits), (residuals_taken, statistics_taken, waits_taken) = got[False], got[True]
+    assert residuals.shape[1] >= 150
+    np.testing.assert_array_equal(residuals_taken, residuals)
+    assert repr(statistics_taken) == repr(statistics)  # every float as its shortest exact repr (NaN harmonics too)
+    assert waits - waits_taken >= 200
+
+
+def _lean_graph(names):
+    """Lean nodes of ``names`` on one executor, added in that order: (context, {name: node}, executor)."""
+    import rclpy
+    from rclpy.executors import SingleThreadedExecutor
+
+    from pmv_ros.nodes.base import PmvNode
+
+    context = rclpy.Context()
+    rclpy.init(context=context)
+    nodes = {name: PmvNode(name, lean=True, context=context) for name in names}
+    executor = SingleThreadedExecutor(context=context)
+    for node in nodes.values():
+        executor.add_node(node)
+    return context, nodes, executor
+
+
+def _close_lean_graph(context, nodes, executor) -> None:
+    import rclpy
+
+    executor.shutdown()
+    for node in nodes.values():
+        node.destroy_node()
+    rclpy.shutdown(context=context)
+
+
+def test_the_drains_idle_check_hands_out_what_a_wait_would_in_its_order():
+    # A callback publishes to three subscribers in two other nodes, two of them twice, after the wait that
+    # handed it out: the drain's next look finds them. By takes or by a wait, the callbacks run in the executor's
+    # order (node by node in its own order, each node's subscriptions in theirs, one message per subscription per
+    # look), and the drain ends only when all ran.
+    from pmv_ros.nodes.pipeline import drain
+
+    runs = {}
+    for take_when_idle in (False, True):
+        context, nodes, executor = _lean_graph(("early", "late", "source"))
+        try:
+            order = []
+            source = nodes["source"]
+            outputs = {topic: source.publisher(Vector3Stamped, topic) for topic in ("/a", "/b", "/c")}
+
+            def fan_out(message) -> None:
+                order.append("source")
+                for topic, copies in (("/c", 2), ("/a", 2), ("/b", 1)):
+                    for k in range(copies):
+                        out = Vector3Stamped()
+                        out.vector.x = float(k)
+                        outputs[topic].publish(out)
+
+            for name, topic in (("late", "/c"), ("early", "/b"), ("early", "/a")):
+                nodes[name].subscription(Vector3Stamped, topic, lambda message, topic=topic: order.append(
+                    f"{topic} {message.vector.x:g}"))
+            source.subscription(Vector3Stamped, "/in", fan_out)
+            source.publisher(Vector3Stamped, "/in").publish(Vector3Stamped())
+            executor_order = [s.topic_name for node in executor.get_nodes() for s in node.subscriptions
+                              if s.topic_name != "/in"]
+            waits = _counted_waits(executor)
+            assert drain(executor, take_when_idle=take_when_idle) == 6
+            expected = ["source", *(f"{topic} 0" for topic in executor_order),
+                        *(f"{topic} 1" for topic in executor_order if topic != "/b")]
+            runs[take_when_idle] = order, expected, waits[0]
+        finally:
+            _close_lean_graph(context, nodes, executor)
+    for order, expected, _ in runs.values():
+        assert order == expected
+    assert runs[True][2] < runs[False][2]
+
+
+def test_the_drains_idle_check_leaves_to_a_wait_what_takes_cannot_see():
+    # A timer that falls due during the drain, a guard condition a callback triggers, a task a callback makes:
+    # the takes cannot hand them out, so a wait does, in the same drain.
+    from pmv_ros.nodes.pipeline import drain
+
+    context, nodes, executor = _lean_graph(("node",))
+    node = nodes["node"]
+    try:
+        heard, timers = [], []
+
+        def on_message(message) -> None:  # a timer made after the wait that handed this out, due before it ends
+            heard.append("message")
+            timers.append(node.create_timer(0.01, lambda: (heard.append("timer"), timers[0].cancel())))
+            time.sleep(0.02)
+
+        node.subscription(Vector3Stamped, "/in", on_message)
+        node.publisher(Vector3Stamped, "/in").publish(Vector3Stamped())
+        drain(executor)
+        assert heard == ["message", "timer"]
+        node.destroy_timer(timers[0])
+        guard = node.create_guard_condition(lambda: heard.append("guard"))
+        node.subscription(Vector3Stamped, "/poke", lambda message: guard.trigger())
+        node.publisher(Vector3Stamped, "/poke").publish(Vector3Stamped())
+        drain(executor)
+        assert heard[2:] == ["guard"]
+        node.destroy_guard_condition(guard)
+        node.subscription(Vector3Stamped, "/later", lambda message: executor.create_task(lambda: heard.append("task")))
+        node.publisher(Vector3Stamped, "/later").publish(Vector3Stamped())
+        drain(executor)
+        assert heard[3:] == ["task"]
+    finally:
+        _close_lean_graph(context, nodes, executor)
 
 
 def _echo_graph():
