@@ -36,7 +36,7 @@ from .star_tracker_node import StarTrackerNode
 from .tf import tf_message_type
 
 
-def drain(executor, max_callbacks: int = 100_000, on_idle=None, take_when_idle: bool = True) -> int:
+def drain(executor, max_callbacks: int = 100_000, on_idle=None, by_takes: bool = True) -> int:
     """Run an executor's ready callbacks until the graph is idle; returns how many ran.
 
     With a zero timeout, rclpy's executor ends every wait with a
@@ -48,29 +48,32 @@ def drain(executor, max_callbacks: int = 100_000, on_idle=None, take_when_idle: 
     when it says it published something (handing queued inputs over), the
     graph is not idle yet.
 
-    ``take_when_idle``: that last wait, which finds nothing in almost every drain, is asked of the entities
-    directly (:func:`_take_ready`: no timer ready, a take from each subscription) where the graph has nothing
-    else a wait could hand out — no services, clients, guard conditions or other waitables, as in the
-    pipeline's lean nodes. A wait costs ≈ 65 µs of rclpy's Python (its wait set built anew), the takes a few.
-    What the takes find is handed to the callbacks as that wait's callbacks would have been, in its order.
+    ``by_takes``: where the graph has nothing a wait could hand out but subscriptions' messages and timers
+    — no services, clients, guard conditions or other waitables, as in the pipeline's lean nodes — each wait is
+    asked of the entities directly (:func:`_take_ready`: no task pending, no timer ready, a take from each
+    subscription in the executor's order), and what the takes find goes to the callbacks as that wait's
+    callbacks would have, in its order; then its timeout. A wait costs the main job 50–70 µs of rclpy's Python
+    (its wait set built anew), the takes a few. A ready timer, a pending task or any other entity: a wait.
     """
     ran = empty = 0
+    handing_out = False  # a wait's callbacks are being handed out: the wait goes on to its timeout
     while empty < 2 and ran < max_callbacks:
-        if empty == 1 and take_when_idle:
-            ready = _take_ready(executor, max_callbacks - ran)
-            if ready is not None:  # None: only a wait can tell
-                if not ready:
-                    break
-                for subscription, taken in ready:
-                    subscription.callback(*(taken if subscription._callback_type is _WITH_INFO else taken[:1]))
-                ran, empty = ran + len(ready), 0
-                continue
+        ready = None if handing_out or not by_takes else _take_ready(executor, max_callbacks - ran)
+        if ready is not None:  # the wait by takes, then its timeout
+            for subscription, taken in ready:
+                subscription.callback(*(taken if subscription._callback_type is _WITH_INFO else taken[:1]))
+            ran += len(ready)
+            if ran >= max_callbacks:  # as a wait stopped at its last callback: before its timeout
+                break
+            empty = 0 if (on_idle is not None and on_idle()) else (1 if ready else empty + 1)
+            continue
         try:
             handler, _, _ = executor.wait_for_ready_callbacks(timeout_sec=0.0)
         except TimeoutException:
+            handing_out = False
             empty = 0 if on_idle is not None and on_idle() else empty + 1
             continue
-        empty = 0
+        handing_out, empty = True, 0
         handler()
         if handler.exception() is not None:
             raise handler.exception()
@@ -231,7 +234,7 @@ class Pipeline:
         self._time_sources = {}  # role → the rclpy TimeSource its node follows
         self._clock_msg = ClockMsg()  # the simulation time last set
         self.recording = self.recorder = None
-        self.take_when_idle = True  # the drain's last wait asked of the entities directly (see drain)
+        self.by_takes = True  # the drain asks the entities instead of waiting where it can (see drain)
         try:
             self.executor = SingleThreadedExecutor(context=self.context)
             self.sensor = self.start_node("sensor")
@@ -306,7 +309,7 @@ class Pipeline:
         """Run ready callbacks until the graph is idle (see :func:`drain`); returns how many ran. Whenever the
         graph looks idle, the batching nodes (the star tracker, the monitor) hand over what they queued, in
         node order, and the drain goes on: a message waits at most until the graph is idle in the same tick."""
-        return drain(self.executor, max_callbacks, self._hand_over, self.take_when_idle)
+        return drain(self.executor, max_callbacks, self._hand_over, self.by_takes)
 
     def _hand_over(self) -> bool:
         """Every batching node's queued inputs to its runtime; whether that published anything."""

@@ -113,7 +113,7 @@ def test_the_in_process_pipelines_nodes_give_the_executor_no_service_to_wait_on(
 def _collected(one_at_a_time: bool, ticks: int = 60) -> tuple[np.ndarray, int]:
     """The collector's residuals after ``ticks`` of the preset, and the executor waits it took."""
     with Pipeline("config/kondor.yaml") as pipeline:
-        pipeline.take_when_idle = False  # every wait a wait (the idle check by takes: the test after the next)
+        pipeline.by_takes = False  # rclpy's waits (the drain by takes: the tests after the next)
         collector = pipeline.collector
         if one_at_a_time:  # rclpy's own way: one message per subscription per wait
             for subscription in collector.subscriptions:
@@ -153,22 +153,23 @@ def _counted_waits(executor) -> list:
     return waits
 
 
-def test_the_drains_idle_check_by_takes_leaves_every_output_as_it_was_and_saves_a_wait_a_tick():
-    # The last wait of a drain finds nothing in almost every tick; asked of the entities directly, the pipeline
-    # publishes the same residuals and statistics, bit for bit, with one wait fewer per tick.
+def test_the_drain_by_takes_leaves_every_output_as_it_was_and_waits_only_for_the_timers():
+    # The pipeline's graph is subscriptions and timers: the drain asks the entities directly instead of waiting,
+    # and the pipeline publishes the same residuals and statistics, bit for bit. A wait remains where a timer is
+    # due (the monitor's and the star tracker's, once a second of simulated time: 20 of the 200 ticks).
     got = {}
-    for take_when_idle in (False, True):
+    for by_takes in (False, True):
         with Pipeline("config/kondor.yaml") as pipeline:
-            pipeline.take_when_idle = take_when_idle
+            pipeline.by_takes = by_takes
             waits = _counted_waits(pipeline.executor)
             pipeline.step(200)
             statistics = pipeline.monitor.publish_statistics(pipeline.sensor.sim_time_s)
-            got[take_when_idle] = (pipeline.collector.residual_array(), statistics, waits[0])
+            got[by_takes] = (pipeline.collector.residual_array(), statistics, waits[0])
     (residuals, statistics, waits), (residuals_taken, statistics_taken, waits_taken) = got[False], got[True]
     assert residuals.shape[1] >= 150
     np.testing.assert_array_equal(residuals_taken, residuals)
     assert repr(statistics_taken) == repr(statistics)  # every float as its shortest exact repr (NaN harmonics too)
-    assert waits - waits_taken >= 200
+    assert waits >= 2 * 200 and waits_taken <= 2 * 20  # here 502 against 20: one wait at each tick of the timers
 
 
 def _lean_graph(names):
@@ -196,15 +197,15 @@ def _close_lean_graph(context, nodes, executor) -> None:
     rclpy.shutdown(context=context)
 
 
-def test_the_drains_idle_check_hands_out_what_a_wait_would_in_its_order():
-    # A callback publishes to three subscribers in two other nodes, two of them twice, after the wait that
+def test_the_drain_by_takes_hands_out_what_a_wait_would_in_its_order():
+    # A callback publishes to three subscribers in two other nodes, two of them twice, after the look that
     # handed it out: the drain's next look finds them. By takes or by a wait, the callbacks run in the executor's
     # order (node by node in its own order, each node's subscriptions in theirs, one message per subscription per
     # look), and the drain ends only when all ran.
     from pmv_ros.nodes.pipeline import drain
 
     runs = {}
-    for take_when_idle in (False, True):
+    for by_takes in (False, True):
         context, nodes, executor = _lean_graph(("early", "late", "source"))
         try:
             order = []
@@ -227,10 +228,10 @@ def test_the_drains_idle_check_hands_out_what_a_wait_would_in_its_order():
             executor_order = [s.topic_name for node in executor.get_nodes() for s in node.subscriptions
                               if s.topic_name != "/in"]
             waits = _counted_waits(executor)
-            assert drain(executor, take_when_idle=take_when_idle) == 6
+            assert drain(executor, by_takes=by_takes) == 6
             expected = ["source", *(f"{topic} 0" for topic in executor_order),
                         *(f"{topic} 1" for topic in executor_order if topic != "/b")]
-            runs[take_when_idle] = order, expected, waits[0]
+            runs[by_takes] = order, expected, waits[0]
         finally:
             _close_lean_graph(context, nodes, executor)
     for order, expected, _ in runs.values():
@@ -238,7 +239,29 @@ def test_the_drains_idle_check_hands_out_what_a_wait_would_in_its_order():
     assert runs[True][2] < runs[False][2]
 
 
-def test_the_drains_idle_check_leaves_to_a_wait_what_takes_cannot_see():
+def test_the_drain_by_takes_stops_at_its_callback_limit_as_a_wait_does():
+    # A drain told to run at most so many callbacks stops at the last of them, before that look's timeout: the
+    # idle hand-over is not called, and what the limit left stays queued for the next drain.
+    from pmv_ros.nodes.pipeline import drain
+
+    calls = {}
+    for by_takes in (False, True):
+        context, nodes, executor = _lean_graph(("node",))
+        try:
+            node, heard, idle = nodes["node"], [], []
+            node.subscription(Vector3Stamped, "/a", lambda message: heard.append("a"))
+            node.subscription(Vector3Stamped, "/b", lambda message: heard.append("b"))
+            for topic in ("/a", "/b"):
+                node.publisher(Vector3Stamped, topic).publish(Vector3Stamped())
+            assert drain(executor, max_callbacks=1, on_idle=lambda: idle.append(1) or False, by_takes=by_takes) == 1
+            assert drain(executor, on_idle=lambda: idle.append(2) or False, by_takes=by_takes) == 1
+            calls[by_takes] = heard, idle
+        finally:
+            _close_lean_graph(context, nodes, executor)
+    assert calls[True] == calls[False] == (["a", "b"], [2, 2])
+
+
+def test_the_drain_by_takes_leaves_to_a_wait_what_takes_cannot_see():
     # A timer that falls due during the drain, a guard condition a callback triggers, a task a callback makes:
     # the takes cannot hand them out, so a wait does, in the same drain.
     from pmv_ros.nodes.pipeline import drain
