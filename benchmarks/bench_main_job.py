@@ -7,7 +7,8 @@ report collector) on the Kondor preset at 10 Hz, stepped for ``--orbits`` (defau
 tick — the same topics and message types (each message a copy of one the main job sent, so the same sizes), from
 nodes of the same names holding the same publishers and the same subscriptions (the same QoS, in the same order,
 each taking what is queued in one wake-up where the main job's does), on the same executor drained the same way
-after every tick (:func:`pmv_ros.nodes.pipeline.drain`) — and no computation: every callback only counts, and a
+after every tick (:func:`pmv_ros.nodes.pipeline.drain`: by takes, the floors having no timers never wait; the main
+job waits at the ticks its timers fall due) — and no computation: every callback only counts, and a
 tick publishes its messages at once. What the main job does
 besides (the sensor's physics, the star tracker, the monitor, writing the messages, its timers and wake-up
 guards, the messages one callback publishes for the next node) is the ratio's excess over 1.

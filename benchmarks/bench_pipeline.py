@@ -5,7 +5,10 @@ messages (geometry_msgs/Vector3Stamped) in bursts of the pipeline's messages
 per tick and draining the executor after each burst exactly as the pipeline
 does — once with the pipeline's lean node options (like for like: the most
 this machine's rclpy moves in one process with that pattern) and once with
-rclpy's default nodes.
+rclpy's default nodes. The drain asks the entities directly instead of
+waiting where a graph has only subscriptions and timers
+(:func:`pmv_ros.nodes.pipeline.drain`): the lean baseline never waits, the
+default nodes' one (parameter services, QoS-event handlers) waits as rclpy does.
 
 Pipeline: sensor_node + star_tracker_node + error_monitor_node (+ the report
 collector) on the Kondor preset, stepped in fast time at 10 Hz; messages
