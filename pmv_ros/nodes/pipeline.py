@@ -56,7 +56,7 @@ def drain(executor, max_callbacks: int = 100_000, on_idle=None, by_takes: bool =
     (its wait set built anew), the takes a few. A ready timer, a pending task or any other entity: a wait.
     """
     ran = empty = 0
-    handing_out = False  # a wait's callbacks are being handed out: the wait goes on to its timeout
+    handing_out = _handing_out(executor)  # a wait's callbacks being handed out: it goes on to its timeout
     while empty < 2 and ran < max_callbacks:
         ready = None if handing_out or not by_takes else _take_ready(executor, max_callbacks - ran)
         if ready is not None:  # the wait by takes, then its timeout
@@ -82,6 +82,13 @@ def drain(executor, max_callbacks: int = 100_000, on_idle=None, by_takes: bool =
 
 
 _WITH_INFO = Subscription.CallbackType.WithMessageInfo
+
+
+def _handing_out(executor) -> bool:
+    """Whether a wait of ``executor`` still holds callbacks it has not handed out (a drain stopped by its callback
+    limit left it so): the executor's generator of them (rclpy's own attribute, pinned with Jazzy) is suspended."""
+    waiting = getattr(executor, "_cb_iter", None)
+    return waiting is not None and inspect.getgeneratorstate(waiting) == inspect.GEN_SUSPENDED
 
 
 def _take_ready(executor, limit: int) -> list | None:

@@ -261,6 +261,39 @@ def test_the_drain_by_takes_stops_at_its_callback_limit_as_a_wait_does():
     assert calls[True] == calls[False] == (["a", "b"], [2, 2])
 
 
+def test_a_wait_a_drain_left_half_handed_out_goes_on_first():
+    # A timer is due with messages on two subscriptions: a wait hands out the timer, then both. A drain stopped
+    # after the timer leaves that wait's two callbacks for the next drain; they come before what the timer
+    # published to a subscription made before them — by takes as by rclpy's waits.
+    from pmv_ros.nodes.pipeline import drain
+
+    orders = {}
+    for by_takes in (False, True):
+        context, nodes, executor = _lean_graph(("node",))
+        try:
+            node, order = nodes["node"], []
+            for topic in ("/c", "/a", "/b"):
+                node.subscription(Vector3Stamped, topic, lambda message, topic=topic: order.append(topic))
+            publishers = {topic: node.publisher(Vector3Stamped, topic) for topic in ("/a", "/b", "/c")}
+            timers = []
+
+            def on_timer() -> None:
+                order.append("timer")
+                timers[0].cancel()
+                publishers["/c"].publish(Vector3Stamped())
+
+            timers.append(node.create_timer(0.001, on_timer))
+            publishers["/a"].publish(Vector3Stamped())
+            publishers["/b"].publish(Vector3Stamped())
+            time.sleep(0.01)  # the timer is due
+            assert drain(executor, max_callbacks=1, by_takes=by_takes) == 1
+            assert drain(executor, by_takes=by_takes) == 3
+            orders[by_takes] = order
+        finally:
+            _close_lean_graph(context, nodes, executor)
+    assert orders[True] == orders[False] == ["timer", "/a", "/b", "/c"]
+
+
 def test_the_drain_by_takes_leaves_to_a_wait_what_takes_cannot_see():
     # A timer that falls due during the drain, a guard condition a callback triggers, a task a callback makes:
     # the takes cannot hand them out, so a wait does, in the same drain.
