@@ -173,7 +173,7 @@ def test_the_drain_by_takes_leaves_every_output_as_it_was_and_waits_only_for_the
 
 
 def _lean_graph(names):
-    """Lean nodes of ``names`` on one executor, added in that order: (context, {name: node}, executor)."""
+    """Lean nodes of ``names`` on one executor (whose order of nodes is its own): (context, {name: node}, executor)."""
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
 
