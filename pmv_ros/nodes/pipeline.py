@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import inspect
 import os
+import weakref
 from pathlib import Path
 
 import numpy as np
@@ -50,22 +51,38 @@ def drain(executor, max_callbacks: int = 100_000, on_idle=None, by_takes: bool =
 
     ``by_takes``: where the graph has nothing a wait could hand out but subscriptions' messages and timers
     — no services, clients, guard conditions or other waitables, as in the pipeline's lean nodes — each wait is
-    asked of the entities directly (:func:`_take_ready`: no task pending, no timer ready, a take from each
-    subscription in the executor's order), and what the takes find goes to the callbacks as that wait's
-    callbacks would have, in its order; then its timeout. A wait costs the main job 50–70 µs of rclpy's Python
-    (its wait set built anew), the takes a few. A ready timer, a pending task or any other entity: a wait.
+    asked of the entities directly (:func:`_take_ready`: no task pending, no timer ready, then a take from each
+    subscription in the executor's order, one message each), and the messages go to their callbacks in that
+    order, each holding its callback group as rclpy's handler does; then that wait's timeout. What a drain cut
+    by ``max_callbacks`` or by an exception had not handed out goes first in the next drain, as the rest of a
+    wait does. A wait costs the main job 50–70 µs of rclpy's Python (its wait set built anew), the takes a few.
+    A ready timer, a pending task, a busy callback group (a drain inside a callback), any other entity, a
+    shut-down executor: a wait.
+
+    One difference remains by construction: rclpy takes each message just before its callback, the takes
+    here all before the first. A callback that itself takes from, floods or destroys a later subscription of
+    the same look sees that look's messages already taken (none of the pipeline's callbacks does).
     """
     ran = empty = 0
-    handing_out = _handing_out(executor)  # a wait's callbacks being handed out: it goes on to its timeout
+    look = _OPEN_LOOKS.pop(executor, None)  # a look by takes a drain before left unfinished
+    handing_out = look is None and _handing_out(executor)  # a wait's callbacks being handed out
     while empty < 2 and ran < max_callbacks:
-        ready = None if handing_out or not by_takes else _take_ready(executor, max_callbacks - ran)
-        if ready is not None:  # the wait by takes, then its timeout
-            for subscription, taken in ready:
-                subscription.callback(*(taken if subscription._callback_type is _WITH_INFO else taken[:1]))
-            ran += len(ready)
-            if ran >= max_callbacks:  # as a wait stopped at its last callback: before its timeout
+        if look is None and by_takes and not handing_out:
+            look = _take_ready(executor)
+        if look is not None:  # a wait by takes: its callbacks, then its timeout
+            found = bool(look)
+            while look and ran < max_callbacks:
+                subscription, taken = look.pop(0)
+                try:
+                    ran += _hand_over_taken(subscription, taken)
+                except BaseException:
+                    _OPEN_LOOKS[executor] = look
+                    raise
+            if ran >= max_callbacks:  # as a wait stopped at a callback: the rest, and its timeout, next time
+                _OPEN_LOOKS[executor] = look
                 break
-            empty = 0 if (on_idle is not None and on_idle()) else (1 if ready else empty + 1)
+            look = None
+            empty = 0 if (on_idle is not None and on_idle()) else (1 if found else empty + 1)
             continue
         try:
             handler, _, _ = executor.wait_for_ready_callbacks(timeout_sec=0.0)
@@ -83,24 +100,53 @@ def drain(executor, max_callbacks: int = 100_000, on_idle=None, by_takes: bool =
 
 _WITH_INFO = Subscription.CallbackType.WithMessageInfo
 
+#: Executor → what a look by takes had taken and not yet handed out when its drain stopped (possibly nothing:
+#: then only its timeout is still to come).
+_OPEN_LOOKS = weakref.WeakKeyDictionary()
+
+def _hand_over_taken(subscription, taken) -> int:
+    """One taken message to its subscription's callback, as rclpy's handler does it: not if the subscription was
+    destroyed since (0), its callback group held while the callback runs (1). A coroutine a callback returns is
+    not awaited here: TypeError."""
+    try:
+        with subscription.handle:
+            pass
+    except InvalidHandle:  # destroyed by an earlier callback of the look (or with its node)
+        return 0
+    group = subscription.callback_group
+    group.beginning_execution(subscription)  # a drain inside the callback: its group is busy (_take_ready)
+    try:
+        result = subscription.callback(*(taken if subscription._callback_type is _WITH_INFO else taken[:1]))
+    finally:
+        group.ending_execution(subscription)
+    if inspect.iscoroutine(result):
+        result.close()
+        raise TypeError(f"{subscription.topic_name}: an async callback; drain(by_takes=False) awaits it")
+    return 1
+
 
 def _handing_out(executor) -> bool:
     """Whether a wait of ``executor`` still holds callbacks it has not handed out (a drain stopped by its callback
-    limit left it so): the executor's generator of them (rclpy's own attribute, pinned with Jazzy) is suspended."""
+    limit or an exception left it so): the executor's generator of them (rclpy's own attribute, pinned with
+    Jazzy) is suspended."""
     waiting = getattr(executor, "_cb_iter", None)
     return waiting is not None and inspect.getgeneratorstate(waiting) == inspect.GEN_SUSPENDED
 
 
-def _take_ready(executor, limit: int) -> list | None:
+def _take_ready(executor) -> list | None:
     """What a zero-timeout wait of ``executor`` would hand out now, where that is only subscriptions' messages:
-    ``(subscription, taken)`` in the executor's order (node by node; one message per subscription, at most
-    ``limit``), [] when there is nothing; None where only a wait can tell — a timer is ready (the executor runs a
-    node's timers before its subscriptions), a task is pending (it comes first), or a node has an entity the takes
-    cannot see. Each message is taken and handed over as rclpy's executor does it (the subscription's handle and
-    callback type: rclpy's own attributes, pinned with Jazzy)."""
+    ``(subscription, taken)`` in the executor's order (node by node; one message per subscription), [] when
+    there is nothing; None where only a wait can tell — a shut-down executor, a timer
+    ready (the executor runs a node's timers before its subscriptions), a task pending (it comes first), a
+    callback group busy, or a node with an entity the takes cannot see. Each message is taken as rclpy's executor
+    takes it (the subscription's handle, callback type and the executor's tasks: rclpy's own attributes, pinned
+    with Jazzy)."""
+    if executor._is_shutdown or not executor.context.ok():
+        return None
     if any(not task.done() for task, _, _ in executor._tasks):  # the handlers it made keep a place till it waits
         return None
     nodes = executor.get_nodes()
+    subscriptions = []
     for node in nodes:
         for entities in (node.services, node.clients, node.guards, node.waitables):  # generators: asked for one
             if next(entities, None) is not None:
@@ -108,18 +154,19 @@ def _take_ready(executor, limit: int) -> list | None:
         for timer in node.timers:
             if timer.handle.is_timer_ready():
                 return None
-    ready = []
-    for node in nodes:
         for subscription in node.subscriptions:
-            if len(ready) == limit:
-                return ready
-            try:
-                with subscription.handle:
-                    taken = subscription.handle.take_message(subscription.msg_type, subscription.raw)
-            except InvalidHandle:  # destroyed meanwhile: rclpy's own take skips it too
-                continue
-            if taken is not None:
-                ready.append((subscription, taken))
+            if not subscription.callback_group.can_execute(subscription):
+                return None
+            subscriptions.append(subscription)
+    ready = []
+    for subscription in subscriptions:
+        try:
+            with subscription.handle:
+                taken = subscription.handle.take_message(subscription.msg_type, subscription.raw)
+        except InvalidHandle:  # destroyed: rclpy's wait would not list it
+            continue
+        if taken is not None:
+            ready.append((subscription, taken))
     return ready
 
 
