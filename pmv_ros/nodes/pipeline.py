@@ -57,7 +57,7 @@ def drain(executor, max_callbacks: int = 100_000, on_idle=None, by_takes: bool =
     by ``max_callbacks`` or by an exception had not handed out goes first in the next drain, as the rest of a
     wait does. A wait costs the main job 50–70 µs of rclpy's Python (its wait set built anew), the takes a few.
     A ready timer, a pending task, a busy callback group (a drain inside a callback), any other entity, a
-    shut-down executor: a wait.
+    shut-down executor: a wait. An async callback is refused (TypeError): the takes do not await it.
 
     One difference remains by construction: rclpy takes each message just before its callback, the takes
     here all before the first. A callback that itself takes from, floods or destroys a later subscription of
@@ -104,6 +104,7 @@ _WITH_INFO = Subscription.CallbackType.WithMessageInfo
 #: then only its timeout is still to come).
 _OPEN_LOOKS = weakref.WeakKeyDictionary()
 
+
 def _hand_over_taken(subscription, taken) -> int:
     """One taken message to its subscription's callback, as rclpy's handler does it: not if the subscription was
     destroyed since (0), its callback group held while the callback runs (1). A coroutine a callback returns is
@@ -136,11 +137,10 @@ def _handing_out(executor) -> bool:
 def _take_ready(executor) -> list | None:
     """What a zero-timeout wait of ``executor`` would hand out now, where that is only subscriptions' messages:
     ``(subscription, taken)`` in the executor's order (node by node; one message per subscription), [] when
-    there is nothing; None where only a wait can tell — a shut-down executor, a timer
-    ready (the executor runs a node's timers before its subscriptions), a task pending (it comes first), a
-    callback group busy, or a node with an entity the takes cannot see. Each message is taken as rclpy's executor
-    takes it (the subscription's handle, callback type and the executor's tasks: rclpy's own attributes, pinned
-    with Jazzy)."""
+    there is nothing; None where only a wait can tell — a shut-down executor, a timer ready (the executor runs a
+    node's timers before its subscriptions), a task pending (it comes first), a callback group busy, or a node
+    with an entity the takes cannot see. Each message is taken as rclpy's executor takes it (the subscription's
+    handle and callback type, the executor's tasks: rclpy's own attributes, pinned with Jazzy)."""
     if executor._is_shutdown or not executor.context.ok():
         return None
     if any(not task.done() for task, _, _ in executor._tasks):  # the handlers it made keep a place till it waits
