@@ -102,9 +102,8 @@ class ErrorMonitorNode(PmvNode):
     def publish_statistics(self, stamp_s: float) -> shim.ErrorStatistics:
         """Publish the current statistics on /pmv/error_statistics (and the vectors), and return them."""
         self.flush_inputs()
-        computed = self._runtime.statistics(stamp_s)
-        self.emit(MonitorStatistics, computed)
-        return shim.ErrorStatistics.from_summary(computed.summary, computed.stamp_s)
+        self.emit(MonitorStatistics, self._runtime.statistics(stamp_s))
+        return self.latest_statistics
 
     @property
     def latest_statistics(self) -> shim.ErrorStatistics | None:

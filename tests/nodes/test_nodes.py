@@ -416,25 +416,13 @@ def test_the_drain_by_takes_leaves_to_a_wait_what_takes_cannot_see():
 
 def _echo_graph():
     """A lean node publishing and subscribing to /echo on its own executor: (context, node, publisher, executor)."""
-    import rclpy
-    from rclpy.executors import SingleThreadedExecutor
-
-    from pmv_ros.nodes.base import PmvNode
-
-    context = rclpy.Context()
-    rclpy.init(context=context)
-    node = PmvNode("echo", lean=True, context=context)
-    executor = SingleThreadedExecutor(context=context)
-    executor.add_node(node)
+    context, nodes, executor = _lean_graph(("echo",))
+    node = nodes["echo"]
     return context, node, node.publisher(Vector3Stamped, "/echo"), executor
 
 
 def _close_echo_graph(context, node, executor) -> None:
-    import rclpy
-
-    executor.shutdown()
-    node.destroy_node()
-    rclpy.shutdown(context=context)
+    _close_lean_graph(context, {"echo": node}, executor)
 
 
 def test_taking_the_queued_messages_is_bounded_by_the_queue_depth():
