@@ -16,6 +16,11 @@ guards, the messages one callback publishes for the next node) is the ratio's ex
 Beside them, each round also drains the floor by rclpy's own waits (every look a wait, the wait set built anew):
 the floor as it was measured before the drain by takes, printed with its ratio before the last line.
 
+The recording round also times what the main job spends inside its three runtimes (every public method of each
+node's runtime: the sensor's physics, the star tracker, the monitor's alignment and statistics; no ROS). The main
+job publishes and takes the floor's messages and does that computation too, so floor + runtimes is a bound no
+cheaper glue goes below; it is printed as a ratio to each floor before the last line.
+
 The tick-by-tick schedule of (b) is recorded from (a)'s first round (which messages went out at which tick, and
 one copy of each topic's message); the rounds then alternate, (a) (b) (a) (b) …, and each figure is the median of
 its rounds; the ratio of every round is printed. The last line is the ratio of the medians.
@@ -71,6 +76,36 @@ class Recorder:
         Publisher.publish = self._original
 
 
+class RuntimeTimes:
+    """While installed on a pipeline: wall time spent inside its nodes' runtimes (every public method of each
+    node's runtime, outermost calls only), per node — the computation the main job does besides ROS."""
+
+    def __init__(self, pipeline: Pipeline):
+        self.seconds = Counter()
+        self._depth = [0]
+        for node in pipeline.nodes:
+            runtime = getattr(node, "_runtime", None)
+            for name in dir(type(runtime)) if runtime is not None else ():
+                if not name.startswith("_") and callable(getattr(type(runtime), name, None)):
+                    setattr(runtime, name, self._timed(getattr(runtime, name), node.get_name()))
+
+    def _timed(self, method, owner: str):
+        depth, seconds, clock = self._depth, self.seconds, time.perf_counter
+
+        def timed(*arguments, **keywords):
+            if depth[0]:
+                return method(*arguments, **keywords)
+            depth[0] = 1
+            started = clock()
+            try:
+                return method(*arguments, **keywords)
+            finally:
+                seconds[owner] += clock() - started
+                depth[0] = 0
+
+        return timed
+
+
 def graph_of(pipeline: Pipeline) -> list[dict]:
     """Per node of the pipeline: its name, its publishers' (topic, type, QoS), its subscriptions' (topic, type,
     QoS, whether it takes what is queued in one wake-up: :class:`TakingQueued`) in order."""
@@ -87,6 +122,7 @@ def main_job(ticks: int, record: bool = False) -> dict:
         graph = graph_of(pipeline)
         taken = Counter()
         recorder = Recorder() if record else None
+        runtimes = RuntimeTimes(pipeline) if record else None
         for node in pipeline.nodes:  # count what each subscription takes (and, recording, which node, which tick)
             for subscription in node.subscriptions:
                 holder = subscription.callback if isinstance(subscription.callback, TakingQueued) else subscription
@@ -105,7 +141,8 @@ def main_job(ticks: int, record: bool = False) -> dict:
     result = {"wall_s": wall, "cpu_s": cpu, "ticks": ticks, "taken": dict(taken), "used": used, "graph": graph}
     if recorder is not None:
         owner = {topic: spec["name"] for spec in graph for topic, _, _ in spec["publishers"]}
-        result.update(schedule=recorder.schedule, messages=recorder.messages, takes=recorder.takes, owner=owner)
+        result.update(schedule=recorder.schedule, messages=recorder.messages, takes=recorder.takes, owner=owner,
+                      runtime_s=dict(runtimes.seconds))
     return result
 
 
@@ -264,6 +301,13 @@ def main() -> None:
     print(f"floor drained by rclpy's own waits (the executor building its wait set each time, as every drain did "
           f"before the drain by takes): {waited_s / ticks * 1e6:.0f} µs/tick; main job / that floor "
           f"{job_s / waited_s:.2f}x")
+    runtime_s = recorded["runtime_s"]
+    alone_s = sum(runtime_s.values())
+    print(f"the runtimes alone (their computation inside the main job, no ROS; from the recording round): "
+          + ", ".join(f"{name} {seconds / ticks * 1e6:.0f}" for name, seconds in sorted(runtime_s.items()))
+          + f" µs/tick, {alone_s / ticks * 1e6:.0f} in all: the main job cannot go below the floor plus that, "
+          f"{(floor_s + alone_s) / floor_s:.2f}x the floor ({(waited_s + alone_s) / waited_s:.2f}x the floor by "
+          f"rclpy's waits)")
     print(f"main job / floor ratio: {job_s / floor_s:.2f}x")
 
 
