@@ -119,6 +119,27 @@ def test_orbit_ring_recovers_known_amplitudes_with_fixed_memory():
     assert np.all(np.isnan(ring.amplitudes())) and ring.nbytes == size
 
 
+def test_orbit_ring_fitted_later_fits_the_bins_of_its_moment():
+    # amplitudes_later copies the bins when called and fits at its call (a reader that may never come): after
+    # another third of an orbit, with every bin it fits overwritten or moved on, it still gives bit for bit what
+    # amplitudes() gave at its moment.
+    ring = OrbitRing(PERIOD_S, n_channels=2, n_bins=256)
+    rng = np.random.default_rng(3)
+
+    def fly(t):
+        for stamp in t:
+            ring.add(stamp, [synthetic(stamp, {1: 3.0, 20: 0.5}) + rng.normal(0.0, 0.1), rng.normal()])
+
+    fly(np.arange(1.0, 1.5 * PERIOD_S, 4.0))
+    at_once, later = ring.amplitudes(), ring.amplitudes_later()
+    assert np.isfinite(at_once).all()
+    fly(np.arange(1.5 * PERIOD_S, 1.85 * PERIOD_S, 4.0))
+    assert not np.array_equal(ring.amplitudes(), at_once)
+    np.testing.assert_array_equal(later(), at_once)
+    fresh = OrbitRing(PERIOD_S, n_channels=2, n_bins=256).amplitudes_later()
+    assert fresh().shape == (len(ORBIT_HARMONICS), 2) and np.isnan(fresh()).all()  # no orbit yet: NaN
+
+
 def test_orbit_ring_sums_per_bin_whatever_the_order_and_when_it_is_read():
     # The bin being filled is summed in floats and written back later: reading the harmonics
     # mid-bin, a late sample for an earlier bin and NaN channels must not change what is fitted.

@@ -171,6 +171,28 @@ def test_a_single_forged_stamp_or_clock_jump_is_an_outlier_and_keeps_the_ring():
     assert counters["skipped_stale_truth"] == 0  # the year-ahead clock timed nothing out
 
 
+def test_a_summary_made_later_is_the_summary_of_its_moment():
+    """summary_later() reads the statistics and copies the ring's bins when called and fits the harmonics only
+    when its result is called (MonitorStatistics reads it so: in a private graph most statistics have no
+    reader): after another half orbit its summary is bit for bit what summary() gave at its moment."""
+    monitor = ErrorMonitor(small_config(remove_oblateness=False))
+    rng = np.random.default_rng(5)
+
+    def fly(start, stop):
+        for t in np.arange(start, stop, 2.0):
+            monitor.add_truth(t, 0.0, 0.0)
+            monitor.add_sensor(t, 1e-4 * math.sin(2.0 * math.pi * t / 600.0) + 1e-5 * rng.standard_normal(),
+                               1e-5 * rng.standard_normal())
+
+    fly(1000.0, 1700.0)
+    at_once, later = monitor.summary(), monitor.summary_later()
+    assert at_once.harmonics_full_orbit and all(map(math.isfinite, at_once.channel("roll").harmonics_rad.values()))
+    fly(1700.0, 2000.0)
+    moved = monitor.summary()
+    assert moved.channel("roll") != at_once.channel("roll") and moved.counters != at_once.counters
+    assert repr(later()) == repr(at_once)
+
+
 def test_clock_jump_of_now_rejects_stragglers_from_the_old_epoch():
     monitor = ErrorMonitor(small_config())
     monitor.add_truth(1000.0, 0.0, 0.0, now_s=1000.0)

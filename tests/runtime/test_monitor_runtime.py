@@ -143,3 +143,30 @@ def test_messages_cut_into_wake_up_batches_publish_what_one_at_a_time_does():
     assert counters["clock_jumps"] == 1 and counters["skipped_stale_truth"]
     assert counters["rejected_sensor_implausible_angle"] and counters["used_one_angle"]
     assert all(one.rejected_messages.values())
+
+
+def test_statistics_read_long_after_their_stamp_are_those_of_their_stamp():
+    """A MonitorStatistics is made at its first read (the harmonic fit costs ≈ 1 ms once the ring holds an orbit,
+    and in a private graph most statistics have no reader): over an orbit and a bit, statistics read only at the
+    end are bit for bit those another runtime read as they came, harmonics included."""
+    values = values_of({"statistics_rate_hz": 0.05}).monitor
+    at_once, at_end = MonitorRuntime(values), MonitorRuntime(values)
+    frames = at_once.frames
+    orbit = CircularOrbit(values["orbit.altitude_km"] * 1e3, math.radians(values["orbit.inclination_deg"]))
+    rng = np.random.default_rng(11)
+    read, kept = [], []
+    for k in range(int(1.05 * orbit.period_s)):
+        t_s = 100.0 + k
+        position, velocity = orbit.state_eci(t_s)
+        roll = 1e-3 * math.sin(2.0 * math.pi * t_s / orbit.period_s) + 1e-5 * rng.standard_normal()
+        events = [("add_odometry", (frames.eci, frames.orbital, (t_s, position, velocity)), t_s),
+                  ("add_truth", (frames.orbital, t_s, quaternion_from_roll_pitch_yaw(0.0, 0.0, 0.0)), t_s),
+                  ("add_sensor", (frames.sensor, t_s, roll, -5e-4), t_s)]
+        for runtime, out in ((at_once, read), (at_end, kept)):
+            statistics = runtime.add_inputs(events).statistics
+            if statistics is not None:
+                out.append((statistics.summary, statistics.vectors) if runtime is at_once else statistics)
+    assert len(read) == len(kept) > 250
+    assert kept[-1].summary.harmonics_full_orbit
+    assert all(map(math.isfinite, kept[-1].summary.channel("roll").harmonics_rad.values()))
+    assert [repr((s.summary, s.vectors)) for s in kept] == [repr(pair) for pair in read]

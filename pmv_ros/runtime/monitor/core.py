@@ -73,6 +73,8 @@ Not thread-safe: call it from one executor thread.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
+from typing import Callable
 
 import numpy as np
 
@@ -573,21 +575,32 @@ class ErrorMonitor(EventScan):
     def summary(self, oblateness_removed: bool | None = None) -> MonitorSummary:
         """The statistics for publication (default: the configured oblateness choice) and the counters.
 
-        Harmonic amplitudes are fitted here (a few ms for the default ring),
+        Harmonic amplitudes are fitted here (≈ 1 ms once the ring holds an orbit),
         so call it at the publication rate, not per sample.
         """
+        return self.summary_later(oblateness_removed)()
+
+    def summary_later(self, oblateness_removed: bool | None = None) -> Callable[[], MonitorSummary]:
+        """:meth:`summary` as of now, made when the returned function is called: the samples are accounted, the
+        statistics and counters read and the ring's bins copied now; the harmonic fit waits for the call
+        (:meth:`~pmv_ros.analysis.statistics.OrbitRing.amplitudes_later`). The same summary, bit for bit."""
         self._account_statistics()
         removed = self.config.remove_oblateness if oblateness_removed is None else bool(oblateness_removed)
-        amplitudes = self._ring.amplitudes(self.config.harmonics,
-                                           max_gap_fraction=self.config.max_harmonic_gap_fraction,
-                                           max_condition=DEFAULT_MAX_CONDITION)
+        amplitudes = self._ring.amplitudes_later(self.config.harmonics,
+                                                 max_gap_fraction=self.config.max_harmonic_gap_fraction,
+                                                 max_condition=DEFAULT_MAX_CONDITION)
         first_column = 0 if removed else len(CHANNELS)
-        channels = []
-        for index, name in enumerate(CHANNELS):
-            angle = self._sets[removed].angles[index]
-            ground = self._sets[removed].ground[index]
-            harmonics = {int(k): float(a) for k, a in zip(self.config.harmonics, amplitudes[:, first_column + index])}
-            channels.append(ChannelStatistics(name, angle.count, angle.mean, angle.sigma, angle.max_abs, harmonics,
-                                               ground.mean, ground.sigma, ground.max_abs))
-        return MonitorSummary(removed, tuple(channels), self.counters, self._ring.full_orbit)
+        sets = self._sets[removed]
+        channels = [ChannelStatistics(name, angle.count, angle.mean, angle.sigma, angle.max_abs, {}, ground.mean,
+                                      ground.sigma, ground.max_abs)
+                    for name, angle, ground in zip(CHANNELS, sets.angles, sets.ground)]
+        counters, full_orbit, harmonics = self.counters, self._ring.full_orbit, self.config.harmonics
+
+        def summary() -> MonitorSummary:
+            fitted = amplitudes()[:, first_column:first_column + len(CHANNELS)]
+            return MonitorSummary(removed, tuple(
+                replace(channel, harmonics_rad={int(k): float(a) for k, a in zip(harmonics, column)})
+                for channel, column in zip(channels, fitted.T)), counters, full_orbit)
+
+        return summary
 

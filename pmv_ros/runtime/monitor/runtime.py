@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Callable
 
 from ...analysis.statistics import CHANNELS
@@ -90,14 +91,29 @@ def oblateness_override(values: dict) -> dict:
     return {}
 
 
-@dataclass(frozen=True)
 class MonitorStatistics:
     """The statistics at sample time ``stamp_s``: the monitor's summary and, per :data:`STATISTICS_VECTORS`
-    name, the (roll, pitch, meridional) values in rad (NaN while pending)."""
+    name, the (roll, pitch, meridional) values in rad (NaN while pending).
 
-    stamp_s: float
-    summary: MonitorSummary
-    vectors: dict
+    Both are made at their first read, from what the monitor held at ``stamp_s``
+    (:meth:`~pmv_ros.runtime.monitor.core.ErrorMonitor.summary_later`): once the ring holds an orbit, the
+    harmonic fit costs ≈ 1 ms, and in a private graph (``pmv simulate``) most statistics are read by nobody.
+    """
+
+    def __init__(self, stamp_s: float, summary: Callable[[], MonitorSummary]) -> None:
+        self.stamp_s = stamp_s
+        self._summary = summary
+
+    @cached_property
+    def summary(self) -> MonitorSummary:
+        """The monitor's summary at ``stamp_s``."""
+        return self._summary()
+
+    @cached_property
+    def vectors(self) -> dict:
+        """Per :data:`STATISTICS_VECTORS` name, the (roll, pitch, meridional) values, rad."""
+        return {name: tuple(getattr(self.summary.channel(channel), statistic) for channel in CHANNELS)
+                for name, statistic in STATISTICS_VECTORS.items()}
 
 
 @dataclass
@@ -279,10 +295,7 @@ class MonitorRuntime:
 
     def statistics(self, stamp_s: float) -> MonitorStatistics:
         """The current statistics, stamped ``stamp_s`` (s); kept as :attr:`latest_statistics`."""
-        summary = self.monitor.summary()
-        vectors = {name: tuple(getattr(summary.channel(channel), statistic) for channel in CHANNELS)
-                   for name, statistic in STATISTICS_VECTORS.items()}
-        self.latest_statistics = MonitorStatistics(stamp_s, summary, vectors)
+        self.latest_statistics = MonitorStatistics(stamp_s, self.monitor.summary_later())
         return self.latest_statistics
 
     def period_mismatch(self) -> str | None:
