@@ -22,10 +22,12 @@ messages per tick published from the
 same places (the tracker's and the monitor's from their callbacks), but
 prebuilt, and callbacks doing nothing else. Its rate over the bare rate is the
 most any pipeline with this graph could reach; the rest of the gap is the
-physics, the star tracker and the statistics. A pass of its own times what
-the pipeline spends inside its three runtimes (their computation, no ROS):
-that time a message on top of the graph floor's is the ceiling with this
-physics, however cheap the nodes' glue became.
+physics, the star tracker and the statistics. (The graph floor also publishes
+what the lean pipeline skips for want of a reader, so its rate counts more
+messages a tick.) The ceiling with this physics: the pipeline's own
+messages, tick by tick, through bare rclpy (``bench_main_job.py``'s floor),
+plus the time the pipeline spends inside its three runtimes in one recording
+pass, as if the nodes' glue cost nothing.
 
 The measurements alternate over ``--rounds`` rounds (pipeline, bare with lean
 nodes, bare with default nodes, graph floor, then again), and each rate is the
@@ -69,7 +71,7 @@ from rosgraph_msgs.msg import Clock  # noqa: E402
 
 from pmv_ros.nodes.base import PmvNode  # noqa: E402
 from pmv_ros.nodes.pipeline import Pipeline, drain  # noqa: E402
-from bench_main_job import RuntimeTimes  # noqa: E402  (this folder: the benchmarks share it)
+from bench_main_job import floor, main_job  # noqa: E402  (this folder: the benchmarks share them)
 
 REPO = Path(__file__).resolve().parents[1]
 KONDOR = REPO / "config" / "kondor.yaml"
@@ -225,12 +227,10 @@ def graph_floor_rate(ticks: int, rate_hz: float = 10.0) -> dict:
             "messages_per_s": published.count / wall}
 
 
-def pipeline_rate(ticks: int, rate_hz: float, runtimes: bool = False) -> dict:
-    """Fast-time rate of the full pipeline on the Kondor preset; ``runtimes``: also the wall time spent inside
-    its runtimes (:class:`bench_main_job.RuntimeTimes`, a pass of its own: the wrappers cost a little)."""
+def pipeline_rate(ticks: int, rate_hz: float) -> dict:
+    """Fast-time rate of the full pipeline on the Kondor preset."""
     with Pipeline(KONDOR, {"sensor.rate_hz": rate_hz}) as pipeline:
         pipeline.step(20)  # warm-up: discovery, first truth
-        inside = RuntimeTimes(pipeline) if runtimes else None
         callbacks = 0
         with PublishCounter() as published:
             started = time.perf_counter()
@@ -240,8 +240,7 @@ def pipeline_rate(ticks: int, rate_hz: float, runtimes: bool = False) -> dict:
         used = pipeline.monitor.monitor.counters["used"]
     return {"ticks": ticks, "rate_hz": rate_hz, "wall_s": wall, "sim_s_per_wall_s": ticks / rate_hz / wall,
             "published": published.count, "messages_per_s": published.count / wall,
-            "callbacks_per_s": callbacks / wall, "samples_used": used,
-            **({"runtime_s": dict(inside.seconds)} if runtimes else {})}
+            "callbacks_per_s": callbacks / wall, "samples_used": used}
 
 
 def kondor_orbit_wall_s(rate_hz: float) -> dict:
@@ -287,11 +286,14 @@ def main() -> None:
               "ratio_per_round": [r["pipeline_10hz"]["messages_per_s"] / r["bare_lean"]["messages_per_s"]
                                   for r in rounds],
               "rounds": rounds}
-    inside = pipeline_rate(args.ticks, 10.0, runtimes=True)
-    runtime_s = sum(inside["runtime_s"].values())
-    # The graph floor's cost a message, plus the runtimes' own computation a message: what no faster glue removes.
-    ceiling = 1.0 / (1.0 / best["graph_floor"]["messages_per_s"] + runtime_s / inside["published"])
-    result.update(runtimes=inside, runtime_us_per_tick=runtime_s / inside["ticks"] * 1e6,
+    # The ceiling with this physics: the pipeline's own messages, tick by tick, through bare rclpy (bench_main_job's
+    # floor), plus the time the pipeline spends inside its runtimes, as if the nodes' glue cost nothing.
+    recorded = main_job(args.ticks, record=True)
+    exact = floor(recorded)
+    runtime_s = sum(recorded["runtime_s"].values())
+    ceiling = sum(map(len, recorded["schedule"])) / (exact["wall_s"] + runtime_s)
+    result.update(runtime_us_per_tick=runtime_s / args.ticks * 1e6,
+                  own_floor_us_per_tick=exact["wall_s"] / args.ticks * 1e6,
                   ratio_ceiling_with_runtimes=ceiling / bare["messages_per_s"])
     if not args.skip_orbit:
         result["kondor_orbit_1hz"] = kondor_orbit_wall_s(1.0)
@@ -312,13 +314,14 @@ def main() -> None:
           f"callbacks against bare's publish + take: {result['ratio_operations']:.2f}")
     print(f"graph floor (the pipeline's graph, callbacks doing nothing): "
           f"{best['graph_floor']['messages_per_s']:8.0f} messages/s, {result['ratio_graph_floor']:.2f} of bare "
-          f"(the ceiling for this graph)")
-    print(f"the runtimes alone (their computation inside the pipeline, a pass of its own): "
-          + ", ".join(f"{name} {seconds / inside['ticks'] * 1e6:.0f}" for name, seconds in
-                      sorted(inside["runtime_s"].items()))
-          + f" µs/tick, {result['runtime_us_per_tick']:.0f} in all; on top of the graph floor: at most "
-          f"{ceiling:.0f} messages/s, {result['ratio_ceiling_with_runtimes']:.2f} of bare (the ceiling with this "
-          f"physics, whatever the glue)")
+          f"(the ceiling for this graph; {best['graph_floor']['published'] / best['graph_floor']['ticks']:.1f} "
+          f"messages a tick, the lean pipeline's {pipeline['published'] / pipeline['ticks']:.1f})")
+    print(f"the pipeline's own messages through bare rclpy (bench_main_job's floor) "
+          f"{result['own_floor_us_per_tick']:.0f} µs/tick, its runtimes alone (one recording pass) "
+          + ", ".join(f"{name} {seconds / args.ticks * 1e6:.0f}" for name, seconds in
+                      sorted(recorded["runtime_s"].items()))
+          + f" µs/tick: at most {ceiling:.0f} messages/s, {result['ratio_ceiling_with_runtimes']:.2f} of bare (the "
+          f"ceiling with this physics, the nodes' glue costing nothing)")
     if "kondor_orbit_1hz" in result:
         orbit = result["kondor_orbit_1hz"]
         print(f"one Kondor orbit at 1 Hz output: {orbit['wall_s']:.1f} s wall for {orbit['ticks']} samples "

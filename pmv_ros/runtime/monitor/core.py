@@ -594,7 +594,7 @@ class ErrorMonitor(EventScan):
         channels = [ChannelStatistics(name, angle.count, angle.mean, angle.sigma, angle.max_abs, {}, ground.mean,
                                       ground.sigma, ground.max_abs)
                     for name, angle, ground in zip(CHANNELS, sets.angles, sets.ground)]
-        counters, full_orbit, harmonics = self.counters, self._ring.full_orbit, self.config.harmonics
+        counters, full_orbit, harmonics = self.counters, self._ring.full_orbit, tuple(self.config.harmonics)
 
         def summary() -> MonitorSummary:
             fitted = amplitudes()[:, first_column:first_column + len(CHANNELS)]
