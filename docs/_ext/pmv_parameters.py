@@ -177,15 +177,16 @@ class ParametersDirective(SphinxDirective):
             rows.append([link, nodes.Text(type_name(spec.default)), nodes.literal(text=default_text(spec.default)),
                          nodes.Text(spec.unit), nodes.Text(allowed_text(spec)),
                          nodes.Text("read-only" if spec.read_only else "")])
-            facts = [type_name(spec.default), f"default {default_text(spec.default)}" + (
-                f" {spec.unit}" if spec.unit else "")]
-            if allowed_text(spec):
-                facts.append(allowed_text(spec))
-            facts.append("read-only while the node runs" if spec.read_only else "dynamic")
+            # type, default (a literal: no typographic quotes), unit, allowed values, read-only or dynamic
+            facts = [nodes.emphasis(text=type_name(spec.default)), nodes.Text("; default "),
+                     nodes.literal(text=default_text(spec.default))]
+            tail = (f" {spec.unit}" if spec.unit else "") + (f"; {allowed_text(spec)}" if allowed_text(spec) else "")
+            tail += "; read-only while the node runs." if spec.read_only else "; dynamic."
+            facts.append(nodes.Text(tail))
             item = nodes.definition_list_item()
             item += nodes.term("", "", target, nodes.literal(text=spec.name))
             definition = nodes.definition()
-            definition += nodes.paragraph("", "", nodes.emphasis(text="; ".join(facts) + "."))
+            definition += nodes.paragraph("", "", *facts)
             definition += nodes.paragraph(text=spec.description[:1].upper() + spec.description[1:] + ".")
             definition += _parse_inline(self, note_for(notes, node, spec.name) or "")
             item += definition
