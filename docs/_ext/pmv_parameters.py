@@ -58,7 +58,8 @@ def note_problems(notes: dict, params: dict | None = None) -> list[str]:
     """Everything wrong between the notes and the declared parameters, one sentence each (empty: none).
 
     A declared parameter without a doc line; a doc line for a name its section's node (or, for ``/**``,
-    any node) does not declare — stale; a section that is no node.
+    any node) does not declare — stale; a shared line every node overrides (never shown); a section that
+    is no node.
     """
     params = node_params() if params is None else params
     problems = []
@@ -76,6 +77,10 @@ def note_problems(notes: dict, params: dict | None = None) -> list[str]:
             if name not in declared:
                 problems.append(f"docs/{NOTES_FILE}: {section}: {name} is no parameter of "
                                 f"{'any node' if section == SHARED else section} (stale doc line)")
+            elif section == SHARED and all(name in notes.get(node, {}) for node, specs in params.items()
+                                           if any(spec.name == name for spec in specs)):
+                problems.append(f"docs/{NOTES_FILE}: {SHARED}: {name} has a line of its own on every node that "
+                                "declares it (this one is never shown)")
     return problems
 
 
