@@ -69,10 +69,11 @@ def test_the_check_names_a_missing_and_a_stale_doc_line():
     extension = _extension()
     notes = extension.load_notes(DOCS / extension.NOTES_FILE)
     params = {node: tuple(specs) for node, specs in NODE_PARAMS.items()}
+    already = set(extension.note_problems(notes, params))  # the test above reports those
     params["error_monitor_node"] += (ParamSpec("brand_new_rate_hz", 1.0, "a new parameter", 0.1, 10.0, unit="Hz"),)
     notes.setdefault("star_tracker_node", {})["gone_parameter_s"] = "a line for a parameter nobody declares"
     notes["/**"]["latency_s"] = "a shared line the star tracker's own line hides"
-    problems = extension.note_problems(notes, params)
+    problems = [problem for problem in extension.note_problems(notes, params) if problem not in already]
     assert sorted(problems) == sorted([
         "error_monitor_node: parameter brand_new_rate_hz has no doc line in docs/parameter_notes.yaml",
         "docs/parameter_notes.yaml: star_tracker_node: gone_parameter_s is no parameter of star_tracker_node "
