@@ -60,5 +60,11 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_tick_outputs.py
 	$(BIN)/python benchmarks/bench_basilisk.py
 
+# The documentation (docs/, the Sphinx project rosdoc2 builds too) into docs/_build/html: warnings are errors,
+# every reference must resolve (-n), and every page is read afresh (-E) so the parameter reference is current.
+.PHONY: docs
+docs: $(STAMP)
+	$(BIN)/python -m sphinx -W --keep-going -n -E -q -b html docs docs/_build/html
+
 clean:
 	rm -rf $(VENV) build install log .ros_log report *.egg-info
