@@ -166,7 +166,7 @@ class PmvNode(Node):
         self._lean, self._flushed_by_caller = lean, flushed_by_caller
         self._input_qos = QOS if (lean if reliable_inputs is None else reliable_inputs) else INPUT_QOS
         self._detached, self._guarded_clock_subscription = [], None
-        self._clock_from_topic = time_source is None  # under use_sim_time: rclpy's /clock subscription
+        self._clock_subscribed = False  # /clock is an input: use_sim_time on, the time source rclpy's own
         self._unchecked_clock_said = False
         self._new_configuration()
         if time_source is None:
@@ -334,8 +334,7 @@ class PmvNode(Node):
 
     def input_source_problems(self, max_age_s: float = GRAPH_CHECK_PERIOD_S) -> list[str]:
         """:meth:`InputSources.problems`, the graph asked at most every ``max_age_s`` of wall time."""
-        clock_subscribed = self._clock_from_topic and self.get_parameter("use_sim_time").value
-        return self.sources.problems(self.now_s(), time.monotonic(), self.count_publishers, clock_subscribed,
+        return self.sources.problems(self.now_s(), time.monotonic(), self.count_publishers, self._clock_subscribed,
                                      max_age_s)
 
     def input_source_counters(self) -> dict:
@@ -365,8 +364,9 @@ class PmvNode(Node):
                                             sequence=info.get("publication_sequence_number")) is None
 
         self._guarded_clock_subscription = guard_clock(self, admit, self._guarded_clock_subscription)
+        self._clock_subscribed = self.get_parameter("use_sim_time").value  # rclpy's /clock subscription is there
         if (self._guarded_clock_subscription is None and not internals_in_use() and not self._unchecked_clock_said
-                and self.get_parameter("use_sim_time").value):
+                and self._clock_subscribed):
             self._unchecked_clock_said = True
             self.get_logger().warning(f"/clock is not checked before rclpy's time source takes it (rclpy "
                                       f"{RCLPY_VERSION}: pmv_ros's check is written for rclpy {WRITTEN_FOR})")
