@@ -87,8 +87,8 @@ class ErrorMonitorNode(PmvNode):
         install_validation(self, PARAMS, self._values, self._rebuild)
         self.wire(TOPICS, self._values["input.source_timeout_s"])
         self.make_timer(1.0, self._on_timer)
-        self.get_logger().info(f"{self.get_fully_qualified_name()}: ready, statistics at {self._values['statistics_rate_hz']:g} Hz, "
-                               f"{self.clock_name()}")
+        self.get_logger().info(f"{self.get_fully_qualified_name()}: ready, statistics at "
+                               f"{self._values['statistics_rate_hz']:g} Hz, {self.clock_name()}")
 
     def _rebuild(self, values: dict) -> None:
         self.flush_inputs()  # what arrived before the change counts in the statistics it arrived under

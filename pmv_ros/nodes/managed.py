@@ -1,4 +1,4 @@
-"""Managed (lifecycle) variants of the pmv_ros nodes: ``--managed`` on the command line, ``managed:=true`` in the launch.
+"""Managed (lifecycle) variants of the pmv_ros nodes: ``--managed`` on the command line, ``managed:=true`` in launch.
 
 :class:`ManagedNode` is rclpy's ``LifecycleNodeMixin`` on a :class:`~pmv_ros.nodes.base.PmvNode`, as rclpy's own
 ``LifecycleNode`` is the mixin on ``Node``; each node module declares its managed class
@@ -60,8 +60,6 @@ MANAGED_FLAG = "--managed"
 #: How long (s, wall clock) cleanup keeps the publishers and subscriptions of a configuration, silent, for a
 #: configure that declares them again; then they are destroyed.
 PARKED_S = 1.0
-
-_SUCCESS = TransitionCallbackReturn.SUCCESS
 
 
 def managed_requested(args=None) -> bool:

@@ -99,8 +99,9 @@ class SensorNode(PmvNode):
         f = self._runtime.frames
         pacing = ("fast time, publishing its own /clock" if v["sim.fast_time"]
                   else "paced by its clock, " + self.clock_name())
-        self.get_logger().info(f"{self.get_fully_qualified_name()}: H = {v['orbit.altitude_km']:g} km, i = {v['orbit.inclination_deg']:g}°, "
-                               f"{v['sensor.rate_hz']:g} Hz, attitude from {v['attitude.source']}, {pacing}; "
+        self.get_logger().info(f"{self.get_fully_qualified_name()}: H = {v['orbit.altitude_km']:g} km, "
+                               f"i = {v['orbit.inclination_deg']:g}°, {v['sensor.rate_hz']:g} Hz, "
+                               f"attitude from {v['attitude.source']}, {pacing}; "
                                f"frames {f.eci} → {f.orbital} → {f.base_link} → {f.sensor}")
 
     def _orbit_status_of(self, values: dict):
