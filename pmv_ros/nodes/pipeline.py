@@ -149,11 +149,11 @@ class Pipeline:
         from .recorder import TopicRecorder
 
         self.recording = McapRecording(path)
-        source = self._time_source()
+        source = self._new_time_source()
         self.recorder = self._add(TopicRecorder(self.recording, **self._options(source)))
         self._time_sources["recorder"] = source
 
-    def _time_source(self) -> TimeSource:
+    def _new_time_source(self) -> TimeSource:
         source = TimeSource()  # attached to no node: it never subscribes to /clock
         source.ros_time_is_active = True
         source.clock_callback(self._clock_msg)  # started mid-run: on the current simulation time
@@ -180,7 +180,7 @@ class Pipeline:
         node_class, sim_time, arguments = self.ROLES[role]
         if node_class is SensorNode:
             arguments = {**arguments, "publish_tf": self.publish_tf}
-        source = self._time_source() if sim_time else None
+        source = self._new_time_source() if sim_time else None
         node = self._add(node_class(**arguments, **self._options(source, overrides)))
         if source is not None:
             self._time_sources[role] = source
