@@ -23,11 +23,16 @@ floor's messages and does that computation too, so floor + runtimes is a bound n
 (an estimate: one cold round against the floor's median); it is printed as a ratio to the floor before the last
 line. (Against the floor drained by rclpy's waits it is no bound: the main job drains by takes.)
 
+(c) The main job without rclpy's internals (:mod:`pmv_ros.nodes.rclpy_internals` switched to its public
+fallbacks: the drain by rclpy's waits, one message per subscription a wait, the clock read through
+``Clock.now()``): what the fenced module is still worth, printed as its ratio to (a) before the last line.
+``--internals-only`` runs (a) and (c) alone, alternating.
+
 The tick-by-tick schedule of (b) is recorded from (a)'s first round (which messages went out at which tick, and
 one copy of each topic's message); the rounds then alternate, (a) (b) (a) (b) …, and each figure is the median of
 its rounds; the ratio of every round is printed. The last line is the ratio of the medians.
 
-    .venv/bin/python benchmarks/bench_main_job.py [--orbits 0.2] [--rounds 3]
+    .venv/bin/python benchmarks/bench_main_job.py [--orbits 0.2] [--rounds 3] [--internals-only]
 """
 
 from __future__ import annotations
@@ -48,8 +53,10 @@ from rclpy.executors import SingleThreadedExecutor  # noqa: E402
 from rclpy.publisher import Publisher  # noqa: E402
 from rclpy.serialization import deserialize_message, serialize_message  # noqa: E402
 
-from pmv_ros.nodes.base import PmvNode  # noqa: E402
+from pmv_ros.nodes import rclpy_internals  # noqa: E402
+from pmv_ros.nodes.base import QOS_DEPTH, PmvNode  # noqa: E402
 from pmv_ros.nodes.pipeline import Pipeline, TakingQueued, drain  # noqa: E402
+from pmv_ros.nodes.rclpy_internals import taking_queued  # noqa: E402
 
 KONDOR = Path(__file__).resolve().parents[1] / "config" / "kondor.yaml"
 
@@ -86,7 +93,7 @@ class RuntimeTimes:
         self.seconds = Counter()
         self._depth = [0]
         for node in pipeline.nodes:
-            runtime = getattr(node, "_runtime", None)
+            runtime = getattr(node, "runtime", None)
             for name in dir(type(runtime)) if runtime is not None else ():
                 if not name.startswith("_") and callable(getattr(type(runtime), name, None)):
                     setattr(runtime, name, self._timed(getattr(runtime, name), node.get_name()))
@@ -118,8 +125,18 @@ def graph_of(pipeline: Pipeline) -> list[dict]:
             for node in pipeline.nodes]
 
 
-def main_job(ticks: int, record: bool = False) -> dict:
-    """Wall time of ``ticks`` pipeline steps on the Kondor preset (construction not counted)."""
+def main_job(ticks: int, record: bool = False, internals: bool = True) -> dict:
+    """Wall time of ``ticks`` pipeline steps on the Kondor preset (construction not counted); ``internals``
+    False: with :mod:`pmv_ros.nodes.rclpy_internals`' public fallbacks."""
+    before = rclpy_internals.internals_in_use()
+    rclpy_internals.use_internals(internals)
+    try:
+        return _main_job(ticks, record)
+    finally:
+        rclpy_internals.use_internals(before)
+
+
+def _main_job(ticks: int, record: bool) -> dict:
     with Pipeline(KONDOR) as pipeline:
         graph = graph_of(pipeline)
         taken = Counter()
@@ -174,7 +191,7 @@ def floor(recorded: dict, by_takes: bool = True) -> dict:
         # the main job's nodes are lean: rclpy's /parameter_events publisher is theirs too (made by the node)
         for topic, kind, qos in spec["publishers"]:
             if topic not in ("/parameter_events",):
-                publishers[topic] = node.create_publisher(kind, topic, qos, **node._quiet("Publisher"))
+                publishers[topic] = node.create_publisher(kind, topic, qos, **node.quiet_options("Publisher"))
         for topic, kind, qos, queued in spec["subscriptions"]:
             _subscribe(node, kind, topic, lambda message, topic=topic: taken.update((topic,)), qos, queued)
         nodes.append(node)
@@ -192,9 +209,11 @@ def floor(recorded: dict, by_takes: bool = True) -> dict:
 
 def _subscribe(node, kind, topic: str, callback, qos, queued: bool) -> None:
     """A floor's subscription as the main job's: taking what is queued in one wake-up where that one does."""
-    subscription = node.create_subscription(kind, topic, callback, qos, **node._quiet("Subscription"))
     if queued:
-        subscription.callback = TakingQueued(subscription, callback)
+        taking_queued(lambda taker: node.create_subscription(kind, topic, taker, qos,
+                                                             **node.quiet_options("Subscription")), callback, QOS_DEPTH)
+    else:
+        node.create_subscription(kind, topic, callback, qos, **node.quiet_options("Subscription"))
 
 
 def _closed(executor, nodes, context, wall_s: float, cpu_s: float, taken: Counter) -> dict:
@@ -232,7 +251,7 @@ def graph_floor(recorded: dict) -> dict:
         node = PmvNode(name, lean=True, context=context)
         for topic, kind, qos in spec["publishers"]:
             if topic != "/parameter_events":
-                publishers[topic] = node.create_publisher(kind, topic, qos, **node._quiet("Publisher"))
+                publishers[topic] = node.create_publisher(kind, topic, qos, **node.quiet_options("Publisher"))
 
         def on_message(message, topic=None, name=name):
             taken[topic] += 1
@@ -261,19 +280,27 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--orbits", type=float, default=0.2, help="orbits of the main job per round (default 0.2)")
     parser.add_argument("--rounds", type=int, default=3, help="alternating rounds of each (default 3)")
+    parser.add_argument("--internals-only", action="store_true",
+                        help="only the main job with and without rclpy's internals, alternating")
     args = parser.parse_args()
     with Pipeline(KONDOR) as probe:
         ticks = round(args.orbits * probe.sensor.orbit.period_s * probe.sensor.get_parameter("sensor.rate_hz").value)
     print(f"load average at the start: {os.getloadavg()[0]:.2f} (2-core machines vary 2–3× hour to hour: "
           f"only the ratio of one run means anything)")
+    if args.internals_only:
+        compare_internals(ticks, args.rounds)
+        return
     recorded = main_job(ticks, record=True)
     published = Counter(topic for tick in recorded["schedule"] for topic in tick)
     print(f"main job: {ticks} ticks; per tick it publishes "
           + ", ".join(f"{topic} {count / ticks:.2f}" for topic, count in sorted(published.items()))
           + "; takes " + ", ".join(f"{topic} {count / ticks:.2f}" for topic, count in sorted(recorded["taken"].items())))
-    jobs, floors, job_cpu, floor_cpu, chains, waited = [], [], [], [], [], []
+    jobs, floors, job_cpu, floor_cpu, chains, waited, public = [], [], [], [], [], [], []
     for round_number in range(1, args.rounds + 1):
         job = main_job(ticks)
+        unfenced = main_job(ticks, internals=False)
+        _same_work(job, unfenced)
+        public.append(unfenced["wall_s"])
         base = floor(recorded)
         chain = graph_floor(recorded)
         by_waits = floor(recorded, by_takes=False)
@@ -290,7 +317,8 @@ def main() -> None:
               f"floor {base['wall_s']:.2f} s ({base['wall_s'] / ticks * 1e6:.0f} µs/tick), "
               f"ratio {job['wall_s'] / base['wall_s']:.2f}x; by CPU time {job['cpu_s'] / base['cpu_s']:.2f}x; "
               f"graph floor {chain['wall_s'] / ticks * 1e6:.0f} µs/tick, floor by rclpy's waits "
-              f"{by_waits['wall_s'] / ticks * 1e6:.0f} µs/tick (load {os.getloadavg()[0]:.2f})")
+              f"{by_waits['wall_s'] / ticks * 1e6:.0f} µs/tick; without rclpy's internals "
+              f"{unfenced['wall_s'] / ticks * 1e6:.0f} µs/tick (load {os.getloadavg()[0]:.2f})")
     job_s, floor_s = statistics.median(jobs), statistics.median(floors)
     print(f"medians: main job {job_s / ticks * 1e6:.0f} µs/tick, floor {floor_s / ticks * 1e6:.0f} µs/tick; "
           f"by the process's CPU time {statistics.median(job_cpu) / statistics.median(floor_cpu):.2f}x (a busy "
@@ -309,7 +337,38 @@ def main() -> None:
           + ", ".join(f"{name} {seconds / ticks * 1e6:.0f}" for name, seconds in sorted(runtime_s.items()))
           + f" µs/tick, {alone_s / ticks * 1e6:.0f} in all: the main job as built cannot go below the floor plus "
           f"that, {(floor_s + alone_s) / floor_s:.2f}x the floor")
+    public_s = statistics.median(public)
+    print(f"the main job without rclpy's internals (their public fallbacks): {public_s / ticks * 1e6:.0f} µs/tick, "
+          f"{public_s / job_s:.2f}x the main job")
     print(f"main job / floor ratio: {job_s / floor_s:.2f}x")
+
+
+def _same_work(job: dict, other: dict) -> None:
+    """Both runs of the main job took the same messages and aligned the same samples (else the times mean nothing)."""
+    if (other["taken"], other["used"]) != (job["taken"], job["used"]):
+        raise RuntimeError(f"the main job took {job['taken']} and used {job['used']} samples with rclpy's internals, "
+                           f"{other['taken']} and {other['used']} without")
+
+
+def compare_internals(ticks: int, rounds: int) -> None:
+    """The main job with and without rclpy's internals, alternating; the ratio of every round and of the medians."""
+    fenced, public, fenced_cpu, public_cpu = [], [], [], []
+    for round_number in range(1, rounds + 1):
+        job, unfenced = main_job(ticks), main_job(ticks, internals=False)
+        _same_work(job, unfenced)
+        fenced.append(job["wall_s"])
+        public.append(unfenced["wall_s"])
+        fenced_cpu.append(job["cpu_s"])
+        public_cpu.append(unfenced["cpu_s"])
+        print(f"round {round_number}: with rclpy's internals {job['wall_s']:.2f} s "
+              f"({job['wall_s'] / ticks * 1e6:.0f} µs/tick), without {unfenced['wall_s']:.2f} s "
+              f"({unfenced['wall_s'] / ticks * 1e6:.0f} µs/tick): {unfenced['wall_s'] / job['wall_s']:.2f}x "
+              f"(load {os.getloadavg()[0]:.2f})")
+    fenced_s, public_s = statistics.median(fenced), statistics.median(public)
+    print(f"medians: with {fenced_s / ticks * 1e6:.0f} µs/tick, without {public_s / ticks * 1e6:.0f} µs/tick; by the "
+          f"process's CPU time {statistics.median(public_cpu) / statistics.median(fenced_cpu):.2f}x; load average at "
+          f"the end: {os.getloadavg()[0]:.2f}")
+    print(f"main job without / with rclpy's internals: {public_s / fenced_s:.2f}x")
 
 
 if __name__ == "__main__":

@@ -7,7 +7,7 @@ does — once with the pipeline's lean node options (like for like: the most
 this machine's rclpy moves in one process with that pattern) and once with
 rclpy's default nodes. The drain asks the entities directly instead of
 waiting where a graph has only subscriptions and timers
-(:func:`pmv_ros.nodes.pipeline.drain`): the lean baseline never waits, the
+(:func:`pmv_ros.nodes.rclpy_internals.drain`): the lean baseline never waits, the
 default nodes' one (parameter services, QoS-event handlers) waits as rclpy does.
 
 Pipeline: sensor_node + star_tracker_node + error_monitor_node (+ the report

@@ -27,9 +27,14 @@ Arguments (``ros2 launch pmv_ros pmv.launch.py --show-args`` lists them):
 * ``star_tracker``, ``monitor`` — false: leave that node out (your stack has its
   own star tracker or monitor; they talk on the same topics);
 * ``managed`` — true: the nodes start as managed (lifecycle) nodes (``--managed``,
-  see the README) and the launch configures them when their process starts
-  and activates each once that configure succeeded; a failed configure leaves
-  the node unconfigured, with the reason in its log.
+  see the README);
+* ``autostart`` — with ``managed:=true`` (default true): the launch configures each
+  node when its process starts (each respawn too) and activates it once that
+  configure succeeded — only then: a later configure (your lifecycle manager's,
+  after a cleanup) leaves the node inactive for the manager's own activate; a
+  failed configure leaves the node unconfigured, with the reason in its log.
+  false: the launch changes no state; the nodes wait unconfigured for your
+  lifecycle manager (``ros2 lifecycle set``, nav2's lifecycle manager, …).
 
 ``rate_hz`` and ``seed`` reach the nodes in a params file of node sections
 passed after the preset's: a node section beats a ``-p``, so a plain override
@@ -67,7 +72,9 @@ ARGUMENTS = (
     ("respawn", "false", "true: a node that dies is started again after 2 s"),
     ("star_tracker", "true", "false: no star_tracker_node (your stack publishes star_tracker/attitude)"),
     ("monitor", "true", "false: no error_monitor_node"),
-    ("managed", "false", "true: lifecycle nodes, configured and activated by the launch"),
+    ("managed", "false", "true: lifecycle nodes (configured and activated at start-up: see autostart)"),
+    ("autostart", "true", "with managed:=true: true: the launch configures and activates each node once, when its "
+                          "process starts; false: the nodes wait unconfigured for your lifecycle manager"),
 )
 LOG_LEVELS = ("debug", "info", "warn", "error", "fatal")
 RESPAWN_DELAY_S = 2.0
@@ -176,10 +183,11 @@ def _nodes(context):
         chosen["sensor_node"]["seed"] = chosen["star_tracker_node"]["seed"] = seed
     if any(chosen.values()):
         files.append(_node_sections(chosen, namespace, made))
-    if _flag(context, "managed"):
+    managed, autostart = _flag(context, "managed"), _flag(context, "autostart")
+    if managed:
         nodes = [entity for name in NODES if wanted[name] for entity in _managed(
             name=name, namespace=namespace, parameters=[*files, sensor if name == "sensor_node" else others],
-            log_level=log_level, respawn=respawn)]
+            log_level=log_level, respawn=respawn, autostart=autostart)]
     else:
         nodes = [Node(package=PACKAGE, executable=name, name=name, namespace=namespace, output="screen",
                       parameters=[*files, sensor if name == "sensor_node" else others],
@@ -202,9 +210,10 @@ def _removed_at_shutdown(paths: list) -> list:
     return [RegisterEventHandler(OnShutdown(on_shutdown=remove))]
 
 
-def _managed(*, name: str, namespace: str, parameters: list, log_level: str, respawn: bool) -> list:
-    """A node started with ``--managed``; configure when its process starts (each respawn too), activate after a
-    configure that succeeded (not after a deactivate: a node a user deactivated stays inactive)."""
+def _managed(*, name: str, namespace: str, parameters: list, log_level: str, respawn: bool, autostart: bool) -> list:
+    """A node started with ``--managed``. With ``autostart``: configured when its process starts (each respawn
+    too) and activated after that configure if it succeeded — that configure only: after any other (a lifecycle
+    manager's), the node stays where the manager puts it."""
     from launch.actions import EmitEvent, RegisterEventHandler
     from launch.event_handlers import OnProcessStart
     from launch.events import matches_action
@@ -216,15 +225,27 @@ def _managed(*, name: str, namespace: str, parameters: list, log_level: str, res
     node = LifecycleNode(package=PACKAGE, executable=name, name=name, namespace=namespace, output="screen",
                          arguments=["--managed"], parameters=parameters, ros_arguments=["--log-level", log_level],
                          respawn=respawn, respawn_delay=RESPAWN_DELAY_S)
+    if not autostart:
+        return [node]
 
     def change(transition: int) -> EmitEvent:
         return EmitEvent(event=ChangeState(lifecycle_node_matcher=matches_action(node), transition_id=transition))
 
-    return [RegisterEventHandler(OnProcessStart(target_action=node,
-                                                on_start=[change(Transition.TRANSITION_CONFIGURE)])),
+    start_up = {"configuring": False}  # the launch's own configure sent, its outcome not seen yet
+
+    def configure(context):
+        start_up["configuring"] = True
+        return [change(Transition.TRANSITION_CONFIGURE)]
+
+    def activate_after_start_up(context):
+        if not start_up["configuring"]:
+            return []
+        start_up["configuring"] = False
+        return [change(Transition.TRANSITION_ACTIVATE)] if context.locals.event.goal_state == "inactive" else []
+
+    return [RegisterEventHandler(OnProcessStart(target_action=node, on_start=[OpaqueFunction(function=configure)])),
             RegisterEventHandler(OnStateTransition(target_lifecycle_node=node, start_state="configuring",
-                                                   goal_state="inactive",
-                                                   entities=[change(Transition.TRANSITION_ACTIVATE)])),
+                                                   entities=[OpaqueFunction(function=activate_after_start_up)])),
             node]
 
 

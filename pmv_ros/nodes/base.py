@@ -7,6 +7,7 @@ runtime input returned to :meth:`PmvNode.take_output`.
 
 from __future__ import annotations
 
+import inspect
 import time
 from typing import Callable, NamedTuple
 
@@ -24,6 +25,7 @@ from ..runtime.common.input_sources import GRAPH_CHECK_PERIOD_S, InputSources
 from ..runtime.common.parameters import unknown_parameter_problem
 from ..runtime.common.validation import RefusalTally
 from .params import coerce_parameters
+from .rclpy_internals import RCLPY_VERSION, WRITTEN_FOR, clock_now_s, guard_clock, internals_in_use
 
 #: A batching node hands its queued inputs to the runtime at the latest when this many wait (memory bound).
 MAX_QUEUED_INPUTS = 1000
@@ -58,6 +60,13 @@ class Pub(NamedTuple):
     make: Callable | None = None
 
 
+def _keywords(function) -> tuple:
+    """The names ``function`` takes as keywords (not ``self``, not ``**``)."""
+    kinds = (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
+    return tuple(name for name, parameter in inspect.signature(function).parameters.items()
+                 if parameter.kind in kinds and name != "self")
+
+
 class Sub(NamedTuple):
     """An input a node subscribes to, from one source only: ``read(message)`` gives the arguments of the
     runtime input ``to`` (before the node clock, which comes last). Made only where ``when(node)`` holds."""
@@ -73,7 +82,7 @@ class PmvNode(Node):
     """A node with the project's QoS, a parameter type gate, declared topics and an optional lean mode.
 
     Args:
-        name: node name.
+        node_name: the node's name (default: the class's :attr:`NODE_NAME`).
         lean: for the in-process pipeline (``pmv simulate``), whose graph nothing outside the process can see:
             no parameter or type-description services, no /rosout publisher, no default QoS-event handlers (each
             an entity the executor re-examines on every wait), and nothing built or published on a topic nobody
@@ -83,16 +92,31 @@ class PmvNode(Node):
             ``use_sim_time`` made is dropped.
         reliable_inputs: subscribe to inputs reliably (:data:`QOS`) instead of best effort (:data:`INPUT_QOS`).
             Default: in lean mode, where every publisher is one of ours and reliable, so the pipeline is lossless.
+        The keyword arguments :meth:`build` takes go to it; the others make the rclpy node (``context``,
+        ``parameter_overrides``, …).
 
     A node class with ``BATCHED = True`` queues its inputs and hands them to its runtime's ``add_inputs`` once per
     executor wake-up (:meth:`flush_inputs`, on a guard condition) — or, with ``flushed_by_caller``, when the caller
     says (the in-process pipeline: each time its drain finds the graph idle). Parameter updates pass
     :func:`pmv_ros.nodes.params.coerce_parameters` first: a wrong type or a value out of range is refused with a
     reason that names it; an integer for a floating-point parameter is taken as a float.
+
+    **Node and configuration** (what :class:`pmv_ros.nodes.managed.ManagedNode` builds on):
+
+    * ``__init__`` makes the rclpy node and what it keeps for its whole life (the parameter type gate, the /clock
+      check, a lean node's options), then calls :meth:`begin` with the arguments of :meth:`build`;
+    * :meth:`begin`: a plain node makes its configuration at once (:meth:`configure_node`); a managed node keeps
+      the arguments and makes one at each configure;
+    * :meth:`configure_node`: a fresh configuration (input sources, declared topics, queue), then :meth:`build`,
+      which a node class overrides: it declares its parameters, makes its runtime, wires its topics and timers;
+    * a configuration makes its entities only through :meth:`make_publisher`, :meth:`make_subscription`,
+      :meth:`make_timer`, :meth:`make_guard_condition` and :meth:`add_parameter_check`: a managed node overrides
+      them to hold what is made still until activation and to release it at cleanup.
     """
 
     BATCHED = False
-    _queued = ()  # a managed node before its first configure has no queue yet
+    #: The node's name when none is given.
+    NODE_NAME: str | None = None
 
     def status_name(self, part: str = "") -> str:
         """``pmv_ros`` + this node's fully qualified name (+ ``: part``): a /diagnostics status says whose it is."""
@@ -118,21 +142,33 @@ class PmvNode(Node):
         """The clock this node runs on, for its start-up line: simulation time from /clock or the wall clock."""
         return "on simulation time from /clock" if self.get_parameter("use_sim_time").value else "on the wall clock"
 
-    def __init__(self, name: str, *, lean: bool = False, time_source=None, reliable_inputs: bool | None = None,
-                 flushed_by_caller: bool = False, **kwargs):
+    @property
+    def runtime(self):
+        """The node's runtime (what its inputs and ticks go to), None for a node without one or not configured."""
+        return getattr(self, "_runtime", None)
+
+    @property
+    def frames(self):
+        """The frame names of this node's runtime (:class:`~pmv_ros.runtime.common.frames.Frames`, with the
+        namespace's prefix)."""
+        return self._runtime.frames
+
+    def __init__(self, node_name: str | None = None, *, lean: bool = False, time_source=None,
+                 reliable_inputs: bool | None = None, flushed_by_caller: bool = False, **kwargs):
+        build_arguments = {name: kwargs.pop(name) for name in _keywords(type(self).build) if name in kwargs}
         if lean:
             kwargs.setdefault("start_parameter_services", False)
             kwargs.setdefault("enable_rosout", False)  # logs still reach the console and the log file
             kwargs["parameter_overrides"] = [*kwargs.get("parameter_overrides", ()),
                                              Parameter("start_type_description_service", value=False)]
         self.parameter_specs = {}  # name → ParamSpec, filled by install_validation
-        if not getattr(self, "configuring", False):  # a managed node (nodes/managed.py) is a node already
-            super().__init__(name, **kwargs)
+        super().__init__(node_name or self.NODE_NAME, **kwargs)
         self._lean, self._flushed_by_caller = lean, flushed_by_caller
-        self.sources = InputSources()  # the inputs' source locks and the /clock check
-        self._feeds, self.topic_publishers, self._queued = {}, {}, []
         self._input_qos = QOS if (lean if reliable_inputs is None else reliable_inputs) else INPUT_QOS
         self._detached, self._guarded_clock_subscription = [], None
+        self._clock_subscribed = False  # /clock is an input: use_sim_time on, the time source rclpy's own
+        self._unchecked_clock_said = False
+        self._new_configuration()
         if time_source is None:
             self._guard_clock()
             # use_sim_time switched on later: rclpy subscribes to /clock then; guard that subscription too.
@@ -145,6 +181,52 @@ class PmvNode(Node):
             for waitable in [w for w in self.waitables if isinstance(w, EventHandler)]:
                 self.remove_waitable(waitable)
                 self._detached.append(waitable)
+        self.begin(build_arguments)
+
+    # -- node and configuration ---------------------------------------------------------------------
+
+    def begin(self, arguments: dict) -> None:
+        """The end of construction, with the keyword arguments of :meth:`build`: a plain node makes its
+        configuration now."""
+        self.configure_node(arguments)
+
+    def configure_node(self, arguments: dict) -> None:
+        """A fresh configuration: new input sources, no declared topics, nothing queued; then :meth:`build`."""
+        self._new_configuration()
+        self.build(**arguments)
+
+    def build(self) -> None:
+        """What the node makes from its parameters (a node class overrides it, with its own keyword arguments):
+        parameters declared and checked, runtime, topics, timers — made through the ``make_*`` methods."""
+
+    def _new_configuration(self) -> None:
+        self.sources = InputSources()  # the inputs' source locks and the /clock check
+        self._feeds, self.topic_publishers, self._queued = {}, {}, []
+
+    def make_publisher(self, message_type, topic: str, qos: QoSProfile, **options):
+        """A publisher of the configuration (``create_publisher``'s arguments)."""
+        return self.create_publisher(message_type, topic, qos, **options)
+
+    def make_subscription(self, message_type, topic: str, callback, qos: QoSProfile, **options):
+        """A subscription of the configuration (``create_subscription``'s arguments)."""
+        return self.create_subscription(message_type, topic, callback, qos, **options)
+
+    def make_timer(self, period_s: float, callback, clock: Clock | None = None):
+        """A timer of the configuration (``create_timer``'s arguments)."""
+        return self.create_timer(period_s, callback, clock=clock)
+
+    def make_guard_condition(self, callback):
+        """A guard condition of the configuration (``create_guard_condition``'s argument)."""
+        return self.create_guard_condition(callback)
+
+    def add_parameter_check(self, callback) -> None:
+        """A set-parameters callback of the configuration (``add_on_set_parameters_callback``)."""
+        self.add_on_set_parameters_callback(callback)
+
+    def quiet_options(self, kind: str) -> dict:
+        """The options of a ``"Publisher"`` or ``"Subscription"`` of this node: a lean node's come without rclpy's
+        default QoS-event handlers."""
+        return _QUIET[kind] if self._lean else {}
 
     def destroy_node(self):
         """Destroy the node (re-attaching detached handlers first: rclpy removes them with their publisher)."""
@@ -164,20 +246,16 @@ class PmvNode(Node):
             if isinstance(topic, Sub):
                 self._input(topic, source_timeout_s)
                 continue
-            publisher = self.create_publisher(topic.type, topic.topic, topic.qos, **self._quiet("Publisher"))
+            publisher = self.make_publisher(topic.type, topic.topic, topic.qos, **self.quiet_options("Publisher"))
             message = topic.make(self) if topic.make is not None else topic.type()
             # A latched topic always goes out: a later subscriber gets the last message.
             always = not self._lean or topic.qos.durability == DurabilityPolicy.TRANSIENT_LOCAL
             self._feeds.setdefault(topic.feed, []).append((publisher, message, topic.write, always))
             self.topic_publishers[topic.topic] = publisher
         if self.BATCHED and not self._flushed_by_caller:
-            self._wake = self.create_guard_condition(self.flush_inputs)
+            self._wake = self.make_guard_condition(self.flush_inputs)
         if "/diagnostics" in self.topic_publishers:
             self.watch_clock()
-
-    def _quiet(self, kind: str) -> dict:
-        """A lean node's entities come without rclpy's default QoS-event handlers."""
-        return _QUIET[kind] if self._lean else {}
 
     def emit(self, feed, item, readers: dict | None = None) -> None:
         """Publish ``item`` on every topic ``feed`` feeds (a lean node skips a topic nobody in the process reads:
@@ -204,11 +282,11 @@ class PmvNode(Node):
 
     def publisher(self, message_type, topic: str):
         """A publisher with the project QoS (outside the table: tests, benchmarks)."""
-        return self.create_publisher(message_type, topic, QOS, **self._quiet("Publisher"))
+        return self.make_publisher(message_type, topic, QOS, **self.quiet_options("Publisher"))
 
     def subscription(self, message_type, topic: str, callback, qos: QoSProfile = QOS):
         """A subscription with the project QoS (outside the table: the report collector, benchmarks)."""
-        return self.create_subscription(message_type, topic, callback, qos, **self._quiet("Subscription"))
+        return self.make_subscription(message_type, topic, callback, qos, **self.quiet_options("Subscription"))
 
     # -- inputs: one source each, then the runtime (at once, or once per wake-up) -----------------------
 
@@ -224,8 +302,8 @@ class PmvNode(Node):
                           sequence=info.get("publication_sequence_number"), stamp_s=stamp.sec + stamp.nanosec * 1e-9):
                 self._take_input(to, read(message), self.input_clock(now_s))
 
-        subscription = self.create_subscription(declared.type, declared.topic, on_message, self._input_qos,
-                                                **self._quiet("Subscription"))
+        subscription = self.make_subscription(declared.type, declared.topic, on_message, self._input_qos,
+                                              **self.quiet_options("Subscription"))
         topic = subscription.topic_name  # resolved once, by rcl (namespace and remapping): one lock per spacecraft
         lock = self.sources.lock(topic, declared.topic, source_timeout_s)  # before any message: none is taken yet
         lock.crowded = lambda: self.count_publishers(topic) > 1  # a starved source stays locked
@@ -256,8 +334,8 @@ class PmvNode(Node):
 
     def input_source_problems(self, max_age_s: float = GRAPH_CHECK_PERIOD_S) -> list[str]:
         """:meth:`InputSources.problems`, the graph asked at most every ``max_age_s`` of wall time."""
-        return self.sources.problems(self.now_s(), time.monotonic(), self.count_publishers,
-                                     self._guarded_clock_subscription is not None, max_age_s)
+        return self.sources.problems(self.now_s(), time.monotonic(), self.count_publishers, self._clock_subscribed,
+                                     max_age_s)
 
     def input_source_counters(self) -> dict:
         """:meth:`InputSources.counters`, and ``rejected_parameter_updates``: refused parameter requests."""
@@ -270,27 +348,28 @@ class PmvNode(Node):
     # -- /clock -----------------------------------------------------------------------------------
 
     def _guard_clock(self) -> None:
-        """Put :class:`~pmv_ros.runtime.common.validation.ClockCheck` in front of rclpy's /clock callback.
+        """Put :class:`~pmv_ros.runtime.common.validation.ClockCheck` in front of rclpy's /clock callback
+        (:func:`~pmv_ros.nodes.rclpy_internals.guard_clock`).
 
         rclpy's time source hands every /clock message straight to its clocks (a negative time raised there and
-        stopped the node; any publisher could set the time). Its subscription is kept (rclpy removes it when
-        ``use_sim_time`` goes off); only the callback is wrapped: a message the check refuses is counted
-        (``rejected_clock_<reason>`` on /diagnostics) and never reaches the time source.
+        stopped the node; any publisher could set the time). A message the check refuses is counted
+        (``rejected_clock_<reason>`` on /diagnostics) and never reaches the time source. Where rclpy offers no
+        way to do so (:mod:`~pmv_ros.nodes.rclpy_internals`' fallback), the node says once that /clock goes
+        unchecked.
         """
-        time_source = getattr(self, "_time_source", None)  # rclpy's, created by Node.__init__
-        subscription = getattr(time_source, "_clock_sub", None)
-        if subscription is None or subscription is self._guarded_clock_subscription:
-            return
-        forward, check = time_source.clock_callback, self.sources.clock
-
-        def on_clock(message, info) -> None:
+        def admit(message, info) -> bool:
             clock = message.clock
-            if check.admit(clock.sec, clock.nanosec, wall_s=time.monotonic(), gid=_publisher_gid(info),
-                           sequence=info.get("publication_sequence_number")) is None:
-                forward(message)
+            return self.sources.clock.admit(clock.sec, clock.nanosec, wall_s=time.monotonic(),
+                                            gid=_publisher_gid(info),
+                                            sequence=info.get("publication_sequence_number")) is None
 
-        subscription.callback = on_clock
-        self._guarded_clock_subscription = subscription
+        self._guarded_clock_subscription = guard_clock(self, admit, self._guarded_clock_subscription)
+        self._clock_subscribed = self.get_parameter("use_sim_time").value  # rclpy's /clock subscription is there
+        if (self._guarded_clock_subscription is None and not internals_in_use() and not self._unchecked_clock_said
+                and self._clock_subscribed):
+            self._unchecked_clock_said = True
+            self.get_logger().warning(f"/clock is not checked before rclpy's time source takes it (rclpy "
+                                      f"{RCLPY_VERSION}: pmv_ros's check is written for rclpy {WRITTEN_FOR})")
 
     def watch_clock(self) -> None:
         """Say on /diagnostics (status ``<node>: clock``) when this node's /clock stops and when it moves again
@@ -309,7 +388,7 @@ class PmvNode(Node):
                                                                                      "clock")))
 
         self.clock_watch = watch
-        self.create_timer(CLOCK_WATCH_PERIOD_S, on_watch, clock=Clock(clock_type=ClockType.STEADY_TIME))
+        self.make_timer(CLOCK_WATCH_PERIOD_S, on_watch, clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     # -- parameters ---------------------------------------------------------------------------
 
@@ -350,13 +429,8 @@ class PmvNode(Node):
         return super().set_parameters_atomically(checked)
 
 
-def clock_s(clock: Clock) -> float:
-    """``clock.now()`` in seconds, read as rclpy reads it (through the clock's handle, rclpy's own API: pinned with
-    Jazzy) but without the ``Time`` it builds (≈ 1.4 µs less of every message a node takes: a quarter of what its
-    guards cost)."""
-    handle = clock.handle
-    with handle:
-        return handle.get_now().nanoseconds * 1e-9
+#: The node clock in seconds, one reading (:func:`pmv_ros.nodes.rclpy_internals.clock_now_s`).
+clock_s = clock_now_s
 
 
 def _has_reader(publisher, readers: dict | None) -> bool:

@@ -45,20 +45,21 @@ from ..runtime.monitor.core import ErrorMonitor
 from ..runtime.monitor.records import Outcome
 from ..runtime.monitor.runtime import STATISTICS_VECTORS, MonitorRuntime, MonitorStatistics
 from .launch import node_main
+from .managed import ManagedNode
 from .params import ParameterError, declare, install_validation
 
 
 def _statistics_vector(name: str) -> Pub:
     """``pmv/residual_<name>``: the statistic as numbers a plotter draws (x roll, y pitch, z meridional, rad)."""
     return Pub(f"pmv/residual_{name}", Vector3Stamped, MonitorStatistics, lambda m, s, n: shim.write_statistics_vector(
-        m, s.stamp_s, n._runtime.frames.sensor, *s.vectors[name]))
+        m, s.stamp_s, n.frames.sensor, *s.vectors[name]))
 
 
 #: What the monitor publishes and takes (relative names: in a namespace, this spacecraft's topics move under it,
 #: interfaces.md "Topics"); inputs in this order (the order of callbacks within a wake-up).
 TOPICS = (
     Pub("pmv/residual", Vector3Stamped, Outcome, lambda m, o, n: shim.write_attitude_angles(
-        m, o.stamp_s, n._runtime.frames.sensor, o.residual_roll_rad, o.residual_pitch_rad)),
+        m, o.stamp_s, n.frames.sensor, o.residual_roll_rad, o.residual_pitch_rad)),
     Pub("pmv/error_statistics", DiagnosticArray, MonitorStatistics, lambda m, s, n: shim.write_error_statistics(
         m, shim.ErrorStatistics.from_summary(s.summary, s.stamp_s))),
     *(_statistics_vector(name) for name in STATISTICS_VECTORS),
@@ -73,9 +74,10 @@ class ErrorMonitorNode(PmvNode):
     """Aligns the sensor with truth and publishes residuals and live statistics."""
 
     BATCHED = True
+    NODE_NAME = "error_monitor_node"
 
-    def __init__(self, **kwargs):
-        super().__init__("error_monitor_node", **kwargs)
+    def build(self) -> None:
+        """Parameters, runtime, topics and the 1 Hz timer (see :class:`~pmv_ros.nodes.base.PmvNode`)."""
         self._values = declare(self, PARAMS)
         try:
             self._runtime = MonitorRuntime(self._values, source_problems=self.input_source_problems,
@@ -84,9 +86,9 @@ class ErrorMonitorNode(PmvNode):
             raise ParameterError(str(error)) from None
         install_validation(self, PARAMS, self._values, self._rebuild)
         self.wire(TOPICS, self._values["input.source_timeout_s"])
-        self.create_timer(1.0, self._on_timer)
-        self.get_logger().info(f"error_monitor_node: ready, statistics at {self._values['statistics_rate_hz']:g} Hz, "
-                               f"{self.clock_name()}")
+        self.make_timer(1.0, self._on_timer)
+        self.get_logger().info(f"{self.get_fully_qualified_name()}: ready, statistics at "
+                               f"{self._values['statistics_rate_hz']:g} Hz, {self.clock_name()}")
 
     def _rebuild(self, values: dict) -> None:
         self.flush_inputs()  # what arrived before the change counts in the statistics it arrived under
@@ -125,9 +127,13 @@ class ErrorMonitorNode(PmvNode):
         return self._runtime.monitor
 
 
+class ManagedErrorMonitorNode(ManagedNode, ErrorMonitorNode):
+    """:class:`ErrorMonitorNode` as a managed (lifecycle) node (:mod:`pmv_ros.nodes.managed`)."""
+
+
 def main(args=None) -> int:
     """Console script / ``ros2 run pmv_ros error_monitor_node [--managed]``."""
-    return node_main(ErrorMonitorNode, "error_monitor_node", args)
+    return node_main(ErrorMonitorNode, ManagedErrorMonitorNode, args)
 
 
 if __name__ == "__main__":

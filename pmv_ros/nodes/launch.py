@@ -11,7 +11,7 @@ from rclpy.impl.implementation_singleton import rclpy_implementation
 from rclpy.signals import SignalHandlerOptions
 from threadpoolctl import ThreadpoolController
 
-from .managed import managed, managed_requested
+from .managed import managed_requested
 from .params import ParameterError, check_params_files
 
 #: Longest wait of the executor between checks for a stop request, s.
@@ -79,11 +79,11 @@ class StopRequest:
             signal.signal(number, handler)
 
 
-def node_main(node_class, name: str, args=None) -> int:
+def node_main(node_class, managed_class, args=None) -> int:
     """A node's console script (``ros2 run pmv_ros NAME [--managed]``): ``--managed`` among its own arguments
-    makes it a lifecycle node (:mod:`pmv_ros.nodes.managed`); then :func:`run_node`."""
-    factory = managed(node_class, name) if managed_requested(args) else node_class
-    return run_node(factory, name, args)
+    makes it its managed (lifecycle) class (:mod:`pmv_ros.nodes.managed`); then :func:`run_node`."""
+    factory = managed_class if managed_requested(args) else node_class
+    return run_node(factory, node_class.NODE_NAME, args)
 
 
 def run_node(factory, name: str, args=None) -> int:
@@ -92,7 +92,9 @@ def run_node(factory, name: str, args=None) -> int:
     A stop by signal is status 0 with no traceback, also mid-publish and with
     a second signal during the teardown. A bad command line or params file
     (rclpy refuses to initialise) and an invalid parameter value end in one
-    line on stderr naming the problem and status 1.
+    line on stderr naming the problem and status 1. A managed node's refusal of
+    a transition its state does not have is logged as a warning and the node
+    goes on (:mod:`pmv_ros.nodes.managed`).
     """
     try:  # a misspelled key in the node's own params-file section: refused like a bad value
         check_params_files(sys.argv if args is None else args, name)
@@ -115,6 +117,12 @@ def run_node(factory, name: str, args=None) -> int:
         stop.restore()
 
 
+def _refused_transition(error: Exception) -> bool:
+    """Whether ``error`` is rclpy's lifecycle state machine refusing a transition the current state does not have
+    (rclpy 7.1 raises it out of the change_state service instead of answering ``success = false``)."""
+    return "lifecycle state machine transition" in str(error)
+
+
 def _spin(factory, name: str, stop: StopRequest) -> int:
     node = executor = None
     status = 0
@@ -123,7 +131,13 @@ def _spin(factory, name: str, stop: StopRequest) -> int:
         executor = SingleThreadedExecutor()
         executor.add_node(node)
         while not stop.requested and rclpy.ok():
-            executor.spin_once(timeout_sec=STOP_CHECK_S)
+            try:
+                executor.spin_once(timeout_sec=STOP_CHECK_S)
+            except rclpy_implementation.RCLError as error:
+                if not _refused_transition(error):
+                    raise
+                node.get_logger().warning(f"a change_state request refused, unanswered: {error} (rclpy answers "
+                                          "none for a transition the current state does not have)")
     except ParameterError as error:
         print(f"{name}: invalid parameter: {error}", file=sys.stderr)
         status = 1

@@ -1,18 +1,22 @@
-"""Managed (lifecycle) variants of the pmv_ros nodes: ``--managed`` on the command line, ``managed:=true`` in the launch.
+"""Managed (lifecycle) variants of the pmv_ros nodes: ``--managed`` on the command line, ``managed:=true`` in launch.
 
-:func:`managed` makes one class of a node class and ``rclpy.lifecycle.LifecycleNode``:
-one node of the node's own name in the graph, with the standard lifecycle
-services (``<node>/change_state``, ``<node>/get_state``, …) and, once
-configured, the node's parameters on its own parameter services.
+:class:`ManagedNode` is rclpy's ``LifecycleNodeMixin`` on a :class:`~pmv_ros.nodes.base.PmvNode`, as rclpy's own
+``LifecycleNode`` is the mixin on ``Node``; each node module declares its managed class
+(``ManagedSensorNode(ManagedNode, SensorNode)``). One node of the node's own name in the graph, with the
+standard lifecycle services (``<node>/change_state``, ``<node>/get_state``, …, ``<node>/transition_event``) and,
+once configured, the node's parameters on its own parameter services. It uses the node's interface of
+configuration (:class:`~pmv_ros.nodes.base.PmvNode`: :meth:`~pmv_ros.nodes.base.PmvNode.build` and the
+``make_*`` methods) and rclpy's public lifecycle API (lifecycle publishers, ``add_managed_entity``, the
+``on_*`` transition callbacks); nothing else.
 
 * construction — only the node itself and its lifecycle services: no file is
   read, no parameter declared, nothing published or subscribed;
-* configure — the node's own constructor runs on it: it declares and checks the
-  parameters, reads the files, builds the models and makes its publishers,
+* configure — the node's configuration is built (:meth:`~pmv_ros.nodes.base.PmvNode.build`): it declares and
+  checks the parameters, reads the files, builds the models and makes its publishers (lifecycle publishers),
   subscriptions, timers and wake-up guard (its declared topics), all held still.
   A failure (a bad ``sensor.correction`` file, a value out of range) leaves it
   unconfigured, with what was made released and the reason logged (also on
-  /rosout) and kept in :attr:`configure_error`;
+  /rosout) and kept in :attr:`ManagedNode.configure_error`;
 * activate — its timers run and its subscriptions deliver; it publishes;
 * deactivate — its timers stop; a message that arrives meanwhile is dropped, not
   processed late; nothing is published (a latched, transient-local message made
@@ -23,13 +27,19 @@ configured, the node's parameters on its own parameter services.
   within that time takes back those it declares again (same topic, type and
   QoS) instead of making new ones: a neighbour flapping transitions does not
   make the node create and destroy DDS endpoints at its rate (Fast DDS 2.14
-  once crashed in a receive thread under that, README "Managed nodes");
+  crashed in a receive thread under that: see the managed-nodes documentation);
 * shutdown, error — everything configure made is destroyed at once. Declared
   parameters stay declared with their values (rclpy has no public way to
   undeclare a read-only one); a new configure checks them again and builds anew.
 
 What the node makes after configure (a timer rebuilt for a new rate) joins what cleanup destroys and is held
 still while the node is inactive.
+
+A ``change_state`` request for a transition the current state does not have (``activate`` while unconfigured)
+is refused by rclpy's state machine, but rclpy 7.1 raises that refusal out of its service instead of answering
+``success = false`` (rclpy issue 1209): the requester gets no answer. :func:`pmv_ros.nodes.launch.run_node` keeps
+the node running and logs the refusal; ``ros2 lifecycle set`` asks for the available transitions first and
+never sends one.
 """
 
 from __future__ import annotations
@@ -38,35 +48,18 @@ import inspect
 import sys
 
 from rclpy.clock import Clock, ClockType
-from rclpy.impl.implementation_singleton import rclpy_implementation
-from rclpy.lifecycle import LifecycleNode, State, TransitionCallbackReturn
-from rclpy.node import Node
+from rclpy.lifecycle import LifecycleNodeMixin, LifecyclePublisher, State, TransitionCallbackReturn
 from rclpy.qos import DurabilityPolicy
 
+from .base import PmvNode
 from .params import ParameterError
-
-RCLError = rclpy_implementation.RCLError
 
 #: The command-line switch (before ``--ros-args``) that starts a node as a managed node.
 MANAGED_FLAG = "--managed"
 
-#: The keyword arguments that make the rclpy node itself (given at construction); the others are the
-#: node class's own (``lean``, ``external_drive``, …) and reach its constructor at configure.
-_NODE_KEYWORDS = frozenset(inspect.signature(Node.__init__).parameters) - {"self", "node_name"}
-
-#: What configure makes, by kind, and how each kind is released at cleanup.
-_ENTITY_KINDS = (("publishers", "destroy_publisher"), ("subscriptions", "destroy_subscription"),
-                 ("timers", "destroy_timer"), ("clients", "destroy_client"), ("services", "destroy_service"),
-                 ("guards", "destroy_guard_condition"))
-
 #: How long (s, wall clock) cleanup keeps the publishers and subscriptions of a configuration, silent, for a
 #: configure that declares them again; then they are destroyed.
 PARKED_S = 1.0
-
-#: What cleanup parks instead of destroying (the DDS endpoints).
-_PARKED_KINDS = ("publishers", "subscriptions")
-
-_SUCCESS = TransitionCallbackReturn.SUCCESS
 
 
 def managed_requested(args=None) -> bool:
@@ -77,118 +70,172 @@ def managed_requested(args=None) -> bool:
     return MANAGED_FLAG in argv
 
 
-class _Managed:
-    """The lifecycle half of a managed node class (see :func:`managed`); comes first in its MRO."""
+class HoldingLifecyclePublisher(LifecyclePublisher):
+    """A lifecycle publisher that, on a transient-local (latched) topic, keeps the last message published while
+    inactive and publishes it at activation (a late subscriber is owed the last message); on other topics, as
+    rclpy's: what is published while inactive is dropped."""
 
-    node_name = ""  # set by managed()
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.held_message = None
+        self.latched = self.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
+
+    def publish(self, message) -> None:
+        if self.is_activated:
+            super().publish(message)
+        elif self.latched:
+            self.held_message = message
+
+    def on_activate(self, state) -> TransitionCallbackReturn:
+        result = super().on_activate(state)
+        held, self.held_message = self.held_message, None
+        if held is not None:
+            self.publish(held)
+        return result
+
+
+class _Gate:
+    """A subscription's callback that passes a message to ``target`` while the node is active and drops it
+    otherwise; the target is the current configuration's callback (a configure taking the subscription back
+    sets it anew). One message argument."""
+
+    def __init__(self, node: ManagedNode, target):
+        self.node, self.target = node, target
+
+    def __call__(self, message) -> None:
+        if self.node.is_active:
+            self.target(message)
+
+
+class _GateWithInfo(_Gate):
+    """:class:`_Gate` for a callback that takes the message info too."""
+
+    def __call__(self, message, info) -> None:
+        if self.node.is_active:
+            self.target(message, info)
+
+
+def _takes_info(callback) -> bool:
+    """Whether rclpy passes ``callback`` the message info (it binds two arguments)."""
+    try:
+        inspect.signature(callback).bind(None)
+        return False
+    except TypeError:
+        return True
+
+
+class _Configuration:
+    """What one configuration made, by kind; and its set-parameters callbacks."""
+
+    def __init__(self):
+        self.publishers, self.subscriptions, self.timers, self.guards, self.parameter_checks = [], [], [], [], []
+
+
+class ManagedNode(LifecycleNodeMixin, PmvNode):
+    """A :class:`~pmv_ros.nodes.base.PmvNode` as a managed (lifecycle) node: see the module docstring.
+
+    Construct it with the node class's keyword arguments: those of :meth:`~pmv_ros.nodes.base.PmvNode.build`
+    are kept for each configure, the others make the node (``context``, ``parameter_overrides``, …).
+    """
 
     def __init__(self, **arguments):
-        node_arguments = {key: value for key, value in arguments.items() if key in _NODE_KEYWORDS}
-        self._own_arguments = {key: value for key, value in arguments.items() if key not in _NODE_KEYWORDS}
-        self.configuring = False  # PmvNode.__init__ then builds on this node instead of making one
-        self.configured = self.active = False
+        self.configured = self.is_active = False
         self.configure_error = None  # why the last configure failed
-        self._parameter_callbacks = []  # (remove method name, callback) added by configure
-        self._held = {}  # transient-local publisher → its last message made while inactive
-        # What PmvNode.__init__ sets before anything can call it: the parameter services (the type gate) and
-        # destroy_node work on an unconfigured node too.
-        self.parameter_specs, self._detached = {}, []
-        self._parked = []  # (kind, entity): the publishers and subscriptions cleanup silenced, for a configure
-        LifecycleNode.__init__(self, self.node_name, **node_arguments)
+        self._configuration = _Configuration()
+        self._parked = []  # (kind, entity): publishers and subscriptions cleanup silenced, for a configure
+        self._held_timers = set()  # timers cancelled while inactive, started again at activation
+        PmvNode.__init__(self, **arguments)  # then begin(): the arguments of build are kept for configure
+        LifecycleNodeMixin.__init__(self)
         self._parked_expiry = self.create_timer(PARKED_S, self._destroy_parked,
                                                 clock=Clock(clock_type=ClockType.STEADY_TIME))
         self._parked_expiry.cancel()  # started by each cleanup
-        # The lifecycle node's own entities: everything else is configure's (or later changes') and goes at cleanup.
-        self._own = {kind: set(getattr(self, kind)) for kind, _ in _ENTITY_KINDS}
-        # rclpy raises out of the change_state service for a transition the current state does not have (and so
-        # ends the spin): refused here with success = false and a warning, like a transition that failed.
-        # (LifecycleNode has no public accessor for the service: its attribute is used.)
-        service = self._service_change_state
-        change_state = service.callback
 
-        def guarded_change_state(request, response):
-            try:
-                return change_state(request, response)
-            except RCLError as error:
-                self.get_logger().warning(f"transition {request.transition.id} {request.transition.label!r} "
-                                          f"refused: {error}")
-                response.success = False
-                return response
+    def begin(self, arguments: dict) -> None:
+        """Construction ends unconfigured: the arguments of build wait for a configure."""
+        self._build_arguments = arguments
 
-        service.callback = guarded_change_state
-
-    def _made(self, kind: str) -> list:
-        """The entities of ``kind`` configure (and later changes) made."""
-        return [entity for entity in getattr(self, kind) if entity not in self._own[kind]]
+    def configuration_endpoints(self) -> list:
+        """The publishers and subscriptions configure made that the node holds: the current configuration's and
+        the parked ones of the last (none once they are destroyed)."""
+        current = self._configuration
+        return [*current.publishers, *current.subscriptions, *(entity for _, entity in self._parked)]
 
     # -- transitions ----------------------------------------------------------------------------
 
     def on_configure(self, state: State) -> TransitionCallbackReturn:
-        self.configuring = True
+        self._configuration = _Configuration()
         try:
-            super().__init__(**self._own_arguments)  # the node class's constructor, on this node
+            self.configure_node(self._build_arguments)
         except Exception as error:  # a bad value or file; anything else too: what was made is released
             expected = isinstance(error, (ParameterError, ValueError, OSError))
             self.configure_error = str(error) if expected else f"{type(error).__name__}: {error}"
-            self._release(state)
+            self._release(park=False)
+            self._destroy_parked()
             self.get_logger().error(f"configure failed, still unconfigured: {self.configure_error}")
             return TransitionCallbackReturn.FAILURE
-        finally:
-            self.configuring = False
         self.configure_error, self.configured = None, True
         self._destroy_parked()  # what this configuration did not declare again
-        return self.on_deactivate(state)  # configured, inactive: timers stopped (the rest is gated as it is made)
+        return super().on_configure(state)
 
     def on_activate(self, state: State) -> TransitionCallbackReturn:
-        self.active = True
-        for publisher, message in list(self._held.items()):
-            if publisher in self.publishers:
-                publisher.publish(message)
-        self._held.clear()
-        for timer in self._made("timers"):
-            if getattr(timer, "_held_still", False):
-                timer._held_still = False
-                timer.reset()
-        return _SUCCESS
+        self.is_active = True
+        result = super().on_activate(state)  # the lifecycle publishers: enabled, a held latched message sent
+        for timer in self._held_timers & set(self.timers):
+            timer.reset()
+        self._held_timers.clear()
+        return result
 
     def on_deactivate(self, state: State) -> TransitionCallbackReturn:
-        if self.active and self._queued:  # what a batching node took while active goes through first
+        if self.is_active and self._queued:  # what a batching node took while active goes through first
             self.flush_inputs()
-        self.active = False
-        for timer in self._made("timers"):
+        self.is_active = False
+        for timer in self._live_timers():
             self._hold_still(timer)
-        return _SUCCESS
-
-    def _release(self, state: State) -> TransitionCallbackReturn:
-        """Destroy what configure made and remove its parameter callbacks: back to unconfigured (shutdown, error)."""
-        self._release_made(park=False)
-        self._destroy_parked()
-        return _SUCCESS
+        return super().on_deactivate(state)
 
     def on_cleanup(self, state: State) -> TransitionCallbackReturn:
-        """As :meth:`_release`, but the publishers and subscriptions are parked for :data:`PARKED_S`."""
-        self._release_made(park=True)
+        """What configure made is released; its publishers and subscriptions are parked for :data:`PARKED_S`."""
+        self._release(park=True)
         self._parked_expiry.reset()
-        return _SUCCESS
+        return super().on_cleanup(state)
 
-    def _release_made(self, park: bool) -> None:
-        self.on_deactivate(None)
-        self._held = {}
-        parked = {id(entity) for _, entity in self._parked}
-        for kind, destroy in _ENTITY_KINDS:
-            for entity in self._made(kind):
-                if id(entity) in parked:
-                    continue
-                if park and kind in _PARKED_KINDS:
-                    self._parked.append((kind, entity))
-                else:
-                    getattr(self, destroy)(entity)
-        for remover, callback in self._parameter_callbacks:
-            try:
-                getattr(self, remover)(callback)
-            except ValueError:  # already removed
-                pass
-        self._parameter_callbacks = []
+    def on_shutdown(self, state: State) -> TransitionCallbackReturn:
+        """What configure made is destroyed at once (from any primary state)."""
+        self._release(park=False)
+        self._destroy_parked()
+        return super().on_shutdown(state)
+
+    def on_error(self, state: State) -> TransitionCallbackReturn:
+        """As :meth:`on_shutdown`: back to unconfigured with nothing made."""
+        self._release(park=False)
+        self._destroy_parked()
+        return super().on_error(state)
+
+    def _release(self, park: bool) -> None:
+        """Release what the configuration made: the publishers and subscriptions parked (``park``) or destroyed,
+        the timers and guards destroyed, its set-parameters callbacks removed; unconfigured."""
+        if self.is_active:
+            self.on_deactivate(None)
+        made, self._configuration = self._configuration, _Configuration()
+        for publisher in made.publishers:
+            publisher.held_message = None
+            if park:
+                self._parked.append(("publisher", publisher))
+            else:
+                self.destroy_lifecycle_publisher(publisher)
+        for subscription in made.subscriptions:
+            subscription.callback.target = None
+            if park:
+                self._parked.append(("subscription", subscription))
+            else:
+                self.destroy_subscription(subscription)
+        for timer in self._live_timers(made):
+            self.destroy_timer(timer)
+        for guard in made.guards:
+            self.destroy_guard_condition(guard)
+        for callback in made.parameter_checks:
+            self.remove_on_set_parameters_callback(callback)
+        self._held_timers.clear()
         self.configured = False
 
     def _destroy_parked(self) -> None:
@@ -196,92 +243,80 @@ class _Managed:
         self._parked_expiry.cancel()
         parked, self._parked = self._parked, []
         for kind, entity in parked:
-            getattr(self, dict(_ENTITY_KINDS)[kind])(entity)
+            if kind == "publisher":
+                self.destroy_lifecycle_publisher(entity)
+            else:
+                self.destroy_subscription(entity)
 
-    def _unpark(self, kind: str, message_type, topic: str, qos, options: dict):
-        """The parked entity of ``kind`` with this type, topic and QoS, taken out of the park; None if there is
-        none (or the call asks for more than those: a callback group, QoS overrides, raw messages)."""
-        if not self.configuring or set(options) - {"event_callbacks"}:
-            return None
-        resolved = self.resolve_topic_name(topic)
+    def _unpark(self, kind: str, key: tuple):
+        """The parked entity of ``kind`` with this ``key`` (type, resolved topic, QoS[, whether its callback
+        takes the message info]), taken out of the park; None if there is none."""
         for k, (parked_kind, entity) in enumerate(self._parked):
-            if (parked_kind, entity.msg_type, entity.topic_name, entity.qos_profile) == (kind, message_type,
-                                                                                         resolved, qos):
+            if parked_kind == kind and self._park_key(kind, entity) == key:
                 return self._parked.pop(k)[1]
         return None
 
-    on_shutdown = on_error = _release
-
-    # -- what configure makes is gated from the start: silent until activation ---------------------
-
     @staticmethod
-    def _hold_still(timer) -> None:
+    def _park_key(kind: str, entity) -> tuple:
+        key = (entity.msg_type, entity.topic_name, entity.qos_profile)
+        return key + (isinstance(entity.callback, _GateWithInfo),) if kind == "subscription" else key
+
+    # -- what a configuration makes (PmvNode's make_* methods): silent until activation ----------------
+
+    def _live_timers(self, configuration: _Configuration | None = None) -> list:
+        """The timers of ``configuration`` (the current one) not destroyed since (a rate change replaces one)."""
+        alive = set(self.timers)
+        return [timer for timer in (configuration or self._configuration).timers if timer in alive]
+
+    def _hold_still(self, timer) -> None:
         if not timer.is_canceled():
             timer.cancel()
-            timer._held_still = True  # started again at activation
+            self._held_timers.add(timer)
 
-    def create_publisher(self, msg_type, topic, qos_profile, **options):
-        parked = self._unpark("publishers", msg_type, topic, qos_profile, options)
-        if parked is not None:
-            return parked  # gated already, on this node
-        publisher = super().create_publisher(msg_type, topic, qos_profile, **options)
-        if self.configuring or self.configured:
-            publish = publisher.publish
-            latched = publisher.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
-
-            def gated(message) -> None:
-                if self.active:
-                    publish(message)
-                elif latched:
-                    self._held[publisher] = message
-
-            publisher.publish = gated
+    def make_publisher(self, message_type, topic: str, qos, **options):
+        """A lifecycle publisher (:class:`HoldingLifecyclePublisher`): a parked one of the same topic, type and
+        QoS if there is one (a call with more options than the event callbacks makes a new one)."""
+        publisher = None
+        if not set(options) - {"event_callbacks"}:
+            publisher = self._unpark("publisher", (message_type, self.resolve_topic_name(topic), qos))
+        if publisher is None:
+            publisher = self.create_publisher(message_type, topic, qos, publisher_class=HoldingLifecyclePublisher,
+                                              **options)
+            self.add_managed_entity(publisher)
+            if self.is_active:  # made while active (after configure): enabled at once
+                publisher.on_activate(None)
+        self._configuration.publishers.append(publisher)
         return publisher
 
-    def create_subscription(self, msg_type, topic, callback, qos_profile, **options):
-        subscription = self._unpark("subscriptions", msg_type, topic, qos_profile, options)
+    def make_subscription(self, message_type, topic: str, callback, qos, **options):
+        """A subscription whose messages reach ``callback`` only while the node is active: a parked one of the
+        same topic, type, QoS and callback arity if there is one (a call with more options than the event
+        callbacks makes a new one)."""
+        gate_class = _GateWithInfo if _takes_info(callback) else _Gate
+        subscription = None
+        if not set(options) - {"event_callbacks"}:
+            subscription = self._unpark("subscription", (message_type, self.resolve_topic_name(topic), qos,
+                                                         gate_class is _GateWithInfo))
         if subscription is None:
-            subscription = super().create_subscription(msg_type, topic, callback, qos_profile, **options)
-        if self.configuring or self.configured:
-
-            def gated(*message_and_info) -> None:
-                if self.active:
-                    callback(*message_and_info)
-
-            gated.__signature__ = inspect.signature(callback)  # rclpy passes the info as the callback wants it
-            subscription.callback = gated
+            subscription = self.create_subscription(message_type, topic, gate_class(self, callback), qos, **options)
+        else:
+            subscription.callback.target = callback
+        self._configuration.subscriptions.append(subscription)
         return subscription
 
-    def create_timer(self, *args, **kwargs):
-        timer = super().create_timer(*args, **kwargs)
-        if self.configured and not self.configuring and not self.active:
+    def make_timer(self, period_s: float, callback, clock=None):
+        """A timer, held still while the node is inactive."""
+        timer = self.create_timer(period_s, callback, clock=clock)
+        self._configuration.timers.append(timer)
+        if not self.is_active:
             self._hold_still(timer)
         return timer
 
-    # -- parameter callbacks added while configuring are removed at cleanup ---------------------
+    def make_guard_condition(self, callback):
+        guard = self.create_guard_condition(callback)
+        self._configuration.guards.append(guard)
+        return guard
 
-    def add_on_set_parameters_callback(self, callback):
-        self._note_parameter_callback("remove_on_set_parameters_callback", callback)
-        return super().add_on_set_parameters_callback(callback)
-
-    def add_pre_set_parameters_callback(self, callback):
-        self._note_parameter_callback("remove_pre_set_parameters_callback", callback)
-        return super().add_pre_set_parameters_callback(callback)
-
-    def add_post_set_parameters_callback(self, callback):
-        self._note_parameter_callback("remove_post_set_parameters_callback", callback)
-        return super().add_post_set_parameters_callback(callback)
-
-    def _note_parameter_callback(self, remover: str, callback) -> None:
-        if self.configuring:
-            self._parameter_callbacks.append((remover, callback))
-
-
-def managed(node_class, name: str):
-    """``node_class`` (a :class:`pmv_ros.nodes.base.PmvNode`) as a lifecycle node class named ``name``.
-
-    Construct it with the node class's keyword arguments; those of ``rclpy.node.Node`` (``context``,
-    ``parameter_overrides``, …) make the node, the others reach the node class's constructor at configure.
-    """
-    return type(f"Managed{node_class.__name__}", (_Managed, node_class, LifecycleNode),
-                {"node_name": name, "__doc__": f"{node_class.__name__} as a managed (lifecycle) node."})
+    def add_parameter_check(self, callback) -> None:
+        self.add_on_set_parameters_callback(callback)
+        self._configuration.parameter_checks.append(callback)

@@ -29,6 +29,7 @@ from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescri
 from rclpy.exceptions import ParameterException
 from rclpy.parameter import Parameter
 
+from .rclpy_internals import parameter_overrides
 from ..runtime.common.parameters import MAX_STRING_LENGTH, ParameterError, ParamSpec, unknown_parameter_problem
 
 
@@ -71,10 +72,11 @@ def declare(node, specs: Sequence[ParamSpec]) -> dict:
     """
     from ..runtime.common.assembly import NODE_PARAMS  # the names a shared section may carry
 
-    # rclpy keeps the overrides of the command line and params files in this
-    # attribute (no public accessor); the type check and the int → float
-    # coercion must happen before declare_parameter looks at them.
-    overrides = getattr(node, "_parameter_overrides", {})
+    # The type check and the int → float coercion must happen before declare_parameter looks at the overrides
+    # (rclpy has no public accessor for them: rclpy_internals; its fallback leaves the check to rclpy).
+    overrides = parameter_overrides(node)
+    if overrides is None:
+        overrides = {}
     anyone = {spec.name for node_specs in NODE_PARAMS.values() for spec in node_specs} | {s.name for s in specs}
     for name in sorted(overrides):
         problem = unknown_parameter_problem(name, node.get_name(), anyone)
@@ -232,4 +234,4 @@ def install_validation(node, specs: Sequence[ParamSpec], values: dict,
         values.update(candidate)
         return SetParametersResult(successful=True)
 
-    node.add_on_set_parameters_callback(on_set)
+    node.add_parameter_check(on_set)

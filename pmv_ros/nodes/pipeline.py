@@ -5,24 +5,21 @@ benchmark. Each :class:`Pipeline` has its own rclpy context, so several can
 live in one process one after another. Flow control is explicit: every
 sensor tick is followed by :meth:`Pipeline.drain`, which runs ready callbacks
 until none is left, so no queue grows and nothing is dropped however fast
-the simulation runs.
+the simulation runs (:func:`~pmv_ros.nodes.rclpy_internals.drain`, also
+importable from here, as :class:`~pmv_ros.nodes.rclpy_internals.TakingQueued`).
 """
 
 from __future__ import annotations
 
-import inspect
 import os
-import weakref
 from pathlib import Path
 
 import numpy as np
 import rclpy
 from geometry_msgs.msg import Vector3Stamped
-from rclpy.exceptions import InvalidHandle
-from rclpy.executors import SingleThreadedExecutor, TimeoutException
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 from rclpy.signals import SignalHandlerOptions
-from rclpy.subscription import Subscription
 from rclpy.time_source import TimeSource
 from rosgraph_msgs.msg import Clock as ClockMsg
 
@@ -32,173 +29,12 @@ from .base import QOS_DEPTH, PmvNode
 from .launch import hold_single_threaded_blas, release_single_threaded_blas
 from .error_monitor_node import ErrorMonitorNode
 from .params import check_params_files
+from .rclpy_internals import TakingQueued, drain, taking_queued
 from .sensor_node import SensorNode
 from .star_tracker_node import StarTrackerNode
 from .tf import tf_message_type
 
-
-def drain(executor, max_callbacks: int = 100_000, on_idle=None, by_takes: bool = True) -> int:
-    """Run an executor's ready callbacks until the graph is idle; returns how many ran.
-
-    With a zero timeout, rclpy's executor ends every wait with a
-    TimeoutException once it has handed out the callbacks that wait found (one
-    message per subscription: a second message queued on a subscription needs
-    another wait), so a timeout alone does not mean the graph is idle. Idle is
-    two timeouts with no callback between them: a wait after the last
-    callbacks that found nothing. ``on_idle()`` is called at every timeout;
-    when it says it published something (handing queued inputs over), the
-    graph is not idle yet.
-
-    ``by_takes``: where the graph has nothing a wait could hand out but subscriptions' messages and timers
-    — no services, clients, guard conditions or other waitables, as in the pipeline's lean nodes — each wait is
-    asked of the entities directly (:func:`_take_ready`: no task pending, no timer ready, then a take from each
-    subscription in the executor's order, one message each), and the messages go to their callbacks in that
-    order, each holding its callback group as rclpy's handler does; then that wait's timeout. What a drain cut
-    by ``max_callbacks`` or by an exception had not handed out goes first in the next drain, as the rest of a
-    wait does. A wait costs the main job 50–70 µs of rclpy's Python (its wait set built anew), the takes a few.
-    A ready timer, a pending task, a busy callback group (a drain inside a callback), any other entity, a
-    shut-down executor: a wait. An async callback is refused (TypeError): the takes do not await it.
-
-    One difference remains by construction: rclpy takes each message just before its callback, the takes
-    here all before the first. A callback that itself takes from, floods or destroys a later subscription of
-    the same look sees that look's messages already taken (none of the pipeline's callbacks does).
-    """
-    ran = empty = 0
-    look = _OPEN_LOOKS.pop(executor, None)  # a look by takes a drain before left unfinished
-    handing_out = look is None and _handing_out(executor)  # a wait's callbacks being handed out
-    while empty < 2 and ran < max_callbacks:
-        if look is None and by_takes and not handing_out:
-            look = _take_ready(executor)
-        if look is not None:  # a wait by takes: its callbacks, then its timeout
-            found = bool(look)
-            while look and ran < max_callbacks:
-                subscription, taken = look.pop(0)
-                try:
-                    ran += _hand_over_taken(subscription, taken)
-                except BaseException:
-                    _OPEN_LOOKS[executor] = look
-                    raise
-            if ran >= max_callbacks:  # as a wait stopped at a callback: the rest, and its timeout, next time
-                _OPEN_LOOKS[executor] = look
-                break
-            look = None
-            empty = 0 if (on_idle is not None and on_idle()) else (1 if found else empty + 1)
-            continue
-        try:
-            handler, _, _ = executor.wait_for_ready_callbacks(timeout_sec=0.0)
-        except TimeoutException:
-            handing_out = False
-            empty = 0 if on_idle is not None and on_idle() else empty + 1
-            continue
-        handing_out, empty = True, 0
-        handler()
-        if handler.exception() is not None:
-            raise handler.exception()
-        ran += 1
-    return ran
-
-
-_WITH_INFO = Subscription.CallbackType.WithMessageInfo
-
-#: Executor → what a look by takes had taken and not yet handed out when its drain stopped (possibly nothing:
-#: then only its timeout is still to come).
-_OPEN_LOOKS = weakref.WeakKeyDictionary()
-
-
-def _hand_over_taken(subscription, taken) -> int:
-    """One taken message to its subscription's callback, as rclpy's handler does it: not if the subscription was
-    destroyed since (0), its callback group held while the callback runs (1). A coroutine a callback returns is
-    not awaited here: TypeError."""
-    try:
-        with subscription.handle:
-            pass
-    except InvalidHandle:  # destroyed by an earlier callback of the look (or with its node)
-        return 0
-    group = subscription.callback_group
-    group.beginning_execution(subscription)  # a drain inside the callback: its group is busy (_take_ready)
-    try:
-        result = subscription.callback(*(taken if subscription._callback_type is _WITH_INFO else taken[:1]))
-    finally:
-        group.ending_execution(subscription)
-    if inspect.iscoroutine(result):
-        result.close()
-        raise TypeError(f"{subscription.topic_name}: an async callback; drain(by_takes=False) awaits it")
-    return 1
-
-
-def _handing_out(executor) -> bool:
-    """Whether a wait of ``executor`` still holds callbacks it has not handed out (a drain stopped by its callback
-    limit or an exception left it so): the executor's generator of them (rclpy's own attribute, pinned with
-    Jazzy) is suspended."""
-    waiting = getattr(executor, "_cb_iter", None)
-    return waiting is not None and inspect.getgeneratorstate(waiting) == inspect.GEN_SUSPENDED
-
-
-def _take_ready(executor) -> list | None:
-    """What a zero-timeout wait of ``executor`` would hand out now, where that is only subscriptions' messages:
-    ``(subscription, taken)`` in the executor's order (node by node; one message per subscription), [] when
-    there is nothing; None where only a wait can tell — a shut-down executor, a timer ready (the executor runs a
-    node's timers before its subscriptions), a task pending (it comes first), a callback group busy, or a node
-    with an entity the takes cannot see. Each message is taken as rclpy's executor takes it (the subscription's
-    handle and callback type, the executor's tasks: rclpy's own attributes, pinned with Jazzy)."""
-    if executor._is_shutdown or not executor.context.ok():
-        return None
-    if any(not task.done() for task, _, _ in executor._tasks):  # the handlers it made keep a place till it waits
-        return None
-    nodes = executor.get_nodes()
-    subscriptions = []
-    for node in nodes:
-        for entities in (node.services, node.clients, node.guards, node.waitables):  # generators: asked for one
-            if next(entities, None) is not None:
-                return None
-        for timer in node.timers:
-            if timer.handle.is_timer_ready():
-                return None
-        for subscription in node.subscriptions:
-            if not subscription.callback_group.can_execute(subscription):
-                return None
-            subscriptions.append(subscription)
-    ready = []
-    for subscription in subscriptions:
-        try:
-            with subscription.handle:
-                taken = subscription.handle.take_message(subscription.msg_type, subscription.raw)
-        except InvalidHandle:  # destroyed: rclpy's wait would not list it
-            continue
-        if taken is not None:
-            ready.append((subscription, taken))
-    return ready
-
-
-class TakingQueued:
-    """A subscription's callback that, in the wake-up the executor hands it one message, also takes the messages
-    queued behind it (at most :data:`~pmv_ros.nodes.base.QOS_DEPTH`), each to ``callback(message)`` in order.
-
-    rclpy's executor takes one message per subscription per wait, and a wait costs ≈ 65 µs of rclpy's own Python
-    (its wait set is built anew): the five residuals the monitor publishes when a star-tracker frame settles its
-    samples would cost the main job five waits, ≈ 6 % of its time (README "Fast time"). Each further message is
-    taken as rclpy's executor takes one (through the subscription's handle, rclpy's own; pinned with Jazzy) and
-    handed over outside it: a subscription destroyed meanwhile ends the loop. For message-only callbacks (the
-    message info is not passed on) in the node's default, mutually exclusive callback group. ``callback`` is an
-    attribute (a benchmark counts the takes through it).
-    """
-
-    def __init__(self, subscription, callback):
-        inspect.signature(callback).bind(None)  # a TypeError now for a callback that wants the message info too
-        self.subscription, self.callback = subscription, callback
-
-    def __call__(self, message) -> None:
-        self.callback(message)
-        subscription = self.subscription
-        for _ in range(QOS_DEPTH):
-            try:
-                with subscription.handle:
-                    taken = subscription.handle.take_message(subscription.msg_type, subscription.raw)
-            except InvalidHandle:  # destroyed by a callback
-                return
-            if taken is None:
-                return
-            self.callback(taken[0])
+__all__ = ["Pipeline", "ReportCollector", "TakingQueued", "drain"]
 
 
 class ReportCollector(PmvNode):
@@ -216,8 +52,9 @@ class ReportCollector(PmvNode):
         self.residuals = []  # (stamp_s, roll_rad, pitch_rad)
         self.residual_count = 0
         self._stride = 1
-        residuals = self.subscription(Vector3Stamped, "pmv/residual", self._on_residual)
-        residuals.callback = TakingQueued(residuals, self._on_residual)  # up to 5 at a time (a frame settles 5)
+        # Up to 5 at a time (a frame settles 5): what is queued behind the first, in the same wake-up.
+        taking_queued(lambda callback: self.subscription(Vector3Stamped, "pmv/residual", callback),
+                      self._on_residual, QOS_DEPTH)
 
     def _on_residual(self, message) -> None:
         self.residual_count += 1
@@ -312,11 +149,11 @@ class Pipeline:
         from .recorder import TopicRecorder
 
         self.recording = McapRecording(path)
-        source = self._time_source()
+        source = self._new_time_source()
         self.recorder = self._add(TopicRecorder(self.recording, **self._options(source)))
         self._time_sources["recorder"] = source
 
-    def _time_source(self) -> TimeSource:
+    def _new_time_source(self) -> TimeSource:
         source = TimeSource()  # attached to no node: it never subscribes to /clock
         source.ros_time_is_active = True
         source.clock_callback(self._clock_msg)  # started mid-run: on the current simulation time
@@ -343,7 +180,7 @@ class Pipeline:
         node_class, sim_time, arguments = self.ROLES[role]
         if node_class is SensorNode:
             arguments = {**arguments, "publish_tf": self.publish_tf}
-        source = self._time_source() if sim_time else None
+        source = self._new_time_source() if sim_time else None
         node = self._add(node_class(**arguments, **self._options(source, overrides)))
         if source is not None:
             self._time_sources[role] = source

@@ -25,13 +25,14 @@ from ..runtime.common.assembly import SENSOR_PARAMS as PARAMS, read_correction
 from ..runtime.common.frames import Mounting
 from ..runtime.sensor.runtime import HealthAt, SamplePublication, SensorRuntime
 from .launch import node_main
+from .managed import ManagedNode
 from .params import ParameterError, declare, install_validation
 from .tf import NO_TF2_MSGS, tf_message_type, transform_topics
 
 
 def _sample(write):
     """A writer of one sample's message: ``write(message, sample, frames)``."""
-    return lambda message, item, node: write(message, item.sample, node._runtime.frames)
+    return lambda message, item, node: write(message, item.sample, node.frames)
 
 
 #: What the sensor publishes and takes (relative names: in a namespace, every topic of the spacecraft moves
@@ -39,10 +40,10 @@ def _sample(write):
 TOPICS = (
     Pub("attitude/truth", QuaternionStamped, SamplePublication, _sample(
         lambda m, s, f: shim.write_attitude_quaternion(m, s.t_s, f.orbital, s.q_xyzw)),
-        when=lambda n: not n._runtime.following),
+        when=lambda n: not n.follows_attitude),
     Pub("orbit/odometry", Odometry, SamplePublication, _sample(lambda m, s, f: shim.write_orbit_state(
         m, s.t_s, f.eci, f.orbital, s.position_eci_m, s.velocity_eci_m_s)),
-        when=lambda n: not n._runtime.orbit_following),  # orbit.source follow: the user's (its TF is still ours)
+        when=lambda n: not n.follows_orbit),  # orbit.source follow: the user's (its TF is still ours)
     Pub("pmv/horizon_crossings", PolygonStamped, SamplePublication, _sample(
         lambda m, s, f: shim.write_horizon_crossings(m, s.t_s, f.sensor, s.line_of_sight))),
     Pub("pmv/attitude", Vector3Stamped, SamplePublication, _sample(
@@ -50,27 +51,30 @@ TOPICS = (
     Pub("pmv/attitude_uncorrected", Vector3Stamped, SamplePublication, _sample(lambda m, s, f: (
         shim.write_attitude_angles(m, s.t_s, f.sensor, s.roll_uncorrected_rad, s.pitch_uncorrected_rad)))),
     Pub("pmv/attitude_imu", Imu, SamplePublication, lambda m, p, n: shim.write_attitude_imu(
-        m, p.sample.t_s, n._runtime.frames.sensor, p.imu.q_xyzw, p.imu.variances_rad2)),
+        m, p.sample.t_s, n.frames.sensor, p.imu.q_xyzw, p.imu.variances_rad2)),
     Pub("/diagnostics", DiagnosticArray, HealthAt, lambda m, h, n: shim.write_health(m, n.health_report(
-        h.stamp_s, h.health, "horizon", others=(n._orbit_status,) if n._orbit_status else ()))),
+        h.stamp_s, h.health, "horizon", others=(n.orbit_status,) if n.orbit_status else ()))),
     Pub("/clock", ClockMsg, "clock", lambda m, t_s, n: shim.write_clock(m, t_s),
-        when=lambda n: n._values["sim.fast_time"]),
-    Sub("attitude/truth", QuaternionStamped, shim.quaternion_input, "add_truth", when=lambda n: n._runtime.following),
-    Sub("orbit/odometry", Odometry, shim.odometry_input, "add_odometry", when=lambda n: n._runtime.orbit_following),
+        when=lambda n: n.fast_time),
+    Sub("attitude/truth", QuaternionStamped, shim.quaternion_input, "add_truth", when=lambda n: n.follows_attitude),
+    Sub("orbit/odometry", Odometry, shim.odometry_input, "add_odometry", when=lambda n: n.follows_orbit),
 )
 
 
 class SensorNode(PmvNode):
     """The PMV sensor: orbit + attitude → 4-chord crossings and roll/pitch.
 
-    Args:
+    Args (of :meth:`build`, given to the constructor):
         external_drive: fast time stepped by the caller through :meth:`step` (``pmv simulate``), not by a timer.
         publish_tf: publish /tf and /tf_static (when tf2_msgs is there). The in-process pipeline turns it off
             unless it records: nothing else in its private graph listens.
     """
 
-    def __init__(self, *, external_drive: bool = False, publish_tf: bool = True, **kwargs):
-        super().__init__("sensor_node", **kwargs)
+    NODE_NAME = "sensor_node"
+
+    def build(self, *, external_drive: bool = False, publish_tf: bool = True) -> None:
+        """Parameters, runtime (the one file read: ``sensor.correction``), topics, the start-up transform and the
+        timer (see :class:`~pmv_ros.nodes.base.PmvNode`)."""
         self._values = v = declare(self, PARAMS)
         self._orbit_status = self._timer = None
         try:
@@ -95,8 +99,9 @@ class SensorNode(PmvNode):
         f = self._runtime.frames
         pacing = ("fast time, publishing its own /clock" if v["sim.fast_time"]
                   else "paced by its clock, " + self.clock_name())
-        self.get_logger().info(f"sensor_node: H = {v['orbit.altitude_km']:g} km, i = {v['orbit.inclination_deg']:g}°, "
-                               f"{v['sensor.rate_hz']:g} Hz, attitude from {v['attitude.source']}, {pacing}; "
+        self.get_logger().info(f"{self.get_fully_qualified_name()}: H = {v['orbit.altitude_km']:g} km, "
+                               f"i = {v['orbit.inclination_deg']:g}°, {v['sensor.rate_hz']:g} Hz, "
+                               f"attitude from {v['attitude.source']}, {pacing}; "
                                f"frames {f.eci} → {f.orbital} → {f.base_link} → {f.sensor}")
 
     def _orbit_status_of(self, values: dict):
@@ -117,10 +122,10 @@ class SensorNode(PmvNode):
     def _start_timer(self, values: dict) -> None:
         rate, scale = values["sensor.rate_hz"], values["sim.time_scale"]
         if not values["sim.fast_time"]:
-            self._timer = self.create_timer(1.0 / rate, self._on_real_time_tick)
+            self._timer = self.make_timer(1.0 / rate, self._on_real_time_tick)
         else:  # fast time paced on the wall clock (time_scale 0: as fast as it goes)
-            self._timer = self.create_timer(0.0 if scale == 0.0 else 1.0 / (rate * scale), self.step,
-                                            clock=Clock(clock_type=ClockType.STEADY_TIME))
+            self._timer = self.make_timer(0.0 if scale == 0.0 else 1.0 / (rate * scale), self.step,
+                                          clock=Clock(clock_type=ClockType.STEADY_TIME))
 
     def input_clock(self, now_s: float) -> float:
         """The node clock as the runtime takes it with an input (it makes it its own: ``SensorRuntime.now_s``)."""
@@ -142,6 +147,14 @@ class SensorNode(PmvNode):
         others = 0 if truth is None else self.count_publishers(truth.topic_name) - 1
         return others, tuple(self.input_source_problems(max_age_s=0.0))
 
+    follows_attitude = property(lambda self: self._runtime.following,
+                                doc="The attitude comes from the user's /attitude/truth (attitude.source follow).")
+    follows_orbit = property(lambda self: self._runtime.orbit_following,
+                             doc="The orbit comes from the user's /orbit/odometry (orbit.source follow).")
+    fast_time = property(lambda self: self._values["sim.fast_time"],
+                         doc="The sensor runs its own simulation clock and publishes /clock (sim.fast_time).")
+    orbit_status = property(lambda self: self._orbit_status,
+                            doc="The epoch-and-elements status on every /diagnostics (None for a followed orbit).")
     sim_time_s = property(lambda self: self._runtime.sim_time_s, doc="Simulation time of the fast-time clock, s.")
     orbit = property(lambda self: self._runtime.orbit, doc="The orbit the sensor flies.")
     samples_computed_ahead = property(lambda self: self._runtime.stream.pending,
@@ -151,9 +164,13 @@ class SensorNode(PmvNode):
     fast_time_block = property(lambda self: self._runtime.fast_time_block, doc="Samples computed per fast-time call.")
 
 
+class ManagedSensorNode(ManagedNode, SensorNode):
+    """:class:`SensorNode` as a managed (lifecycle) node (:mod:`pmv_ros.nodes.managed`)."""
+
+
 def main(args=None) -> int:
     """Console script / ``ros2 run pmv_ros sensor_node [--managed]``."""
-    return node_main(SensorNode, "sensor_node", args)
+    return node_main(SensorNode, ManagedSensorNode, args)
 
 
 if __name__ == "__main__":

@@ -32,13 +32,14 @@ from ..runtime.common.assembly import STAR_TRACKER_PARAMS as PARAMS
 from ..runtime.common.records import HealthAt
 from ..runtime.tracker.runtime import ReleasedFrame, TrackerRuntime
 from .launch import node_main
+from .managed import ManagedNode
 from .params import ParameterError, declare, install_validation
 
 #: What the star tracker publishes and takes (relative names: in a namespace, this spacecraft's topics move under
 #: it, interfaces.md "Topics").
 TOPICS = (
     Pub("star_tracker/attitude", QuaternionStamped, ReleasedFrame, lambda m, frame, n: shim.write_attitude_quaternion(
-        m, frame.frame_s, n._runtime.frames.orbital, frame.q_measured)),
+        m, frame.frame_s, n.frames.orbital, frame.q_measured)),
     Pub("/diagnostics", DiagnosticArray, HealthAt, lambda m, h, n: shim.write_health(
         m, n.health_report(h.stamp_s, h.health, device="star_tracker"))),
     Sub("attitude/truth", QuaternionStamped, shim.quaternion_input, "receive_truth"),
@@ -49,9 +50,10 @@ class StarTrackerNode(PmvNode):
     """BOKZ-class star tracker fed with the true attitude."""
 
     BATCHED = True
+    NODE_NAME = "star_tracker_node"
 
-    def __init__(self, **kwargs):
-        super().__init__("star_tracker_node", **kwargs)
+    def build(self) -> None:
+        """Parameters, runtime, topics and the 1 Hz timer (see :class:`~pmv_ros.nodes.base.PmvNode`)."""
         self._values = declare(self, PARAMS)
         try:
             self._runtime = TrackerRuntime(self._values, self.now_s(),
@@ -62,8 +64,8 @@ class StarTrackerNode(PmvNode):
         install_validation(self, PARAMS, self._values, self._rebuild)
         self.wire(TOPICS, self._values["input.source_timeout_s"])
         # Stale input: no truth for a while is reported even though no truth callback runs.
-        self.create_timer(1.0, self._on_timer)
-        self.get_logger().info(f"star_tracker_node: ready, {self._values['rate_hz']:g} Hz frames, "
+        self.make_timer(1.0, self._on_timer)
+        self.get_logger().info(f"{self.get_fully_qualified_name()}: ready, {self._values['rate_hz']:g} Hz frames, "
                                f"latency {self._values['latency_s']:g} s, {self.clock_name()}")
 
     def _rebuild(self, values: dict) -> None:
@@ -92,9 +94,13 @@ class StarTrackerNode(PmvNode):
         return self._runtime.counters
 
 
+class ManagedStarTrackerNode(ManagedNode, StarTrackerNode):
+    """:class:`StarTrackerNode` as a managed (lifecycle) node (:mod:`pmv_ros.nodes.managed`)."""
+
+
 def main(args=None) -> int:
     """Console script / ``ros2 run pmv_ros star_tracker_node [--managed]``."""
-    return node_main(StarTrackerNode, "star_tracker_node", args)
+    return node_main(StarTrackerNode, ManagedStarTrackerNode, args)
 
 
 if __name__ == "__main__":

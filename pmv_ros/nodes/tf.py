@@ -48,7 +48,7 @@ def tf_message_type():
 
 
 def _write_mounting(message, stamp_s: float, node):
-    frames = node._runtime.frames
+    frames = node.frames
     shim.write_transform(message.transforms[0], max(stamp_s, 0.0), frames.base_link, frames.sensor, _ORIGIN,
                          node.q_body_to_sensor)
     return message
@@ -56,7 +56,7 @@ def _write_mounting(message, stamp_s: float, node):
 
 def _write_sample(message, item: SamplePublication, node):
     """``eci → orbital`` at the sample and, with the own attitude model, ``orbital → base_link``."""
-    frames, sample = node._runtime.frames, item.sample
+    frames, sample = node.frames, item.sample
     shim.write_orbit_state(_ODOMETRY, sample.t_s, frames.eci, frames.orbital, sample.position_eci_m,
                            sample.velocity_eci_m_s)
     shim.write_orbital_transform(message.transforms[0], _ODOMETRY)
@@ -72,4 +72,4 @@ def transform_topics(message_type) -> tuple:
     return (Pub("/tf_static", message_type, "mounting", _write_mounting, qos=TF_STATIC_QOS,
                 make=lambda node: message_type(transforms=[TransformStamped()])),
             Pub("/tf", message_type, SamplePublication, _write_sample, qos=TF_QOS, make=lambda node: message_type(
-                transforms=[TransformStamped() for _ in range(1 if node._runtime.following else 2)])))
+                transforms=[TransformStamped() for _ in range(1 if node.follows_attitude else 2)])))

@@ -1,5 +1,10 @@
 """Managed (lifecycle) nodes: configure / activate / deactivate / cleanup through the lifecycle services,
-what each state publishes, and a configure that fails (a bad correction file) with its reason."""
+what each state publishes, and a configure that fails (a bad correction file) with its reason.
+
+The contract is the behaviour table of :mod:`pmv_ros.nodes.managed`. One point follows rclpy 7.1 rather than the
+table of earlier versions: a transition the current state does not have gets no answer (rclpy raises its
+refusal out of the change_state service; the console script logs it and goes on), where it was answered
+``success = false``."""
 
 from __future__ import annotations
 
@@ -7,6 +12,7 @@ import statistics
 import time
 
 import pytest
+from rclpy.impl.implementation_singleton import rclpy_implementation
 from geometry_msgs.msg import Vector3Stamped
 from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState, GetState
@@ -19,14 +25,13 @@ from rclpy.parameter import parameter_value_to_python as parameter_value_from
 
 import pmv_msgs_shim as shim
 from pmv_ros.nodes.base import PmvNode
-from pmv_ros.nodes.managed import PARKED_S, managed, managed_requested
-from pmv_ros.nodes.error_monitor_node import ErrorMonitorNode
-from pmv_ros.nodes.sensor_node import SensorNode
-from pmv_ros.nodes.star_tracker_node import StarTrackerNode
+from pmv_ros.nodes.error_monitor_node import ErrorMonitorNode, ManagedErrorMonitorNode
+from pmv_ros.nodes.launch import _refused_transition
+from pmv_ros.nodes.managed import PARKED_S, ManagedNode, managed_requested
+from pmv_ros.nodes.sensor_node import ManagedSensorNode, SensorNode
+from pmv_ros.nodes.star_tracker_node import ManagedStarTrackerNode, StarTrackerNode
 
-
-def managed_sensor(**arguments):
-    return managed(SensorNode, "sensor_node")(**arguments)
+managed_sensor = ManagedSensorNode
 
 
 def remote_parameter(h, node: str, name: str):
@@ -59,6 +64,20 @@ class Lifecycle:
 
     def transition(self, transition_id: int) -> bool:
         return self._call(self.change, ChangeState.Request(transition=Transition(id=transition_id))).success
+
+    def transition_by_label(self, label: str) -> bool:
+        return self._call(self.change, ChangeState.Request(transition=Transition(label=label))).success
+
+    def refused_unanswered(self, transition_id: int) -> None:
+        """A transition the state does not have: rclpy's state machine refuses it and raises the refusal out of
+        the service (the executor passes it on, :func:`pmv_ros.nodes.launch.run_node` logs it); no answer."""
+        future = self.change.call_async(ChangeState.Request(transition=Transition(id=transition_id)))
+        with pytest.raises(rclpy_implementation.RCLError) as raised:
+            self.h.executor.spin_until_future_complete(future, timeout_sec=5.0)
+        assert _refused_transition(raised.value), raised.value
+        self.spin(0.2)
+        assert not future.done()
+        future.cancel()
 
     def spin(self, seconds: float) -> None:
         end = time.monotonic() + seconds
@@ -128,7 +147,7 @@ def test_a_bad_correction_file_leaves_the_node_unconfigured_with_the_reason(harn
     table.write_text("del_arcmin;pop_arcmin\nsixty;one\n")
     # A name of its own: rcl keeps one /rosout publisher per logger name for the whole process, and a sensor_node
     # of an earlier test in this process can still hold that name's entry (the logs then go nowhere).
-    h = harness(managed(SensorNode, "bad_correction_sensor"), {"sensor.correction": str(table)})
+    h = harness(ManagedSensorNode, {"sensor.correction": str(table)}, node_name="bad_correction_sensor")
     logs = h.record(Log, "/rosout")
     attitude = h.record(Vector3Stamped, "/pmv/attitude")
     lifecycle = Lifecycle(h, "bad_correction_sensor")
@@ -138,8 +157,10 @@ def test_a_bad_correction_file_leaves_the_node_unconfigured_with_the_reason(harn
     lifecycle.spin(0.3)
     reasons = [log.msg for log in logs if log.name == "bad_correction_sensor" and log.level == Log.ERROR]
     assert len(reasons) == 1 and "configure failed" in reasons[0] and "sensor.correction" in reasons[0]
-    assert not lifecycle.transition(Transition.TRANSITION_ACTIVATE)  # no activation from unconfigured: refused
-    assert not lifecycle.transition(Transition.TRANSITION_DEACTIVATE)  # and the node keeps serving
+    lifecycle.refused_unanswered(Transition.TRANSITION_ACTIVATE)  # no activation from unconfigured: refused
+    lifecycle.refused_unanswered(Transition.TRANSITION_DEACTIVATE)
+    assert not lifecycle.transition_by_label("activate")  # asked by its label, rclpy answers the refusal
+    assert lifecycle.state() == "unconfigured"  # and the node keeps serving
     lifecycle.spin(0.3)
     assert attitude == [] and lifecycle.state() == "unconfigured"
 
@@ -151,10 +172,11 @@ def test_the_managed_switch_is_read_before_the_ros_arguments_only():
     assert not managed_requested(["--ros-args", "-r", "__node:=--managed"])
 
 
-@pytest.mark.parametrize("node_class, name", [(StarTrackerNode, "star_tracker_node"),
-                                              (ErrorMonitorNode, "error_monitor_node")])
-def test_the_other_nodes_go_through_the_lifecycle_too(harness, node_class, name):
-    h = harness(managed(node_class, name), {})
+@pytest.mark.parametrize("managed_class, node_class, name", [
+    (ManagedStarTrackerNode, StarTrackerNode, "star_tracker_node"),
+    (ManagedErrorMonitorNode, ErrorMonitorNode, "error_monitor_node")])
+def test_the_other_nodes_go_through_the_lifecycle_too(harness, managed_class, node_class, name):
+    h = harness(managed_class, {})
     lifecycle = Lifecycle(h, name)
     for transition, state in ((Transition.TRANSITION_CONFIGURE, "inactive"), (Transition.TRANSITION_ACTIVATE, "active"),
                               (Transition.TRANSITION_DEACTIVATE, "inactive"),
@@ -167,17 +189,22 @@ def test_the_other_nodes_go_through_the_lifecycle_too(harness, node_class, name)
 
 
 class _Announcer(PmvNode):
-    """A node that publishes at construction: once latched (transient local, as /tf_static) and once volatile."""
+    """A node that publishes as it is built: once latched (transient local, as /tf_static) and once volatile."""
 
-    def __init__(self, **kwargs):
-        super().__init__("announcer", **kwargs)
+    NODE_NAME = "announcer"
+
+    def build(self) -> None:
         latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
-        self.create_publisher(String, "latched", latched).publish(String(data="mounting"))
+        self.make_publisher(String, "latched", latched).publish(String(data="mounting"))
         self.publisher(String, "volatile").publish(String(data="early"))
 
 
+class _ManagedAnnouncer(ManagedNode, _Announcer):
+    pass
+
+
 def test_what_configure_publishes_waits_for_activation_and_a_latched_message_is_kept(harness):
-    h = harness(managed(_Announcer, "announcer"), {})
+    h = harness(_ManagedAnnouncer, {})
     latched = []
     h.tester.create_subscription(String, "/latched", latched.append,
                                  QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL))
@@ -261,11 +288,16 @@ def test_an_unexpected_error_in_configure_releases_what_it_made(harness, monkeyp
 class _Echo(PmvNode):
     """A node that echoes what it hears on /echo_in to /echo_out and keeps it (a new list at each configure)."""
 
-    def __init__(self, **kwargs):
-        super().__init__("echo", **kwargs)
+    NODE_NAME = "echo"
+
+    def build(self) -> None:
         self.heard = []
         out = self.publisher(String, "echo_out")
         self.subscription(String, "echo_in", lambda message: (self.heard.append(message.data), out.publish(message)))
+
+
+class _ManagedEcho(ManagedNode, _Echo):
+    pass
 
 
 def test_a_configure_soon_after_cleanup_takes_back_the_endpoints_which_go_after_a_while(harness):
@@ -273,13 +305,13 @@ def test_a_configure_soon_after_cleanup_takes_back_the_endpoints_which_go_after_
     rate (Fast DDS once crashed under that, README "Managed nodes"): cleanup parks the publishers and
     subscriptions, silent; a configure within PARKED_S takes them back and wires them to its own callbacks; after
     PARKED_S unconfigured they are destroyed, and shutdown destroys them at once."""
-    h = harness(managed(_Echo, "echo"), {})
+    h = harness(_ManagedEcho, {})
     echoed = h.record(String, "/echo_out")
     send = h.tester.create_publisher(String, "/echo_in", 10)
     lifecycle = Lifecycle(h, "echo")
 
     def made() -> list:
-        return [*h.node._made("publishers"), *h.node._made("subscriptions")]
+        return h.node.configuration_endpoints()
 
     def echo(text: str) -> None:
         send.publish(String(data=text))

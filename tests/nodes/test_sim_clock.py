@@ -158,27 +158,3 @@ def test_a_stopped_clock_is_a_warn_within_three_wall_seconds_and_ok_when_it_move
         after = [(level, text) for wall, level, text in mine if wall > resumed_wall]
         assert after and after[-1][0] == shim.Level.OK and "moves again" in after[-1][1], (node, after)
     assert len(attitude) > published_while_stopped  # the samples of the resumed clock
-
-
-def test_a_nodes_clock_reading_is_rclpys_now_in_seconds():
-    """``PmvNode.now_s`` skips the ``Time`` rclpy's ``Clock.now`` builds: the same nanoseconds, on simulation
-    time (set by /clock, and 0 before the first) and on the wall clock (between two ``now()`` readings)."""
-    from pmv_ros.nodes.base import clock_s
-
-    context = rclpy.Context()
-    rclpy.init(context=context)
-    try:
-        simulated = StarTrackerNode(context=context, parameter_overrides=[Parameter("use_sim_time", value=True)])
-        wall = StarTrackerNode(context=context, namespace="/wall")
-        assert simulated.now_s() == 0.0 == simulated.get_clock().now().nanoseconds * 1e-9
-        for t_s in (1.5, 1796421529.189710442, 7.0):
-            simulated._time_source.clock_callback(shim.write_clock(Clock(), t_s))
-            assert simulated.now_s() == simulated.get_clock().now().nanoseconds * 1e-9 == clock_s(simulated.get_clock())
-        before = wall.get_clock().now().nanoseconds * 1e-9
-        reading = wall.now_s()
-        after = wall.get_clock().now().nanoseconds * 1e-9
-        assert before <= reading <= after and after - before < 1.0
-        for node in (simulated, wall):
-            node.destroy_node()
-    finally:
-        rclpy.shutdown(context=context)

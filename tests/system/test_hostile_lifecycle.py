@@ -9,6 +9,8 @@ The three nodes run as ``--managed`` console scripts on a domain of their own. T
   resident memory (< 15 MB more), threads (no more), and its publishers, subscriptions and services as the
   graph shows them (the same). Then configured and activated once more, the chain runs: residuals come out.
   (The nodes are started once for the module; this test leaves them active for the next.)
+* **a transition the state does not have** — no answer (rclpy 7.1), a line in the node's log, and the node
+  goes on as it was;
 * **a transition during shutdown** — SIGTERM to each node while the neighbour keeps calling ``change_state``
   at 100 Hz: each ends within 5 s with status 0 and no traceback.
 """
@@ -163,6 +165,27 @@ def test_flapping_transitions_leave_every_node_defined_and_leak_nothing(managed_
             assert lifecycles.transition(name, Transition.TRANSITION_ACTIVATE), name
         neighbour.wait_until(lambda: len(neighbour.got["residual"]) > residuals + 10, 60.0,
                              "residuals after the flapping")
+    finally:
+        neighbour.close()
+
+
+def test_a_transition_the_state_does_not_have_is_refused_unanswered_and_the_node_keeps_serving(managed_stack):
+    """rclpy 7.1 raises its refusal out of the change_state service (no answer, where earlier versions of this
+    package answered ``success = false``): the node logs it, keeps its state and goes on serving."""
+    managed_stack, tmp_path = managed_stack
+    neighbour = Neighbour()
+    try:
+        lifecycles = Lifecycles(neighbour)
+        lifecycles.wait_for_services()
+        state = lifecycles.state("sensor_node")
+        refused = Transition.TRANSITION_CONFIGURE if state != "unconfigured" else Transition.TRANSITION_ACTIVATE
+        future = lifecycles.change["sensor_node"].call_async(ChangeState.Request(transition=Transition(id=refused)))
+        neighbour.wait_until(lambda: "change_state request refused" in output_of(tmp_path, "sensor_node"), 20.0,
+                             "the refusal in the sensor's log")
+        neighbour.spin(1.0)
+        assert not future.done() and managed_stack["sensor_node"].poll() is None
+        assert lifecycles.state("sensor_node") == state
+        future.cancel()
     finally:
         neighbour.close()
 

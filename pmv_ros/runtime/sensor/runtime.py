@@ -343,15 +343,17 @@ class SensorRuntime:
             where = buffer.where(t_s)
             if where.usable:
                 if self._orbit_problem is not None:
-                    self._out.log.append(LogLine("info", f"orbit/odometry covers the samples again at t = {t_s:.3f} s"))
+                    self._out.log.append(LogLine("info", f"{self.health.odometry_topic} covers the samples again "
+                                                         f"at t = {t_s:.3f} s"))
                     self._orbit_problem = None
                 covered.append(t_s)
                 continue
             self.health.count(f"skipped_{where.value}")
             if self._orbit_problem is None or self._orbit_problem[0] is not where:
                 newest = buffer.newest_stamp_s
-                self._orbit_problem = (where, f"orbit/odometry: {where.value.replace('_', ' ')} at t = {t_s:.3f} s "
-                                              f"(newest state {'none' if newest is None else f'{newest:.3f} s'}): "
+                newest_text = "none" if newest is None else f"{newest:.3f} s"
+                self._orbit_problem = (where, f"{self.health.odometry_topic}: {where.value.replace('_', ' ')} "
+                                              f"at t = {t_s:.3f} s (newest state {newest_text}): "
                                               "no output until the odometry covers the sample times")
                 if where is OrbitAt.STALE:
                     self._out.log.append(LogLine("error", self._orbit_problem[1]))
@@ -383,12 +385,12 @@ class SensorRuntime:
             # Said once each way: samples between the stale ones and the truth's return may read truth_gap.
             if source is TruthAt.STALE and not self._stale_logged:
                 self._stale_logged = True
-                self._out.log.append(LogLine("error", f"/attitude/truth is stale at t = {t_s:.3f} s (newest "
-                                                      f"{self.truth.newest_stamp_s:.3f} s): no angles until it "
-                                                      "returns"))
+                self._out.log.append(LogLine("error", f"{self.health.truth_topic} is stale at t = {t_s:.3f} s "
+                                                      f"(newest {self.truth.newest_stamp_s:.3f} s): no angles until "
+                                                      "it returns"))
             elif source.usable and self._stale_logged:
                 self._stale_logged = False
-                self._out.log.append(LogLine("info", f"/attitude/truth is back at t = {t_s:.3f} s"))
+                self._out.log.append(LogLine("info", f"{self.health.truth_topic} is back at t = {t_s:.3f} s"))
             if not source.usable:
                 self.health.count(f"skipped_{source.value}")
                 self._emit_health(t_s)
