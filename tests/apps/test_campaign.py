@@ -90,7 +90,8 @@ def _per_sample_monitor(values, flight):
     {},
     # Frequent star-tracker failures, a short gap limit and an outage longer than the wait:
     # every way a sample can be skipped, and one-angle samples (the Sun in a chord).
-    {"random_failure_probability": 0.3, "max_truth_gap_s": 0.9, "outage_start_s": [40.0],
+    {"recognition.failure_at_3": 0.9, "recognition.failure_scale_stars": 8.0, "max_truth_gap_s": 0.9,
+     "outage_start_s": [40.0],
      "outage_duration_s": [15.0], "sensor.bright_body_exclusion_deg": 30.0},
 ], ids=["clean", "gaps-and-outage"])
 def test_batch_monitor_equals_the_live_monitor_sample_by_sample(overrides):
