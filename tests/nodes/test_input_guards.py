@@ -218,9 +218,9 @@ def test_an_unknown_override_is_refused_naming_the_nearest_parameter():
     context = rclpy.Context()
     rclpy.init(context=context)
     try:
-        with pytest.raises(ParameterError, match=r"'rate_hz_typo' is not a parameter of star_tracker_node "
-                                                 r"\(did you mean 'rate_hz'\?\)"):
-            StarTrackerNode(context=context, parameter_overrides=[Parameter("rate_hz_typo", value=3.0)])
+        with pytest.raises(ParameterError, match=r"'frame_period_s_typo' is not a parameter of star_tracker_node "
+                                                 r"\(did you mean 'frame_period_s'\?\)"):
+            StarTrackerNode(context=context, parameter_overrides=[Parameter("frame_period_s_typo", value=3.0)])
     finally:
         rclpy.shutdown(context=context)
 
@@ -231,7 +231,7 @@ def _child_env(log_dir: Path) -> dict:
 
 @pytest.mark.parametrize("section, key, nearest", [
     ("star_tracker_node", "frame_period_s_typo", "frame_period_s"),
-    ("star_tracker_node", "orbit.inclination_deg", None),  # the monitor's, not the tracker's
+    ("star_tracker_node", "remove_oblateness", None),  # the monitor's, not the tracker's
     ("/**", "sensor.rate_hzz", "sensor.rate_hz"),
 ])
 def test_an_unknown_key_in_a_params_file_stops_the_node_with_one_line(tmp_path, section, key, nearest):

@@ -417,8 +417,8 @@ def test_world_defining_parameters_are_refused_at_run_time_with_a_reason_and_the
 def test_the_pipeline_is_lossless_with_reliable_inputs():
     # In one process every publisher is ours and reliable, and the pipeline's nodes subscribe
     # reliably too (best-effort input subscriptions are for publishers outside): nothing is lost.
-    with Pipeline(None, {"sensor.rate_hz": 10.0, "sensor.detector": "ideal",
-                         "ideal": True}) as pipeline:
+    with Pipeline(None, {"sensor.rate_hz": 10.0, "sensor.detector": "ideal", "ideal": True,
+                         "frame_period_s": 0.5, "exposure_s": 0.02, "processing_s": 0.25}) as pipeline:
         pipeline.step(600)
         used = pipeline.monitor.monitor.counters["used"]
         published = pipeline.sensor.samples_published

@@ -226,7 +226,7 @@ def test_console_scripts_with_an_invalid_preset_exit_non_zero_with_the_reason_an
 # ---------------------------------------------------------------------------------------------- run time
 
 def test_run_time_refuses_bad_values_of_every_parameter_and_the_nodes_keep_publishing():
-    overrides = {"sensor.rate_hz": 2.0, "ideal": True}
+    overrides = {"sensor.rate_hz": 2.0, "ideal": True, "frame_period_s": 0.5}
     with Pipeline(None, overrides) as pipeline:
         pipeline.step(20)
         refused = 0

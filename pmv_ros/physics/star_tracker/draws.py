@@ -44,23 +44,28 @@ class Draws:
     def __init__(self, seed: int):
         self._seed = _mix(np.array([int(seed) & 0xFFFFFFFFFFFFFFFF], np.uint64) + _GOLDEN)
 
-    def uniform(self, stream: int, *keys) -> np.ndarray:
-        """Uniforms in (0, 1), one per element of the broadcast ``keys`` (integer arrays)."""
-        x = _mix(self._seed ^ (np.array([stream], np.uint64) * _GOLDEN))
+    def uniform(self, stream, *keys) -> np.ndarray:
+        """Uniforms in (0, 1), one per element of the broadcast ``stream`` and ``keys`` (integer arrays: several
+        streams in one call broadcast a column of keys against a row of streams)."""
+        x = _mix(self._seed ^ (np.asarray(stream, np.uint64) * _GOLDEN))
         for key in keys:
             x = _mix(x + np.asarray(key).astype(np.uint64) * _GOLDEN)
         return ((x >> _S11).astype(np.float64) + 0.5) * 2.0 ** -53
 
-    def normal(self, stream: int, *keys) -> np.ndarray:
+    def normal(self, stream, *keys) -> np.ndarray:
         """Standard normals (the inverse normal CDF of :meth:`uniform`)."""
         return ndtri(self.uniform(stream, *keys))
 
-    def poisson(self, mean, stream: int, *keys) -> np.ndarray:
+    def poisson(self, mean, stream, *keys) -> np.ndarray:
         """Poisson counts of the given means (the inverse Poisson CDF of :meth:`uniform`), int64."""
-        mean = np.asarray(mean, float)
-        u = self.uniform(stream, *keys)
-        positive = mean > 0.0
-        # pdtrik(p, m): the real k with gammaincc(k + 1, m) = p; the smallest integer with CDF ≥ u is its ceiling.
-        with np.errstate(invalid="ignore"):
-            k = np.ceil(pdtrik(u, np.where(positive, mean, 1.0)))
-        return np.where(positive & np.isfinite(k), np.maximum(k, 0.0), 0.0).astype(np.int64)
+        return poisson_quantile(mean, self.uniform(stream, *keys))
+
+
+def poisson_quantile(mean, u) -> np.ndarray:
+    """The smallest count whose Poisson CDF of ``mean`` reaches ``u`` (int64; 0 where the mean is not positive)."""
+    mean = np.asarray(mean, float)
+    positive = mean > 0.0
+    # pdtrik(p, m): the real k with gammaincc(k + 1, m) = p; the smallest integer with CDF ≥ u is its ceiling.
+    with np.errstate(invalid="ignore"):
+        k = np.ceil(pdtrik(u, np.where(positive, mean, 1.0)))
+    return np.where(positive & np.isfinite(k), np.maximum(k, 0.0), 0.0).astype(np.int64)

@@ -42,12 +42,14 @@ from dataclasses import dataclass, field
 from functools import lru_cache
 
 import numpy as np
+from scipy.special import ndtri
 
 from ..attitude import quaternion_from_rotation_vector, quaternion_product
 from ..constants import ARCSEC_RAD, GRS80
-from ..orbit.ephemeris import Epoch, moon_direction_from, sun_direction_from
+from ..orbit.ephemeris import Epoch
 from ..orbit.two_body import orbital_frame_from_state
-from .draws import Draws, frame_key
+from ..orbit.ephemeris import moon_position_eci_m, sun_position_eci_m
+from .draws import Draws, frame_key, poisson_quantile
 from .radiation import RadiationGrid, SolarEvent
 from .sky import Sky
 
@@ -68,6 +70,11 @@ class Outcome(enum.IntEnum):
     def reason(self) -> str:
         """The reason code as /diagnostics and reports say it (``no_stars``, …)."""
         return self.name.lower()
+
+    @property
+    def phrase(self) -> str:
+        """The reason in words, for a /diagnostics message ("no stars", "scheduled outage", …)."""
+        return "scheduled outage" if self is Outcome.OUTAGE else self.reason.replace("_", " ")
 
 
 #: The reasons a frame gives no attitude, in the order a frame is checked for them (the first that holds is
@@ -98,8 +105,16 @@ MAX_RANKED_HITS = 50
 #: Unit of the per-frame diagnostics arrays that stay small integers.
 _NO_FRAMES = 0
 
-# Streams of the keyed draws (one per quantity; keys: the frame time, then the star or hit).
-_RANK, _NOISE_U, _NOISE_V, _BIAS_U, _BIAS_V, _DICE, _HITS, _HIT_RANK, _FOOTPRINT = range(9)
+# Streams of the keyed draws (one per quantity; keys: the frame time, then the star or hit), drawn together: a
+# frame's own (recognition dice, side and lens hit counts, footprint), a star's in a frame (rank scatter, centroid
+# noise u, v), a star's for good (its bias u, v), and the hits' brightness ranks.
+_FRAME_STREAMS = np.array([5, 6, 7, 8])
+_STAR_STREAMS = np.array([0, 1, 2])
+_BIAS_STREAMS = np.array([3, 4])
+_HIT_RANK = 9
+#: The Sun and the Moon are computed once a minute of the clock (keyed by the minute: the same for any frame of it):
+#: in a minute the Moon moves ≈ 33″ and the Sun ≈ 2.5″ across the sky, against exclusion angles of degrees.
+BODY_STEP_S = 60.0
 
 
 @dataclass(frozen=True)
@@ -297,6 +312,7 @@ class StarTracker:
         self.orbit, self.clock_epoch = orbit, clock_epoch
         self.draws = Draws(seed)
         self.tracker_axes = _frame_about(p.boresight_body)
+        self._bodies = {}  # minute of the clock → (Sun, Moon) geocentric positions, m (a few kept)
         if not p.ideal:
             self.sky = sky if sky is not None else Sky(float(clock_epoch.julian_date_tt(0.0)))
             need_grid = p.trapped != "off" or p.solar_event is not None
@@ -329,17 +345,17 @@ class StarTracker:
         """(excluded ``(N,)`` bool, ΔM_background ``(N,)`` mag) from the Sun, the Moon and the Earth's limb."""
         p = self.parameters
         boresight, position = pointing.axes_eci[:, 2, :], pointing.position_eci_m
-        jd_tt = self.clock_epoch.julian_date_tt(t_s)
         radius = np.linalg.norm(position, axis=0)
+        sun, moon = self.sun_and_moon_eci_m(t_s)
+
+        def angle_to(body):
+            seen = body - position
+            return np.arccos(np.clip(np.sum(boresight * seen, axis=0) / np.linalg.norm(seen, axis=0), -1.0, 1.0))
+
         limb = np.arccos(np.clip(-np.sum(boresight * position, axis=0) / radius, -1.0, 1.0)) \
             - np.arcsin(np.minimum(GRS80.a_m / radius, 1.0))
-        separations = (
-            (np.arccos(np.clip(np.sum(boresight * sun_direction_from(position, jd_tt).reshape(3, -1), axis=0),
-                               -1.0, 1.0)), p.sun_exclusion_rad),
-            (np.arccos(np.clip(np.sum(boresight * moon_direction_from(position, jd_tt).reshape(3, -1), axis=0),
-                               -1.0, 1.0)), p.moon_exclusion_rad),
-            (limb, p.earth_limb_exclusion_rad),
-        )
+        separations = ((angle_to(sun), p.sun_exclusion_rad), (angle_to(moon), p.moon_exclusion_rad),
+                       (limb, p.earth_limb_exclusion_rad))
         excluded = np.zeros(t_s.shape, bool)
         stray = np.zeros(t_s.shape)
         for angle, edge in separations:
@@ -348,6 +364,23 @@ class StarTracker:
                 near = (angle >= edge) & (angle < 2.0 * edge)
                 stray += np.where(near, (edge / np.maximum(angle, edge)) ** 3 - 0.125, 0.0) / 0.875
         return excluded, 2.5 * np.log10(1.0 + p.stray_light_at_edge * stray)
+
+    def sun_and_moon_eci_m(self, t_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Geocentric Sun and Moon positions ``(3, N)`` m at the start of each frame's minute (:data:`BODY_STEP_S`)."""
+        minute = np.floor(np.asarray(t_s, float) / BODY_STEP_S).astype(np.int64)
+        known = self._bodies
+        if minute.size == 1 and int(minute[0]) in known:
+            sun, moon = known[int(minute[0])]
+            return sun, moon
+        unique, index = np.unique(minute, return_inverse=True)
+        jd_tt = self.clock_epoch.julian_date_tt(unique * BODY_STEP_S)
+        sun, moon = sun_position_eci_m(jd_tt).reshape(3, -1), moon_position_eci_m(jd_tt).reshape(3, -1)
+        if unique.size <= 2:  # a node's frames: keep the last few minutes
+            for k, key in enumerate(unique.tolist()):
+                known[key] = (sun[:, k:k + 1], moon[:, k:k + 1])
+            while len(known) > 4:
+                known.pop(next(iter(known)))
+        return sun[:, index], moon[:, index]
 
     def proton_hits_mean(self, t_s: np.ndarray, position_eci_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Mean proton hits a frame through the side window and through the lens ``(N,)`` each (items 6, 7).
@@ -417,17 +450,18 @@ class StarTracker:
 
         # Proton hits: their count, their pixels in the buffer, and the brightest of them as objects.
         side_mean, lens_mean = self.proton_hits_mean(t, pointing.position_eci_m)
-        side_hits = self.draws.poisson(side_mean, _HITS, keys, 0)
-        lens_hits = self.draws.poisson(lens_mean, _HITS, keys, 1)
+        dice, side_u, lens_u, footprint_u = self.draws.uniform(_FRAME_STREAMS[None, :], keys[:, None]).T
+        side_hits, lens_hits = poisson_quantile(side_mean, side_u), poisson_quantile(lens_mean, lens_u)
         hits = side_hits + lens_hits
         (side_px, side_var), (lens_px, lens_var) = hit_footprint_moments()
         hit_pixels = side_hits * side_px + lens_hits * lens_px + np.sqrt(side_hits * side_var + lens_hits * lens_var) \
-            * self.draws.normal(_FOOTPRINT, keys)
+            * ndtri(footprint_u)
         pixels = STAR_PX * np.bincount(frame, minlength=n_frames) + np.maximum(hit_pixels, 0.0)
         failed[Outcome.BUFFER_OVERFLOW] = pixels * p.bytes_per_pixel > p.buffer_bytes
 
         # The K brightest objects: stars by Hp with the ranking scatter, hits by their ADC counts on the stars' scale.
-        rank_mag = stars.hp_mag[registered] + p.rank_scatter_mag * self.draws.normal(_RANK, keys[frame], hip)
+        rank_z, noise_u, noise_v = self.draws.normal(_STAR_STREAMS[None, :], keys[frame][:, None], hip[:, None]).T
+        rank_mag = stars.hp_mag[registered] + p.rank_scatter_mag * rank_z
         hit_frame, hit_mag = self._brightest_hits(keys, hits, p.exposure_s)
         objects_frame = np.concatenate([frame, hit_frame])
         objects_mag = np.concatenate([rank_mag, hit_mag])
@@ -443,10 +477,10 @@ class StarTracker:
         failed[Outcome.NO_STARS] = used < 3
         p_fail = recognition_failure(used, others, p.geometry_failure_3, p.geometry_failure_scale,
                                      p.false_object_failure)
-        failed[Outcome.RECOGNITION_FAILURE] = self.draws.uniform(_DICE, keys) < p_fail
+        failed[Outcome.RECOGNITION_FAILURE] = dice < p_fail
 
-        error = self._attitude_error(keys, frame[used_star], hip[used_star], u[used_star], v[used_star],
-                                     10.0 ** (0.4 * smear_mag), used)
+        error = self._attitude_error(frame[used_star], hip[used_star], u[used_star], v[used_star],
+                                     noise_u[used_star], noise_v[used_star], 10.0 ** (0.4 * smear_mag), used)
         return self._result(q_safe, error, failed, np.bincount(frame[catalogue], minlength=n_frames), hits, used)
 
     def _brightest_hits(self, keys: np.ndarray, hits: np.ndarray, exposure_s: float):
@@ -469,24 +503,25 @@ class StarTracker:
         magnitude = STAR_ADC_HP - 2.5 * np.log10(adc / star_scale)
         return np.repeat(frames, ranked[frames]), magnitude[take]
 
-    def _attitude_error(self, keys, frame, hip, u, v, smear_factor, used) -> np.ndarray:
+    def _attitude_error(self, frame, hip, u, v, noise_u, noise_v, smear_factor, used) -> np.ndarray:
         """The fitted small rotation (tracker frame, rad, ``(3, N)``) from the centroid errors of the stars used.
 
         Per star and focal-plane axis, σ·smear·(√(1 − f)·z_frame + √f·z_star): z_star keyed by the star alone
-        (its bias, the same while it stays in the field), z_frame by the frame and the star. A star at (u, v)
+        (its bias, the same while it stays in the field), z_frame (``noise_u``, ``noise_v``) by the frame and the
+        star. A star at (u, v)
         moves by (−θy + θz·v, θx − θz·u) under a rotation θ; the least-squares θ of the n stars gives σ/√n
         across and σ/(r_rms·√n) about the boresight.
         """
         p = self.parameters
-        n_frames = keys.size
+        n_frames = used.size
         error = np.zeros((3, n_frames))
         if not frame.size or p.centroid_error_rad == 0.0:
             return error
         sigma = p.centroid_error_rad * smear_factor[frame]
         fresh, kept = math.sqrt(1.0 - p.bias_fraction), math.sqrt(p.bias_fraction)
-        zero = np.zeros_like(hip)
-        e_u = sigma * (fresh * self.draws.normal(_NOISE_U, keys[frame], hip) + kept * self.draws.normal(_BIAS_U, zero, hip))
-        e_v = sigma * (fresh * self.draws.normal(_NOISE_V, keys[frame], hip) + kept * self.draws.normal(_BIAS_V, zero, hip))
+        bias_u, bias_v = self.draws.normal(_BIAS_STREAMS[None, :], 0, hip[:, None]).T
+        e_u = sigma * (fresh * noise_u + kept * bias_u)
+        e_v = sigma * (fresh * noise_v + kept * bias_v)
 
         def total(values):
             return np.bincount(frame, values, minlength=n_frames)

@@ -267,7 +267,7 @@ class TrackerRuntime:
                 self._last_health_s = stamp_s
                 last = self.last_outcome
                 output.published.append(HealthAt(stamp_s, self.health(
-                    [] if last == Outcome.OK else [f"star-tracker outage: {last.reason.replace('_', ' ')}"])))
+                    [] if last == Outcome.OK else [f"star-tracker outage: {last.phrase}"])))
         measure()
         return output
 
