@@ -94,23 +94,26 @@ def main(argv=None) -> int:
     q = np.tile([[0.0], [0.0], [0.0], [1.0]], t.size)
     frames = tracker.measure(t, q, np.zeros((3, t.size)))
     orbit = (t // period).astype(int)
-    place = np.floor(np.mod(t, period) / period * 360.0).astype(int)
+    phase = np.mod(t, period) / period
     failed = np.isin(frames.outcome, FAILED)
     rng = np.random.default_rng(args.seed)
     print(f"{args.preset}: {args.orbits} orbits, {t.size} frames; frames without attitude by reason: "
           + ", ".join(f"{o.reason} {int(np.sum(frames.outcome == o))}" for o in Outcome if o != Outcome.OK
                       and np.any(frames.outcome == o)))
-    for name, chosen in (("< 3 stars (no_stars)", failed & (frames.used < 3)),
-                         ("3–4 stars", failed & (frames.used >= 3) & (frames.used <= 4)),
-                         ("5–8 stars", failed & (frames.used >= 5) & (frames.used <= 8)),
-                         ("> 8 stars", failed & (frames.used > 8))):
-        count = int(chosen.sum())
-        places, share = repeat_share(place[chosen], orbit[chosen])
-        random_pick = rng.choice(t.size, count, replace=False) if count else np.array([], int)
-        _, random_share = repeat_share(place[random_pick], orbit[random_pick])
-        print(f"  failures with {name}: {count} frames ({100 * count / t.size:.2f} %) at {places} places; "
-              f"places failing on ≥ 2 orbits {100 * share:.0f} % (as many failures at random places: "
-              f"{100 * random_share:.0f} %)")
+    for bin_deg in (1.0, 0.1):
+        place = np.floor(phase * 360.0 / bin_deg).astype(int)
+        print(f"  sky places of {bin_deg:g}° of the orbit ({bin_deg / 360 * period:.1f} s):")
+        for name, chosen in (("< 3 stars (no_stars)", failed & (frames.used < 3)),
+                             ("3–4 stars", failed & (frames.used >= 3) & (frames.used <= 4)),
+                             ("5–8 stars", failed & (frames.used >= 5) & (frames.used <= 8)),
+                             ("> 8 stars", failed & (frames.used > 8))):
+            count = int(chosen.sum())
+            places, share = repeat_share(place[chosen], orbit[chosen])
+            random_pick = rng.choice(t.size, count, replace=False) if count else np.array([], int)
+            _, random_share = repeat_share(place[random_pick], orbit[random_pick])
+            print(f"    failures with {name}: {count} frames ({100 * count / t.size:.2f} %) at {places} places; "
+                  f"places failing on ≥ 2 orbits {100 * share:.0f} % (as many failures at random frames: "
+                  f"{100 * random_share:.0f} %)")
     return 0
 
 

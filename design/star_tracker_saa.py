@@ -47,10 +47,17 @@ def fly_day(preset: str, exposure_s: float | None, seconds: float = 86400.0):
     return values, tracker, t, frames, np.degrees(latitude), np.degrees(longitude), flux45
 
 
-def passes(t, hot):
-    """(start, end) indices of the runs of ``hot`` frames."""
+def passes(t, hot, gap_s: float = 120.0):
+    """(start, end) indices of the passes: runs of ``hot`` frames, joined across gaps shorter than ``gap_s`` (the
+    Poisson counts flicker about 5 at a pass's edges)."""
     edges = np.flatnonzero(np.diff(np.concatenate([[0], hot.astype(int), [0]])))
-    return list(zip(edges[::2], edges[1::2]))
+    runs = []
+    for a, b in zip(edges[::2], edges[1::2]):
+        if runs and t[a] - t[runs[-1][1] - 1] < gap_s:
+            runs[-1] = (runs[-1][0], b)
+        else:
+            runs.append((a, b))
+    return runs
 
 
 def main(argv=None) -> int:
@@ -71,7 +78,7 @@ def main(argv=None) -> int:
         print(f"  most hits in a frame {frames.hits.max()}; frames with ≥ 5 hits where AP8 J(>45 MeV) is zero: "
               f"{int(np.sum(hot & (flux45 <= 0.0)))}; where J(>45 MeV) < 1 cm-2 s-1: {int(np.sum(hot & (flux45 < 1.0)))}")
         runs = passes(t, hot)
-        print(f"  {len(runs)} passes with ≥ 5 hits, longest {max((b - a for a, b in runs), default=0) * values['frame_period_s'] / 60:.1f} min:")
+        print(f"  {len(runs)} passes with ≥ 5 hits (runs joined across gaps < 2 min), longest {max((b - a for a, b in runs), default=0) * values['frame_period_s'] / 60:.1f} min:")
         for a, b in runs:
             peak = a + int(np.argmax(frames.hits[a:b]))
             print(f"    t {t[a] / 3600:6.2f} h, {(b - a) * values['frame_period_s'] / 60:4.1f} min, lat {lat[a:b].min():6.1f}…{lat[a:b].max():6.1f}°, "

@@ -5,8 +5,9 @@
 The preset's orbit (Kondor: no node drift, so β follows the Sun through the
 year), nadir pointing, a frame every 10 s, one day at each of several dates:
 per orbit, |β| (the Sun's angle from the orbit plane) and the number of
-separate ``exclusion`` episodes; printed grouped by |β| below and above
-the 30° exclusion angle.
+separate ``exclusion`` episodes with the Sun within 30° of the boresight
+(an orbit cut by the day's start or end may split one in two); printed
+grouped by |β| below and above the 30° exclusion angle.
 """
 
 from __future__ import annotations
@@ -40,8 +41,13 @@ def main(argv=None) -> int:
         t = day * 86400.0 + np.arange(0.0, 86400.0, 10.0)
         q = np.tile([[0.0], [0.0], [0.0], [1.0]], t.size)
         frames = tracker.measure(t, q, np.zeros((3, t.size)))
-        excluded = frames.outcome == Outcome.EXCLUSION
         position, velocity = tracker.orbit.state_eci(t)
+        sun_position, _ = tracker.sun_and_moon_eci_m(t)
+        seen = sun_position - position
+        boresight = tracker.pointing(t, q, np.zeros((3, t.size))).axes_eci[:, 2, :]
+        sun_angle = np.degrees(np.arccos(np.sum(boresight * seen, axis=0) / np.linalg.norm(seen, axis=0)))
+        # The Sun's exclusions (the Moon's are exclusions too, at other places).
+        excluded = (frames.outcome == Outcome.EXCLUSION) & (sun_angle < values["exclusion.sun_deg"])
         normal = np.cross(position, velocity, axis=0)
         normal /= np.linalg.norm(normal, axis=0)
         sun = sun_direction_eci(tracker.clock_epoch.julian_date_tt(t)).reshape(3, -1)

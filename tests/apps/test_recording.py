@@ -163,7 +163,7 @@ def test_the_epoch_and_elements_are_on_the_sensors_diagnostics(round_trip):
     elements = found[0]
     import yaml
 
-    preset = yaml.safe_load(KONDOR.read_text())["sensor_node"]["ros__parameters"]
+    preset = yaml.safe_load(KONDOR.read_text())["/**"]["ros__parameters"]  # the epoch, shared with the star tracker
     assert elements.epoch_utc == preset["sim"]["epoch_utc"]   # kondor.yaml sim.epoch_utc
     assert (elements.altitude_km, elements.inclination_deg, elements.arg_latitude_deg) == (500.0, 74.5, 0.0)
     assert elements.roll_pitch_convention == shim.WIRE_CONVENTION

@@ -102,8 +102,9 @@ STAR_ADC, STAR_ADC_HP, STAR_ADC_EXPOSURE_S = 500.0, 6.5, 2.0
 STAR_PX = 9
 #: Most hits whose brightness is drawn per frame: only the brightest can reach the K sent to recognition.
 MAX_RANKED_HITS = 50
-#: Unit of the per-frame diagnostics arrays that stay small integers.
-_NO_FRAMES = 0
+#: Above this altitude solar protons reach everywhere (physics.md §6 item 7: "in GEO everywhere"; the geomagnetic
+#: shielding that the L-shell cut-off describes is a low-orbit one) [A].
+FULL_ACCESS_ALTITUDE_M = 20000e3
 
 # Streams of the keyed draws (one per quantity; keys: the frame time, then the star or hit), drawn together: a
 # frame's own (recognition dice, side and lens hit counts, footprint), a star's in a frame (rank scatter, centroid
@@ -386,7 +387,8 @@ class StarTracker:
         """Mean proton hits a frame through the side window and through the lens ``(N,)`` each (items 6, 7).
 
         N = A·t_exp·[J(>45 MeV)/4·cos²35° + J(>100 MeV)/4·sin²35°] for the trapped flux J (omnidirectional);
-        a solar event adds A·t_exp·π·I(>45 MeV)·cos²35° through the side where L ≥ ``access_min_l``.
+        a solar event adds A·t_exp·π·I(>45 MeV)·cos²35° through the side where L ≥ ``access_min_l`` (and
+        everywhere above :data:`FULL_ACCESS_ALTITUDE_M`).
         """
         p = self.parameters
         side = np.zeros(t_s.shape)
@@ -404,7 +406,8 @@ class StarTracker:
             lens = lens + scale * flux100 / 4.0 * open_lens
         if p.solar_event is not None:
             intensity = p.solar_event.intensity_pfu(self.clock_epoch.seconds_since_j2000(t_s))
-            side = side + np.where(shell >= p.access_min_l, scale * math.pi * intensity * open_side, 0.0)
+            reached = (shell >= p.access_min_l) | (height >= FULL_ACCESS_ALTITUDE_M)
+            side = side + np.where(reached, scale * math.pi * intensity * open_side, 0.0)
         return side, lens
 
     # -- the frame ----------------------------------------------------------------------------

@@ -65,6 +65,45 @@ class FieldStars:
     hp_mag: np.ndarray
 
 
+#: Cells of the sky index: a cube's faces cut into CELLS_PER_EDGE² squares each (≈ 2.8° at 32).
+CELLS_PER_EDGE = 32
+#: Most field half-width served, rad (a 40° square: the field-of-view parameter's largest).
+MAX_HALF_WIDTH_RAD = math.radians(20.0)
+
+
+def _cube_cell(directions: np.ndarray) -> np.ndarray:
+    """The sky-index cell of unit vectors ``(3, N)``: the cube face they pierce and the square of the face, ``(N,)``."""
+    face_axis = np.argmax(np.abs(directions), axis=0)
+    n = directions.shape[1]
+    major = directions[face_axis, np.arange(n)]
+    others = np.array([[1, 2], [2, 0], [0, 1]])[face_axis]  # the face's two other axes, (N, 2)
+    a = directions[others[:, 0], np.arange(n)] / np.abs(major)
+    b = directions[others[:, 1], np.arange(n)] / np.abs(major)
+    i = np.minimum(((a + 1.0) * 0.5 * CELLS_PER_EDGE).astype(np.int64), CELLS_PER_EDGE - 1)
+    j = np.minimum(((b + 1.0) * 0.5 * CELLS_PER_EDGE).astype(np.int64), CELLS_PER_EDGE - 1)
+    face = 2 * face_axis + (major < 0.0)
+    return (face * CELLS_PER_EDGE + i) * CELLS_PER_EDGE + j
+
+
+def _cell_centres() -> np.ndarray:
+    """Unit vectors of the centres of every sky-index cell, ``(3, 6·CELLS_PER_EDGE²)``, in cell order."""
+    centre = (np.arange(CELLS_PER_EDGE) + 0.5) / CELLS_PER_EDGE * 2.0 - 1.0
+    a, b = np.meshgrid(centre, centre, indexing="ij")
+    vectors = []
+    for face in range(6):
+        axis, sign = face // 2, -1.0 if face % 2 else 1.0
+        v = np.zeros((3, a.size))
+        others = [[1, 2], [2, 0], [0, 1]][axis]
+        v[axis] = sign
+        v[others[0]], v[others[1]] = a.ravel(), b.ravel()
+        vectors.append(v / np.linalg.norm(v, axis=0))
+    return np.concatenate(vectors, axis=1)
+
+
+#: Largest angle from a cell's centre to a point of the cell, rad (the corners of the central cells of a face).
+_CELL_RADIUS_RAD = math.atan(math.sqrt(2.0) / CELLS_PER_EDGE) * 1.01
+
+
 class Sky:
     """The star table at a date, ready for field queries.
 
@@ -95,7 +134,19 @@ class Sky:
         moved /= np.linalg.norm(moved, axis=0)
         #: Unit vectors of the stars, ECI of date, ``(3, S)``.
         self.direction_eci = precession_matrix(julian_date_tt) @ moved
-        self._tree = cKDTree(self.direction_eci.T)
+        self._indexes = {}  # field half-width → (each cell's start, the cells' stars)
+
+    def _index(self, half_width_rad: float) -> tuple[np.ndarray, np.ndarray]:
+        """For each sky cell, the stars (in brightness order) a field of this half-width centred anywhere in the
+        cell can hold, as one flat array and each cell's start (built once per field size)."""
+        index = self._indexes.get(half_width_rad)
+        if index is None:
+            reach = math.atan(math.sqrt(2.0) * math.tan(half_width_rad)) + _CELL_RADIUS_RAD
+            found = cKDTree(self.direction_eci.T).query_ball_point(_cell_centres().T, 2.0 * math.sin(reach / 2.0))
+            counts = np.fromiter(map(len, found), np.int64, len(found))
+            stars = np.fromiter((i for hits in found for i in sorted(hits)), np.int32, int(counts.sum()))
+            index = self._indexes[half_width_rad] = (np.concatenate([[0], np.cumsum(counts)]), stars)
+        return index
 
     def __len__(self) -> int:
         return int(self.hp_mag.size)
@@ -109,15 +160,18 @@ class Sky:
             half_width_rad: half the field's side, rad.
             stars: only the ``stars`` brightest of the table (default: all).
         """
+        if half_width_rad > MAX_HALF_WIDTH_RAD:
+            raise ValueError(f"field half-width {math.degrees(half_width_rad):.2f}° is more than the sky index's "
+                             f"{math.degrees(MAX_HALF_WIDTH_RAD):g}°")
         boresight = axes_eci[:, 2, :]
-        # Candidates inside the field's circumscribed circle, then the square.
-        corner = math.atan(math.sqrt(2.0) * math.tan(half_width_rad))
-        chord = 2.0 * math.sin(corner / 2.0) * (1.0 + 1e-9)
-        found = self._tree.query_ball_point(boresight.T, chord, return_sorted=False)
-        counts = np.fromiter(map(len, found), np.int64, len(found))
-        star = np.fromiter((i for hits in found for i in hits), np.int64, int(counts.sum()))
-        field = np.repeat(np.arange(counts.size), counts)
-        if stars is not None:
+        # Candidates: the stars the boresight's cell lists (all within reach of any field centred in it).
+        cell_start, cell_stars = self._index(half_width_rad)
+        cell = _cube_cell(boresight)
+        first, counts = cell_start[cell], cell_start[cell + 1] - cell_start[cell]
+        field = np.repeat(np.arange(cell.size), counts)
+        offsets = np.arange(field.size) - np.repeat(np.cumsum(counts) - counts, counts)
+        star = cell_stars[np.repeat(first, counts) + offsets].astype(np.int64)
+        if stars is not None and stars < len(self):
             keep = star < stars
             star, field = star[keep], field[keep]
         direction = self.direction_eci[:, star]
@@ -125,7 +179,5 @@ class Sky:
         u = np.einsum("ij,ij->j", direction, axes_eci[:, 0, field]) / along
         v = np.einsum("ij,ij->j", direction, axes_eci[:, 1, field]) / along
         limit = math.tan(half_width_rad)
-        inside = (along > 0.0) & (np.abs(u) <= limit) & (np.abs(v) <= limit)
-        order = np.argsort(field[inside], kind="stable")
-        pick = np.flatnonzero(inside)[order]
+        pick = np.flatnonzero((along > 0.0) & (np.abs(u) <= limit) & (np.abs(v) <= limit))  # still by field
         return FieldStars(field[pick], star[pick], np.arctan(u[pick]), np.arctan(v[pick]), self.hp_mag[star[pick]])

@@ -9,6 +9,8 @@ the sensor flies.
 from __future__ import annotations
 
 import math
+from functools import lru_cache
+
 from ...physics.constants import ARCSEC_RAD, SECONDS_PER_DAY
 from ...physics.orbit.ephemeris import Epoch, julian_date_from_utc
 from ...physics.orbit.two_body import CircularOrbit
@@ -107,18 +109,37 @@ def tracker_parameters(values: dict, start_s: float, mean_motion_rad_s: float) -
         ideal=values["ideal"])
 
 
+#: The date the sky is moved to is the run's, rounded to a tenth of a Julian year: the stars then move by at most
+#: 2.5″ of precession (and ≈ 1″ of proper motion for all but a few), a quarter of one star's centroid error, and
+#: the runs of a campaign share a few skies.
+SKY_DATE_STEP_DAYS = 36.525
+
+
+@lru_cache(maxsize=4)
+def shipped_sky(julian_date_tt: float) -> Sky:
+    """The shipped sky at a date (kept: the runs of one process share it)."""
+    return Sky(julian_date_tt)
+
+
+@lru_cache(maxsize=1)
+def shipped_radiation() -> RadiationGrid:
+    """The shipped radiation grid (kept: the runs of one process share it)."""
+    return RadiationGrid()
+
+
 class TrackerTables:
-    """The sky and the radiation grid, loaded once for a run's date (a parameter change never reads a file)."""
+    """The sky and the radiation grid of a run, loaded once (a parameter change never reads a file)."""
 
     def __init__(self, julian_date_tt: float):
-        self.sky = Sky(julian_date_tt)
+        step = SKY_DATE_STEP_DAYS
+        self.sky = shipped_sky(round(julian_date_tt / step) * step)
         self._radiation = None
 
     @property
     def radiation(self) -> RadiationGrid:
         """The radiation grid (read the first time a model needs it)."""
         if self._radiation is None:
-            self._radiation = RadiationGrid()
+            self._radiation = shipped_radiation()
         return self._radiation
 
 
