@@ -52,6 +52,9 @@ AGREEMENT = 0.02
 #: over ≈ 5,600 samples by ≈ 3·3′/5600 ≈ 0.002′, which is more than 2 % of a mean of 0.015′ (the flight
 #: environment of issue 22 gives Kondor's residual means of that size).
 MEAN_FLOOR_ARCMIN = 0.01
+#: The same for the flight-test procedure's offsets, which weigh every 1° bin alike: 0.06′ measured with the
+#: star tracker's once-an-orbit exclusion, 0.15′ allowed.
+GAPPY_MEAN_FLOOR_ARCMIN = 0.15
 
 #: Methodical error of Kondor, oblateness excluded: the flight analysis' limit ≈ 8′ (physics.md §5).
 METHODICAL_LIMIT_ARCMIN = 8.0
@@ -92,10 +95,12 @@ def test_round_trip_statistics_agree_with_the_live_ones(round_trip, round_trip_r
         assert recorded["mean_arcmin"] == pytest.approx(running["mean_arcmin"], rel=AGREEMENT, abs=MEAN_FLOOR_ARCMIN)
     # The flight-test procedure on the same residuals: its offsets K, T are the means of the u-binned
     # averages — with the orbit sampled evenly, the running means within the same 2 %.
+    # The star tracker's gaps (the Sun near the boresight once an orbit at this epoch, ≈ 15 % of it at one u)
+    # leave the orbit unevenly sampled: K and T, means of the bins, part from the running means by up to ≈ 0.1′.
     assert report["roll_offset_arcmin"] == pytest.approx(live["channels"]["roll"]["mean_arcmin"], rel=AGREEMENT,
-                                                         abs=MEAN_FLOOR_ARCMIN)
+                                                         abs=GAPPY_MEAN_FLOOR_ARCMIN)
     assert report["pitch_offset_arcmin"] == pytest.approx(live["channels"]["pitch"]["mean_arcmin"], rel=AGREEMENT,
-                                                          abs=MEAN_FLOOR_ARCMIN)
+                                                          abs=GAPPY_MEAN_FLOOR_ARCMIN)
     # Its σ is of the 1° bin averages (≈ 16 samples each), which average out what varies within 16 s
     # (≈ 110 km of a horizon point's track): below the per-sample σ, never above it. With the calibrated
     # mesoscale layer height (R_h = 50 km, issue 22) that is a good part of the scatter: measured 0.79.
@@ -131,10 +136,10 @@ def test_the_mcap_opens_with_the_other_library(round_trip):
         for topic in ("/pmv/attitude", "/pmv/attitude_uncorrected", "/pmv/horizon_crossings", "/orbit/odometry",
                       "/attitude/truth", "/clock"):
             assert counts[topic] == ticks, (topic, counts[topic])
-        # The star tracker at 2 Hz less its rare random failures (physics.md §6); a residual for nearly every
-        # sample; statistics at 1 Hz plus the final one.
-        assert 0.99 * 2 * ticks <= counts["/star_tracker/attitude"] <= 2 * ticks
-        assert counts["/pmv/residual"] == pytest.approx(ticks, rel=0.01)
+        # The star tracker a frame a second less the frames without attitude (physics.md §6: the Sun once an orbit
+        # at this epoch, star-poor fields, the SAA); statistics at 1 Hz plus the final one.
+        assert 0.6 * ticks <= counts["/star_tracker/attitude"] <= ticks
+        assert counts["/pmv/residual"] == pytest.approx(ticks, rel=0.3)
         assert counts["/pmv/error_statistics"] == pytest.approx(ticks, abs=2)
         decoded = {}
         for _, channel, message, ros_msg in reader.iter_decoded_messages():
