@@ -58,7 +58,7 @@ def main(argv=None) -> int:
     q = np.tile([[0.0], [0.0], [0.0], [1.0]], t.size)
     frames = tracker.measure(t, q, np.zeros((3, t.size)))
     # The geometry of each field: 1/r_rms of the catalogue stars sent to recognition (the K brightest at rest).
-    pointing = tracker.pointing(t, q, np.zeros((3, t.size)))
+    pointing = tracker.pointing(q, np.zeros((3, t.size)), tracker.orbit_environment(t))
     stars = tracker.sky.stars_in_fields(pointing.axes_eci, tracker.parameters.field_width_rad / 2.0,
                                         tracker.parameters.catalogue_stars)
     ratio = np.full(t.size, np.nan)

@@ -44,7 +44,7 @@ def main(argv=None) -> int:
         position, velocity = tracker.orbit.state_eci(t)
         sun_position, _ = tracker.sun_and_moon_eci_m(t)
         seen = sun_position - position
-        boresight = tracker.pointing(t, q, np.zeros((3, t.size))).axes_eci[:, 2, :]
+        boresight = tracker.pointing(q, np.zeros((3, t.size)), tracker.orbit_environment(t)).axes_eci[:, 2, :]
         sun_angle = np.degrees(np.arccos(np.sum(boresight * seen, axis=0) / np.linalg.norm(seen, axis=0)))
         # The Sun's exclusions (the Moon's are exclusions too, at other places).
         excluded = (frames.outcome == Outcome.EXCLUSION) & (sun_angle < values["exclusion.sun_deg"])

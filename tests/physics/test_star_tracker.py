@@ -131,8 +131,8 @@ def test_accuracy_comes_from_the_stars_in_the_field(sky):
     across = np.std(error[:2], axis=1)
     assert across == pytest.approx([sigma * math.sqrt(0.5 / n)] * 2, rel=0.12)
     # The stars used: the n brightest catalogue stars of the field.
-    stars = sky.stars_in_fields(tracker.pointing(np.zeros(1), q[:, :1], np.zeros((3, 1))).axes_eci,
-                                math.radians(7.81) / 2.0, 8350)
+    pointing = tracker.pointing(q[:, :1], np.zeros((3, 1)), tracker.orbit_environment(np.zeros(1)))
+    stars = sky.stars_in_fields(pointing.axes_eci, math.radians(7.81) / 2.0, 8350)
     order = np.argsort(stars.hp_mag, kind="stable")[:n]
     u, v = stars.u_rad[order], stars.v_rad[order]
     r_rms = math.sqrt(np.mean((u - u.mean()) ** 2 + (v - v.mean()) ** 2))

@@ -122,7 +122,8 @@ BODY_STEP_S = 60.0
 class TrackerParameters:
     """Configuration of the star tracker; SI and radians (physics.md §6 gives each default and its tag).
 
-    Timing: ``exposure_s`` (the time tag is its middle; the frame period is the grid's).
+    Timing: ``exposure_s`` (the time tag is its middle), ``frame_period_s`` (the frame grid's step: the orbit is
+    computed ahead on it for frames that come one at a time).
     Sky and detection: ``field_width_rad`` (square side), ``catalogue_stars`` (the on-board catalogue: the
     brightest of the sky), ``sky_stars`` (the stars the sky holds), ``detection_margin_mag`` (m_det0 = the
     catalogue's faintest Hp + this). Recognition: ``max_objects`` (K), ``rank_scatter_mag`` (σ_rank),
@@ -138,6 +139,7 @@ class TrackerParameters:
     """
 
     exposure_s: float = 0.75
+    frame_period_s: float = 1.0
     field_width_rad: float = math.radians(7.81)
     catalogue_stars: int = 8350
     sky_stars: int = 26547
@@ -170,6 +172,7 @@ class TrackerParameters:
                 raise ValueError(f"{name} = {value} is outside the allowed range {low} … {high}")
 
         check("exposure_s", 1e-3, 100.0)
+        check("frame_period_s", 1e-3, 1000.0)
         check("field_width_rad", math.radians(0.5), math.radians(40.0))
         check("catalogue_stars", 3, 26547)
         check("sky_stars", self.catalogue_stars, 26547)
@@ -284,6 +287,31 @@ class FrameMeasurement:
 
 
 @dataclass(frozen=True)
+class OrbitEnvironment:
+    """What frames see of the orbit alone, ``(…, N)`` per frame: the spacecraft position ``(3, N)`` m and the
+    orbital axes ``(3, 3, N)`` in ECI, the orbital frame's rate ``(N,)`` rad/s, the mean proton hits through the
+    side window and the lens ``(N,)``, and the Sun and the Moon ``(3, N)`` m (geocentric, ECI)."""
+
+    position_eci_m: np.ndarray
+    orbital_axes_eci: np.ndarray
+    frame_rate_rad_s: np.ndarray
+    side_hits_mean: np.ndarray
+    lens_hits_mean: np.ndarray
+    sun_eci_m: np.ndarray
+    moon_eci_m: np.ndarray
+
+    def columns(self, index) -> "OrbitEnvironment":
+        """The frames ``index`` (an array of column indices) of a block."""
+        return OrbitEnvironment(self.position_eci_m[:, index], self.orbital_axes_eci[:, :, index],
+                                self.frame_rate_rad_s[index], self.side_hits_mean[index], self.lens_hits_mean[index],
+                                self.sun_eci_m[:, index], self.moon_eci_m[:, index])
+
+
+#: Frames of orbit computed ahead at a time for frames that come one by one (a node's), on the frame grid.
+ORBIT_BLOCK_FRAMES = 64
+
+
+@dataclass(frozen=True)
 class Pointing:
     """Where frames look and how they move: the tracker axes in ECI ``(3, 3, N)`` (columns: the two
     focal-plane axes, the boresight), the spacecraft position ``(3, N)`` m ECI, and the inertial rate across
@@ -314,6 +342,7 @@ class StarTracker:
         self.draws = Draws(seed)
         self.tracker_axes = _frame_about(p.boresight_body)
         self._bodies = {}  # minute of the clock → (Sun, Moon) geocentric positions, m (a few kept)
+        self._ahead = {}  # frame time → (block of OrbitEnvironment, column): the orbit computed ahead
         if not p.ideal:
             self.sky = sky if sky is not None else Sky(float(clock_epoch.julian_date_tt(0.0)))
             need_grid = p.trapped != "off" or p.solar_event is not None
@@ -323,31 +352,61 @@ class StarTracker:
                 raise ValueError(f"sky_stars = {p.sky_stars} is more than the {len(self.sky)} stars of the sky table")
             self.catalogue_limit_mag = float(hp[p.catalogue_stars - 1])
             self.hip = self.sky.hip
+            self.sky.stars_in_fields(np.eye(3)[:, :, None], p.field_width_rad / 2.0)  # its index, now: not at a frame
 
     # -- the stages ------------------------------------------------------------------------------
 
-    def pointing(self, t_s: np.ndarray, q_true: np.ndarray, relative_rate_rad_s: np.ndarray) -> Pointing:
-        """Where the frames at ``t_s`` look (true attitude ``(4, N)``, body rate relative to the orbital frame
-        ``(3, N)`` in orbital components, rad/s)."""
+    def orbit_environment(self, t_s: np.ndarray) -> OrbitEnvironment:
+        """What the frames at ``t_s`` ``(N,)`` see of the orbit alone (:class:`OrbitEnvironment`)."""
         position, velocity = self.orbit.state_eci(t_s)
         position, velocity = np.reshape(position, (3, -1)), np.reshape(velocity, (3, -1))
         orbital = orbital_frame_from_state(position, velocity)  # (3, 3, N)
-        body = rotation_matrices(q_true)  # the body's axes in the orbital frame, (3, 3, N)
-        tracker_in_orbital = np.einsum("ijn,jk->ikn", body, self.tracker_axes)
-        axes = np.einsum("ijn,jkn->ikn", orbital, tracker_in_orbital)
         # The orbital frame turns about its Y at |r × v|/r² (the mean motion on a circular orbit).
         frame_rate = np.linalg.norm(np.cross(position, velocity, axis=0), axis=0) / np.sum(position ** 2, axis=0)
-        inertial = np.array(relative_rate_rad_s, float).reshape(3, -1).copy()
-        inertial[1] += frame_rate
-        in_tracker = np.einsum("jin,jn->in", tracker_in_orbital, inertial)
-        return Pointing(axes, position, np.hypot(in_tracker[0], in_tracker[1]), np.abs(in_tracker[2]))
+        side, lens = self.proton_hits_mean(t_s, position)
+        sun, moon = self.sun_and_moon_eci_m(t_s)
+        return OrbitEnvironment(position, orbital, frame_rate, side, lens, sun, moon)
 
-    def exclusion_and_stray_light(self, t_s: np.ndarray, pointing: Pointing):
+    def _environment(self, t_s: np.ndarray) -> OrbitEnvironment:
+        """:meth:`orbit_environment` at ``t_s``; frames that come one by one (a node's) take it from a block
+        computed ahead on the frame grid (the same arithmetic on the same times, so the same numbers: a frame time
+        off the block — a frame grid restarted or carried past several frames at once — computes a new block)."""
+        if t_s.size > 2:
+            return self.orbit_environment(t_s)
+        found = [self._ahead.get(t) for t in t_s.tolist()]
+        if any(item is None for item in found):
+            start, step = float(t_s[0]), self.parameters.frame_period_s
+            times = [start]
+            for _ in range(ORBIT_BLOCK_FRAMES - 1):
+                times.append(times[-1] + step)  # the grid's own steps: a frame's time is the last one's + period
+            block = self.orbit_environment(np.array(times))
+            self._ahead = {time: (block, k) for k, time in enumerate(times)}
+            found = [self._ahead.get(t) for t in t_s.tolist()]
+            if any(item is None for item in found):
+                return self.orbit_environment(t_s)
+        block = found[0][0]
+        if any(item[0] is not block for item in found):
+            return self.orbit_environment(t_s)
+        return block.columns(np.array([item[1] for item in found]))
+
+    def pointing(self, q_true: np.ndarray, relative_rate_rad_s: np.ndarray, environment: OrbitEnvironment) -> Pointing:
+        """Where the frames look (true attitude ``(4, N)``, body rate relative to the orbital frame ``(3, N)`` in
+        orbital components, rad/s) on the orbit of ``environment``."""
+        body = rotation_matrices(q_true)  # the body's axes in the orbital frame, (3, 3, N)
+        tracker_in_orbital = np.einsum("ijn,jk->ikn", body, self.tracker_axes)
+        axes = np.einsum("ijn,jkn->ikn", environment.orbital_axes_eci, tracker_in_orbital)
+        inertial = np.array(relative_rate_rad_s, float).reshape(3, -1).copy()
+        inertial[1] += environment.frame_rate_rad_s
+        in_tracker = np.einsum("jin,jn->in", tracker_in_orbital, inertial)
+        return Pointing(axes, environment.position_eci_m, np.hypot(in_tracker[0], in_tracker[1]),
+                        np.abs(in_tracker[2]))
+
+    def exclusion_and_stray_light(self, pointing: Pointing, environment: OrbitEnvironment):
         """(excluded ``(N,)`` bool, ΔM_background ``(N,)`` mag) from the Sun, the Moon and the Earth's limb."""
         p = self.parameters
         boresight, position = pointing.axes_eci[:, 2, :], pointing.position_eci_m
         radius = np.linalg.norm(position, axis=0)
-        sun, moon = self.sun_and_moon_eci_m(t_s)
+        sun, moon = environment.sun_eci_m, environment.moon_eci_m
 
         def angle_to(body):
             seen = body - position
@@ -357,8 +416,8 @@ class StarTracker:
             - np.arcsin(np.minimum(GRS80.a_m / radius, 1.0))
         separations = ((angle_to(sun), p.sun_exclusion_rad), (angle_to(moon), p.moon_exclusion_rad),
                        (limb, p.earth_limb_exclusion_rad))
-        excluded = np.zeros(t_s.shape, bool)
-        stray = np.zeros(t_s.shape)
+        excluded = np.zeros(radius.shape, bool)
+        stray = np.zeros(radius.shape)
         for angle, edge in separations:
             excluded |= angle < edge
             if edge > 0.0:
@@ -436,10 +495,11 @@ class StarTracker:
             return self._result(q_safe, np.zeros((3, n_frames)), failed, zeros, zeros, zeros)
         keys = frame_key(t)
         rate = np.nan_to_num(np.asarray(relative_rate_rad_s, float).reshape(3, n_frames))
-        pointing = self.pointing(t, q_safe, rate)
+        environment = self._environment(t)
+        pointing = self.pointing(q_safe, rate, environment)
         trail = trail_rate(pointing.cross_rate_rad_s, pointing.about_rate_rad_s)
         failed[Outcome.RATE_TOO_HIGH] = trail > p.max_rate_rad_s
-        excluded, background_mag = self.exclusion_and_stray_light(t, pointing)
+        excluded, background_mag = self.exclusion_and_stray_light(pointing, environment)
         failed[Outcome.EXCLUSION] = excluded
         smear_mag = smear_loss_mag(trail, p.exposure_s)
         detection_limit = self.catalogue_limit_mag + p.detection_margin_mag - smear_mag - background_mag
@@ -452,7 +512,7 @@ class StarTracker:
         hip = self.hip[star]
 
         # Proton hits: their count, their pixels in the buffer, and the brightest of them as objects.
-        side_mean, lens_mean = self.proton_hits_mean(t, pointing.position_eci_m)
+        side_mean, lens_mean = environment.side_hits_mean, environment.lens_hits_mean
         dice, side_u, lens_u, footprint_u = self.draws.uniform(_FRAME_STREAMS[None, :], keys[:, None]).T
         side_hits, lens_hits = poisson_quantile(side_mean, side_u), poisson_quantile(lens_mean, lens_u)
         hits = side_hits + lens_hits

@@ -142,9 +142,10 @@ class Sky:
         index = self._indexes.get(half_width_rad)
         if index is None:
             reach = math.atan(math.sqrt(2.0) * math.tan(half_width_rad)) + _CELL_RADIUS_RAD
-            found = cKDTree(self.direction_eci.T).query_ball_point(_cell_centres().T, 2.0 * math.sin(reach / 2.0))
+            found = cKDTree(self.direction_eci.T).query_ball_point(_cell_centres().T, 2.0 * math.sin(reach / 2.0),
+                                                                   return_sorted=True)
             counts = np.fromiter(map(len, found), np.int64, len(found))
-            stars = np.fromiter((i for hits in found for i in sorted(hits)), np.int32, int(counts.sum()))
+            stars = np.concatenate([np.asarray(hits, np.int32) for hits in found])
             index = self._indexes[half_width_rad] = (np.concatenate([[0], np.cumsum(counts)]), stars)
         return index
 

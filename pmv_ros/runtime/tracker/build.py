@@ -87,7 +87,7 @@ def tracker_parameters(values: dict, start_s: float, mean_motion_rad_s: float) -
         raise ValueError(f"sky_stars = {values['sky_stars']} is fewer than catalogue_stars = "
                          f"{values['catalogue_stars']}: the catalogue is the brightest of the sky")
     return TrackerParameters(
-        exposure_s=exposure_s(values, mean_motion_rad_s),
+        exposure_s=exposure_s(values, mean_motion_rad_s), frame_period_s=values["frame_period_s"],
         field_width_rad=math.radians(values["field_of_view_deg"]),
         catalogue_stars=values["catalogue_stars"], sky_stars=values["sky_stars"],
         detection_margin_mag=values["detection_margin_mag"],
