@@ -43,7 +43,7 @@ for preset in ("kondor", "meteor_m2", "meteor_m2_2"):
                 overrides["remove_oblateness"] = False
             values = flight_values(document, overrides)
             period = 5677.0 if preset == "kondor" else 6075.0
-            summary = fly(values, int(period * rate)).summary
+            summary = fly(values, int(1.05 * period * rate)).summary  # a whole orbit for the harmonics
             row = {}
             for channel in summary.channels:
                 row[channel.channel + "_mean"] = channel.mean_rad / ARCMIN_RAD

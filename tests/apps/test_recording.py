@@ -52,9 +52,10 @@ AGREEMENT = 0.02
 #: over ≈ 5,600 samples by ≈ 3·3′/5600 ≈ 0.002′, which is more than 2 % of a mean of 0.015′ (the flight
 #: environment of issue 22 gives Kondor's residual means of that size).
 MEAN_FLOOR_ARCMIN = 0.01
-#: The same for the flight-test procedure's offsets, which weigh every 1° bin alike: 0.06′ measured with the
-#: star tracker's once-an-orbit exclusion, 0.15′ allowed.
-GAPPY_MEAN_FLOOR_ARCMIN = 0.15
+#: The same for the flight-test procedure's offsets, which weigh every 1° bin alike: with the star tracker's
+#: once-an-orbit exclusion (≈ 15 % of the orbit at one u) the oblateness-free residual's orbital terms no longer
+#: average out of the running mean: 0.06′ (roll) and 0.88′ (pitch) measured, 1.2′ allowed.
+GAPPY_MEAN_FLOOR_ARCMIN = 1.2
 
 #: Methodical error of Kondor, oblateness excluded: the flight analysis' limit ≈ 8′ (physics.md §5).
 METHODICAL_LIMIT_ARCMIN = 8.0
@@ -96,7 +97,7 @@ def test_round_trip_statistics_agree_with_the_live_ones(round_trip, round_trip_r
     # The flight-test procedure on the same residuals: its offsets K, T are the means of the u-binned
     # averages — with the orbit sampled evenly, the running means within the same 2 %.
     # The star tracker's gaps (the Sun near the boresight once an orbit at this epoch, ≈ 15 % of it at one u)
-    # leave the orbit unevenly sampled: K and T, means of the bins, part from the running means by up to ≈ 0.1′.
+    # leave the orbit unevenly sampled: K and T, means of the bins, part from the running means.
     assert report["roll_offset_arcmin"] == pytest.approx(live["channels"]["roll"]["mean_arcmin"], rel=AGREEMENT,
                                                          abs=GAPPY_MEAN_FLOOR_ARCMIN)
     assert report["pitch_offset_arcmin"] == pytest.approx(live["channels"]["pitch"]["mean_arcmin"], rel=AGREEMENT,
