@@ -49,8 +49,8 @@ frames = sum(v for k, v in runtime.counters.items() if k.startswith("frames_"))
 began = time.perf_counter()
 batch = track_stream(TrackerRuntime(values, 0.0), t, q)
 batch_s = time.perf_counter() - began
-print(json.dumps({"messages": int(t.size), "frames": int(frames), "node_s": node_s, "batch_frames": int(batch.frame_s.size),
-                  "batch_s": batch_s}))
+print(json.dumps({"messages": int(t.size), "frames": int(frames), "node_s": node_s,
+                  "batch_frames": int(batch.frame_s.size), "batch_s": batch_s}))
 """
 
 

@@ -1,4 +1,6 @@
-"""The tracker's accuracy over an orbit: across and about the boresight, and how long its error holds (physics.md §6 item 5).
+"""The tracker's accuracy over an orbit: across and about the boresight, and how long its error holds.
+
+physics.md §6 item 5.
 
     python design/star_tracker_accuracy.py [--preset config/kondor.yaml] [--orbits 1]
 
@@ -74,7 +76,8 @@ def main(argv=None) -> int:
     across = error[:2]
     print(f"{args.preset}: {t.size} frames over {args.orbits:g} orbit(s), {ok.mean() * 100:.1f} % with attitude")
     print(f"  field geometry: about/across ratio 1/r_rms median {np.nanmedian(ratio):.1f} "
-          f"(5–95 %: {np.nanpercentile(ratio, 5):.1f}–{np.nanpercentile(ratio, 95):.1f})")
+          f"(5–95 %: {np.nanpercentile(ratio, 5):.1f}–"
+          f"{np.nanpercentile(ratio, 95):.1f})")
     print(f"  error across the boresight: RMS {np.sqrt(np.nanmean(across ** 2)):.2f}″ per axis, median |.| "
           f"{np.nanmedian(np.abs(across)) / 0.6745:.2f}″ (as a σ); about it: RMS {np.sqrt(np.nanmean(error[2] ** 2)):.1f}″, "
           f"median-based σ {np.nanmedian(np.abs(error[2])) / 0.6745:.1f}″; RMS ratio about/across "

@@ -1,4 +1,4 @@
-"""Solar protons: a GEO unit through the November 2000 event, and how much of a day low orbits give them access (physics.md §6 item 7).
+"""Solar protons: a GEO unit through November 2000, and the share of a day low orbits give them (§6 item 7).
 
     python design/star_tracker_flare.py [--spectral-index 2.0]
 

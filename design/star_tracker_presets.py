@@ -56,7 +56,7 @@ for preset in ("kondor", "meteor_m2", "meteor_m2_2"):
                     row["roll_k1"] = h[1] / ARCMIN_RAD
             row["used"] = summary.counters["used"]
             name = preset + (" (oblateness kept)" if kept else "")
-            out.setdefault(name, []).append({k: v for k, v in row.items() if kept or not k.startswith(("pitch_k", "roll_k"))})
+            out.setdefault(name, []).append(row)
 print(json.dumps(out))
 """
 
@@ -87,7 +87,8 @@ def main(argv=None) -> int:
             b = np.array([row[key] for row in mine[name]])
             spread = float(np.std(a, ddof=1))
             move = abs(b.mean() - a.mean())
-            print(f"  {key:18s} baseline {a.mean():9.3f} ± {spread:.3f}   this {b.mean():9.3f} ± {np.std(b, ddof=1):.3f}"
+            print(f"  {key:18s} baseline {a.mean():9.3f} ± {spread:.3f}   "
+                  f"this {b.mean():9.3f} ± {np.std(b, ddof=1):.3f}"
                   f"   moved {move:.3f} = {move / spread if spread else float('inf'):.2f} spread")
     return 0
 

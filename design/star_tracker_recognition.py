@@ -1,4 +1,4 @@
-"""Recognition on the real sky: the thesis's stand experiment, and failures that come back at the same sky places (physics.md §6 item 4).
+"""Recognition on the real sky: the stand experiment, and failures that come back at the same places (§6 item 4).
 
     python design/star_tracker_recognition.py [--pointings 6000] [--orbits 10] [--preset config/kondor.yaml]
 

@@ -1,4 +1,4 @@
-"""One day of trapped-proton hits along the presets' orbits: where, how many, and whether the buffer overflows (physics.md §6 item 6).
+"""A day of trapped-proton hits along the presets' orbits: where, how many, when the buffer overflows (§6 item 6).
 
     python design/star_tracker_saa.py [--exposure-s 2.0] [--map saa.png]
 
@@ -16,7 +16,6 @@ hits). ``--map FILE``: the frames with ≥ 5 hits on a longitude/latitude map.
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from pathlib import Path
 
@@ -42,7 +41,8 @@ def fly_day(preset: str, exposure_s: float | None, seconds: float = 86400.0):
     q = np.tile([[0.0], [0.0], [0.0], [1.0]], t.size)
     frames = tracker.measure(t, q, np.zeros((3, t.size)))
     position, _ = tracker.orbit.state_eci(t)
-    latitude, longitude, height = geodetic_from_ecef(_eci_to_ecef(position, tracker.clock_epoch.earth_rotation_angle(t)))
+    ecef = _eci_to_ecef(position, tracker.clock_epoch.earth_rotation_angle(t))
+    latitude, longitude, height = geodetic_from_ecef(ecef)
     flux45, _, _ = tracker.radiation.environment(latitude, longitude, height, "max")
     return values, tracker, t, frames, np.degrees(latitude), np.degrees(longitude), flux45
 
@@ -78,11 +78,14 @@ def main(argv=None) -> int:
         print(f"  most hits in a frame {frames.hits.max()}; frames with ≥ 5 hits where AP8 J(>45 MeV) is zero: "
               f"{int(np.sum(hot & (flux45 <= 0.0)))}; where J(>45 MeV) < 1 cm-2 s-1: {int(np.sum(hot & (flux45 < 1.0)))}")
         runs = passes(t, hot)
-        print(f"  {len(runs)} passes with ≥ 5 hits (runs joined across gaps < 2 min), longest {max((b - a for a, b in runs), default=0) * values['frame_period_s'] / 60:.1f} min:")
+        minutes = values["frame_period_s"] / 60.0
+        longest = max((b - a for a, b in runs), default=0) * minutes
+        print(f"  {len(runs)} passes with ≥ 5 hits (runs joined across gaps < 2 min), longest {longest:.1f} min:")
         for a, b in runs:
             peak = a + int(np.argmax(frames.hits[a:b]))
-            print(f"    t {t[a] / 3600:6.2f} h, {(b - a) * values['frame_period_s'] / 60:4.1f} min, lat {lat[a:b].min():6.1f}…{lat[a:b].max():6.1f}°, "
-                  f"lon {lon[a:b].min():7.1f}…{lon[a:b].max():7.1f}°, most hits {frames.hits[peak]} at ({lat[peak]:.1f}°, {lon[peak]:.1f}°), "
+            print(f"    t {t[a] / 3600:6.2f} h, {(b - a) * minutes:4.1f} min, "
+                  f"lat {lat[a:b].min():6.1f}…{lat[a:b].max():6.1f}°, lon {lon[a:b].min():7.1f}…{lon[a:b].max():7.1f}°, "
+                  f"most hits {frames.hits[peak]} at ({lat[peak]:.1f}°, {lon[peak]:.1f}°), "
                   f"overflow {int(overflow[a:b].sum())} frames")
         drawn.append((preset, lat, lon, hot))
     if args.map:

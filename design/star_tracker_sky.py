@@ -53,7 +53,8 @@ def main(argv=None) -> int:
     mean = counts.mean()
     print(f"{args.pointings} random pointings of a {math.degrees(FIELD_RAD):.2f}° square, the {CATALOGUE}-star "
           f"catalogue: mean {mean:.2f} stars, median {np.median(counts):.0f}, min {counts.min()}; fewer than 3 in "
-          f"{100 * np.mean(counts < 3):.2f} % (binomial 1σ ±{100 * math.sqrt(np.mean(counts < 3) / args.pointings):.2f} %), "
+          f"{100 * np.mean(counts < 3):.2f} % "
+          f"(binomial 1σ ±{100 * math.sqrt(np.mean(counts < 3) / args.pointings):.2f} %), "
           f"3–4 in {100 * np.mean((counts >= 3) & (counts <= 4)):.1f} %, > 8 in {100 * np.mean(counts > 8):.1f} %; "
           f"a uniform Poisson sky of the same mean: {100 * poisson.cdf(2, mean):.3f} %")
     limit0 = sky.hp_mag[CATALOGUE - 1] + 1.0
@@ -67,7 +68,8 @@ def main(argv=None) -> int:
             n = np.bincount(stars.field[registered], minlength=args.pointings)
             used = np.minimum(n, 10)  # no false objects: the K = 10 brightest are catalogue stars or brighter
             expected_failure = np.where(used < 3, 1.0, recognition_failure(used, 0, 0.3, 1.5, 0.01))
-            row.append(f"{rate:.0f}″/s: < 3 stars {100 * np.mean(n < 3):.1f} %, no attitude {100 * expected_failure.mean():.1f} %")
+            row.append(f"{rate:.0f}″/s: < 3 stars {100 * np.mean(n < 3):.1f} %, "
+                       f"no attitude {100 * expected_failure.mean():.1f} %")
         print(f"exposure {label}: " + "; ".join(row))
     return 0
 

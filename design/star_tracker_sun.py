@@ -1,4 +1,4 @@
-"""The Sun in the field: with a zenith boresight it comes once an orbit while the orbit's β angle is below 30° (physics.md §6 item 8).
+"""The Sun in the field: once an orbit while the orbit's β angle is below 30° (physics.md §6 item 8).
 
     python design/star_tracker_sun.py [--preset config/kondor.yaml] [--days 0,30,…]
 

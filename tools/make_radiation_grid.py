@@ -125,7 +125,8 @@ def main(argv=None) -> int:
     provenance, columns = grid_columns()
     data = write_table(args.out, provenance, columns)
     print(f"{args.out}: {columns['max_inverse_l'].shape} field grid, {columns['ap8max_45mev'].shape} flux tables, "
-          f"AP8MAX J(>45 MeV) up to {10 ** (columns['ap8max_45mev'].max() / LOG_FLUX_SCALE) - 1:.0f} cm-2 s-1, {len(data)} bytes")
+          f"AP8MAX J(>45 MeV) up to {10 ** (columns['ap8max_45mev'].max() / LOG_FLUX_SCALE) - 1:.0f} cm-2 s-1, "
+          f"{len(data)} bytes")
     return 0
 
 

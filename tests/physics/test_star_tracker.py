@@ -13,7 +13,7 @@ from pmv_ros.physics.orbit.ephemeris import Epoch
 from pmv_ros.physics.orbit.two_body import CircularOrbit
 from pmv_ros.physics.star_tracker import (REASON_ORDER, Outcome, RadiationGrid, Sky, StarTracker, TrackerParameters,
                                           optimal_exposure_s, smear_loss_mag, trail_rate)
-from pmv_ros.physics.star_tracker.draws import Draws, frame_key
+from pmv_ros.physics.star_tracker.draws import Draws
 from pmv_ros.physics.star_tracker.model import (CCD_AREA_CM2, hit_footprint_moments, recognition_failure,
                                                 rotation_matrices)
 from pmv_ros.physics.star_tracker.sky import precession_matrix

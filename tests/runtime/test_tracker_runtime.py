@@ -100,9 +100,9 @@ def test_a_refused_reconfiguration_leaves_the_tracker_as_it_was():
 
 def test_truth_cut_into_wake_up_batches_publishes_what_one_message_at_a_time_does():
     """add_inputs (the node's messages of one executor wake-up, handed over at once) against receive_truth one
-    message at a time, on a hostile stream with recognition failures made frequent: bad frames, unreadable stamps, NaN and
-    near-unit quaternions, a duplicate, an outlier stamp, and a confirmed clock jump back. The same frames (bit for
-    bit: the same draws), the same statuses in the same places, the same counters, whatever the cuts."""
+    message at a time, on a hostile stream with recognition failures made frequent: bad frames, unreadable stamps,
+    NaN and near-unit quaternions, a duplicate, an outlier stamp, and a confirmed clock jump back. The same frames
+    (bit for bit: the same draws), the same statuses in the same places, the same counters, whatever the cuts."""
     from pmv_ros.runtime.common.records import HealthAt
     from pmv_ros.runtime.tracker.runtime import ReleasedFrame
 

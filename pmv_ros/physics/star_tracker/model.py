@@ -206,7 +206,7 @@ def optimal_exposure_s(rate_rad_s: float) -> float:
 
 
 def smear_loss_mag(trail_rate_rad_s, exposure_s: float):
-    """ΔM_rate = 2.5·lg(max(1, ω·t_exp/(d·ρ/f))): what the trail costs the detection limit, mag (physics.md §6 item 3)."""
+    """ΔM_rate = 2.5·lg(max(1, ω·t_exp/(d·ρ/f))): what the trail costs the detection limit, mag (§6 item 3)."""
     return 2.5 * np.log10(np.maximum(1.0, np.asarray(trail_rate_rad_s, float) * exposure_s / SPOT_RAD))
 
 
@@ -222,7 +222,8 @@ def geometry_failure(catalogue_stars, p3: float, scale: float):
 
 def recognition_failure(catalogue_stars, other_objects, p3: float, scale: float, p_conf: float):
     """p = 1 − (1 − p_geom(n))·(1 − p_conf)^(others among the K)."""
-    return 1.0 - (1.0 - geometry_failure(catalogue_stars, p3, scale)) * (1.0 - p_conf) ** np.asarray(other_objects, float)
+    geometry = geometry_failure(catalogue_stars, p3, scale)
+    return 1.0 - (1.0 - geometry) * (1.0 - p_conf) ** np.asarray(other_objects, float)
 
 
 @lru_cache(maxsize=1)

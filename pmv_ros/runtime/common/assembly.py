@@ -11,7 +11,7 @@ import math
 from dataclasses import replace
 
 from ...physics.attitude_profile import AttitudeProfile
-from ...physics.constants import ARCMIN_RAD, ARCSEC_RAD, EARTH_ROTATION_RATE_RAD_S, GRS80, SECONDS_PER_DAY, SPHERE
+from ...physics.constants import ARCMIN_RAD, EARTH_ROTATION_RATE_RAD_S, GRS80, SECONDS_PER_DAY, SPHERE
 from ...physics.instrument.correction import load_correction
 from ...physics.environment import CLIMATOLOGY_SAMPLINGS, YEAR_DAYS, EnvironmentParameters
 from ...physics.orbit.ephemeris import Epoch, raan_from_local_time_of_node

@@ -143,7 +143,8 @@ class TrackerTables:
         return self._radiation
 
 
-def build_tracker(values: dict, start_s: float, tables: TrackerTables | None = None) -> tuple[StarTracker, TrackerTables]:
+def build_tracker(values: dict, start_s: float,
+                  tables: TrackerTables | None = None) -> tuple[StarTracker, TrackerTables | None]:
     """The star tracker from parameter values, and the tables it uses; ValueError in one line if not.
 
     ``start_s``: the node clock at start, s; ``tables``: already loaded (None: load them, unless ideal).

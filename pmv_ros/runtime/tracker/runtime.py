@@ -344,12 +344,11 @@ def reason_at(frames: TrackerFrames, t_s) -> np.ndarray:
     """The outcome code of the frame nearest to each of the stamps ``t_s`` ``(N,)`` (int8 ``(N,)``; OK where no
     frame is within one frame period): why a sample at ``t_s`` had, or had not, truth around it."""
     t = np.atleast_1d(np.asarray(t_s, float))
-    if not frames.frame_s.size:
+    frame_s = frames.frame_s
+    if not frame_s.size:
         return np.zeros(t.shape, np.int8)
-    index = np.clip(np.searchsorted(frames.frame_s, t), 1, max(frames.frame_s.size - 1, 1))
-    before = np.maximum(index - 1, 0)
-    nearest = np.where(np.abs(frames.frame_s[before] - t) <= np.abs(frames.frame_s[np.minimum(index, frames.frame_s.size - 1)] - t),
-                       before, np.minimum(index, frames.frame_s.size - 1))
-    period = np.median(np.diff(frames.frame_s)) if frames.frame_s.size > 1 else np.inf
-    close = np.abs(frames.frame_s[nearest] - t) <= period
-    return np.where(close, frames.outcome[nearest], 0).astype(np.int8)
+    after = np.minimum(np.searchsorted(frame_s, t), frame_s.size - 1)
+    before = np.maximum(after - 1, 0)
+    nearest = np.where(np.abs(frame_s[before] - t) <= np.abs(frame_s[after] - t), before, after)
+    period = np.median(np.diff(frame_s)) if frame_s.size > 1 else np.inf
+    return np.where(np.abs(frame_s[nearest] - t) <= period, frames.outcome[nearest], 0).astype(np.int8)
