@@ -121,3 +121,15 @@ def test_frame_times_are_numpys_arange_value_for_value():
             start = np.ceil(rng.uniform(0.0, 1e5) / period) * period
             stop = start + rng.uniform(-1e-12, 4.5) * period * rng.choice([1.0, 1e-13]) + 1e-12
             assert _grid_times(start, stop, period) == np.arange(start, stop, period).tolist()
+
+
+def test_a_sample_without_truth_finds_the_reason_of_the_frame_nearest_to_it():
+    """The record a consumer counts its lost samples by: the reason of the nearest frame (OK beyond a period)."""
+    from pmv_ros.runtime.tracker.runtime import TrackerFrames, reason_at
+
+    frames = TrackerFrames(np.array([10.0, 11.0, 12.0, 13.0]), np.full((4, 4), np.nan),
+                           np.array([0, 3, 5, 0], np.int8), np.full(4, -1), np.zeros(4, np.int64),
+                           np.array([0, 0, 170, 0]))
+    got = reason_at(frames, [9.0, 10.9, 11.6, 12.4, 15.5])
+    assert [Outcome(int(o)) for o in got] == [Outcome.OK, Outcome.NO_STARS, Outcome.BUFFER_OVERFLOW,
+                                              Outcome.BUFFER_OVERFLOW, Outcome.OK]
