@@ -28,8 +28,8 @@ def _tool(name: str):
     ("make_radiation_grid", "aep8", RADIATION_FILE),
 ])
 def test_the_shipped_table_is_what_its_tool_makes(tool, package, file_name, tmp_path):
-    """Regenerates the table with the tool (when its package is installed: a development tool, in
-    requirements-dev) and compares it with the shipped file, byte for byte."""
+    """Regenerates the table with the tool (when its package is installed: a development tool,
+    requirements-tools.txt) and compares it with the shipped file, byte for byte."""
     pytest.importorskip(package, reason=f"{package} is not installed: {file_name} not regenerated")
     made = tmp_path / file_name
     assert _tool(tool).main(["--out", str(made)]) == 0
