@@ -406,24 +406,17 @@ class StarTracker:
         """(excluded ``(N,)`` bool, ΔM_background ``(N,)`` mag) from the Sun, the Moon and the Earth's limb."""
         p = self.parameters
         boresight, position = pointing.axes_eci[:, 2, :], pointing.position_eci_m
-        radius = np.linalg.norm(position, axis=0)
-        sun, moon = environment.sun_eci_m, environment.moon_eci_m
-
-        def angle_to(body):
-            seen = body - position
-            return np.arccos(np.clip(np.sum(boresight * seen, axis=0) / np.linalg.norm(seen, axis=0), -1.0, 1.0))
-
-        limb = np.arccos(np.clip(-np.sum(boresight * position, axis=0) / radius, -1.0, 1.0)) \
-            - np.arcsin(np.minimum(GRS80.a_m / radius, 1.0))
-        separations = ((angle_to(sun), p.sun_exclusion_rad), (angle_to(moon), p.moon_exclusion_rad),
-                       (limb, p.earth_limb_exclusion_rad))
-        excluded = np.zeros(radius.shape, bool)
-        stray = np.zeros(radius.shape)
-        for angle, edge in separations:
-            excluded |= angle < edge
-            if edge > 0.0:
-                near = (angle >= edge) & (angle < 2.0 * edge)
-                stray += np.where(near, (edge / np.maximum(angle, edge)) ** 3 - 0.125, 0.0) / 0.875
+        # The directions to the Sun, the Moon and the Earth's centre, ``(3 bodies, 3, N)``, and their angles from
+        # the boresight; the Earth's limb is its centre's angle less the Earth's angular radius.
+        seen = np.stack([environment.sun_eci_m - position, environment.moon_eci_m - position, -position])
+        distance = np.linalg.norm(seen, axis=1)
+        angle = np.arccos(np.clip(np.einsum("bin,in->bn", seen, boresight) / distance, -1.0, 1.0))
+        angle[2] -= np.arcsin(np.minimum(GRS80.a_m / distance[2], 1.0))
+        edge = np.array([[p.sun_exclusion_rad], [p.moon_exclusion_rad], [p.earth_limb_exclusion_rad]])
+        excluded = np.any(angle < edge, axis=0)
+        # Stray light: (edge/θ)³ falling to nothing at twice the edge (scaled to 1 at the edge).
+        near = (angle >= edge) & (angle < 2.0 * edge) & (edge > 0.0)
+        stray = np.sum(np.where(near, (edge / np.maximum(angle, edge)) ** 3 - 0.125, 0.0), axis=0) / 0.875
         return excluded, 2.5 * np.log10(1.0 + p.stray_light_at_edge * stray)
 
     def sun_and_moon_eci_m(self, t_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -495,7 +488,8 @@ class StarTracker:
         if p.ideal:
             return self._result(q_safe, np.zeros((3, n_frames)), failed, zeros, zeros, zeros)
         keys = frame_key(t)
-        rate = np.nan_to_num(np.asarray(relative_rate_rad_s, float).reshape(3, n_frames))
+        rate = np.asarray(relative_rate_rad_s, float).reshape(3, n_frames)
+        rate = np.where(np.isfinite(rate), rate, 0.0)
         environment = self._environment(t)
         pointing = self.pointing(q_safe, rate, environment)
         trail = trail_rate(pointing.cross_rate_rad_s, pointing.about_rate_rad_s)
