@@ -110,7 +110,7 @@ def test_the_in_process_pipelines_nodes_give_the_executor_no_service_to_wait_on(
             plain.destroy_node()
 
 
-def _collected(one_at_a_time: bool, ticks: int = 60) -> tuple[np.ndarray, int]:
+def _collected(one_at_a_time: bool, ticks: int = 80) -> tuple[np.ndarray, int]:
     """The collector's residuals after ``ticks`` of the preset, and the executor waits it took."""
     with Pipeline("config/kondor.yaml") as pipeline:
         pipeline.by_takes = False  # rclpy's waits (the drain by takes: the tests after the next)
@@ -125,10 +125,10 @@ def _collected(one_at_a_time: bool, ticks: int = 60) -> tuple[np.ndarray, int]:
 
 
 def test_the_report_collector_takes_a_frames_residuals_in_one_wake_up():
-    # A star-tracker frame settles 5 samples: 5 residuals on one topic, which rclpy takes one per executor wait
-    # (≈ 65 µs each). The collector takes the queued ones in the same wake-up: the same residuals, in the same
-    # order, bit for bit, and 4 waits fewer per frame of 5 (10 of them in these 6 s: 150 against 190 waits here);
-    # asserted as 3 per frame, with room to spare.
+    # A star-tracker frame (one a second) settles 10 samples: 10 residuals on one topic, which rclpy takes one
+    # per executor wait (≈ 65 µs each). The collector takes the queued ones in the same wake-up: the same
+    # residuals, in the same order, bit for bit, and 9 waits fewer per frame of 10; asserted as 3 per 5 samples,
+    # with room to spare.
     one_by_one, waits_one_by_one = _collected(one_at_a_time=True)
     queued, waits_queued = _collected(one_at_a_time=False)
     assert one_by_one.shape[1] >= 50
