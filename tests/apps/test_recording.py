@@ -109,8 +109,10 @@ def test_round_trip_statistics_agree_with_the_live_ones(round_trip, round_trip_r
         ratio = report["channels"][channel]["sigma_arcmin"] / live["channels"][channel]["sigma_arcmin"]
         assert 0.6 < ratio <= 1.0, ratio
     # 1° bins over one orbit; the Sun in a chord can blank one angle or the other for tens of seconds of
-    # the orbit (≈ 40 s on 15 Jan 2024; none on kondor.yaml's 10 Sep 2013), so one or two bins may be empty.
-    assert report["orbits"] == 1 and 355 <= report["orbital_angles"] <= 360
+    # the orbit (≈ 40 s on 15 Jan 2024; none on kondor.yaml's 10 Sep 2013), and the star tracker gives no truth
+    # for ≈ 16 % of it (the Sun near its boresight once an orbit at this epoch) and in star-poor fields:
+    # 289 of 360 bins measured.
+    assert report["orbits"] == 1 and 250 <= report["orbital_angles"] <= 360
 
 
 def test_the_mcap_opens_with_the_other_library(round_trip):
