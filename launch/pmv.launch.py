@@ -181,6 +181,8 @@ def _nodes(context):
         chosen["sensor_node"]["sensor.rate_hz"] = rate_hz
     if seed is not None:
         chosen["sensor_node"]["seed"] = chosen["star_tracker_node"]["seed"] = seed
+    if fast_time:  # the star tracker flies the sensor's orbit and sky on the same simulation clock
+        chosen["star_tracker_node"]["sim.fast_time"] = True
     if any(chosen.values()):
         files.append(_node_sections(chosen, namespace, made))
     managed, autostart = _flag(context, "managed"), _flag(context, "autostart")

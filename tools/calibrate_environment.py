@@ -414,7 +414,7 @@ def shipped_state() -> tuple[dict, float, dict]:
         document = yaml.safe_load((CONFIG_DIR / f"{preset}.yaml").read_text())
         section = document["sensor_node"]["ros__parameters"]
         environments.append({k: section["environment"].get(k) for k in ENVIRONMENT_KEYS})
-        epochs[preset] = section["sim"]["epoch_utc"]
+        epochs[preset] = parameters.preset_values(document, "sensor_node", SENSOR_PARAMS)["sim.epoch_utc"]
     scale = float(table_comment_value((DATA_DIR / METEOR_M2_2_TABLE).read_text(), "scale"))
     return environments, scale, epochs
 

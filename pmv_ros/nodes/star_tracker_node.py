@@ -1,15 +1,19 @@
 """``star_tracker_node``: true attitude → star-tracker measurements (physics.md §6).
 
 Subscribes to ``/attitude/truth`` and publishes ``/star_tracker/attitude``:
-frames on a regular grid of its own rate (the true attitude slerped to each
-frame time), measured by :class:`pmv_ros.physics.star_tracker.StarTracker`
-(noise, 300″/s rate limit, outage windows, random failures), stamped with
-the frame time and released ``latency_s`` later. Nothing is published for a
-frame without attitude; ``/diagnostics`` says why.
+frames on a regular grid (``frame_period_s``; the true attitude slerped to
+each frame time, the middle of the exposure), measured by
+:class:`pmv_ros.physics.star_tracker.StarTracker` on the real sky of the
+orbit the preset flies (smear, recognition, accuracy from the stars in the
+field, proton hits, Sun/Moon/Earth exclusion, outage windows), stamped with
+the frame time and published ``exposure_s/2 + processing_s`` later. Nothing
+is published for a frame without attitude; ``/diagnostics`` says why
+(``frames_<reason>`` counters, the last frame's ``stars_in_field`` and
+``proton_hits``).
 
 Frames are driven by the truth stream, so the node runs the same on the wall
 clock and on a fast-time ``/clock``. QoS: reliable, keep-last 100; the
-release queue holds at most ``latency_s × rate_hz`` frames.
+release queue holds at most (``exposure_s/2 + processing_s``) / ``frame_period_s`` + 1 frames.
 
 The node only wires (:data:`TOPICS`). It queues the truth messages of one executor wake-up and hands them to its
 runtime (:class:`pmv_ros.runtime.tracker.runtime.TrackerRuntime`) as one batch when its wake-up guard is handled,
@@ -65,8 +69,9 @@ class StarTrackerNode(PmvNode):
         self.wire(TOPICS, self._values["input.source_timeout_s"])
         # Stale input: no truth for a while is reported even though no truth callback runs.
         self.make_timer(1.0, self._on_timer)
-        self.get_logger().info(f"{self.get_fully_qualified_name()}: ready, {self._values['rate_hz']:g} Hz frames, "
-                               f"latency {self._values['latency_s']:g} s, {self.clock_name()}")
+        self.get_logger().info(f"{self.get_fully_qualified_name()}: ready, a frame every "
+                               f"{self._values['frame_period_s']:g} s, published {self.runtime.delay_s:g} s "
+                               f"after its time, {self.clock_name()}")
 
     def _rebuild(self, values: dict) -> None:
         self.flush_inputs()  # what arrived before the change goes through the configuration it arrived under
@@ -83,7 +88,7 @@ class StarTrackerNode(PmvNode):
 
     @property
     def release_queue_length(self) -> int:
-        """Measured frames waiting for their release (at most latency × rate)."""
+        """Measured frames waiting for their publication (at most the delay × the frame rate, plus one)."""
         self.flush_inputs()
         return len(self._runtime.queue)
 

@@ -83,11 +83,12 @@ def _rewrite(path: Path, change) -> None:
 
 
 def _set_values(value: float, rows: slice):
+    """Set ``rows`` of the samples the monitor used (finite roll: the star tracker's gaps leave others NaN)."""
     import pyarrow as pa
 
     def change(table):
         roll = table.column("roll_rad").to_numpy().copy()
-        roll[rows] = value
+        roll[np.flatnonzero(np.isfinite(roll))[rows]] = value
         return table.set_column(table.column_names.index("roll_rad"), "roll_rad", pa.array(roll))
 
     return change

@@ -38,8 +38,8 @@ def campaign_rms_arcmin(preset: str, days) -> dict:
     """Roll and pitch RMS (arcmin) of the sensor error, oblateness kept, over one orbit per day at 1 Hz."""
     document = yaml.safe_load((CONFIG / f"{preset}.yaml").read_text())
     document["error_monitor_node"]["ros__parameters"]["remove_oblateness"] = False  # the error as sensed
-    sensor = document["sensor_node"]["ros__parameters"]
-    epoch_utc, from_elements = document["sensor_node"]["ros__parameters"]["sim"]["epoch_utc"], False
+    sensor = document["/**"]["ros__parameters"]  # the orbit and the epoch: shared with the star tracker
+    epoch_utc, from_elements = sensor["sim"]["epoch_utc"], False
     if sensor.get("orbit", {}).get("source") == "tle":  # days from the element set's epoch, as the campaign counts
         epoch_utc = parse_element_set(sensor["orbit"]["tle_line1"], sensor["orbit"]["tle_line2"]).epoch_utc.isoformat()
         from_elements = True

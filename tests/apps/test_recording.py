@@ -52,6 +52,10 @@ AGREEMENT = 0.02
 #: over ≈ 5,600 samples by ≈ 3·3′/5600 ≈ 0.002′, which is more than 2 % of a mean of 0.015′ (the flight
 #: environment of issue 22 gives Kondor's residual means of that size).
 MEAN_FLOOR_ARCMIN = 0.01
+#: The same for the flight-test procedure's offsets, which weigh every 1° bin alike: with the star tracker's
+#: once-an-orbit exclusion (≈ 15 % of the orbit at one u) the oblateness-free residual's orbital terms no longer
+#: average out of the running mean: 0.06′ (roll) and 0.88′ (pitch) measured, 1.2′ allowed.
+GAPPY_MEAN_FLOOR_ARCMIN = 1.2
 
 #: Methodical error of Kondor, oblateness excluded: the flight analysis' limit ≈ 8′ (physics.md §5).
 METHODICAL_LIMIT_ARCMIN = 8.0
@@ -92,10 +96,12 @@ def test_round_trip_statistics_agree_with_the_live_ones(round_trip, round_trip_r
         assert recorded["mean_arcmin"] == pytest.approx(running["mean_arcmin"], rel=AGREEMENT, abs=MEAN_FLOOR_ARCMIN)
     # The flight-test procedure on the same residuals: its offsets K, T are the means of the u-binned
     # averages — with the orbit sampled evenly, the running means within the same 2 %.
+    # The star tracker's gaps (the Sun near the boresight once an orbit at this epoch, ≈ 15 % of it at one u)
+    # leave the orbit unevenly sampled: K and T, means of the bins, part from the running means.
     assert report["roll_offset_arcmin"] == pytest.approx(live["channels"]["roll"]["mean_arcmin"], rel=AGREEMENT,
-                                                         abs=MEAN_FLOOR_ARCMIN)
+                                                         abs=GAPPY_MEAN_FLOOR_ARCMIN)
     assert report["pitch_offset_arcmin"] == pytest.approx(live["channels"]["pitch"]["mean_arcmin"], rel=AGREEMENT,
-                                                          abs=MEAN_FLOOR_ARCMIN)
+                                                          abs=GAPPY_MEAN_FLOOR_ARCMIN)
     # Its σ is of the 1° bin averages (≈ 16 samples each), which average out what varies within 16 s
     # (≈ 110 km of a horizon point's track): below the per-sample σ, never above it. With the calibrated
     # mesoscale layer height (R_h = 50 km, issue 22) that is a good part of the scatter: measured 0.79.
@@ -103,8 +109,10 @@ def test_round_trip_statistics_agree_with_the_live_ones(round_trip, round_trip_r
         ratio = report["channels"][channel]["sigma_arcmin"] / live["channels"][channel]["sigma_arcmin"]
         assert 0.6 < ratio <= 1.0, ratio
     # 1° bins over one orbit; the Sun in a chord can blank one angle or the other for tens of seconds of
-    # the orbit (≈ 40 s on 15 Jan 2024; none on kondor.yaml's 10 Sep 2013), so one or two bins may be empty.
-    assert report["orbits"] == 1 and 355 <= report["orbital_angles"] <= 360
+    # the orbit (≈ 40 s on 15 Jan 2024; none on kondor.yaml's 10 Sep 2013), and the star tracker gives no truth
+    # for ≈ 16 % of it (the Sun near its boresight once an orbit at this epoch) and in star-poor fields:
+    # 289 of 360 bins measured.
+    assert report["orbits"] == 1 and 250 <= report["orbital_angles"] <= 360
 
 
 def test_the_mcap_opens_with_the_other_library(round_trip):
@@ -131,10 +139,10 @@ def test_the_mcap_opens_with_the_other_library(round_trip):
         for topic in ("/pmv/attitude", "/pmv/attitude_uncorrected", "/pmv/horizon_crossings", "/orbit/odometry",
                       "/attitude/truth", "/clock"):
             assert counts[topic] == ticks, (topic, counts[topic])
-        # The star tracker at 2 Hz less its rare random failures (physics.md §6); a residual for nearly every
-        # sample; statistics at 1 Hz plus the final one.
-        assert 0.99 * 2 * ticks <= counts["/star_tracker/attitude"] <= 2 * ticks
-        assert counts["/pmv/residual"] == pytest.approx(ticks, rel=0.01)
+        # The star tracker a frame a second less the frames without attitude (physics.md §6: the Sun once an orbit
+        # at this epoch, star-poor fields, the SAA); statistics at 1 Hz plus the final one.
+        assert 0.6 * ticks <= counts["/star_tracker/attitude"] <= ticks
+        assert counts["/pmv/residual"] == pytest.approx(ticks, rel=0.3)
         assert counts["/pmv/error_statistics"] == pytest.approx(ticks, abs=2)
         decoded = {}
         for _, channel, message, ros_msg in reader.iter_decoded_messages():
@@ -163,7 +171,7 @@ def test_the_epoch_and_elements_are_on_the_sensors_diagnostics(round_trip):
     elements = found[0]
     import yaml
 
-    preset = yaml.safe_load(KONDOR.read_text())["sensor_node"]["ros__parameters"]
+    preset = yaml.safe_load(KONDOR.read_text())["/**"]["ros__parameters"]  # the epoch, shared with the star tracker
     assert elements.epoch_utc == preset["sim"]["epoch_utc"]   # kondor.yaml sim.epoch_utc
     assert (elements.altitude_km, elements.inclination_deg, elements.arg_latitude_deg) == (500.0, 74.5, 0.0)
     assert elements.roll_pitch_convention == shim.WIRE_CONVENTION

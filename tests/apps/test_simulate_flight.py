@@ -35,6 +35,9 @@ def test_seed_and_epoch_reach_the_run(meteor_orbit):
     assert summary["seed"] == 3 and summary["epoch_utc"] == "2016-11-11T00:00:00Z"
 
 
+@pytest.mark.xfail(strict=True, reason="the report's whole-record harmonic fit has no guard for the star tracker's "
+                   "gaps (an SAA pass and star-poor fields leave > 10 % of this orbit without truth): pitch k = 2 "
+                   "comes out ≈ 37600′; the monitor's ring refuses such a fit (max_gap_fraction, max_condition)")
 def test_the_whole_record_spectrum_is_the_cores(meteor_orbit):
     # The pipeline (attitude profile, star tracker with 3″ noise, monitor) and the bare core at zero
     # attitude see the same environment for the same seed and epoch: the residual spectrum, oblateness

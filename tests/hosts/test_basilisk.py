@@ -94,7 +94,8 @@ def test_basilisk_module_reads_what_pmv_ros_senses_of_the_very_same_states(mode)
     module, flight = scenario.monitor.summary(), flight_summary(scenario.pmv.values, samples)
     for channel in ("roll", "pitch", "meridional"):
         a, b = module.channel(channel), flight.channel(channel)
-        assert a.count == b.count >= steps - 10  # the last few wait for the star tracker's next frame
+        # The last ≈ 2 s wait for the star tracker's next frame (a frame a second, published 0.875 s after it).
+        assert a.count == b.count >= steps - 20
         assert abs(a.mean_rad - b.mean_rad) <= 1e-6 * ARCMIN_RAD
         assert abs(a.sigma_rad - b.sigma_rad) <= 1e-6 * ARCMIN_RAD
 

@@ -41,7 +41,7 @@ from pmv_ros.physics.orbit.ephemeris import BODY_NAMES
 from pmv_ros.physics.instrument.sensor import ChordStatus
 
 #: A star tracker that tells the exact truth.
-PERFECT_TRACKER = {"noise_cross_arcsec": 0.0, "noise_boresight_arcsec": 0.0, "random_failure_probability": 0.0}
+PERFECT_TRACKER = {"ideal": True}
 #: Spherical Earth, uniform horizon: the sensor reads the attitude to a small fraction of an arcmin.
 IDEAL_EARTH = {"sensor.earth_model": "sphere", "remove_oblateness": False}
 
@@ -382,7 +382,7 @@ def test_star_tracker_drops_bad_truth_and_publishes_the_frames_of_the_clean_stre
     outputs = []
     for bad in (False, True):
         events, counts = _tracker_stream(bad)
-        h = harness(StarTrackerNode, {"rate_hz": 2.0, "latency_s": 0.25, "use_sim_time": True})
+        h = harness(StarTrackerNode, {"frame_period_s": 0.5, "processing_s": 0.25, "use_sim_time": True})
         measured = h.record(QuaternionStamped, "/star_tracker/attitude")
         diagnostics = h.record(DiagnosticArray, "/diagnostics")
         truth, clock = h.publisher(QuaternionStamped, "/attitude/truth"), h.publisher(Clock, "/clock")

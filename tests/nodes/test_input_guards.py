@@ -218,9 +218,9 @@ def test_an_unknown_override_is_refused_naming_the_nearest_parameter():
     context = rclpy.Context()
     rclpy.init(context=context)
     try:
-        with pytest.raises(ParameterError, match=r"'rate_hz_typo' is not a parameter of star_tracker_node "
-                                                 r"\(did you mean 'rate_hz'\?\)"):
-            StarTrackerNode(context=context, parameter_overrides=[Parameter("rate_hz_typo", value=3.0)])
+        with pytest.raises(ParameterError, match=r"'frame_period_s_typo' is not a parameter of star_tracker_node "
+                                                 r"\(did you mean 'frame_period_s'\?\)"):
+            StarTrackerNode(context=context, parameter_overrides=[Parameter("frame_period_s_typo", value=3.0)])
     finally:
         rclpy.shutdown(context=context)
 
@@ -230,8 +230,8 @@ def _child_env(log_dir: Path) -> dict:
 
 
 @pytest.mark.parametrize("section, key, nearest", [
-    ("star_tracker_node", "rate_hz_typo", "rate_hz"),
-    ("star_tracker_node", "orbit.inclination_deg", None),  # the monitor's, not the tracker's
+    ("star_tracker_node", "frame_period_s_typo", "frame_period_s"),
+    ("star_tracker_node", "remove_oblateness", None),  # the monitor's, not the tracker's
     ("/**", "sensor.rate_hzz", "sensor.rate_hz"),
 ])
 def test_an_unknown_key_in_a_params_file_stops_the_node_with_one_line(tmp_path, section, key, nearest):
@@ -305,8 +305,8 @@ def test_a_single_forged_truth_stamp_or_clock_leaves_the_tracker_output_of_the_c
 
     outputs = []
     for forged in (False, True):
-        h = harness(StarTrackerNode, {"rate_hz": 2.0, "latency_s": 0.25, "use_sim_time": True,
-                                      "random_failure_probability": 0.0})
+        h = harness(StarTrackerNode, {"frame_period_s": 0.5, "processing_s": 0.25, "use_sim_time": True,
+                                      "ideal": True})
         measured = h.record(QuaternionStamped, "/star_tracker/attitude")
         truth, clock = h.publisher(QuaternionStamped, "/attitude/truth"), h.publisher(Clock, "/clock")
         q = quaternion_from_roll_pitch_yaw(1e-3, -2e-3)
@@ -329,7 +329,7 @@ def test_a_single_forged_truth_stamp_or_clock_leaves_the_tracker_output_of_the_c
 
 
 def test_a_real_restart_of_the_truth_clock_is_one_new_timeline(harness):
-    h = harness(StarTrackerNode, {"rate_hz": 2.0, "latency_s": 0.0, "random_failure_probability": 0.0})
+    h = harness(StarTrackerNode, {"frame_period_s": 0.5, "exposure_s": 0.02, "processing_s": 0.0, "ideal": True})
     truth = h.publisher(QuaternionStamped, "/attitude/truth")
     measured = h.record(QuaternionStamped, "/star_tracker/attitude")
     q = quaternion_from_roll_pitch_yaw(1e-3, -2e-3)
@@ -384,13 +384,14 @@ def test_pmv_simulate_refuses_an_unknown_key_in_its_config_with_one_line(tmp_pat
 def test_a_refused_star_tracker_update_changes_nothing(harness):
     """A combination only the stamp check refuses (a clock jump shorter than the rate limit's interval) leaves the
     frame grid, the latency and the tracker as they were (found by review: the runtime was reconfigured first)."""
-    h = harness(StarTrackerNode, {"rate_hz": 2.0, "latency_s": 0.25})
+    h = harness(StarTrackerNode, {"frame_period_s": 0.5, "exposure_s": 0.5, "processing_s": 0.25})
     runtime = h.node._runtime
     tracker = runtime.tracker
-    result = h.node.set_parameters_atomically([Parameter("rate_hz", value=5.0), Parameter("latency_s", value=3.0),
+    result = h.node.set_parameters_atomically([Parameter("frame_period_s", value=0.8),
+                                               Parameter("processing_s", value=3.0),
                                                Parameter("clock_jump_s", value=0.001)])
     assert not result.successful, "a clock jump below 1/input.max_rate_hz must be refused"
-    assert runtime.grid.period_s == 0.5 and runtime.queue.latency_s == 0.25 and runtime.tracker is tracker
-    assert h.node.get_parameter("rate_hz").value == 2.0
-    assert h.node.set_parameters([Parameter("latency_s", value=3.0)])[0].successful
-    assert runtime.queue.latency_s == 3.0 and runtime.tracker is not tracker  # an accepted one is applied
+    assert runtime.grid.period_s == 0.5 and runtime.queue.latency_s == 0.5 and runtime.tracker is tracker
+    assert h.node.get_parameter("frame_period_s").value == 0.5
+    assert h.node.set_parameters([Parameter("processing_s", value=3.0)])[0].successful
+    assert runtime.queue.latency_s == 3.25 and runtime.tracker is not tracker  # an accepted one is applied

@@ -90,7 +90,8 @@ def test_sensor_at_50_hz_in_real_time_publishes_every_tick_and_the_monitor_keeps
     rclpy.init(args=["--ros-args", "--params-file", str(REPO / "config/kondor.yaml")], context=context)
     nodes, executor = [], SingleThreadedExecutor(context=context)
     try:
-        nodes.append(StarTrackerNode(context=context))
+        # The ideal star tracker (its timing, none of its gaps): the load is the subject, not the sky.
+        nodes.append(StarTrackerNode(context=context, parameter_overrides=[Parameter("ideal", value=True)]))
         monitor = ErrorMonitorNode(context=context)
         nodes.append(monitor)
         listener = Node("load_listener", context=context)
@@ -146,12 +147,13 @@ def test_sensor_at_50_hz_in_real_time_publishes_every_tick_and_the_monitor_keeps
     assert len(attitude) == published, figures  # every publish arrived
     assert len(attitude) >= expected - 1, figures  # no tick dropped (allowing for the first and last)
     assert np.all(np.diff(stamps) > 0), "stamps must increase"
-    # The monitor kept up: samples wait only for the truth that covers them — star-tracker latency
-    # 0.25 s + one 0.5 s frame interval at 50 Hz is 38 samples — and none gave up or overflowed.
-    assert pending_max <= 50, figures
+    # The monitor kept up: samples wait only for the truth that covers them — the star tracker's delay
+    # (0.375 s half exposure + 0.5 s processing) + one 1 s frame interval at 50 Hz is 94 samples — and none gave
+    # up or overflowed.
+    assert pending_max <= 110, figures
     assert counters["skipped_stale_truth"] == 0 and counters["skipped_pending_overflow"] == 0, counters
-    assert counters["used"] >= published - 50, figures
-    assert delays[int(0.99 * len(delays))] < 1.5, figures
+    assert counters["used"] >= published - 110, figures
+    assert delays[int(0.99 * len(delays))] < 2.5, figures
     # Bounded queues everywhere: keep-last QOS_DEPTH on every pmv topic; reliable publishers,
     # best-effort subscriptions to inputs (README "QoS": they accept either kind of publisher).
     for topic, qos in queues:

@@ -127,8 +127,7 @@ def test_residual_is_sensed_minus_true_in_rep_103(harness):
 def test_end_to_end_a_turned_body_gives_a_small_residual():
     # Sensor (following), star tracker and monitor together: +1° about +X and +Y read +60′ and the
     # residual against the star tracker's view of the same truth is within the methodical error.
-    perfect = {"noise_cross_arcsec": 0.0, "noise_boresight_arcsec": 0.0, "random_failure_probability": 0.0,
-               "latency_s": 0.0, "remove_oblateness": False}
+    perfect = {"ideal": True, "exposure_s": 0.02, "processing_s": 0.0, "remove_oblateness": False}
     with Pipeline(None, {"attitude.source": "follow", "sensor.rate_hz": 2.0, **SPHERE_UNIFORM, **perfect},
                   collect=False) as pipeline:
         probe = Node("probe", context=pipeline.context)
@@ -418,8 +417,8 @@ def test_world_defining_parameters_are_refused_at_run_time_with_a_reason_and_the
 def test_the_pipeline_is_lossless_with_reliable_inputs():
     # In one process every publisher is ours and reliable, and the pipeline's nodes subscribe
     # reliably too (best-effort input subscriptions are for publishers outside): nothing is lost.
-    with Pipeline(None, {"sensor.rate_hz": 10.0, "sensor.detector": "ideal",
-                         "random_failure_probability": 0.0}) as pipeline:
+    with Pipeline(None, {"sensor.rate_hz": 10.0, "sensor.detector": "ideal", "ideal": True,
+                         "frame_period_s": 0.5, "exposure_s": 0.02, "processing_s": 0.25}) as pipeline:
         pipeline.step(600)
         used = pipeline.monitor.monitor.counters["used"]
         published = pipeline.sensor.samples_published
@@ -464,7 +463,7 @@ def test_best_effort_publishers_feed_every_input(harness):
     # monitor's inputs are shown above; the star tracker's and the monitor's odometry here.
     from pmv_ros.nodes.star_tracker_node import StarTrackerNode
 
-    h = harness(StarTrackerNode, {"rate_hz": 2.0, "latency_s": 0.0, "random_failure_probability": 0.0})
+    h = harness(StarTrackerNode, {"frame_period_s": 0.5, "exposure_s": 0.02, "processing_s": 0.0, "ideal": True})
     frames = h.record(QuaternionStamped, "/star_tracker/attitude")
     truth = h.tester.create_publisher(QuaternionStamped, "/attitude/truth", qos_profile_sensor_data)
     for k in range(1, 21):

@@ -1,4 +1,4 @@
-"""The star-tracker measurement model (physics.md §6): the one-frame path against the array path."""
+"""The star-tracker model of physics.md §6 against the closed forms and the numbers star_tracker.md derives."""
 
 from __future__ import annotations
 
@@ -7,89 +7,220 @@ import math
 import numpy as np
 import pytest
 
-from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
+from pmv_ros.physics.attitude import quaternion_conjugate, quaternion_product, rotation_vector_from_quaternion
 from pmv_ros.physics.constants import ARCSEC_RAD
-from pmv_ros.physics.star_tracker import Outcome, StarTracker, StarTrackerParameters, inertial_rate_of_nadir_pointing
+from pmv_ros.physics.orbit.ephemeris import Epoch
+from pmv_ros.physics.orbit.two_body import CircularOrbit
+from pmv_ros.physics.star_tracker import (REASON_ORDER, Outcome, RadiationGrid, Sky, StarTracker, TrackerParameters,
+                                          optimal_exposure_s, smear_loss_mag, trail_rate)
+from pmv_ros.physics.star_tracker.draws import Draws
+from pmv_ros.physics.star_tracker.model import (CCD_AREA_CM2, hit_footprint_moments, recognition_failure,
+                                                rotation_matrices)
+from pmv_ros.physics.star_tracker.sky import precession_matrix
+
+EPOCH = Epoch.from_utc("2013-09-10T00:00:00Z")
+KONDOR = CircularOrbit(500e3, math.radians(74.5))
 
 
-def _pair(seed: int, **options):
-    parameters = StarTrackerParameters(**options)
-    return StarTracker(parameters, seed=seed), StarTracker(parameters, seed=seed)
+@pytest.fixture(scope="module")
+def sky():
+    return Sky(float(EPOCH.julian_date_tt(0.0)))
 
 
-@pytest.mark.parametrize("options, t_s, rate, expected", [
-    ({}, 10.0, 1e-3, Outcome.OK),
-    ({"noise_cross_rad": 0.0, "noise_boresight_rad": 0.0}, 10.0, 1e-3, Outcome.OK),
-    ({"outages": ((5.0, 20.0),)}, 10.0, 1e-3, Outcome.SCHEDULED_OUTAGE),
-    ({}, 10.0, 400.0 * ARCSEC_RAD, Outcome.RATE_TOO_HIGH),
-    ({"random_failure_probability": 1.0}, 10.0, 1e-3, Outcome.RANDOM_FAILURE),
-    ({"random_failure_probability": 1.0, "outages": ((5.0, 20.0),)}, 10.0, 1.0, Outcome.SCHEDULED_OUTAGE),
-])
-def test_one_frame_measures_like_the_array_path(options, t_s, rate, expected):
-    # The node measures one 2 Hz frame at a time in plain floats; with the same seed it must give, bit for bit,
-    # what the array path gives for the same frames measured as groups of one (the same draws, in the same order):
-    # the same outcome and quaternion, the random streams in step frame after frame.
-    rng = np.random.default_rng(2)
-    for _ in range(20):
-        q = quaternion_from_roll_pitch_yaw(*rng.uniform(-0.1, 0.1, 3))
-        one_tracker, array_tracker = _pair(seed=int(rng.integers(1000)), **options)
-        times = t_s + np.arange(3.0)
-        singles = [one_tracker.measure(float(t), tuple(q.tolist()), rate) for t in times]
-        many, outcomes = array_tracker.measure_groups(times, np.repeat(q[:, None], 3, axis=1), np.full(3, rate),
-                                                      [1, 1, 1])  # three groups: the array path
-        for k, (one, outcome) in enumerate(singles):
-            assert outcome is Outcome(int(outcomes[k])) is expected
-            np.testing.assert_array_equal(one, many[:, k])
-            assert (outcome is Outcome.OK) == bool(np.all(np.isfinite(one)))
+@pytest.fixture(scope="module")
+def radiation():
+    return RadiationGrid()
 
 
-def test_one_frame_of_a_random_stream_is_the_array_path_bit_for_bit():
-    # Many attitudes, rates about the limit and a failure rate that fails some: one frame at a time (the node)
-    # against the same frames as groups of one in one array call (a campaign's groups).
-    rng = np.random.default_rng(11)
-    parameters = StarTrackerParameters(random_failure_probability=0.2, outages=((30.0, 40.0),),
-                                       boresight_body=(0.3, -0.5, 0.8))  # oblique: every axis sums three terms
-    one_tracker, array_tracker = StarTracker(parameters, seed=3), StarTracker(parameters, seed=3)
-    n = 400
-    times = np.arange(n) * 0.5
-    q = np.array([quaternion_from_roll_pitch_yaw(*a) for a in rng.uniform(-3.0, 3.0, (n, 3))]).T
-    q[:, 7] = np.nan  # invalid truth: no attitude, and the draws still taken
-    rate = rng.uniform(0.0, 2.0, n) * parameters.max_rate_rad_s
-    many, outcomes = array_tracker.measure_groups(times, q, rate, [1] * n)
-    singles = [one_tracker.measure(float(times[k]), tuple(q[:, k].tolist()), float(rate[k])) for k in range(n)]
-    np.testing.assert_array_equal(np.array([one for one, _ in singles]).T, many)
-    assert [int(outcome) for _, outcome in singles] == outcomes.tolist()
-    assert set(outcomes.tolist()) == {int(o) for o in Outcome}  # every outcome came up
+def test_the_reason_codes_are_the_specs():
+    """physics.md §6: every frame without attitude says why, with these names."""
+    assert {o.reason for o in REASON_ORDER} - {"invalid_truth"} == {
+        "no_stars", "recognition_failure", "buffer_overflow", "exclusion", "rate_too_high", "outage"}
+    assert Outcome.OK.value == 0 and Outcome.NO_STARS.reason == "no_stars"
 
 
-def test_one_frame_with_invalid_truth_gives_no_attitude():
-    tracker = StarTracker()
-    for bad in ((0.0, 0.0, 0.0, 0.0), (math.nan, 0.0, 0.0, 1.0)):
-        measured, outcome = tracker.measure(1.0, bad, 0.0)
-        assert outcome is Outcome.INVALID_TRUTH and np.all(np.isnan(measured))
+def test_timing_and_smear_are_the_texts_arithmetic():
+    """star_tracker.md §6.1 [D]: t_opt = 171.9″/ω: 0.75 s at 500 km (228.6″/s), 0.81 s at 835 km (212.9″/s);
+    ΔM_rate = 2.5·lg(ω·t/171.9″): 0 at the optimum, 1.06 mag at 228.6″/s with 2 s (star_tracker.md M2)."""
+    assert optimal_exposure_s(228.6 * ARCSEC_RAD) == pytest.approx(0.752, abs=0.001)
+    assert optimal_exposure_s(212.9 * ARCSEC_RAD) == pytest.approx(0.807, abs=0.001)
+    assert smear_loss_mag(228.6 * ARCSEC_RAD, 0.75) == 0.0
+    assert smear_loss_mag(228.6 * ARCSEC_RAD, 2.0) == pytest.approx(1.06, abs=0.005)
+    # About the boresight a star trails 0.055 of the rate (the RMS lever arm of a 7.81° field).
+    assert trail_rate(0.0, 100.0) == pytest.approx(5.5) and trail_rate(3.0, 0.0) == 3.0
 
 
-def test_noise_is_a_few_arcseconds_across_the_boresight_and_more_about_it():
-    # physics.md §6: 3″ (1σ) across the boresight (+Z body), 20″ about it, one frame at a time.
-    tracker = StarTracker(StarTrackerParameters(random_failure_probability=0.0), seed=4)
-    q = (0.0, 0.0, 0.0, 1.0)
-    errors = np.array([tracker.measure(float(k), q, 1e-3)[0][:3] * 2.0 for k in range(4000)])
-    # Small angles: the vector part of q is half the rotation vector. 4000 frames give σ to ±1.1 %.
-    sigma = errors.std(axis=0) / ARCSEC_RAD
-    np.testing.assert_allclose(sigma, [3.0, 3.0, 20.0], rtol=0.05)
+def test_recognition_failure_is_the_specs_shape():
+    """physics.md §6 item 4: p = 1 − (1 − 0.3·e^−(n−3)/1.5)·(1 − 0.01)^others."""
+    assert recognition_failure(3, 0, 0.3, 1.5, 0.01) == pytest.approx(0.3)
+    assert recognition_failure(9, 0, 0.3, 1.5, 0.01) == pytest.approx(0.3 * math.exp(-4.0))
+    assert recognition_failure(10, 5, 0.3, 1.5, 0.01) == pytest.approx(1 - (1 - 0.3 * math.exp(-7 / 1.5)) * 0.99 ** 5)
 
 
-def test_inertial_rate_of_one_sample_is_a_float_equal_to_the_array_path():
-    # Bit for bit (a node's one frame takes the float path, a campaign's frames the array path): (y + n)² as a
-    # product, not a power — the C library's pow differed from numpy's square in about 1 draw in 4,000.
-    rate = inertial_rate_of_nadir_pointing(1.1e-3, (1e-5, -2e-4, 3e-6))
-    assert type(rate) is float
-    assert rate == float(inertial_rate_of_nadir_pointing(1.1e-3, np.array([1e-5, -2e-4, 3e-6])))
-    rng = np.random.default_rng(28)
-    turns = rng.normal(0.0, 1e-3, (3, 20_000)) * rng.choice([1e-6, 1e-3, 1.0, 1e3], 20_000)
-    mean_motion = np.abs(rng.normal(1.1e-3, 1e-4, 20_000))
-    floats = [inertial_rate_of_nadir_pointing(n, tuple(w)) for n, w in zip(mean_motion.tolist(), turns.T.tolist())]
-    arrays = [inertial_rate_of_nadir_pointing(n, w.reshape(3, 1))[0] for n, w in zip(mean_motion.tolist(), turns.T)]
-    np.testing.assert_array_equal(floats, arrays)
-    one_n = [inertial_rate_of_nadir_pointing(1.1e-3, tuple(w)) for w in turns.T.tolist()]  # and a whole stream
-    np.testing.assert_array_equal(one_n, inertial_rate_of_nadir_pointing(1.1e-3, turns))
+def test_hits_are_points_and_tracks_of_one_to_fifty_pixels():
+    """star_tracker.md M5: footprints 1 to 40–50 pixels; grazing protons through the side make longer ones."""
+    (side_mean, side_var), (lens_mean, lens_var) = hit_footprint_moments()
+    assert 1.0 <= lens_mean < side_mean <= 50.0 and side_var > lens_var > 0.0
+    # ≈ 1024 pixels of buffer (4 KB at 4 bytes) hold ≈ 150–200 hits [D/A].
+    assert 120 < 1024 / side_mean < 260
+
+
+def test_precession_moves_the_pole_by_the_iau_1976_angle():
+    """IAU 1976: θ = 2004.3109″·T − 0.42665″·T² …; the J2000 pole is θ away from the pole of date."""
+    jd = 2451545.0 + 0.16 * 36525.0
+    pole = precession_matrix(jd) @ np.array([0.0, 0.0, 1.0])
+    theta = (2004.3109 * 0.16 - 0.42665 * 0.16 ** 2 - 0.041833 * 0.16 ** 3) * ARCSEC_RAD
+    assert math.acos(pole[2]) == pytest.approx(theta, rel=1e-9)
+    assert np.allclose(precession_matrix(jd) @ precession_matrix(jd).T, np.eye(3))
+
+
+def _random_axes(n: int, seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    q = rng.normal(size=(4, n))
+    return rotation_matrices(q / np.linalg.norm(q, axis=0))
+
+
+def test_the_real_sky_is_clustered_where_poisson_is_not(sky):
+    """star_tracker.md §6.7, 6000 random 7.81° fields of the 8350-star catalogue: mean 12.4 stars, fewer than 3 in
+    0.37 % (Poisson with the same mean: 0.04 %). Tolerance: the binomial spread of 6000 fields (≈ ±0.08 %) and
+    of the mean (≈ ±0.1 star)."""
+    stars = sky.stars_in_fields(_random_axes(6000, 1), math.radians(7.81) / 2.0, 8350)
+    counts = np.bincount(stars.field, minlength=6000)
+    assert counts.mean() == pytest.approx(12.4, abs=0.3)
+    assert 0.0015 < np.mean(counts < 3) < 0.007
+    # The field's square: no star beyond the half-width on either axis.
+    assert np.abs(stars.u_rad).max() <= math.radians(7.81) / 2.0 and np.abs(stars.v_rad).max() <= math.radians(3.905)
+
+
+def _tracker(sky, radiation, **options) -> StarTracker:
+    return StarTracker(TrackerParameters(**options), KONDOR, EPOCH, seed=4, sky=sky, radiation=radiation)
+
+
+def _orbit_frames(tracker: StarTracker, seconds: float, step_s: float = 1.0, start_s: float = 0.0):
+    t = start_s + np.arange(0.0, seconds, step_s)
+    q = np.tile([[0.0], [0.0], [0.0], [1.0]], t.size)
+    return t, q, tracker.measure(t, q, np.zeros((3, t.size)))
+
+
+class StillOrbit:
+    """An 'orbit' whose orbital frame stays put in ECI: a constant attitude keeps the same stars in the field."""
+
+    def state_eci(self, t_s):
+        n = np.size(t_s)
+        return np.tile([[7e6], [0.0], [0.0]], n), np.tile([[0.0], [1e-6], [0.0]], n)
+
+
+def test_accuracy_comes_from_the_stars_in_the_field(sky):
+    """physics.md §6 item 5: σ/√n across the boresight, σ/(r_rms·√n) about it; half the variance stays with the
+    stars. One field held still over 400 frames: the spread about the field's bias is σ·√½/√n across and
+    σ·√½/(r_rms·√n) about (within 12 %: 400 frames give ±3.5 % on a standard deviation, and the fit's
+    weights are not exactly equal), and a second run of frames keeps the same bias."""
+    tracker = StarTracker(TrackerParameters(trapped="off", sun_exclusion_rad=0.0, moon_exclusion_rad=0.0,
+                                            earth_limb_exclusion_rad=0.0, geometry_failure_3=0.0,
+                                            false_object_failure=0.0, rank_scatter_mag=0.0),
+                          StillOrbit(), EPOCH, seed=3, sky=sky)
+    q = np.tile([[0.3], [0.1], [-0.2], [0.927]] / np.linalg.norm([0.3, 0.1, -0.2, 0.927]), 400)
+    first = tracker.measure(np.arange(400.0), q, np.zeros((3, 400)))
+    later = tracker.measure(1e5 + np.arange(400.0), q, np.zeros((3, 400)))
+    assert np.all(first.outcome == Outcome.OK) and len(set(first.used.tolist())) == 1
+    n = int(first.used[0])
+    # The measured attitude is the true one turned by the error (body axes; the boresight is body +Z).
+    error = rotation_vector_from_quaternion(quaternion_product(quaternion_conjugate(q), first.q_measured))
+    error_later = rotation_vector_from_quaternion(quaternion_product(quaternion_conjugate(q), later.q_measured))
+    sigma = 9.5 * ARCSEC_RAD
+    across = np.std(error[:2], axis=1)
+    assert across == pytest.approx([sigma * math.sqrt(0.5 / n)] * 2, rel=0.12)
+    # The stars used: the n brightest catalogue stars of the field.
+    pointing = tracker.pointing(q[:, :1], np.zeros((3, 1)), tracker.orbit_environment(np.zeros(1)))
+    stars = sky.stars_in_fields(pointing.axes_eci, math.radians(7.81) / 2.0, 8350)
+    order = np.argsort(stars.hp_mag, kind="stable")[:n]
+    u, v = stars.u_rad[order], stars.v_rad[order]
+    r_rms = math.sqrt(np.mean((u - u.mean()) ** 2 + (v - v.mean()) ** 2))
+    assert np.std(error[2]) == pytest.approx(sigma * math.sqrt(0.5 / n) / r_rms, rel=0.12)
+    # The bias: ±σ·√½/√n (one draw per field); the two runs' means agree to their own spread (±5 % of it).
+    bias = error[:2].mean(axis=1)
+    assert np.abs(bias - error_later[:2].mean(axis=1)).max() < 0.3 * sigma * math.sqrt(0.5 / n)
+
+
+def test_an_orbit_of_kondor_gives_a_few_arcseconds_and_says_why_it_gives_none(sky, radiation):
+    """An orbit nadir pointing: 3″ across in the median field (physics.md §6 item 5; ±30 %: the fields of one
+    orbit), no rate ceiling at the orbital rate, and every frame without attitude has a reason."""
+    tracker = _tracker(sky, radiation, trapped="off")
+    t, q, frames = _orbit_frames(tracker, KONDOR.period_s)
+    ok = frames.outcome == Outcome.OK
+    assert 0.7 < ok.mean() < 0.99 and not np.any(frames.outcome == Outcome.RATE_TOO_HIGH)
+    assert np.all(np.isnan(frames.q_measured[:, ~ok])) and np.all(np.isfinite(frames.q_measured[:, ok]))
+    tracker_error = 2.0 * frames.q_measured[:2, ok]  # small rotation (the true attitude is the identity)
+    assert np.median(np.abs(tracker_error), axis=1) / 0.6745 == pytest.approx([3 * ARCSEC_RAD] * 2, rel=0.3)
+    assert set(np.unique(frames.outcome[~ok]).tolist()) <= {o.value for o in REASON_ORDER}
+
+
+def test_the_same_frame_time_gives_the_same_frame(sky, radiation):
+    """Draws keyed by the frame's time: a frame measured alone is the frame measured among others."""
+    tracker = _tracker(sky, radiation, geometry_failure_3=0.9, geometry_failure_scale=8.0)
+    t, q, frames = _orbit_frames(tracker, 600.0)
+    for k in (0, 17, 333, 599):
+        alone = tracker.measure(t[k:k + 1], q[:, k:k + 1], np.zeros((3, 1)))
+        assert alone.outcome[0] == frames.outcome[k]
+        np.testing.assert_array_equal(alone.q_measured[:, 0], frames.q_measured[:, k])
+    other = StarTracker(TrackerParameters(geometry_failure_3=0.9, geometry_failure_scale=8.0), KONDOR, EPOCH, seed=5,
+                        sky=sky, radiation=radiation)
+    assert not np.array_equal(other.measure(t, q, np.zeros((3, t.size))).outcome, frames.outcome)
+
+
+def test_the_sun_near_the_boresight_is_an_exclusion(sky, radiation):
+    """physics.md §6 item 8: Sun within 30° of the boresight → exclusion; the boresight turned onto the Sun."""
+    tracker = _tracker(sky, radiation, trapped="off")
+    t = np.array([1000.0])
+    jd = EPOCH.julian_date_tt(t)
+    from pmv_ros.physics.orbit.ephemeris import sun_direction_eci
+    from pmv_ros.physics.orbit.two_body import orbital_frame_from_state
+    from scipy.spatial.transform import Rotation
+    position, velocity = KONDOR.state_eci(t)
+    orbital = orbital_frame_from_state(position, velocity)[:, :, 0]
+    sun_in_orbital = orbital.T @ sun_direction_eci(jd)[:, 0]
+    rotation, _ = Rotation.align_vectors([sun_in_orbital], [[0.0, 0.0, 1.0]])  # body +Z onto the Sun
+    q = rotation.as_quat().reshape(4, 1)
+    frames = tracker.measure(t, q, np.zeros((3, 1)))
+    assert frames.outcome[0] == Outcome.EXCLUSION
+
+
+def test_protons_hit_in_the_saa_as_the_ap8_flux_says(sky, radiation):
+    """physics.md §6 item 6: N = A·t_exp·[J(>45)/4·cos²35° + J(>100)/4·sin²35°]; at the SAA core (26°S, 50°W,
+    500 km, AP8MAX: J(>45) 378, J(>100) 280 cm⁻² s⁻¹, star_tracker.md §6.7) that is ≈ 43 hits in 0.75 s
+    (the grid within 5 % of aep8 there), and no hit at 60°N."""
+    flux45, flux100, shell = radiation.environment(np.radians([-26.0, 60.0]), np.radians([-50.0, 0.0]),
+                                                   np.array([500e3, 500e3]))
+    assert flux45[0] == pytest.approx(378.2, rel=0.05) and flux100[0] == pytest.approx(280.4, rel=0.05)
+    assert flux45[1] == 0.0 and shell[0] < 1.3 and shell[1] > 3.0
+    expected = CCD_AREA_CM2 * 0.75 * (378.2 / 4 * math.cos(math.radians(35)) ** 2
+                                       + 280.4 / 4 * math.sin(math.radians(35)) ** 2)
+    assert expected == pytest.approx(43.6, abs=0.1)
+    draws = Draws(1)
+    counts = draws.poisson(np.full(20000, expected), 6, np.arange(20000), 0)
+    assert counts.mean() == pytest.approx(expected, rel=0.01)
+
+
+def test_a_solar_event_reaches_only_where_the_shell_is_open(sky, radiation):
+    """physics.md §6 item 7: in LEO solar protons reach where L ≥ 7.1; near the equator never."""
+    _, _, shell = radiation.environment(np.radians([0.0, 80.0, -75.0]), np.radians([0.0, 0.0, 120.0]),
+                                        np.full(3, 835e3))
+    assert shell[0] < 1.2 and shell[1] > 7.1 and shell[2] > 7.1
+
+
+def test_an_ideal_tracker_gives_the_truth_outside_outages():
+    tracker = StarTracker(TrackerParameters(ideal=True, outages=((5.0, 7.0),)), KONDOR, EPOCH)
+    t = np.arange(10.0)
+    q = np.tile([[0.0], [0.6], [0.0], [0.8]], 10)
+    q[:, 3] = np.nan
+    frames = tracker.measure(t, q, np.zeros((3, 10)))
+    assert frames.outcome.tolist() == [0, 0, 0, 7, 0, 2, 2, 0, 0, 0]
+    np.testing.assert_array_equal(frames.q_measured[:, [0, 9]], q[:, [0, 9]])
+
+
+@pytest.mark.parametrize("name, value", [("exposure_s", 0.0), ("catalogue_stars", 2), ("trapped", "maybe"),
+                                         ("boresight_body", (0.0, 0.0, 0.0)), ("outages", ((5.0, 1.0),))])
+def test_bad_configuration_is_refused_in_one_line(name, value):
+    with pytest.raises(ValueError, match=name.split("_")[0].rstrip("s")) as caught:
+        TrackerParameters(**{name: value})
+    assert "\n" not in str(caught.value)

@@ -39,8 +39,9 @@ def test_a_mounting_of_10_arcmin_roll_and_minus_5_pitch_is_the_mean_residual_and
     samples = 5668  # one orbit of 5668 s
 
     def flown(roll_arcmin, pitch_arcmin):
+        # The ideal star tracker: the sensor's mounting is the subject, and its harmonics need the whole orbit.
         values = flight_values(document, {"sensor.rate_hz": 1.0, "sensor.mounting_roll_arcmin": roll_arcmin,
-                                          "sensor.mounting_pitch_arcmin": pitch_arcmin})
+                                          "sensor.mounting_pitch_arcmin": pitch_arcmin, "ideal": True})
         return _channels(fly(values, samples).summary)
 
     aligned, mounted = flown(0.0, 0.0), flown(10.0, -5.0)

@@ -1,4 +1,5 @@
-"""The star tracker's runtime: a truth stream fed as one batch is the stream fed message by message."""
+"""The star tracker's runtime: a truth stream fed as one batch is the stream fed message by message; the same frame
+time gives the same frame, whenever the tracker started."""
 
 from __future__ import annotations
 
@@ -6,7 +7,8 @@ import numpy as np
 import pytest
 
 from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
-from pmv_ros.physics.star_tracker import LatencyQueue, Outcome, _grid_times
+from pmv_ros.physics.star_tracker import LatencyQueue, Outcome
+from pmv_ros.physics.star_tracker.frames import _grid_times
 from pmv_ros.runtime.common.assembly import STAR_TRACKER_PARAMS
 from pmv_ros.runtime.common.parameters import preset_values
 from pmv_ros.runtime.tracker.runtime import TrackerRuntime, track_stream
@@ -34,16 +36,22 @@ def one_by_one(values: dict, t, q):
     return runtime, frames, released
 
 
+#: Kondor's orbit and a star-poor stretch of its sky: some frames fail to recognise, some find too few stars.
+KONDOR = {"orbit.inclination_deg": 74.5, "sim.epoch_utc": "2013-09-10T00:00:00Z", "sim.fast_time": True}
+
+
 @pytest.mark.parametrize("overrides, step_s", [
-    ({"random_failure_probability": 0.2, "latency_s": 0.0}, 0.3),  # frames between sparse truth, no latency
-    ({"random_failure_probability": 0.05, "latency_s": 0.6, "rate_hz": 4.0}, 0.37),  # several frames per sample
-    ({"outage_start_s": [20.0, 100.0], "outage_duration_s": [30.0, 5.0], "latency_s": 1.3}, 0.9),
-    ({"max_rate_arcsec_s": 50.0}, 0.25),  # the rate limit refuses some frames
-    ({}, 0.1),  # the campaign's 10 Hz: a frame every fifth sample
-    ({"rate_hz": 4.0, "random_failure_probability": 0.3}, 0.9),  # three or four frames per sample
+    ({"recognition.failure_at_3": 0.9, "recognition.failure_scale_stars": 8.0, "processing_s": 0.0,
+      "exposure_s": 0.01, "frame_period_s": 0.5}, 0.3),  # frames between sparse truth, (almost) no delay
+    ({"recognition.failure_at_3": 0.9, "recognition.failure_scale_stars": 8.0, "processing_s": 0.6,
+      "frame_period_s": 0.25}, 0.37),  # several frames per sample
+    ({"outage_start_s": [20.0, 100.0], "outage_duration_s": [30.0, 5.0], "processing_s": 1.3}, 0.9),
+    ({"max_rate_arcsec_s": 200.0}, 0.25),  # the rate ceiling refuses frames (the orbital rate is 229″/s)
+    ({}, 0.1),  # the campaign's 10 Hz
+    ({"frame_period_s": 0.25, "field_of_view_deg": 3.0}, 0.9),  # three or four frames per sample; a small field
 ])
 def test_a_stream_in_one_batch_is_the_stream_message_by_message(overrides, step_s):
-    values = {**DEFAULTS, **overrides}
+    values = {**DEFAULTS, **KONDOR, **overrides}
     t, q = truth_stream(step_s)
     runtime, frames, released = one_by_one(values, t, q)
     batch_runtime = TrackerRuntime(values, 0.0)
@@ -57,10 +65,11 @@ def test_a_stream_in_one_batch_is_the_stream_message_by_message(overrides, step_
     assert batch_runtime.outcomes == runtime.outcomes and batch_runtime.last_outcome == runtime.last_outcome
     assert len(batch_runtime.queue) == len(runtime.queue)
     assert len(set(stream.outcome.tolist())) > 1 or not overrides  # the case exercises what it names
+    np.testing.assert_array_equal(batch_runtime.add_truth_batch(t[:0], q[:, :0]).frame_s, [])
 
 
 def test_a_stream_split_into_batches_carries_the_grid_and_the_queue_across():
-    values = {**DEFAULTS, "random_failure_probability": 0.1, "latency_s": 0.8, "rate_hz": 4.0}
+    values = {**DEFAULTS, **KONDOR, "processing_s": 0.8, "frame_period_s": 0.25}
     t, q = truth_stream(0.37)
     whole = TrackerRuntime(values, 0.0)
     expected = whole.add_truth_batch(t, q)
@@ -83,38 +92,26 @@ def test_the_latency_queue_releases_in_frame_order_and_never_before_a_frame_exis
     # 1.0 is due at 1.6; 1.5 at 2.0; 2.0 (due at 2.5) waits
     assert frame_s.tolist() == [1.0, 1.5] and at.tolist() == [1, 2] and len(queue) == 1
     queue.latency_s = 0.0
-    queue.push(2.1, np.zeros(4))  # due at once, but behind 2.0 (due at 2.5)
-    assert [s for s, _ in queue.release(2.3)] == []
-    assert [s for s, _ in queue.release(2.5)] == [2.0, 2.1]
+    queue.push_many(np.array([2.1]), np.zeros((4, 1)))  # due at once, but behind 2.0 (due at 2.5)
+    assert queue.release_many(2.3)[0].tolist() == []
+    assert queue.release_many(2.5)[0].tolist() == [2.0, 2.1]
     assert queue.clear() == 0 and Outcome.OK == 0
 
 
-def test_frames_pushed_one_at_a_time_leave_as_the_array_path_releases_them():
-    """A node's queue (push and release in floats) against the batch methods, stamp by stamp, with the latency
-    changed mid-stream and a batch pushed in between: the same frames at the same stamps, bit for bit."""
-    rng = np.random.default_rng(11)
-    one, batch = LatencyQueue(0.6), LatencyQueue(0.6)
-    frame_s, stamp = 0.0, 0.0
-    for k in range(3000):
-        stamp += rng.uniform(0.01, 0.2)
-        if k == 1500:
-            one.latency_s = batch.latency_s = 0.25  # a reconfigure: frames queued keep their release time
-        if k in (2000, 2600):  # a batch into both: the floats join the arrays in frame order
-            times, q = frame_s + np.array([0.1, 0.2]), rng.normal(size=(4, 2))
-            one.push_many(times, q)
-            batch.push_many(times, q)
-            frame_s += 0.2
-        elif rng.uniform() < 0.5:
-            frame_s += rng.uniform(0.05, 0.4)
-            q = tuple(rng.normal(size=4).tolist())
-            one.push(frame_s, q)
-            batch.push_many(np.array([frame_s]), np.array(q).reshape(4, 1))
-        got = one.release(stamp)
-        expected_s, expected_q, at = batch.release_many(np.array([stamp]))
-        assert [s for s, _ in got] == expected_s.tolist() and at.tolist() == [0] * len(got)
-        assert [list(q) for _, q in got] == expected_q.T.tolist()
-        assert len(one) == len(batch)
-    assert one.clear() == batch.clear()
+def test_two_trackers_started_20_s_apart_give_the_same_frames_for_the_same_frame_times():
+    """physics.md §6 item 9 (draws keyed by the frame's time): a tracker that starts 20 s of truth later (a late
+    /clock, a respawn) gives, frame for frame, what the one running since the start gives — bit for bit."""
+    values = {**DEFAULTS, **KONDOR, "recognition.failure_at_3": 0.9, "recognition.failure_scale_stars": 8.0}
+    t, q = truth_stream(0.1, n=4000)
+    early = track_stream(TrackerRuntime(values, 0.0), t, q)
+    late_start = np.searchsorted(t, t[0] + 20.0)
+    late = track_stream(TrackerRuntime(values, 0.0), t[late_start:], q[:, late_start:])
+    common = np.isin(early.frame_s, late.frame_s)
+    assert common.sum() == late.frame_s.size > 300
+    assert early.frame_s[common].tolist() == late.frame_s.tolist()
+    assert early.outcome[common].tolist() == late.outcome.tolist()
+    np.testing.assert_array_equal(early.q_measured[:, common], late.q_measured)
+    assert {Outcome.OK, Outcome.RECOGNITION_FAILURE} <= set(Outcome(int(o)) for o in late.outcome)
 
 
 def test_frame_times_are_numpys_arange_value_for_value():
@@ -124,3 +121,15 @@ def test_frame_times_are_numpys_arange_value_for_value():
             start = np.ceil(rng.uniform(0.0, 1e5) / period) * period
             stop = start + rng.uniform(-1e-12, 4.5) * period * rng.choice([1.0, 1e-13]) + 1e-12
             assert _grid_times(start, stop, period) == np.arange(start, stop, period).tolist()
+
+
+def test_a_sample_without_truth_finds_the_reason_of_the_frame_nearest_to_it():
+    """The record a consumer counts its lost samples by: the reason of the nearest frame (OK beyond a period)."""
+    from pmv_ros.runtime.tracker.runtime import TrackerFrames, reason_at
+
+    frames = TrackerFrames(np.array([10.0, 11.0, 12.0, 13.0]), np.full((4, 4), np.nan),
+                           np.array([0, 3, 5, 0], np.int8), np.full(4, -1), np.zeros(4, np.int64),
+                           np.array([0, 0, 170, 0]))
+    got = reason_at(frames, [9.0, 10.9, 11.6, 12.4, 15.5])
+    assert [Outcome(int(o)) for o in got] == [Outcome.OK, Outcome.NO_STARS, Outcome.BUFFER_OVERFLOW,
+                                              Outcome.BUFFER_OVERFLOW, Outcome.OK]

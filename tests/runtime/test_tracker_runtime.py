@@ -29,7 +29,7 @@ def truth_stream(start_s: float, seconds: float, rate_hz: float = 10.0):
 
 
 def test_checked_truth_gives_the_frames_of_the_frame_loop_and_bad_truth_changes_nothing():
-    values = values_of({"random_failure_probability": 0.0}).star_tracker
+    values = values_of().star_tracker
     t, q = truth_stream(10.0, 6.0)
     reference = track_stream(TrackerRuntime(values, 0.0), t, q)  # the campaign's path, a clean stream
     runtime = TrackerRuntime(values, 0.0)
@@ -58,8 +58,10 @@ def test_checked_truth_gives_the_frames_of_the_frame_loop_and_bad_truth_changes_
     stamps = [stamp for stamp, _ in reports]
     assert len(stamps) >= 5 and min(np.diff(stamps)) >= 1.0 - 1e-9
     assert any("rejected /attitude/truth messages" in h.message for _, h in reports)
-    assert all(h.values["release_queue"] <= math.ceil(values["latency_s"] * values["rate_hz"]) + 1
+    assert all(h.values["release_queue"] <= math.ceil(runtime.delay_s / values["frame_period_s"]) + 1
                for _, h in reports)
+    assert all(h.values["stars_in_field"] >= 0 and h.values["proton_hits"] >= 0 for _, h in reports)
+    assert sum(v for k, v in counters.items() if k.startswith("frames_")) == reference.frame_s.size
 
 
 def test_a_confirmed_jump_back_is_a_new_timeline_and_silence_is_a_stale_input():
@@ -90,19 +92,22 @@ def test_a_refused_reconfiguration_leaves_the_tracker_as_it_was():
     runtime = TrackerRuntime(values, 0.0)
     tracker, stamps = runtime.tracker, runtime.stamps
     with pytest.raises(ValueError):
-        runtime.reconfigure({**values, "rate_hz": 5.0, "clock_jump_s": 1e-6})
-    assert runtime.tracker is tracker and runtime.stamps is stamps and runtime.grid.period_s == 1.0 / values["rate_hz"]
+        runtime.reconfigure({**values, "frame_period_s": 0.2, "clock_jump_s": 1e-6})
+    with pytest.raises(ValueError, match="exposure_s = 0.75 s is longer than frame_period_s = 0.5 s"):
+        runtime.reconfigure({**values, "frame_period_s": 0.5})
+    assert runtime.tracker is tracker and runtime.stamps is stamps and runtime.grid.period_s == values["frame_period_s"]
 
 
 def test_truth_cut_into_wake_up_batches_publishes_what_one_message_at_a_time_does():
     """add_inputs (the node's messages of one executor wake-up, handed over at once) against receive_truth one
-    message at a time, on a hostile stream with random failures on: bad frames, unreadable stamps, NaN and
-    near-unit quaternions, a duplicate, an outlier stamp, and a confirmed clock jump back. The same frames (bit for
-    bit: the same draws), the same statuses in the same places, the same counters, whatever the cuts."""
+    message at a time, on a hostile stream with recognition failures made frequent: bad frames, unreadable stamps,
+    NaN and near-unit quaternions, a duplicate, an outlier stamp, and a confirmed clock jump back. The same frames
+    (bit for bit: the same draws), the same statuses in the same places, the same counters, whatever the cuts."""
     from pmv_ros.runtime.common.records import HealthAt
     from pmv_ros.runtime.tracker.runtime import ReleasedFrame
 
-    values = values_of({"random_failure_probability": 0.05}).star_tracker
+    values = values_of({"recognition.failure_at_3": 0.9, "recognition.failure_scale_stars": 8.0,
+                        "frame_period_s": 0.25, "exposure_s": 0.25}).star_tracker
     t, q = truth_stream(10.0, 40.0)
     t[200:] -= 15.0  # the clock restarts (a jump back, confirmed by the next stamp)
     orbital = "orbital"
@@ -133,4 +138,4 @@ def test_truth_cut_into_wake_up_batches_publishes_what_one_message_at_a_time_doe
     assert len(statuses) > 20 and all(a == b for a, b in statuses)
     counters = one.counters
     assert counters == cut.counters and counters["clock_jumps"] == 1 and counters["clock_outliers"] == 1
-    assert counters["frames_random_failure"] and counters["rejected_truth_duplicate"]
+    assert counters["frames_recognition_failure"] and counters["rejected_truth_duplicate"]

@@ -105,19 +105,17 @@ def test_the_frame_grid_slerps_each_frame_between_the_truth_around_it():
     got = []
     for k in range(1, 12):  # truth at 0.3 s steps: frames fall between samples
         t = 0.3 * k
-        frames, attitudes, rate = grid.add(t, attitude(t))
-        got += list(zip(frames, attitudes))
-        if frames:
+        frames = grid.add_many(t, attitude(t))
+        got += list(zip(frames.frame_s.tolist(), frames.attitude.T))
+        for rate in frames.turn_rate_rad_s.T:
             np.testing.assert_allclose(rate, RATE_RAD_S, atol=1e-12)
     # The first sample starts the grid at 0.5 (the next multiple after 0.3); frames up to 3.3.
     assert [t for t, _ in got] == pytest.approx([0.5 * k for k in range(1, 7)])
     for t, q in got:
         assert same_rotation(q, attitude(t), atol=1e-12), t
     # A gap longer than max_gap_s restarts the grid: nothing across it.
-    frames, _, _ = grid.add(10.0, attitude(10.0))
-    assert frames == []
-    frames, _, _ = grid.add(10.6, attitude(10.6))
-    assert frames == pytest.approx([10.0, 10.5])
+    assert grid.add_many(10.0, attitude(10.0)).frame_s.tolist() == []
+    assert grid.add_many(10.6, attitude(10.6)).frame_s.tolist() == pytest.approx([10.0, 10.5])
 
 
 def test_due_times_wait_for_the_truth_that_covers_them_or_until_the_horizon_has_passed():

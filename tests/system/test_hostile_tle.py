@@ -36,7 +36,7 @@ PEAK_MB, REFUSAL_S = 300.0, 10.0
 
 def _preset(path: Path, line1: str, line2: str) -> Path:
     document = yaml.safe_load(PRESET.read_text())
-    orbit = document["sensor_node"]["ros__parameters"]["orbit"]
+    orbit = document["/**"]["ros__parameters"]["orbit"]  # shared by the sensor and the star tracker
     orbit["tle_line1"], orbit["tle_line2"] = line1, line2
     path.write_text(yaml.safe_dump(document))
     return path
@@ -45,7 +45,7 @@ def _preset(path: Path, line1: str, line2: str) -> Path:
 def _files(folder: Path) -> dict:
     """Case → (params file, the phrase its refusal must have)."""
     document = yaml.safe_load(PRESET.read_text())
-    orbit = document["sensor_node"]["ros__parameters"]["orbit"]
+    orbit = document["/**"]["ros__parameters"]["orbit"]
     line1, line2 = orbit["tle_line1"], orbit["tle_line2"]
     made = {
         "checksum": (_preset(folder / "checksum.yaml", line1[:68] + str((tle_checksum(line1) + 3) % 10), line2),

@@ -58,7 +58,7 @@ def _imports(path: Path) -> list[str]:
 #: itself and the parts of lower rank, never one of its own rank or above. ``None`` names the layer's own modules.
 INNER_RANKS = {
     "runtime": {"common": 0, "sensor": 1, "tracker": 1, "monitor": 1, "flight": 2},
-    "physics": {None: 0, "orbit": 1, "chain": 2, "environment": 2, "instrument": 3},
+    "physics": {None: 0, "orbit": 1, "chain": 2, "environment": 2, "star_tracker": 2, "instrument": 3},
 }
 
 #: The most modules one folder holds (the issue that grouped the runtime and the physics by part).

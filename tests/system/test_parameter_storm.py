@@ -39,7 +39,7 @@ pytestmark = pytest.mark.adversarial
 PARAMS = WALL_CLOCK_PARAMS
 #: Per node: (a parameter it has, a value of the wrong type, one out of range); every node has input.max_rate_hz
 #: (read-only) and none has "no_such.parameter".
-STORM = {"sensor_node": ("sensor.rate_hz", "fast", 1e9), "star_tracker_node": ("rate_hz", "fast", 1e9),
+STORM = {"sensor_node": ("sensor.rate_hz", "fast", 1e9), "star_tracker_node": ("frame_period_s", "fast", 1e9),
          "error_monitor_node": ("statistics_rate_hz", "often", 1e9)}
 STORM_S, TARGET_HZ = 3.0, 1000.0
 #: The use_sim_time flips: per node and second, and for how long (s): default, and with --run-long.

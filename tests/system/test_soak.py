@@ -117,10 +117,14 @@ def test_soak_memory_and_callback_time_stay_flat(run_long, capsys):
     assert simulated_s == pytest.approx(duration_s, abs=2.0)
     assert growth_mb < RSS_GROWTH_LIMIT_MB, figures
     assert min(block_medians[-2:]) <= LATENCY_GROWTH_LIMIT * min(block_medians[:2]), figures
-    # The monitor kept up and aligned nearly everything (random star-tracker failures skip a few).
-    assert counters["used"] >= 0.98 * (ticks - 2), counters
+    # The monitor kept up: every sample was aligned but those the star tracker left without truth (its frames
+    # without attitude: the Sun once an orbit, star-poor fields, the SAA).
+    without_truth = sum(counters[k] for k in ("skipped_truth_gap", "skipped_stale_truth", "skipped_no_truth"))
+    assert counters["used"] + without_truth >= 0.98 * (ticks - 2), counters
+    assert counters["skipped_pending_overflow"] == 0, counters
     assert counters["clock_jumps"] == 0
-    # Bounded structures: a few samples waiting for truth (latency 0.25 s + one 0.5 s truth interval
-    # at 1 Hz), the 60 s truth history at 2 Hz, latency × rate frames to release, one precomputed block.
-    assert bounds["pending"] <= 3 and bounds["truth_buffer"] <= 122, bounds
+    # Bounded structures: the samples waiting for truth (across a gap of the star tracker's they wait until
+    # max_truth_wait_s = 10 s gives them up: 11 at 1 Hz), the 60 s truth history at a frame a second, the frames
+    # waiting for publication, one precomputed block.
+    assert bounds["pending"] <= 12 and bounds["truth_buffer"] <= 122, bounds
     assert bounds["release_queue"] <= 2 and bounds["sensor_block"] <= FAST_TIME_BLOCK, bounds

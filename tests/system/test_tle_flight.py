@@ -42,13 +42,13 @@ def preset_document() -> dict:
 
 
 def preset_lines() -> tuple[str, str]:
-    orbit = preset_document()["sensor_node"]["ros__parameters"]["orbit"]
+    orbit = preset_document()["/**"]["ros__parameters"]["orbit"]  # shared by the sensor and the star tracker
     return orbit["tle_line1"], orbit["tle_line2"]
 
 
 def write_preset(path: Path, line1: str, line2: str) -> Path:
     document = preset_document()
-    orbit = document["sensor_node"]["ros__parameters"]["orbit"]
+    orbit = document["/**"]["ros__parameters"]["orbit"]
     orbit["tle_line1"], orbit["tle_line2"] = line1, line2
     path.write_text(yaml.safe_dump(document))
     return path
@@ -180,7 +180,7 @@ def test_pmv_simulate_refuses_with_one_line(tmp_path, capsys, lines, arguments, 
 def test_orbit_source_follow_is_refused_by_simulate_and_campaign(tmp_path, capsys):
     # A followed orbit is the user's odometry: the in-process main job and a campaign have none to follow.
     document = preset_document()
-    document["sensor_node"]["ros__parameters"]["orbit"]["source"] = "follow"
+    document["/**"]["ros__parameters"]["orbit"]["source"] = "follow"
     (tmp_path / "follow.yaml").write_text(yaml.safe_dump(document))
     assert pmv_main(["simulate", "--config", str(tmp_path / "follow.yaml"), "--quiet"]) == 2
     err = capsys.readouterr().err.strip().splitlines()

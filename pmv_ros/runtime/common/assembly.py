@@ -11,7 +11,7 @@ import math
 from dataclasses import replace
 
 from ...physics.attitude_profile import AttitudeProfile
-from ...physics.constants import ARCMIN_RAD, ARCSEC_RAD, EARTH_ROTATION_RATE_RAD_S, GRS80, SECONDS_PER_DAY, SPHERE
+from ...physics.constants import ARCMIN_RAD, EARTH_ROTATION_RATE_RAD_S, GRS80, SECONDS_PER_DAY, SPHERE
 from ...physics.instrument.correction import load_correction
 from ...physics.environment import CLIMATOLOGY_SAMPLINGS, YEAR_DAYS, EnvironmentParameters
 from ...physics.orbit.ephemeris import Epoch, raan_from_local_time_of_node
@@ -22,7 +22,7 @@ from .parameters import ParamSpec
 from .truth_buffer import DEFAULT_BRIDGE_S
 from ...physics.orbit.tle import TleOrbit, element_set_altitude_m
 from ...physics.instrument.sensor import ChainDetector, RadianceConfig, SensorConfig, SensorModel, nominal_scan_start_nadir_rad
-from ...physics.star_tracker import StarTracker, StarTrackerParameters
+from ...physics.star_tracker import SOLAR_EVENTS
 from .validation import InputBounds
 
 
@@ -188,46 +188,102 @@ SENSOR_PARAMS = INPUT_PARAMS + FRAME_PARAMS + MOUNTING_PARAMS + ORBIT_BOUND_PARA
 )
 
 
-#: Most scheduled star-tracker outages (entries of outage_start_s / outage_duration_s): a
-#: campaign of solar-flare periods has a handful; the bound keeps a peer from filling memory.
+#: Most outage windows (entries of outage_start_s / outage_duration_s): a handful of operator overrides; the bound
+#: keeps a peer from filling memory.
 MAX_OUTAGES = 64
+
+#: The sensor's orbit and epoch parameters the tracker takes too (one spec each; a preset shares them in ``/**``).
+SHARED_WITH_SENSOR = ("orbit.inclination_deg", "orbit.raan_deg", "orbit.u0_deg", "orbit.j2_node_drift",
+                      "orbit.ltan_h", "orbit.source", "orbit.tle_line1", "orbit.tle_line2", "sim.epoch_utc",
+                      "sim.fast_time", "sim.start_time_s")
+
+#: Named solar proton events (:data:`pmv_ros.physics.star_tracker.SOLAR_EVENTS`), "custom" or none.
+SOLAR_EVENT_CHOICES = ("",) + tuple(SOLAR_EVENTS) + ("custom",)
+
+_UTC = "an ISO 8601 date-time such as 2000-11-09T15:55:00Z, 1900 … 2100"
 
 #: Parameters of star_tracker_node.
 STAR_TRACKER_PARAMS = INPUT_PARAMS + FRAME_PARAMS + (
-    replace(ORBIT_ALTITUDE, description="orbit altitude (gives the orbital rate for the rate limit)"),
-    ParamSpec("rate_hz", 2.0, "frame rate of the star tracker", 0.01, 50.0, unit="Hz"),
-    ParamSpec("latency_s", 0.25, "delay from frame time to publication", 0.0, 60.0, unit="s"),
-    ParamSpec("noise_cross_arcsec", 3.0, "1-sigma noise across the boresight", 0.0, 3600.0, unit="arcsec"),
-    ParamSpec("noise_boresight_arcsec", 20.0, "1-sigma noise about the boresight", 0.0, 3600.0, unit="arcsec"),
-    ParamSpec("max_rate_arcsec_s", 300.0, "no attitude above this inertial angular rate", 1.0, 36000.0,
+    replace(ORBIT_ALTITUDE, description="orbit altitude (the orbit the tracker flies; see orbit.source)"),
+) + tuple(spec for spec in SENSOR_PARAMS if spec.name in SHARED_WITH_SENSOR) + (
+    # Timing (physics.md §6 item 2).
+    ParamSpec("frame_period_s", 1.0, "a frame every this long, on a grid of the truth stream's clock (frame time = "
+              "the middle of the exposure) [A]", 0.02, 100.0, unit="s"),
+    ParamSpec("exposure_s", 0.0, "exposure; 0: the optimum d·rho/(f·omega) = 171.9″/omega at the orbital rate "
+              "(0.75 s at 500 km, 0.81 s at 835 km), at most frame_period_s", 0.0, 100.0, unit="s"),
+    ParamSpec("processing_s", 0.5, "readout and processing: a frame is published exposure_s/2 + this after its "
+              "time [A]", 0.0, 60.0, unit="s"),
+    # Sky and detection (items 1, 3).
+    ParamSpec("boresight_body", [0.0, 0.0, 1.0], "the boresight in the body frame (+Z: zenith when nadir "
+              "pointing)", -1.0, 1.0, max_length=3),
+    ParamSpec("field_of_view_deg", 7.81, "side of the square field (512 × 55″ [A: the format])", 0.5, 40.0,
+              unit="deg"),
+    ParamSpec("catalogue_stars", 8350, "on-board catalogue: the brightest Hipparcos-2 stars by Hp [T]", 3, 26547),
+    ParamSpec("sky_stars", 26547, "stars of the sky the tracker can register (the rest are not drawn) [T: the "
+              "stand's sky]", 3, 26547),
+    ParamSpec("detection_margin_mag", 1.0, "detection limit at rest above the catalogue's faintest Hp [A]",
+              -3.0, 5.0, unit="mag"),
+    ParamSpec("max_rate_arcsec_s", 600.0, "hard ceiling of the trail rate (no attitude above it) [A]", 1.0, 36000.0,
               unit="arcsec/s"),
-    ParamSpec("random_failure_probability", 1e-3, "probability that a single frame fails", 0.0, 1.0),
-    ParamSpec("outage_start_s", [-1.0], "start of each scheduled outage after node start (negative: none)",
-              -1.0, 1e9, unit="s", max_length=MAX_OUTAGES),
-    ParamSpec("outage_duration_s", [0.0], "duration of each scheduled outage", 0.0, 1e9, unit="s",
+    # Recognition (item 4).
+    ParamSpec("recognition.max_objects", 10, "K: the brightest objects sent to recognition [A]", 3, 100),
+    ParamSpec("recognition.rank_scatter_mag", 0.3, "sigma of the brightness-ranking scatter of stars [A]",
+              0.0, 10.0, unit="mag"),
+    ParamSpec("recognition.failure_at_3", 0.3, "p3: recognition failure with 3 catalogue stars [A]", 0.0, 1.0),
+    ParamSpec("recognition.failure_scale_stars", 1.5, "n_s: p_geom = p3·exp(-(n - 3)/n_s) [A]", 0.01, 100.0),
+    ParamSpec("recognition.false_object_failure", 0.01, "p_conf: failure per non-catalogue object among the K [A]",
+              0.0, 1.0),
+    # Accuracy (item 5).
+    ParamSpec("centroid_error_arcsec", 9.5, "1-sigma centroid error of one star, per focal-plane axis, at rest "
+              "[A: 3″ across the boresight in the median field]", 0.0, 3600.0, unit="arcsec"),
+    ParamSpec("bias_fraction", 0.5, "share of the centroid variance that stays with a star while it is in the "
+              "field [A]", 0.0, 1.0),
+    # Protons (items 6, 7).
+    ParamSpec("protons.trapped", "max", "AP8 model of the trapped protons: max (solar maximum) [A], min, off",
+              choices=("max", "min", "off")),
+    ParamSpec("protons.buffer_bytes", 4096, "video buffer (pixels above threshold) [T: Yamal units]", 64, 1 << 30,
+              unit="B"),
+    ParamSpec("protons.bytes_per_pixel", 4, "buffer bytes per pixel kept [A]", 1, 64, unit="B"),
+    ParamSpec("protons.solar_event", "", "solar proton event: a named historical one, custom (the custom_* "
+              "parameters), or empty: none", choices=SOLAR_EVENT_CHOICES),
+    ParamSpec("protons.spectral_index", 2.0, "integral spectral index gamma of a named event: I(>45 MeV) = "
+              "I(>=10 MeV)·4.5^-gamma [A]", 0.0, 6.0),
+    ParamSpec("protons.decay_h", 12.0, "e-folding time of a solar event's decay [A]", 0.1, 720.0, unit="h"),
+    ParamSpec("protons.custom_onset_utc", "2000-01-01T00:00:00Z", "custom event: start of its rise",
+              constraints=_UTC),
+    ParamSpec("protons.custom_peak_utc", "2000-01-01T12:00:00Z", "custom event: time of its peak",
+              constraints=_UTC),
+    ParamSpec("protons.custom_peak_pfu", 100.0, "custom event: peak I(>45 MeV)", 0.0, 1e6, unit="pfu"),
+    ParamSpec("protons.access_min_l", 7.1, "solar protons reach where the McIlwain L is at least this [D: the "
+              "Størmer cut-off of 45 MeV]", 1.0, 1000.0),
+    # Exclusion (item 8).
+    ParamSpec("exclusion.sun_deg", 30.0, "no attitude with the Sun within this of the boresight [A]", 0.0, 90.0,
+              unit="deg"),
+    ParamSpec("exclusion.moon_deg", 10.0, "no attitude with the Moon within this of the boresight [A]", 0.0, 90.0,
+              unit="deg"),
+    ParamSpec("exclusion.earth_limb_deg", 20.0, "no attitude with the Earth's limb within this of the boresight [A]",
+              0.0, 90.0, unit="deg"),
+    ParamSpec("exclusion.stray_light_at_edge", 1.0, "stray light over the sky background at an exclusion edge, "
+              "falling as theta^-3 to nothing at twice the edge (a brighter background lowers the detection "
+              "limit) [A]", 0.0, 1e6),
+    # What is kept (item 9).
+    ParamSpec("ideal", False, "true: every frame outside an outage gives the true attitude (no sky, noise, "
+              "protons or exclusion; the frame timing stays)"),
+    ParamSpec("outage_start_s", [-1.0], "start of each outage window after node start, an operator override "
+              "(negative: none)", -1.0, 1e9, unit="s", max_length=MAX_OUTAGES),
+    ParamSpec("outage_duration_s", [0.0], "duration of each outage window", 0.0, 1e9, unit="s",
               max_length=MAX_OUTAGES),
+    # The input stream.
     ParamSpec("max_truth_gap_s", 5.0, "no frame is interpolated across a truth gap longer than this",
               0.001, 3600.0, unit="s"),
     ParamSpec("clock_jump_s", 1.0, "a truth stamp going back by more than this starts a new timeline "
               "(simulation or sensor restarted); less is a backward stamp and rejected", 0.001, 3600.0, unit="s"),
     ParamSpec("future_tolerance_s", 1.0, "truth stamps later than the node clock by more than this are rejected",
               0.001, 3600.0, unit="s"),
-    ParamSpec("seed", 0, "seed of the noise and failures", 0, 2**31 - 1, read_only=True),
+    ParamSpec("seed", 0, "seed of the tracker's draws (each keyed by its frame's time)", 0, 2**31 - 1,
+              read_only=True),
 )
 
-
-def build_tracker(values: dict, start_s: float) -> StarTracker:
-    """The star-tracker model from parameter values; ValueError if inconsistent."""
-    starts, durations = list(values["outage_start_s"]), list(values["outage_duration_s"])
-    if len(starts) != len(durations):
-        raise ValueError(f"outage_start_s has {len(starts)} entries but outage_duration_s has {len(durations)}")
-    outages = tuple((start_s + s, start_s + s + d) for s, d in zip(starts, durations) if s >= 0.0 and d > 0.0)
-    return StarTracker(StarTrackerParameters(
-        noise_cross_rad=values["noise_cross_arcsec"] * ARCSEC_RAD,
-        noise_boresight_rad=values["noise_boresight_arcsec"] * ARCSEC_RAD,
-        max_rate_rad_s=values["max_rate_arcsec_s"] * ARCSEC_RAD,
-        random_failure_probability=values["random_failure_probability"],
-        outages=outages), seed=values["seed"])
 
 
 #: Parameters of error_monitor_node.

@@ -1,12 +1,16 @@
-"""star_tracker_node's work without ROS: frames on its grid, the tracker's draws, the latency queue.
+"""star_tracker_node's work without ROS: frames on its grid, the tracker's model, the publication queue.
 
 One frame loop, array-first, for the node (one truth message: a batch of
 one) and the campaign's flight (a whole truth stream: one batch): the truth
 samples add the frames that fall before each (the true attitude slerped to
-them, :meth:`FrameGrid.add_many`), the tracker measures the frames each
-sample completes as one call would (:meth:`StarTracker.measure_groups`, at
-the nadir-pointing inertial rate), and the good ones wait ``latency_s`` in the
-:class:`LatencyQueue`. Outcomes are counted as ``/diagnostics`` shows them.
+them, :meth:`FrameGrid.add_many`), the tracker measures them
+(:meth:`StarTracker.measure`: the real sky, protons, exclusion; every draw
+keyed by the frame's time, so the same frame time gives the same frame
+whatever came before), and the good ones wait ``exposure_s/2 +
+processing_s`` in the :class:`LatencyQueue`. Every frame's outcome — OK or
+the reason it gives no attitude — is counted as ``/diagnostics`` shows it
+(``frames_<reason>``), with the last frame's stars in the field and proton
+hits; :class:`MeasuredFrames` carries them per frame.
 
 The node's input side is here too (:meth:`TrackerRuntime.add_inputs`: the
 messages the node queued in one executor wake-up, the good ones measured as one
@@ -44,10 +48,8 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-from ...physics.orbit.two_body import circular_mean_motion_rad_s
-from ...physics.star_tracker import (FrameGrid, GridFrames, LatencyQueue, Outcome, inertial_rate_of_nadir_pointing,
-                                     read_only)
-from ..common.assembly import build_tracker
+from ...physics.star_tracker import FrameGrid, LatencyQueue, Outcome, read_only
+from .build import build_tracker
 from ..common.frames import Frames
 from ..common.records import HealthAt, HealthSummary, Level
 from ..common.validation import TRUTH_REJECTIONS, Rejection, StampCheck, check_frame, check_quaternion_sample
@@ -84,22 +86,27 @@ class TrackerOutput:
 
 @dataclass(frozen=True)
 class MeasuredFrames:
-    """Frames measured from a batch of truth, in frame order.
+    """Frames measured from a batch of truth, in frame order: ``(M,)`` per frame unless said.
 
-    ``frame_s`` (M,) stamps, s; ``q_measured`` (4, M) (NaN without output);
-    ``outcome`` (M,) :class:`~pmv_ros.physics.star_tracker.Outcome` codes (int8);
-    ``truth_index`` (M,) the truth sample of the batch that completed each.
+    ``frame_s`` stamps (the middle of the exposure), s; ``q_measured`` (4, M)
+    (NaN without output); ``outcome`` :class:`~pmv_ros.physics.star_tracker.Outcome`
+    codes (int8: OK, or why the frame gives no attitude); ``stars``
+    catalogue stars registered in the field; ``hits`` proton hits;
+    ``truth_index`` the truth sample of the batch that completed each.
     """
 
     frame_s: np.ndarray
     q_measured: np.ndarray
     outcome: np.ndarray
+    stars: np.ndarray
+    hits: np.ndarray
     truth_index: np.ndarray
 
 
 #: What a batch that completes no frame gives (shared: its arrays are empty and read-only).
 _NO_MEASURED_FRAMES = MeasuredFrames(read_only(np.empty(0)), read_only(np.empty((4, 0))),
-                                     read_only(np.empty(0, np.int8)), read_only(np.empty(0, np.int64)))
+                                     read_only(np.empty(0, np.int8)), read_only(np.empty(0, np.int64)),
+                                     read_only(np.empty(0, np.int64)), read_only(np.empty(0, np.int64)))
 
 
 class TrackerRuntime:
@@ -121,10 +128,12 @@ class TrackerRuntime:
         self.frames = Frames.from_values(values)
         self._source_problems, self._source_counters = source_problems, source_counters
         self.stamps = StampCheck(1.0, 1.0)
-        self.grid = FrameGrid(1.0 / values["rate_hz"], values["max_truth_gap_s"])
-        self.queue = LatencyQueue(values["latency_s"])  # bounded by latency × rate
+        self.grid = FrameGrid(values["frame_period_s"], values["max_truth_gap_s"])
+        self.queue = LatencyQueue(0.0)  # bounded by the delay × the frame rate
+        self.tables = None  # the sky and the radiation grid, loaded once (no parameter change reads a file)
         self.outcomes = {outcome: 0 for outcome in Outcome}
         self.last_outcome = Outcome.OK
+        self.last_stars, self.last_hits = 0, 0
         self.input_counts = {f"rejected_truth_{reason.value}": 0 for reason in REJECTIONS}
         self.input_counts.update(truth_quaternions_normalised=0, clock_jumps=0, clock_outliers=0,
                                  frames_dropped_at_clock_jump=0)
@@ -136,17 +145,22 @@ class TrackerRuntime:
         self.reconfigure(values)
 
     def reconfigure(self, values: dict) -> None:
-        """New parameter values: a new tracker (its draws restart), the grid's period and the latency.
+        """New parameter values: a new tracker (the same draws for the same frame times), the grid's period and
+        the publication delay (exposure_s/2 + processing_s).
 
-        The stamp check first: it refuses a combination the ranges cannot (ValueError), and then nothing changed.
+        The checks first: a combination the ranges cannot check is refused (ValueError), and then nothing changed.
         """
         stamps = self.stamps.reconfigured(values["clock_jump_s"], values["future_tolerance_s"],
                                           1.0 / values["input.max_rate_hz"])
-        self.tracker = build_tracker(values, self.start_s)
+        self.tracker, self.tables = build_tracker(values, self.start_s, self.tables)
         self.stamps, self.values = stamps, values
-        self.grid.period_s, self.grid.max_gap_s = 1.0 / values["rate_hz"], values["max_truth_gap_s"]
-        self.queue.latency_s = values["latency_s"]
-        self.mean_motion_rad_s = circular_mean_motion_rad_s(values["orbit.altitude_km"] * 1e3)
+        self.grid.period_s, self.grid.max_gap_s = values["frame_period_s"], values["max_truth_gap_s"]
+        self.queue.latency_s = self.delay_s
+
+    @property
+    def delay_s(self) -> float:
+        """From a frame's time to its publication, s: half the exposure, then the readout and processing."""
+        return self.tracker.parameters.exposure_s / 2.0 + self.values["processing_s"]
 
     def new_timeline(self) -> int:
         """The truth clock went back: restart the grid and drop the frames not yet released; how many."""
@@ -155,54 +169,24 @@ class TrackerRuntime:
 
     def add_truth_batch(self, t_s, q_xyzw) -> MeasuredFrames:
         """Truth samples in arrival order (stamps ``(N,)`` s, increasing; ``(4, N)`` (x, y, z, w); or one sample,
-        a float stamp and its quaternion): the frames they complete, measured — each sample's frames as one draw,
-        as :meth:`add_truth` sample by sample.
+        a float stamp and its quaternion): the frames they complete, measured.
 
-        The frames whose outcome is OK wait in the queue for :meth:`release` / :meth:`release_batch`,
-        each from the truth sample that completed it on.
+        The frames whose outcome is OK wait in the queue for :meth:`release_batch`, each from the truth sample
+        that completed it on.
         """
-        frames = self._add_truth(t_s, q_xyzw)
-        if type(frames) is tuple:  # the one frame of one sample, in floats
-            frame_s, measured, code = frames
-            return MeasuredFrames(np.array([frame_s]), np.array(measured).reshape(4, 1), np.array([code], np.int8),
-                                  np.zeros(1, np.int64))
-        return frames
-
-    def _add_truth(self, t_s, q_xyzw) -> MeasuredFrames | tuple:
-        """:meth:`add_truth_batch`; the one frame of one sample (a node's message) as (frame time s, measured
-        quaternion, outcome code) in plain floats, without arrays (a node does not read them)."""
-        if isinstance(t_s, float):
-            times, attitudes, turn = self.grid.add(t_s, q_xyzw)
-            if len(times) == 1:
-                return self._measure_one(times[0], attitudes[0], turn)
-            grid = GridFrames.of_one_turn(times, attitudes, turn)
-        else:
-            grid = self.grid.add_many(t_s, q_xyzw)
+        grid = self.grid.add_many(t_s, q_xyzw)
         if not grid.frame_s.size:
             return _NO_MEASURED_FRAMES
-        turn = grid.turn_rate_rad_s
-        if grid.frame_s.size == 1:  # one frame: its rate in plain floats, as the one-sample path takes it
-            turn = tuple(turn[:, 0].tolist())
-        rate = inertial_rate_of_nadir_pointing(self.mean_motion_rad_s, turn)
-        measured, outcome = self.tracker.measure_groups(grid.frame_s, grid.attitude, rate, grid.group_sizes)
+        frames = self.tracker.measure(grid.frame_s, grid.attitude, grid.turn_rate_rad_s)
+        outcome = frames.outcome
         for code, count in enumerate(np.bincount(outcome).tolist()):
             if count:
                 self.outcomes[Outcome(code)] += count
         self.last_outcome = Outcome(int(outcome[-1]))
+        self.last_stars, self.last_hits = int(frames.stars[-1]), int(frames.hits[-1])
         ok = outcome == Outcome.OK.value  # a plain int: numpy compares with an IntEnum member slowly
-        self.queue.push_many(grid.frame_s[ok], measured[:, ok], grid.truth_index[ok])
-        return MeasuredFrames(grid.frame_s, measured, outcome, grid.truth_index)
-
-    def _measure_one(self, frame_s: float, attitude: tuple, turn: tuple) -> tuple:
-        """The one frame a truth sample completed, measured and queued as :meth:`add_truth_batch` does it, in
-        plain floats (the same draws and operations: ≈ 30 numpy calls fewer)."""
-        rate = inertial_rate_of_nadir_pointing(self.mean_motion_rad_s, turn)
-        measured, code = self.tracker.measure_one(frame_s, attitude, rate)
-        self.last_outcome = outcome = Outcome(code)
-        self.outcomes[outcome] += 1
-        if code == Outcome.OK.value:
-            self.queue.push(frame_s, measured)
-        return frame_s, measured, code
+        self.queue.push_many(grid.frame_s[ok], frames.q_measured[:, ok], grid.truth_index[ok])
+        return MeasuredFrames(grid.frame_s, frames.q_measured, outcome, frames.stars, frames.hits, grid.truth_index)
 
     def add_truth(self, t_s: float, q_xyzw) -> list[tuple[float, np.ndarray, Outcome]]:
         """One truth sample (a batch of one): (frame time s, measured (x, y, z, w), outcome) per frame it completes.
@@ -214,8 +198,9 @@ class TrackerRuntime:
                 for k, (frame_s, code) in enumerate(zip(frames.frame_s.tolist(), frames.outcome.tolist()))]
 
     def release(self, t_s: float) -> list[tuple[float, tuple]]:
-        """Frames whose latency has passed at ``t_s``, in frame order: (frame time s, measured quaternion)."""
-        return self.queue.release(t_s)
+        """Frames whose delay has passed at ``t_s``, in frame order: (frame time s, measured quaternion)."""
+        frame_s, q_measured, _ = self.queue.release_many(t_s)
+        return list(zip(frame_s.tolist(), map(tuple, q_measured.T.tolist())))
 
     def release_batch(self, t_s) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """:meth:`release` at each of the increasing stamps ``t_s`` ``(N,)``: (frame times ``(R,)``, measured
@@ -227,7 +212,7 @@ class TrackerRuntime:
     @property
     def counters(self) -> dict:
         """Frame outcomes and input counters (a copy), as on /diagnostics."""
-        values = {f"frames_{o.name.lower()}": n for o, n in self.outcomes.items()}
+        values = {f"frames_{o.reason}": n for o, n in self.outcomes.items()}
         values.update(self.input_counts)
         return values
 
@@ -248,10 +233,7 @@ class TrackerRuntime:
         stamps, quaternions = [], []
 
         def measure() -> None:  # the good messages so far: their frames, then the releases at each stamp
-            if len(stamps) == 1:
-                self._add_truth(stamps[0], quaternions[0])
-                output.published += [ReleasedFrame(*frame) for frame in self.release(stamps[0])]
-            elif stamps:
+            if stamps:
                 self.add_truth_batch(np.array(stamps), np.array(quaternions).T)
                 frame_s, q_measured, _ = self.release_batch(np.array(stamps))
                 output.published += [ReleasedFrame(t, tuple(q))
@@ -285,7 +267,7 @@ class TrackerRuntime:
                 self._last_health_s = stamp_s
                 last = self.last_outcome
                 output.published.append(HealthAt(stamp_s, self.health(
-                    [] if last == Outcome.OK else [f"star-tracker outage: {last.name.lower().replace('_', ' ')}"])))
+                    [] if last == Outcome.OK else [f"star-tracker outage: {last.phrase}"])))
         measure()
         return output
 
@@ -304,7 +286,7 @@ class TrackerRuntime:
         """The /diagnostics status with ``problems`` (phrases), the counters and the node's source problems."""
         values = self.counters
         values.update(self._source_counters())
-        values["release_queue"] = len(self.queue)
+        values.update(stars_in_field=self.last_stars, proton_hits=self.last_hits, release_queue=len(self.queue))
         rejected = sum(self.input_counts[f"rejected_truth_{reason.value}"] for reason in REJECTIONS)
         if rejected > self._rejected_reported:
             problems = problems + ["rejected /attitude/truth messages"]
@@ -317,18 +299,26 @@ class TrackerRuntime:
 
 @dataclass(frozen=True)
 class TrackerFrames:
-    """Star-tracker frames of a truth stream, as star_tracker_node makes them.
+    """Star-tracker frames of a truth stream, as star_tracker_node makes them: ``(M,)`` per frame unless said.
 
-    ``frame_s`` (M,) stamps, ``q_measured`` (4, M) (NaN without output),
-    ``outcome`` (M,) :class:`~pmv_ros.physics.star_tracker.Outcome` codes, and
-    ``released_at`` (M,) the index of the truth sample at which each frame
-    is published (-1: not published by the end, or no output).
+    ``frame_s`` stamps (mid-exposure), s; ``q_measured`` (4, M) (NaN without
+    output); ``outcome`` :class:`~pmv_ros.physics.star_tracker.Outcome` codes
+    (OK or the reason there is no attitude: ``Outcome(code).reason``);
+    ``released_at`` the index of the truth sample at which each frame is
+    published (-1: not published by the end, or no output); ``stars`` the
+    catalogue stars registered in the field; ``hits`` the proton hits.
+
+    A consumer that could not use a sample for want of truth finds why from
+    the frames around the sample's stamp: the outcome of the frame nearest
+    to it that gave none (:func:`reason_at`).
     """
 
     frame_s: np.ndarray
     q_measured: np.ndarray
     outcome: np.ndarray
     released_at: np.ndarray
+    stars: np.ndarray
+    hits: np.ndarray
 
 
 def track_stream(runtime: TrackerRuntime, truth_s: np.ndarray, q_truth: np.ndarray) -> TrackerFrames:
@@ -346,4 +336,19 @@ def track_stream(runtime: TrackerRuntime, truth_s: np.ndarray, q_truth: np.ndarr
     published = np.full(frames.frame_s.size, -1, np.int64)
     ours = released_at[queued:]
     published[np.flatnonzero(frames.outcome == Outcome.OK)[:ours.size]] = ours
-    return TrackerFrames(frames.frame_s, frames.q_measured, frames.outcome.astype(np.int8), published)
+    return TrackerFrames(frames.frame_s, frames.q_measured, frames.outcome.astype(np.int8), published,
+                         frames.stars, frames.hits)
+
+
+def reason_at(frames: TrackerFrames, t_s) -> np.ndarray:
+    """The outcome code of the frame nearest to each of the stamps ``t_s`` ``(N,)`` (int8 ``(N,)``; OK where no
+    frame is within one frame period): why a sample at ``t_s`` had, or had not, truth around it."""
+    t = np.atleast_1d(np.asarray(t_s, float))
+    frame_s = frames.frame_s
+    if not frame_s.size:
+        return np.zeros(t.shape, np.int8)
+    after = np.minimum(np.searchsorted(frame_s, t), frame_s.size - 1)
+    before = np.maximum(after - 1, 0)
+    nearest = np.where(np.abs(frame_s[before] - t) <= np.abs(frame_s[after] - t), before, after)
+    period = np.median(np.diff(frame_s)) if frame_s.size > 1 else np.inf
+    return np.where(np.abs(frame_s[nearest] - t) <= period, frames.outcome[nearest], 0).astype(np.int8)

@@ -1,0 +1,92 @@
+"""The star tracker's cost in the node and in the campaign, against another tree of pmv_ros in the same run.
+
+    .venv/bin/python benchmarks/bench_tracker.py [--baseline DIR] [--rounds 3] [--seconds 300]
+
+What star_tracker_node's runtime costs (no ROS): a Kondor truth stream at
+10 Hz fed one message at a time through ``receive_truth`` (the node's path:
+checks, the frame loop, the queue, /diagnostics once a second), per truth
+message and per frame; and the whole stream as one batch
+(``track_stream``: the campaign's path), per frame. Each tree runs in its
+own interpreter (``DIR/.venv/bin/python`` with ``DIR`` on the path), the two
+alternating over ``--rounds`` rounds; each figure is the best of its
+rounds, the load average beside it, and the ratios are this tree's speed
+over the baseline's (≥ 1: this tree is as fast). The trees' own presets
+are flown (their frame periods differ: per frame and per truth message are
+both printed).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parents[1]
+
+PROBE = r"""
+import json, sys, time
+import numpy as np
+sys.path.insert(0, sys.argv[1])
+from pmv_ros.runtime.flight import flight_values
+from pmv_ros.runtime.tracker.runtime import TrackerRuntime, track_stream
+from pmv_ros.storage.files import read_yaml_file
+seconds = float(sys.argv[2])
+values = flight_values(read_yaml_file(sys.argv[1] + "/config/kondor.yaml", "preset")).star_tracker
+t = 100.0 + np.arange(int(seconds * 10)) / 10.0
+angle = 2e-4 * np.sin(t / 300.0)
+q = np.array([np.sin(angle / 2), np.zeros_like(t), np.zeros_like(t), np.cos(angle / 2)])
+rows = [tuple(c) for c in q.T.tolist()]
+runtime = TrackerRuntime(values, 0.0)
+frame = runtime.frames.orbital
+began = time.perf_counter()
+for stamp, q_k in zip(t.tolist(), rows):
+    runtime.receive_truth(frame, stamp, q_k, stamp)
+node_s = time.perf_counter() - began
+frames = sum(v for k, v in runtime.counters.items() if k.startswith("frames_"))
+began = time.perf_counter()
+batch = track_stream(TrackerRuntime(values, 0.0), t, q)
+batch_s = time.perf_counter() - began
+print(json.dumps({"messages": int(t.size), "frames": int(frames), "node_s": node_s,
+                  "batch_frames": int(batch.frame_s.size), "batch_s": batch_s}))
+"""
+
+
+def measure(tree: Path, seconds: float) -> dict:
+    python = tree / ".venv" / "bin" / "python"
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+    out = subprocess.run([str(python), "-c", PROBE, str(tree), str(seconds)], capture_output=True, text=True,
+                         env=env, check=True, cwd=str(tree))
+    result = json.loads(out.stdout.strip().splitlines()[-1])
+    result["load"] = os.getloadavg()[0]
+    return result
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--baseline", type=Path, required=True, help="another checkout with its own .venv")
+    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--seconds", type=float, default=300.0)
+    args = parser.parse_args(argv)
+    runs = {"this": [], "baseline": []}
+    for round_ in range(args.rounds):
+        for name, tree in (("this", HERE), ("baseline", args.baseline)):
+            runs[name].append(measure(tree, args.seconds))
+            r = runs[name][-1]
+            print(f"round {round_ + 1} {name:8s}: node {1e6 * r['node_s'] / r['messages']:7.1f} µs/message, "
+                  f"{1e6 * r['node_s'] / r['frames']:8.1f} µs/frame ({r['frames']} frames); campaign path "
+                  f"{1e6 * r['batch_s'] / r['batch_frames']:7.1f} µs/frame; load {r['load']:.1f}", flush=True)
+    best = {name: {"message": min(r["node_s"] / r["messages"] for r in rows),
+                   "frame": min(r["node_s"] / r["frames"] for r in rows),
+                   "batch": min(r["batch_s"] / r["batch_frames"] for r in rows)} for name, rows in runs.items()}
+    for key, what in (("message", "node, per truth message"), ("frame", "node, per frame"),
+                      ("batch", "campaign path, per frame")):
+        print(f"{what}: this {1e6 * best['this'][key]:.1f} µs, baseline {1e6 * best['baseline'][key]:.1f} µs, "
+              f"speed ratio {best['baseline'][key] / best['this'][key]:.2f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
