@@ -211,18 +211,18 @@ def test_parameter_overrides_are_checked_before_rclpy_declares_them_and_by_rclpy
     rclpy.init(context=context)
     try:
         with internals(True):  # an integer for a floating-point parameter is that number
-            node = _star_tracker(context, {"rate_hz": 4})
-            assert node.get_parameter("rate_hz").value == 4.0
+            node = _star_tracker(context, {"frame_period_s": 2})
+            assert node.get_parameter("frame_period_s").value == 2.0
             node.destroy_node()
-            with pytest.raises(ParameterError, match="rate_hz"):  # out of range: the parameter's own reason
-                _star_tracker(context, {"rate_hz": -1.0})
+            with pytest.raises(ParameterError, match="frame_period_s"):  # out of range: the parameter's own reason
+                _star_tracker(context, {"frame_period_s": -1.0})
         with internals(False):
-            node = _star_tracker(context, {"rate_hz": 4.0})  # a good value goes through the same
-            assert node.get_parameter("rate_hz").value == 4.0
+            node = _star_tracker(context, {"frame_period_s": 2.0})  # a good value goes through the same
+            assert node.get_parameter("frame_period_s").value == 2.0
             node.destroy_node()
-            for refused in (-1.0, 4):  # rclpy's own check: out of range, and the integer, refused with a reason
-                with pytest.raises(ParameterError, match="rate_hz"):
-                    _star_tracker(context, {"rate_hz": refused})
+            for refused in (-1.0, 2):  # rclpy's own check: out of range, and the integer, refused with a reason
+                with pytest.raises(ParameterError, match="frame_period_s"):
+                    _star_tracker(context, {"frame_period_s": refused})
     finally:
         rclpy.shutdown(context=context)
 
