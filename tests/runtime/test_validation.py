@@ -26,6 +26,7 @@ from pmv_ros.runtime.common.validation import (
     InputBounds,
     Jump,
     JumpDetector,
+    FrameCheck,
     Rejection,
     StampCheck,
     check_angles,
@@ -318,4 +319,33 @@ def test_a_quaternion_sample_moves_the_timeline_only_when_the_quaternion_is_vali
     assert good.rejection is None and good.normalised and np.allclose(good.q_xyzw, [0, 0, 0, 1])
     assert stamps.latest_s == 10.0
     assert check_quaternion_sample(stamps, 10.0, (0.0, 0.0, 0.0, 1.0), None).rejection is not None  # duplicate
+
+
+# ------------------------------------------------------------------------------ frames
+
+def test_a_wrong_frame_is_refused_every_time_and_said_once_with_what_was_expected():
+    # Issue 51: truth stamped `orbital` to a spacecraft in sat1, a thousand times.
+    check = FrameCheck("star-tracker truth", "sat1/orbital")
+    assert check.problem is None and check.take_log_line() is None
+    lines = []
+    for _ in range(1000):
+        assert check.check("orbital") is Rejection.WRONG_FRAME
+        lines.append(check.take_log_line())
+    said = [line for line in lines if line]
+    assert len(said) == 1 and said[0].startswith("star-tracker truth refused: expected sat1/orbital, got orbital")
+    assert check.refused == 1000
+    assert check.problem == "star-tracker truth refused: expected sat1/orbital, got orbital (1000 refused)"
+    assert check.check("sat1/orbital") is None and check.problem is None  # fixed: nothing to say any more
+    assert check.check("base_link") is Rejection.WRONG_FRAME and check.take_log_line() is None  # said once
+    assert check.problem == "star-tracker truth refused: expected sat1/orbital, got base_link (1001 refused)"
+
+
+@pytest.mark.parametrize("frame_id", ["x" * 1_000_000, "orb\x1b[2Jital", "", "two words", "é"])
+def test_a_refused_frame_id_is_quoted_short_and_inert(frame_id):
+    check = FrameCheck("odometry", "eci")
+    assert check.check(frame_id) is Rejection.WRONG_FRAME
+    line = check.take_log_line()
+    assert len(line) < 300 and len(check.problem) < 200
+    assert line.isprintable() and check.problem.isprintable()  # no control character reaches a terminal
+    assert "got '" in check.problem  # not a bare id: a literal, cut where it is long
 

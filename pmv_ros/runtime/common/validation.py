@@ -21,6 +21,10 @@ monitor core only call these checks, count the reasons and say so on
   jump is acted on once, and only when the next observation confirms it; a
   single forged ``/clock`` message or stamp that time then contradicts is an
   outlier, counted, and changes nothing.
+* **Frames** — :func:`check_frame`, and :class:`FrameCheck` for a stream:
+  a message stamped in another frame than its stream's is refused, and the
+  refusal says what was expected (once on the log, on ``/diagnostics``
+  while it lasts).
 * **/clock** — :class:`ClockCheck`: whether a ``/clock`` message may set a
   node's time.
 * **Files** — :func:`pmv_ros.storage.files.read_text_file`: a regular text
@@ -86,6 +90,73 @@ def check_frame(frame_id: str, expected: str) -> Rejection | None:
     Frame ids compare exactly (tf2 does too): no prefix is guessed.
     """
     return None if frame_id == expected else Rejection.WRONG_FRAME
+
+
+#: Characters of a refused frame id quoted in a log line or a status (a frame id comes from the network: a longer
+#: one, or one with characters a terminal would act on, is shown as a truncated Python literal).
+SHOWN_FRAME_CHARS = 64
+
+
+def shown_frame(frame_id) -> str:
+    """A frame id from a message as a log line or a status may quote it: as it is when it is a short printable
+    ASCII string, else a Python literal of its first :data:`SHOWN_FRAME_CHARS` characters (``…`` if cut)."""
+    text = frame_id if isinstance(frame_id, str) else str(frame_id)
+    if text and len(text) <= SHOWN_FRAME_CHARS and text.isascii() and text.isprintable() and " " not in text:
+        return text
+    return repr(text[:SHOWN_FRAME_CHARS]) + ("…" if len(text) > SHOWN_FRAME_CHARS else "")
+
+
+class FrameCheck:
+    """:func:`check_frame` for one input, with the words a refusal is said in: what was expected, what came.
+
+    ``what`` names the input for people (``"star-tracker truth"``). The first
+    refusal gives one log line (:meth:`take_log_line`: once for the check's
+    life, however many messages follow); while messages keep being refused —
+    until one is stamped in the expected frame again — :attr:`problem` is the
+    phrase for ``/diagnostics``. Memory is bounded: a count and the last
+    refused frame id, shortened (:func:`shown_frame`).
+    """
+
+    __slots__ = ("what", "expected", "refused", "_got", "_said", "_line")
+
+    def __init__(self, what: str, expected: str) -> None:
+        self.what, self.expected = what, expected
+        self.refused = 0  # messages refused for their frame
+        self._got = None  # the frame id of the latest refused message while refusals last (None: the last was taken)
+        self._said = False
+        self._line = None
+
+    def check(self, frame_id: str) -> Rejection | None:
+        """WRONG_FRAME (counted, and remembered for the words) unless ``frame_id`` is the expected frame."""
+        rejection = check_frame(frame_id, self.expected)
+        if rejection is None:
+            self._got = None
+            return None
+        self.refused += 1
+        self._got = shown_frame(frame_id)
+        if not self._said:
+            self._said = True
+            self._line = (f"{self.words()}: each such message is dropped (counted on /diagnostics); "
+                          "this is said once")
+        return rejection
+
+    def words(self) -> str:
+        """``<what> refused: expected <frame>, got <frame>`` of the latest refusal ('' while none lasts)."""
+        if self._got is None:
+            return ""
+        return f"{self.what} refused: expected {self.expected}, got {self._got}"
+
+    @property
+    def problem(self) -> str | None:
+        """The /diagnostics phrase while the input's messages are being refused for their frame, else None."""
+        if self._got is None:
+            return None
+        return f"{self.words()} ({self.refused} refused)"
+
+    def take_log_line(self) -> str | None:
+        """The line to log about the first refusal, once (None before it and ever after)."""
+        line, self._line = self._line, None
+        return line
 
 
 # ----------------------------------------------------------------------------------- values
