@@ -86,7 +86,7 @@ def test_every_parameter_has_a_descriptor_with_type_range_and_description(node_n
     node = node_class(context=context)
     try:
         names = [spec.name for spec in specs]
-        declared = set(node._parameters) - {"use_sim_time", "start_type_description_service"}
+        declared = set(node.list_parameters([], 0).names) - {"use_sim_time", "start_type_description_service"}
         assert declared == set(names), "every declared parameter comes from a spec (and only from one)"
         for spec, descriptor in zip(specs, node.describe_parameters(names)):
             assert len(spec.description) > 10 and descriptor.description.startswith(spec.description), spec.name
