@@ -172,12 +172,15 @@ def oblateness_model(u_rad, altitude_m, inclination_rad):
     ``(N,)`` arrays (a segment's samples).
     """
     known = np.isfinite(u_rad) & np.isfinite(inclination_rad) & (altitude_m > 0.0) & (altitude_m < np.inf)
-    if known.all():  # the orbit of every sample (a node's odometry is fresh): no gaps to keep
-        _, roll, pitch = closed_form_oblateness(u_rad, altitude_m, inclination_rad)
-        return roll, pitch
-    roll, pitch = np.full(u_rad.shape, np.nan), np.full(u_rad.shape, np.nan)
-    if known.any():
-        _, roll[known], pitch[known] = closed_form_oblateness(u_rad[known], altitude_m[known], inclination_rad[known])
+    # An absurd but finite altitude (an orbit column of 1e308 m) overflows to a model of 0: no warning for it.
+    with np.errstate(over="ignore"):
+        if known.all():  # the orbit of every sample (a node's odometry is fresh): no gaps to keep
+            _, roll, pitch = closed_form_oblateness(u_rad, altitude_m, inclination_rad)
+            return roll, pitch
+        roll, pitch = np.full(u_rad.shape, np.nan), np.full(u_rad.shape, np.nan)
+        if known.any():
+            _, roll[known], pitch[known] = closed_form_oblateness(u_rad[known], altitude_m[known],
+                                                                  inclination_rad[known])
     return roll, pitch
 
 
