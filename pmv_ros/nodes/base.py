@@ -23,7 +23,7 @@ import pmv_msgs_shim as shim
 from ..runtime.common.clock_watch import CLOCK_STALL_S, CLOCK_WATCH_PERIOD_S, ClockWatch
 from ..runtime.common.input_sources import GRAPH_CHECK_PERIOD_S, InputSources
 from ..runtime.common.parameters import unknown_parameter_problem
-from ..runtime.common.validation import RefusalTally
+from ..runtime.common.refusals import RefusalTally
 from .params import coerce_parameters
 from .rclpy_internals import RCLPY_VERSION, WRITTEN_FOR, clock_now_s, guard_clock, internals_in_use
 
@@ -405,7 +405,7 @@ class PmvNode(Node):
 
     def note_parameter_refusal(self, reason: str) -> None:
         """Count one refused parameter update (``rejected_parameter_updates`` on /diagnostics); log it only if
-        :class:`~pmv_ros.runtime.common.validation.RefusalTally` says so (a storm is not a line per request)."""
+        :class:`~pmv_ros.runtime.common.refusals.RefusalTally` says so (a storm is not a line per request)."""
         if not hasattr(self, "parameter_refusals"):  # made at the first; a managed node keeps it over cleanup
             self.parameter_refusals = RefusalTally("a parameter update")
         line = self.parameter_refusals.refuse(reason, time.monotonic())

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import copy
 import math
 
 import numpy as np
@@ -414,96 +413,40 @@ def test_one_batch_equals_the_same_input_message_by_message_with_bad_input(jump)
             assert y.harmonics_rad[k] == pytest.approx(x.harmonics_rad[k], abs=1e-9 * ARCMIN_RAD, nan_ok=True)
 
 
-def _every_outcome(monitor, t, roll, pitch, frames, q, arrival, now, position, velocity) -> list:
-    """Every outcome of a batch's events fed one message at a time, in order, as rows of floats (status as its
-    index, NaN where there is no value)."""
-    from pmv_ros.runtime.monitor.records import BATCH_STATUSES
-
-    rows = []
-
-    def keep(outcomes):
-        rows.extend([o.stamp_s, BATCH_STATUSES.index(o.status), o.residual_roll_rad, o.residual_pitch_rad,
-                     o.roll_rad, o.pitch_rad, o.meridional_rad, o.altitude_m] for o in outcomes)
-
+def _outcomes_message_by_message(monitor, t, roll, pitch, frames, q, arrival, now, position, velocity) -> dict:
+    """Feed a batch's events one message at a time, as error_monitor_node does; each settled sample's outcome: by
+    stamp, or by (its index, "own") for a sample refused on arrival."""
+    outcomes = {}
     j = 0
     for i in range(t.size):
         while j < frames.size and arrival[j] == i:
-            keep(monitor.add_truth_quaternion(frames[j], q[:, j], now_s=now[i]))
+            outcomes.update((o.stamp_s, o) for o in monitor.add_truth_quaternion(frames[j], q[:, j], now_s=now[i]))
             j += 1
         monitor.add_odometry(t[i], position[:, i], velocity[:, i], now_s=now[i])
-        keep(monitor.take_settled())
-        keep(monitor.add_sensor(t[i], roll[i], pitch[i], now_s=now[i], odometry_max_age_s=5.0))
-        if i % 997 == 0:
-            keep(monitor.poll(now[i] + 0.05))
-    return np.array(rows, float)
+        outcomes.update((o.stamp_s, o) for o in monitor.take_settled())
+        for outcome in monitor.add_sensor(t[i], roll[i], pitch[i], now_s=now[i], odometry_max_age_s=5.0):
+            outcomes[(i, "own") if isinstance(outcome.status, Rejection) else outcome.stamp_s] = outcome
+    return outcomes
 
 
-@pytest.mark.parametrize("jump", [False, True], ids=["one-timeline", "clock-jump"])
-@pytest.mark.parametrize("options", [{}, dict(max_pending=8, truth_capacity=3, truth_history_s=5.0,
-                                              max_truth_wait_s=0.8, max_truth_gap_s=1.1)],
-                         ids=["defaults", "tight-queue-and-buffer"])
-def test_a_small_segment_settles_in_floats_exactly_as_on_arrays(monkeypatch, jump, options):
-    """Alignment.settle_small (a node's message: a few samples, in floats) against Alignment.settle (arrays) on
-    the same messages: every outcome, counter, statistic, the queue and the truth buffer bit for bit.
-
-    The hostile stream message by message, once with every segment on arrays and once with the small ones in
-    floats; with a tight queue, buffer and wait the small path also meets overflows, timeouts, gaps and a full buffer.
-    """
-    from pmv_ros.runtime.monitor import alignment, core
-
-    small_calls = []
-    original = alignment.Alignment.settle_small
-    monkeypatch.setattr(alignment.Alignment, "settle_small",
-                        lambda self, *args: small_calls.append(1) or original(self, *args))
-    t, roll, pitch, frames, q, arrival, now, (position, velocity) = _hostile_batch(jump)
-    config = small_config(min_interval_s=0.002, **options)
-    in_floats = ErrorMonitor(config)
-    floats = _every_outcome(in_floats, t, roll, pitch, frames, q, arrival, now, position, velocity)
-    assert len(small_calls) > 2000
-    monkeypatch.setattr(core, "SMALL_SEGMENT", 0)
-    on_arrays = ErrorMonitor(config)
-    arrays = _every_outcome(on_arrays, t, roll, pitch, frames, q, arrival, now, position, velocity)
-    assert len(small_calls) > 2000 and floats.shape == arrays.shape and floats.shape[0] > 11000
-    assert np.array_equal(floats, arrays, equal_nan=True)
-    assert in_floats.counters == on_arrays.counters
-    codes = set(floats[:, 1].astype(int).tolist())
-    assert len(codes) >= (10 if options else 9), codes  # many fates met: rejections, gaps, timeouts, overflows
-    assert np.array_equal(in_floats._alignment.pending, on_arrays._alignment.pending, equal_nan=True)
-    assert np.array_equal(in_floats._alignment.truth, on_arrays._alignment.truth)
-    assert in_floats._alignment.truth_pruned == on_arrays._alignment.truth_pruned
-    for x, y in zip(in_floats.summary().channels, on_arrays.summary().channels):
-        assert x == y or repr(x) == repr(y)
-
-
-def _segments(monitor, feed):
-    """The segment of ``feed`` as the array scan and as the event-by-event scan make it, each on its own copy
-    of ``monitor`` (returned too)."""
-    from pmv_ros.runtime.monitor.scan import scan_clean
-
-    copies = []
-    for _ in range(2):
-        copied = copy.deepcopy(monitor)
-        copied._parts = []
-        copied._settle_open()  # what came before goes first, as in _feed
-        copied._serial += 1
-        copies.append(copied)
-    array, events = copies
-    segment = scan_clean(array, feed)
-    events._scan_events(feed)
-    return (array, segment), (events, events._segment(events._open))
-
-
-def test_the_array_scan_of_a_clean_batch_is_the_event_scan():
-    """scan.scan_clean (the campaign's path) against the event-by-event scan, sample by sample.
+def test_the_array_scan_of_a_clean_batch_is_the_event_scan(monkeypatch):
+    """scan.scan_clean (the campaign's path: a clean batch validated on arrays) against the event-by-event scan
+    of the same events one message at a time, sample by sample.
 
     A clean stream but for the input the clean path checks itself (angles of 1e3 rad, ±Inf, lost pairs;
-    far-from-unit, NaN and near-unit quaternions): the same verdicts, event numbers, timeout clocks, truth and
-    state after it, exactly; the oblateness models within 1e-12 relative (the closed form on arrays against
-    one sample in floats). A batch with a duplicate, a backward, a zero or a NaN stamp, or a clock jump is
-    left to the event scan (the clean path says None), and so is a short one.
+    far-from-unit, NaN and near-unit quaternions): the same verdicts, counters, timelines, queue and truth
+    buffer, exactly; residuals within 1e-15 rad (the truth's roll and pitch from a quaternion array against
+    one quaternion in floats, :func:`~pmv_ros.physics.attitude.true_roll_pitch`). A batch with a duplicate, a
+    backward, a zero or a NaN stamp, or a clock jump is left to the event scan (the clean path says None,
+    and leaves nothing behind), and so is a short one.
     """
+    from pmv_ros.runtime.monitor import core
+    from pmv_ros.runtime.monitor.records import BATCH_STATUSES, PENDING_CODE
     from pmv_ros.runtime.monitor.scan import MIN_ARRAY_SAMPLES, scan_clean
 
+    scanned = []
+    monkeypatch.setattr(core, "scan_clean", lambda monitor, feed: scanned.append(scan_clean(monitor, feed)) or
+                        scanned[-1])
     t, roll, pitch, frames, q, arrival, now, odometry = _hostile_batch(jump=False)
     clean_t = now.copy()  # stamps on the clock, every one on the timeline
     frames_clean = frames.copy()  # frames as in the hostile batch, but no duplicate stamp
@@ -512,34 +455,51 @@ def test_the_array_scan_of_a_clean_batch_is_the_event_scan():
     position = position.copy()
     position[:, 30] = position[:, 29]  # a plausible state
     config = small_config(min_interval_s=0.002)
-    for monitor in (ErrorMonitor(config), _monitor_with_history(config)):
-        feed = monitor._batch_feed(clean_t, roll, pitch, frames_clean, q, arrival, now_s=now,
-                                   odometry=(position, velocity), odometry_max_age_s=5.0)
-        (fast, segment), (slow, reference) = _segments(monitor, feed)
-        assert segment is not None
+    for make in (lambda: ErrorMonitor(config), lambda: _monitor_with_history(config)):
+        fast, slow = make(), make()
+        scanned.clear()
+        result = fast.add_batch(clean_t, roll, pitch, frames_clean, q, arrival, now_s=now,
+                                odometry=(position, velocity), odometry_max_age_s=5.0)
+        assert len(scanned) == 1 and scanned[0] is not None  # the array scan took the batch
+        outcomes = _outcomes_message_by_message(slow, clean_t, roll, pitch, frames_clean, q, arrival, now,
+                                                position, velocity)
         assert fast.counters == slow.counters
         counters = fast.counters
         assert counters["rejected_sensor_implausible_angle"] and counters["rejected_truth_non_finite"]
         assert counters["rejected_truth_bad_quaternion"] and counters["truth_quaternions_normalised"]
-        for name in ("sensor_code", "sensor_event", "truth_event", "expiry_clock_s"):
-            assert np.array_equal(getattr(segment, name), getattr(reference, name)), name
-        assert np.array_equal(segment.samples[:4], reference.samples[:4], equal_nan=True)
-        np.testing.assert_allclose(segment.samples[4:], reference.samples[4:], rtol=1e-12, atol=1e-15)
-        np.testing.assert_allclose(segment.truth, reference.truth, rtol=0.0, atol=1e-15)
-        assert fast._clock.latest_s == slow._clock.latest_s
-        for stream in ("sensor", "truth", "odometry"):
-            assert fast._stamps[stream].latest_s == slow._stamps[stream].latest_s, stream
-        assert np.allclose(fast._orbit, slow._orbit, rtol=1e-12, atol=0.0)
+        assert counters["used"] > 10000 and counters["skipped_stale_truth"] > 100
+        settled = 0
+        for i in range(clean_t.size):
+            status = result.status[i]
+            if status == PENDING_CODE:
+                assert clean_t[i] not in outcomes
+                continue
+            outcome = outcomes[(i, "own") if isinstance(BATCH_STATUSES[status], Rejection) else clean_t[i]]
+            assert BATCH_STATUSES[status] is outcome.status, i
+            for name in ("residual_roll_rad", "residual_pitch_rad", "roll_rad", "pitch_rad", "meridional_rad"):
+                np.testing.assert_allclose(getattr(result, name)[i], getattr(outcome, name), rtol=0.0, atol=1e-15)
+            settled += 1
+        for earlier in result.earlier:  # a sample of the history, settled by this batch
+            assert earlier == outcomes[earlier.stamp_s]
+            settled += 1
+        assert settled == len(outcomes) > 11000
+        assert fast.timelines == slow.timelines and None not in fast.timelines.values()
+        assert fast.pending_count == slow.pending_count and fast.truth_buffer_length == slow.truth_buffer_length
+        fast_orbit, slow_orbit = fast.orbit_at(now[-1], 1.0), slow.orbit_at(now[-1], 1.0)
+        assert fast_orbit.keys() == slow_orbit.keys() == {"u_rad", "inclination_rad", "altitude_m"}
+        for name, value in fast_orbit.items():
+            assert value == pytest.approx(slow_orbit[name], rel=1e-12, abs=0.0), name
     t, roll, pitch, frames, q, arrival, now, odometry = _hostile_batch(jump=False)  # bad stamps
     monitor = ErrorMonitor(config)
-    assert scan_clean(monitor, monitor._batch_feed(t, roll, pitch, frames, q, arrival, now_s=now,
-                                                   odometry=odometry)) is None
+    assert scan_clean(monitor, monitor.batch_feed(t, roll, pitch, frames, q, arrival, now_s=now,
+                                                  odometry=odometry)) is None
     t, roll, pitch, frames, q, arrival, now, odometry = _hostile_batch(jump=True)  # stamps on a jumping clock
-    assert scan_clean(monitor, monitor._batch_feed(now, roll, pitch, frames, q, arrival, now_s=now,
-                                                   odometry=odometry)) is None
+    assert scan_clean(monitor, monitor.batch_feed(now, roll, pitch, frames, q, arrival, now_s=now,
+                                                  odometry=odometry)) is None
     assert monitor.counters == ErrorMonitor(config).counters  # a refused batch leaves nothing behind
-    short = ErrorMonitor(config)._batch_feed(clean_t[:MIN_ARRAY_SAMPLES - 1], roll[:MIN_ARRAY_SAMPLES - 1],
-                                             pitch[:MIN_ARRAY_SAMPLES - 1], [], np.empty((4, 0)), [])
+    assert set(monitor.timelines.values()) == {None}
+    short = ErrorMonitor(config).batch_feed(clean_t[:MIN_ARRAY_SAMPLES - 1], roll[:MIN_ARRAY_SAMPLES - 1],
+                                            pitch[:MIN_ARRAY_SAMPLES - 1], [], np.empty((4, 0)), [])
     assert scan_clean(ErrorMonitor(config), short) is None
 
 

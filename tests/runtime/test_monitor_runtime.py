@@ -170,3 +170,28 @@ def test_statistics_read_long_after_their_stamp_are_those_of_their_stamp():
     assert kept[-1].summary.harmonics_full_orbit
     assert all(map(math.isfinite, kept[-1].summary.channel("roll").harmonics_rad.values()))
     assert [repr((s.summary, s.vectors)) for s in kept] == [repr(pair) for pair in read]
+
+
+def test_truth_in_the_wrong_frame_is_said_once_with_what_was_expected_and_named_on_diagnostics():
+    # Issue 51: truth stamped `orbital` to a spacecraft in sat1, a thousand times. Before: nothing on the log, and a
+    # status that read "no star-tracker truth received yet".
+    values = values_of({"frames.prefix": "sat1/"}).monitor
+    runtime = MonitorRuntime(values)
+    q = quaternion_from_roll_pitch_yaw(0.0, 0.0, 0.0)
+    outputs = [runtime.add_inputs([("add_truth", ("orbital", 10.0 + 0.5 * k, q), 10.0 + 0.5 * k)] * 2)
+               for k in range(500)]
+    lines = [line for output in outputs for line in output.log]
+    assert len(lines) == 1 and lines[0].level == "error"
+    assert lines[0].text.startswith("star-tracker truth refused: expected sat1/orbital, got orbital")
+    assert runtime.rejected_messages["rejected_truth_wrong_frame"] == 1000
+    health = runtime.health(260.0)
+    assert health.level is Level.WARN
+    assert "star-tracker truth refused: expected sat1/orbital, got orbital (1000 refused)" in health.message
+    assert "no star-tracker truth" not in health.message and health.values["rejected_truth_wrong_frame"] == 1000
+    # Odometry names the frame of each part; once the truth comes in its frame, the status stops naming it.
+    out = runtime.add_odometry("eci", "orbital", None, 260.0)
+    assert [line.text.split(":")[0] for line in out.log] == ["odometry child frame refused"]
+    assert "expected sat1/orbital, got orbital" in out.log[0].text
+    assert not runtime.add_truth("sat1/orbital", 261.0, q, 261.0).log
+    assert "star-tracker truth refused" not in runtime.health(261.0).message
+    assert not runtime.add_truth("orbital", 262.0, q, 262.0).log  # said once, however often it comes back

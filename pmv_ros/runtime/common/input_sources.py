@@ -1,4 +1,4 @@
-"""Where a node's inputs come from — one home, no ROS: one :class:`~.validation.SourceLock` per input, the
+"""Where a node's inputs come from — one home, no ROS: one :class:`~.source_lock.SourceLock` per input, the
 /clock check, the clock the locks measure silence on, and what all of them say on /diagnostics.
 
 A node subscribes and asks its graph how many publishers a topic has; the state and the rules are here, so the
@@ -9,7 +9,8 @@ from __future__ import annotations
 
 from typing import Callable
 
-from .validation import ClockCheck, JumpDetector, SourceLock
+from .source_lock import SourceLock
+from .validation import ClockCheck, JumpDetector
 
 #: How often (wall clock, s) the graph is asked how many publishers an input has.
 GRAPH_CHECK_PERIOD_S = 1.0

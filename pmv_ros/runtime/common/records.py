@@ -1,5 +1,5 @@
-"""Records the runtime hands to the nodes and the shim lays out: the one home of the diagnostic level
-and of a runtime's health status.
+"""Records the runtime hands to the nodes and the shim lays out: the one home of the diagnostic level,
+of a runtime's health status and of a line it asks the node to log.
 
 The channel names and the channel-statistics record are the analysis layer's
 (:data:`pmv_ros.analysis.statistics.CHANNELS`,
@@ -37,3 +37,10 @@ class HealthAt(NamedTuple):
 
     stamp_s: float
     health: HealthSummary
+
+
+class LogLine(NamedTuple):
+    """A line for the node's log (a runtime output's ``log``): ``level`` is ``"info"`` or ``"error"``."""
+
+    level: str
+    text: str

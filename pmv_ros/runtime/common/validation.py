@@ -21,12 +21,19 @@ monitor core only call these checks, count the reasons and say so on
   jump is acted on once, and only when the next observation confirms it; a
   single forged ``/clock`` message or stamp that time then contradicts is an
   outlier, counted, and changes nothing.
-* **One source per stream** — :class:`SourceLock` (the rule is in its
-  docstring): the first publisher heard is kept; messages of any other are
-  dropped, never interleaved.
+* **Frames** — :func:`check_frame`, and :class:`FrameCheck` for a stream:
+  a message stamped in another frame than its stream's is refused, and the
+  refusal says what was expected (once on the log, on ``/diagnostics``
+  while it lasts).
+* **/clock** — :class:`ClockCheck`: whether a ``/clock`` message may set a
+  node's time.
 * **Files** — :func:`pmv_ros.storage.files.read_text_file`: a regular text
   file of bounded size, opened without blocking; errors never echo the file's
   contents.
+
+Where else an input is guarded: which publisher a node listens to is
+:mod:`.source_lock`; how refused requests are counted and said is
+:mod:`.refusals`.
 
 Times are seconds (float), angles radians, lengths metres.
 """
@@ -36,9 +43,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from enum import Enum
-from typing import Callable, NamedTuple
+from typing import NamedTuple
 
 from ...physics.constants import EARTH_MEAN_RADIUS_M, GM_EARTH_M3_S2
+from .source_lock import DEFAULT_TIMEOUT_S, SourceLock
 
 #: | |q| − 1 | up to which a quaternion is normalised (and counted); beyond it, rejected.
 #: Rounding in a float32 stack or a serialiser leaves ~1e-7; 1e-2 admits a stack that
@@ -62,7 +70,7 @@ class Rejection(str, Enum):
     BAD_QUATERNION = "bad_quaternion"        # norm further than the tolerance from 1 (or zero)
     IMPLAUSIBLE_ANGLE = "implausible_angle"  # |roll| or |pitch| beyond the plausibility bound
     IMPLAUSIBLE_ORBIT = "implausible_orbit"  # radius, speed or energy not those of a bound Earth orbit
-    OTHER_SOURCE = "other_source"            # from a second publisher on the stream (see SourceLock)
+    OTHER_SOURCE = "other_source"            # from a second publisher on the stream (source_lock.SourceLock)
     WRONG_FRAME = "wrong_frame"              # stamped in another frame than the stream's (check_frame)
 
 
@@ -82,6 +90,73 @@ def check_frame(frame_id: str, expected: str) -> Rejection | None:
     Frame ids compare exactly (tf2 does too): no prefix is guessed.
     """
     return None if frame_id == expected else Rejection.WRONG_FRAME
+
+
+#: Characters of a refused frame id quoted in a log line or a status (a frame id comes from the network: a longer
+#: one, or one with characters a terminal would act on, is shown as a truncated Python literal).
+SHOWN_FRAME_CHARS = 64
+
+
+def shown_frame(frame_id) -> str:
+    """A frame id from a message as a log line or a status may quote it: as it is when it is a short printable
+    ASCII string, else a Python literal of its first :data:`SHOWN_FRAME_CHARS` characters (``…`` if cut)."""
+    text = frame_id if isinstance(frame_id, str) else str(frame_id)
+    if text and len(text) <= SHOWN_FRAME_CHARS and text.isascii() and text.isprintable() and " " not in text:
+        return text
+    return repr(text[:SHOWN_FRAME_CHARS]) + ("…" if len(text) > SHOWN_FRAME_CHARS else "")
+
+
+class FrameCheck:
+    """:func:`check_frame` for one input, with the words a refusal is said in: what was expected, what came.
+
+    ``what`` names the input for people (``"star-tracker truth"``). The first
+    refusal gives one log line (:meth:`take_log_line`: once for the check's
+    life, however many messages follow); while messages keep being refused —
+    until one is stamped in the expected frame again — :attr:`problem` is the
+    phrase for ``/diagnostics``. Memory is bounded: a count and the last
+    refused frame id, shortened (:func:`shown_frame`).
+    """
+
+    __slots__ = ("what", "expected", "refused", "_got", "_said", "_line")
+
+    def __init__(self, what: str, expected: str) -> None:
+        self.what, self.expected = what, expected
+        self.refused = 0  # messages refused for their frame
+        self._got = None  # the frame id of the latest refused message while refusals last (None: the last was taken)
+        self._said = False
+        self._line = None
+
+    def check(self, frame_id: str) -> Rejection | None:
+        """WRONG_FRAME (counted, and remembered for the words) unless ``frame_id`` is the expected frame."""
+        rejection = check_frame(frame_id, self.expected)
+        if rejection is None:
+            self._got = None
+            return None
+        self.refused += 1
+        self._got = shown_frame(frame_id)
+        if not self._said:
+            self._said = True
+            self._line = (f"{self.words()}: each such message is dropped (counted on /diagnostics); "
+                          "this is said once")
+        return rejection
+
+    def words(self) -> str:
+        """``<what> refused: expected <frame>, got <frame>`` of the latest refusal ('' while none lasts)."""
+        if self._got is None:
+            return ""
+        return f"{self.what} refused: expected {self.expected}, got {self._got}"
+
+    @property
+    def problem(self) -> str | None:
+        """The /diagnostics phrase while the input's messages are being refused for their frame, else None."""
+        if self._got is None:
+            return None
+        return f"{self.words()} ({self.refused} refused)"
+
+    def take_log_line(self) -> str | None:
+        """The line to log about the first refusal, once (None before it and ever after)."""
+        line, self._line = self._line, None
+        return line
 
 
 # ----------------------------------------------------------------------------------- values
@@ -355,230 +430,6 @@ def check_quaternion_sample(stamps: StampCheck, t_s: float, q_xyzw, now_s: float
     return QuaternionSample(q if rejection is None else None, rejection, jumped, outliers, normalised)
 
 
-# ------------------------------------------------------------------------------- one source
-
-#: How many source timeouts a silent locked source keeps its lock while the graph shows another publisher
-#: beside the one that would take over (:class:`SourceLock`): a flood lasting this long while the real source
-#: is starved or drowned takes over; at the default timeout of 1 s that is 10 s.
-CROWDED_TIMEOUT_FACTOR = 10.0
-
-
-class SourceLock:
-    """Keep one publisher per input stream: the first heard; drop the others' messages, never interleave.
-
-    Rule (how the source is chosen and kept):
-
-    * A message's source is the publisher's GID when the middleware gives it
-      (``publisher_gid`` in rclpy's message info, rclpy ≥ Kilted). Jazzy's rclpy
-      gives only the publisher's own sequence number (each publisher numbers
-      its messages 1, 2, 3, …), so there a source is a *track* of sequence
-      numbers: a message continues the track whose last number is below its
-      own by at most ``max_sequence_gap``. Where several could take it, the
-      step that track's numbering rate explains wins first (its rate × the
-      time since it was last heard, rounded, at least one: a full queue or
-      best effort loses messages, so a real sample two numbers on after two
-      periods is as good as one number on — :meth:`_Track.excess_step`);
-      then, where steps are all explained (a faster publisher's count has
-      caught up with the locked one's), the track the message fits best in
-      time: the step nearest its rate's, and the stamp nearest its expected
-      one (last stamp + step × its stamp interval) measured in that track's
-      own stamp jitter (:meth:`_Track.misfit`). A single publisher is
-      therefore always one track, whatever its stamps do (its clock jumps are
-      the stamp checks' business). Two publishers numbering in lockstep are
-      told apart by their stamps only: where those coincide too, only a GID
-      can separate them.
-    * The first source heard is locked. Its messages pass; every other
-      source's are OTHER_SOURCE, counted, and the number of sources heard
-      within ``timeout_s`` is what :attr:`sources_heard` reports.
-    * The lock moves only when the locked source has been silent (by arrival
-      time, on the clock the caller gives) for ``timeout_s`` — it stopped, or was restarted (a restarted
-      publisher numbers from 1 again: a new track); the next source heard is
-      then locked (counted in :attr:`lock_changes`) — unless it is a known
-      *intruder*: a source refused while the locked one was still talking
-      (heard between two of its messages) never inherits the lock. A flood
-      that outlasts a real source's stall (a starved process on a busy
-      machine falls silent for a second) cannot become the source; a
-      restarted publisher, which is heard only after the old one stopped, can.
-      An intruder's numbering is followed across any gap (a flood that a busy
-      subscriber thins by thousands stays the same intruder). And where the
-      caller can ask the graph (``crowded``: more than one publisher of the
-      input there now), a source first heard during the stall — a flood that
-      began while the real one was starved, or whose messages pushed the real
-      one's out of the subscriber's queue — still waits
-      :data:`CROWDED_TIMEOUT_FACTOR` timeouts: the silent source is still in
-      the graph, so it may be starved, not gone. A restarted publisher's old
-      self leaves the graph (at once on a clean exit; after the middleware's
-      lease on kill -9), and the new one is locked after ``timeout_s``.
-    * A message with neither GID nor sequence number (an in-process call)
-      counts as the locked source.
-
-    Memory: at most ``max_tracks`` tracks (the least recently heard other
-    source is forgotten first).
-
-    Args:
-        timeout_s: silence after which the locked source is given up, s (arrival clock).
-        max_sequence_gap: largest jump in a source's sequence numbers still taken as the same source.
-        max_tracks: sources remembered at once.
-        crowded: whether the graph shows more than one publisher of the input now (asked only when the lock
-            would move); None: not known, the lock moves after ``timeout_s``.
-    """
-
-    def __init__(self, timeout_s: float = 1.0, *, max_sequence_gap: int = 1000, max_tracks: int = 8,
-                 crowded: Callable[[], bool] | None = None) -> None:
-        if not (math.isfinite(timeout_s) and timeout_s > 0.0):
-            raise ValueError(f"timeout_s = {timeout_s} must be a positive number of seconds")
-        if max_tracks < 2 or max_sequence_gap < 1:
-            raise ValueError("max_tracks must be ≥ 2 and max_sequence_gap ≥ 1")
-        self.timeout_s = float(timeout_s)
-        self.max_sequence_gap = int(max_sequence_gap)
-        self.max_tracks = int(max_tracks)
-        self.crowded = crowded
-        self._tracks: list[_Track] = []
-        self._locked: _Track | None = None
-        self.lock_changes = 0
-        self.other_source_messages = 0
-
-    def admit(self, arrival_s: float, *, gid=None, sequence: int | None = None,
-              stamp_s: float = math.nan) -> bool:
-        """Whether a message that arrived at ``arrival_s`` (s, the node clock) is from the locked source."""
-        if gid is None and sequence is None:
-            return True
-        track = self._track_for(gid, sequence, stamp_s, arrival_s)
-        locked = self._locked
-        # Silent for the timeout — or the clock went back by more (a restarted simulation): given up, to any
-        # source but one refused while the locked one was still talking; while the graph still shows another
-        # publisher beside the new one, only after CROWDED_TIMEOUT_FACTOR timeouts.
-        if locked is None or (locked is not track and not track.intruder
-                              and abs(arrival_s - locked.arrival_s) > self.timeout_s
-                              and (abs(arrival_s - locked.arrival_s) > CROWDED_TIMEOUT_FACTOR * self.timeout_s
-                                   or self.crowded is None or not self.crowded())):
-            if locked is not None:
-                self.lock_changes += 1
-            self._locked = locked = track
-        track.hear(sequence, stamp_s, arrival_s)
-        if track is locked:
-            for other in self._tracks:  # refused since its previous message: they spoke while it was alive
-                if other.refused and other is not track:
-                    other.intruder = True
-            return True
-        track.refused = True
-        self.other_source_messages += 1
-        return False
-
-    def sources_heard(self, now_s: float) -> int:
-        """Sources heard within ``timeout_s`` before ``now_s`` (arrival clock)."""
-        return sum(1 for track in self._tracks if abs(now_s - track.arrival_s) <= self.timeout_s)
-
-    def _track_for(self, gid, sequence, stamp_s, arrival_s) -> "_Track":
-        tracks = self._tracks
-        if gid is not None:
-            key = bytes(gid)
-            for track in tracks:
-                if track.gid == key:
-                    return track
-            return self._new_track(_Track(gid=key))
-        # An intruder's numbering is followed across any loss: a flood whose messages a busy subscriber drops by
-        # the thousand must not come back as a new source, one no stall has yet shown up.
-        candidates = [track for track in tracks if track.gid is None and track.sequence is not None
-                      and 0 < sequence - track.sequence <= (math.inf if track.intruder else self.max_sequence_gap)]
-        if len(candidates) == 1:  # one source could take it (the usual case): nothing to weigh
-            return candidates[0]
-        best, best_key = None, None
-        for track in candidates:
-            gap = sequence - track.sequence
-            # The step its source's rate explains first (messages get lost: a step of 2 after 0.2 s of a
-            # 10 Hz source is as good as 1); where two sources could both take it (their counts met), the
-            # one this message fits best in time.
-            key = (track.excess_step(gap, arrival_s), track.misfit(gap, stamp_s, arrival_s), gap,
-                   track is not self._locked)
-            if best_key is None or key < best_key:
-                best, best_key = track, key
-        return best if best is not None else self._new_track(_Track())
-
-    def _new_track(self, track: "_Track") -> "_Track":
-        if len(self._tracks) >= self.max_tracks:
-            others = [t for t in self._tracks if t is not self._locked]
-            self._tracks.remove(min(others, key=lambda t: t.arrival_s))
-        self._tracks.append(track)
-        return track
-
-
-class _Track:
-    """What a :class:`SourceLock` remembers of one source."""
-
-    __slots__ = ("gid", "sequence", "stamp_s", "interval_s", "arrival_s", "sequence_rate_hz", "stamp_jitter_s",
-                 "refused", "intruder")
-
-    #: Stamp jitter below which a source's stamps count as exact (a double holds ~1e-7 s at 2e9 s), s.
-    STAMP_JITTER_FLOOR_S = 1e-5
-
-    def __init__(self, gid: bytes | None = None) -> None:
-        self.gid = gid
-        self.sequence = None
-        self.stamp_s = math.nan
-        self.interval_s = math.nan
-        self.arrival_s = -math.inf
-        self.sequence_rate_hz = math.nan  # numbers per second of arrival time, smoothed
-        self.stamp_jitter_s = math.nan  # how far its stamps fall from one interval on, smoothed
-        self.refused = False  # a message of it was refused (it is not the locked source)
-        self.intruder = False  # refused while the locked source was still talking: never given the lock
-
-    def misfit(self, gap: int, stamp_s: float, arrival_s: float) -> float:
-        """How badly a message ``gap`` numbers on, stamped ``stamp_s``, fits this source (0: perfectly).
-
-        Two terms, each in units of this source's own regularity: how far ``gap``
-        is from the numbers its rate says it used since it was last heard (1
-        while the rate is unknown), and how far the stamp is from ``gap``
-        intervals on (messages lost in between still took their numbers and
-        their stamps), in units of its usual stamp jitter. A sensor stamping
-        on a fixed grid has almost no jitter, so a neighbour's stamp that is
-        off its grid by milliseconds misfits it badly, even when the two
-        counts have met.
-        """
-        expected = self.sequence_rate_hz * (arrival_s - self.arrival_s)
-        timing = abs(gap - expected) if math.isfinite(expected) else 1.0
-        miss = abs(stamp_s - self.expected_stamp_s(gap, arrival_s))
-        if not math.isfinite(miss):  # its stamps are bad: numbers only
-            return timing
-        jitter = self.stamp_jitter_s if math.isfinite(self.stamp_jitter_s) else 0.0
-        return timing + miss / (jitter + self.STAMP_JITTER_FLOOR_S)
-
-    def expected_stamp_s(self, gap: int, arrival_s: float) -> float:
-        """The stamp this source's message ``gap`` numbers on should carry: ``gap`` intervals on (or,
-        before the interval is known, as much as the arrival time moved on)."""
-        step = gap * self.interval_s if math.isfinite(self.interval_s) else arrival_s - self.arrival_s
-        return self.stamp_s + step
-
-    def excess_step(self, gap: int, arrival_s: float) -> int:
-        """How many numbers more than this source would have used (its rate × the time since it was last
-        heard, rounded; at least one) a message ``gap`` numbers on skips: 0 where lost messages explain
-        the gap."""
-        expected = self.sequence_rate_hz * (arrival_s - self.arrival_s)
-        used = math.floor(expected + 0.5) if math.isfinite(expected) else 1
-        return max(0, gap - max(1, used))
-
-    def hear(self, sequence, stamp_s: float, arrival_s: float) -> None:
-        gap = sequence - self.sequence if sequence is not None and self.sequence is not None else 1
-        gap = gap if gap >= 1 else 1
-        if math.isfinite(stamp_s) and stamp_s > 0.0:  # a bad stamp says nothing about the cadence
-            miss = abs(stamp_s - self.expected_stamp_s(gap, arrival_s))
-            if math.isfinite(miss) and math.isfinite(self.interval_s):
-                known = math.isfinite(self.stamp_jitter_s)
-                self.stamp_jitter_s = 0.8 * self.stamp_jitter_s + 0.2 * miss if known else miss
-            if math.isfinite(self.stamp_s) and stamp_s > self.stamp_s:
-                step = (stamp_s - self.stamp_s) / gap
-                self.interval_s = step if not math.isfinite(self.interval_s) else 0.8 * self.interval_s + 0.2 * step
-            self.stamp_s = stamp_s
-        if sequence is not None:
-            elapsed_s = arrival_s - self.arrival_s
-            if self.sequence is not None and sequence > self.sequence and 0.0 < elapsed_s < math.inf:
-                rate = (sequence - self.sequence) / elapsed_s
-                known = math.isfinite(self.sequence_rate_hz)
-                self.sequence_rate_hz = 0.8 * self.sequence_rate_hz + 0.2 * rate if known else rate
-            self.sequence = sequence
-        self.arrival_s = arrival_s
-
-
 # ------------------------------------------------------------------------------------ /clock
 
 #: Why a ``/clock`` message was not allowed to set a node's time (counted as ``rejected_clock_<reason>``).
@@ -593,7 +444,7 @@ class ClockCheck:
     Rule, in order: the time must be well formed (``sec`` an int32,
     ``nanosec`` in [0, 1e9)) — else ``malformed``; not negative — else
     ``negative`` (rclpy's time source raises on it and the node would stop);
-    from the first publisher heard (:class:`SourceLock`, silence measured on
+    from the first publisher heard (:class:`~.source_lock.SourceLock`, silence measured on
     the caller's wall clock) — else ``other_source``: a second ``/clock``
     publisher is one more source on a stream; and on the current timeline or
     a jump the next message confirms (:class:`JumpDetector`: back by more
@@ -606,7 +457,7 @@ class ClockCheck:
         source_timeout_s: wall-clock silence after which the locked publisher is given up, s.
     """
 
-    def __init__(self, jump_back_s: float, jump_ahead_s: float, source_timeout_s: float = 1.0) -> None:
+    def __init__(self, jump_back_s: float, jump_ahead_s: float, source_timeout_s: float = DEFAULT_TIMEOUT_S) -> None:
         self._jumps = JumpDetector(jump_back_s, forward_threshold_s=jump_ahead_s)
         self.sources = SourceLock(source_timeout_s)
         self.counts = dict.fromkeys(CLOCK_REJECTIONS, 0)
@@ -628,36 +479,3 @@ class ClockCheck:
         if reason is not None:
             self.counts[reason] += 1
         return reason
-
-
-# ------------------------------------------------------------------------------- refused requests
-
-#: Wall time between two log lines about refused requests of one kind, s (the first one is said at once).
-REFUSAL_LOG_PERIOD_S = 60.0
-
-
-class RefusalTally:
-    """Requests refused (parameter updates, …): every one counted, the first said at once, then at most one
-    line per ``period_s`` with the count since — a storm of refusals is a counter on /diagnostics, never a log
-    line per request.
-
-    Memory is bounded: one count and the time it was last said, whatever the requests were.
-    """
-
-    def __init__(self, what: str, period_s: float = REFUSAL_LOG_PERIOD_S) -> None:
-        self.what = what
-        self.period_s = float(period_s)
-        self.count = 0
-        self._said_s: float | None = None
-        self._said_count = 0
-
-    def refuse(self, reason: str, now_s: float) -> str | None:
-        """Count one refusal for ``reason``; the line to log now, or None (said already in this period)."""
-        self.count += 1
-        if self._said_s is not None and now_s - self._said_s < self.period_s:
-            return None
-        since, self._said_s, self._said_count = self.count - self._said_count, now_s, self.count
-        if since == 1:
-            return f"refused {self.what}: {reason}"
-        return (f"refused {self.what}: {reason} ({since} refused since the last line, {self.count} in all; "
-                f"counted on /diagnostics, said at most every {self.period_s:g} s)")

@@ -29,7 +29,6 @@ samples settle in queue order, so its front at any event is one search away.
 
 from __future__ import annotations
 
-import bisect
 import math
 from dataclasses import dataclass
 
@@ -46,11 +45,6 @@ _OK, _NO_ANGLE, _NO_TRUTH, _TOO_OLD, _GAP, _STALE_CODE, _OVERFLOW_CODE, _RESET =
                                                 Status.TRUTH_GAP, Status.STALE_TRUTH, Status.PENDING_OVERFLOW,
                                                 Status.RESET))
 
-
-#: A segment with at most this many samples (waiting and new) is settled in floats (:meth:`Alignment.settle_small`):
-#: numpy's fixed cost per call is then more than the loop's (one truth settling 4 waiting samples: 3.5× faster
-#: in floats, 64 samples: 1.3×; measured side by side with a 100 s truth history).
-SMALL_SEGMENT = 64
 
 #: The rows of a segment's sample matrix and of the pending queue.
 SAMPLE_ROWS = ("index", "t_s", "roll_rad", "pitch_rad", "model_roll_rad", "model_pitch_rad", "altitude_m")
@@ -81,39 +75,20 @@ class Settled:
     ``values`` ``(8, k)``: :data:`SETTLED_ROWS`; ``reported`` ``(3, k)``: :data:`REPORTED_ROWS`, what the
     monitor's accounting adds — as the sample entered the reported statistics, rad, NaN unless the sample
     was used (None until then).
-
-    A few samples settled in floats (:meth:`Alignment.settle_small`) come as rows (:meth:`from_rows`), and a
-    node's message is accounted and reported from those rows: ``values`` is made from them only when asked
-    for (an array of a handful of samples costs more than the rows it is made from, and was read back as rows).
     """
 
-    __slots__ = ("_values", "_rows", "reported")
+    __slots__ = ("values", "reported")
 
     def __init__(self, values: np.ndarray, reported: np.ndarray | None = None) -> None:
-        self._values, self._rows, self.reported = values, None, reported
-
-    @classmethod
-    def from_rows(cls, rows: list) -> "Settled":
-        """Samples given as rows of :data:`SETTLED_ROWS` (lists of floats), at least one."""
-        settled = cls(None)
-        settled._rows = rows
-        return settled
-
-    @property
-    def values(self) -> np.ndarray:
-        if self._values is None:
-            self._values = np.array(self._rows, float).T
-        return self._values
+        self.values, self.reported = values, reported
 
     def rows(self) -> list:
-        """The samples as rows of :data:`SETTLED_ROWS` (lists of floats, in settle order); not to be changed."""
-        if self._rows is None:
-            self._rows = self._values.T.tolist()
-        return self._rows
+        """The samples as rows of :data:`SETTLED_ROWS` (lists of floats, in settle order)."""
+        return self.values.T.tolist()
 
     @property
     def size(self) -> int:
-        return self._values.shape[1] if self._values is not None else len(self._rows)
+        return self.values.shape[1]
 
     @property
     def index(self) -> np.ndarray:
@@ -194,18 +169,18 @@ def _first_past(clocks: np.ndarray, stamp: np.ndarray, wait_s: float) -> np.ndar
 def oblateness_model(u_rad, altitude_m, inclination_rad):
     """The published closed form (physics.md §2.1) where the orbit is known, NaN elsewhere: (roll, pitch), rad.
 
-    Floats give floats (a sample as the monitor's scan takes it); arrays give arrays.
+    ``(N,)`` arrays (a segment's samples).
     """
-    if isinstance(u_rad, float):
-        if math.isfinite(u_rad) and math.isfinite(inclination_rad) and math.isfinite(altitude_m) and altitude_m > 0.0:
+    known = np.isfinite(u_rad) & np.isfinite(inclination_rad) & (altitude_m > 0.0) & (altitude_m < np.inf)
+    # An absurd but finite altitude (an orbit column of 1e308 m) overflows to a model of 0: no warning for it.
+    with np.errstate(over="ignore"):
+        if known.all():  # the orbit of every sample (a node's odometry is fresh): no gaps to keep
             _, roll, pitch = closed_form_oblateness(u_rad, altitude_m, inclination_rad)
-            return float(roll), float(pitch)
-        return math.nan, math.nan
-    roll, pitch = np.full(u_rad.shape, np.nan), np.full(u_rad.shape, np.nan)
-    with np.errstate(invalid="ignore"):
-        known = np.isfinite(u_rad) & np.isfinite(inclination_rad) & np.isfinite(altitude_m) & (altitude_m > 0.0)
-    if known.any():
-        _, roll[known], pitch[known] = closed_form_oblateness(u_rad[known], altitude_m[known], inclination_rad[known])
+            return roll, pitch
+        roll, pitch = np.full(u_rad.shape, np.nan), np.full(u_rad.shape, np.nan)
+        if known.any():
+            _, roll[known], pitch[known] = closed_form_oblateness(u_rad[known], altitude_m[known],
+                                                                  inclination_rad[known])
     return roll, pitch
 
 
@@ -218,58 +193,22 @@ class Alignment:
 
     def clear(self) -> None:
         """Drop truth and the queue (a new time axis); the caller settles what was waiting first."""
-        self.truth = np.empty((3, 0))  # stamp, roll, pitch
+        self.truth = np.empty((3, 0))  # stamp, roll, pitch, in arrival order
         self.truth_pruned = False  # something was pruned since the (re)start: NO_TRUTH becomes TOO_OLD
         self._wait(np.empty((len(SAMPLE_ROWS), 0)))
         self._indexed = False  # the queue holds places in the current input
 
-    # The buffer and the queue are kept as arrays (a segment settled on arrays) or as lists (a small one settled
-    # in floats), whichever settled last; each is converted when the other kind asks for it.
-
-    @property
-    def truth(self) -> np.ndarray:
-        """The truth buffer, ``(3, m)``: stamp, roll, pitch, in arrival order."""
-        if self._truth is None:
-            self._truth = np.array(self._truth_columns, float).reshape(3, -1)
-            self._truth_columns = None
-        return self._truth
-
-    @truth.setter
-    def truth(self, value: np.ndarray) -> None:
-        self._truth, self._truth_columns = value, None
-
     @property
     def truth_count(self) -> int:
         """Truth samples held."""
-        return self._truth.shape[1] if self._truth is not None else len(self._truth_columns[0])
+        return self.truth.shape[1]
 
-    def _truth_lists(self) -> list:
-        """The truth buffer as three lists (stamp, roll, pitch), for a small settle (which grows and prunes them in
-        place)."""
-        if self._truth_columns is None:
-            self._truth_columns = self._truth.tolist()
-            self._truth = None
-        return self._truth_columns
-
-    @property
-    def pending(self) -> np.ndarray:
-        """The samples waiting, ``(7, k)``: :data:`SAMPLE_ROWS`, oldest first."""
-        if self._pending is None:
-            self._pending = np.array(self._pending_rows, float).reshape(-1, len(SAMPLE_ROWS)).T
-            self._pending_rows = None
-        return self._pending
-
-    def _wait(self, pending) -> None:
-        """The samples waiting from now on, ``(7, k)`` or k rows (their count and the oldest stamp kept as plain
-        numbers for the scan)."""
-        if isinstance(pending, list):
-            self._pending, self._pending_rows = None, pending
-            self.pending_count = len(pending)
-            self.oldest_pending_s = pending[0][1] if pending else math.inf
-        else:
-            self._pending, self._pending_rows = pending, None
-            self.pending_count = pending.shape[1]
-            self.oldest_pending_s = float(pending[1, 0]) if self.pending_count else math.inf
+    def _wait(self, pending: np.ndarray) -> None:
+        """The samples waiting from now on, ``(7, k)``: :data:`SAMPLE_ROWS`, oldest first (their count and the oldest
+        stamp kept as plain numbers for the scan)."""
+        self.pending = pending
+        self.pending_count = pending.shape[1]
+        self.oldest_pending_s = float(pending[1, 0]) if self.pending_count else math.inf
 
     def take_pending(self) -> Settled:
         """Every waiting sample as settled by a reset (RESET), and an empty queue."""
@@ -283,20 +222,15 @@ class Alignment:
     def forget_indices(self) -> None:
         """The samples still waiting belong to an earlier input from now on."""
         if self._indexed:
-            if self._pending is None:
-                for row in self._pending_rows:
-                    row[0] = -1.0
-            else:
-                self._pending[0] = -1.0
+            self.pending[0] = -1.0
             self._indexed = False
 
     def settle(self, segment: Segment) -> Settled:
         """Settle a segment: every sensor sample's fate (or its wait), the buffer and queue it leaves.
 
-        One path for any segment; what cannot happen in it (a sample settled on arrival, a timeout, an
-        overflow, a pruned buffer) is skipped after a scalar test, not computed as nothing. A short segment takes
-        :meth:`settle_small`, the same rules in floats: a change here is a change there (the test
-        ``test_a_small_segment_settles_in_floats_exactly_as_on_arrays`` holds the two equal bit for bit).
+        One path for any segment, a node's message of one sample as a campaign's orbit; what cannot happen in it
+        (a sample settled on arrival, a timeout, an overflow, a pruned buffer) is skipped after a scalar test, not
+        computed as nothing.
         """
         config = self.config
         events = segment.expiry_clock_s.size
@@ -433,154 +367,6 @@ class Alignment:
         first_block[5:8] = samples[4:7, immediate]
         key = np.concatenate((segment.sensor_event[immediate] * 3 + _OWN, (settle * 3 + _phase(stale, overflow))[done]))
         return Settled(np.concatenate((first_block, block), axis=1)[:, np.argsort(key, kind="stable")])
-
-
-    def settle_small(self, gathered: list, serial: int, truth: list, expiry: list, on_arrival: bool) -> Settled:
-        """:meth:`settle` of a short segment in floats, from the scan's lists: what :meth:`settle` gives, exactly.
-
-        A message from a node settles a handful of samples; the array path's fixed cost (≈ 100 numpy calls)
-        is then most of a message's. This is the same rules, step for step, per sample: the same searches
-        (``bisect`` for ``searchsorted``), the same float operations in the same order, the same order of
-        what settles. ``gathered``: the scan's sample tuples (serial, place, code, event, stamp, roll, pitch, the
-        model's roll and pitch, altitude: ``scan._SAMPLE_COLUMNS``), ``truth`` its
-        accepted truth (stamp, roll, pitch, event), ``expiry`` each event's timeout clock.
-
-        The buffer's lists grow and are pruned in place (a node's truth message moves them by a sample or so:
-        copying the whole minute of truth they hold cost more than aligning the samples).
-        """
-        config = self.config
-        events = len(expiry)
-        wait_s, limit = config.max_truth_wait_s, config.max_pending
-        if self._pending_rows is None:
-            self._pending_rows, self._pending = self._pending.T.tolist(), None
-        candidates = list(self._pending_rows)  # rows of SAMPLE_ROWS: waiting from before (arrival −1), then new
-        arrive = [-1] * len(candidates)
-        immediate = []  # (sort key, settled row) of the samples refused or without an angle
-        for own_serial, index, code, event, t, roll, pitch, model_roll, model_pitch, altitude in gathered:
-            place = float(index) if own_serial == serial else -1.0
-            if code != PENDING_CODE:
-                immediate.append((event * 3 + _OWN, [place, t, float(code), math.nan, math.nan, model_roll,
-                                                     model_pitch, altitude]))
-            else:
-                candidates.append([place, t, roll, pitch, model_roll, model_pitch, altitude])
-                arrive.append(event)
-        count = len(candidates)
-        truth_t, truth_roll, truth_pitch = self._truth_lists()
-        held = len(truth_t)
-        # The buffer (arrived before: event −1), then this segment's accepted truth, whose events are these.
-        truth_event = [event for _, _, _, event in truth]
-        if truth:
-            truth_t += [t for t, _, _, _ in truth]
-            truth_roll += [roll for _, roll, _, _ in truth]
-            truth_pitch += [pitch for _, _, pitch, _ in truth]
-        total = len(truth_t)
-        stamp = [row[1] for row in candidates]
-        hi = [bisect.bisect_left(truth_t, s) for s in stamp]
-        cover = [events if h >= total else -1 if h < held else truth_event[h - held] for h in hi]
-        at_once = [c < a for c, a in zip(cover, arrive)]  # uncovered: cover = events, never before an arrival
-        settle = [a if now else c for a, c, now in zip(arrive, cover, at_once)]
-        stale = None
-        if events and count and max(expiry) - min(stamp) > wait_s:
-            stale = [False] * count
-            for i in range(count):
-                if at_once[i]:
-                    continue
-                s = stamp[i]
-                for j in range(max(arrive[i], 0), min(cover[i], events)):
-                    if expiry[j] - s > wait_s:
-                        stale[i], settle[i] = True, j
-                        break
-            if not any(stale):
-                stale = None
-        queued = [i for i in range(count) if not at_once[i]]
-        overflow = None
-        if len(queued) > limit:
-            overflow = [False] * count
-            for pushed, pusher in zip(queued[:-limit], queued[limit:]):
-                if settle[pushed] >= arrive[pusher]:
-                    overflow[pushed], settle[pushed] = True, arrive[pusher]
-        queue_settle = [settle[i] for i in queued]
-        if (stale is not None or overflow is not None) and any(b < a for a, b in zip(queue_settle, queue_settle[1:])):
-            raise RuntimeError("monitor alignment: the queue would not settle in order (stamps not increasing)")
-        drop = None  # the buffer's first sample after each of this segment's truth events, if any was pruned
-        if truth:
-            after, dropped = [], 0
-            for j, (t, _, _, event) in enumerate(truth):
-                front = bisect.bisect_right(queue_settle, event)
-                front_stamp = math.inf
-                if front < len(queued) and arrive[queued[front]] < event:
-                    front_stamp = stamp[queued[front]]
-                cutoff = min(t - config.truth_history_s, front_stamp)
-                dropped = max(dropped, bisect.bisect_right(truth_t, cutoff) - 1, held + j + 1 - config.truth_capacity,
-                              0)
-                after.append(dropped)
-            if dropped > 0:
-                drop = after
-        rows, waiting = [], []
-        last, pruned_before, gap_s = max(total - 1, 0), self.truth_pruned, config.max_truth_gap_s
-        for i in range(count):
-            row = candidates[i]
-            if settle[i] >= events:
-                waiting.append(row)
-                continue
-            h, s = hi[i], stamp[i]
-            covered = h < total
-            at = min(h, last)
-            exact = covered and truth_t[at] == s
-            low = max(h - 1, 0)
-            pruned = pruned_before
-            lost = first = False
-            if drop is None:
-                first = not exact and h == 0
-            else:  # the buffer as the truth event before its settle left it (an own arrival is ≥ 0: after −1)
-                seen = held + bisect.bisect_left(truth_event, arrive[i]) - 1 if at_once[i] else h - 1
-                start = drop[seen - held] if seen >= held else 0
-                pruned = pruned or start > 0
-                lost = h < start
-                first = not lost and not exact and h == start
-            kept = not lost and not first
-            gap = kept and not exact and truth_t[at] - truth_t[low] > gap_s if total else False
-            timed_out = stale is not None and stale[i]
-            pushed_out = overflow is not None and overflow[i]
-            aligned = not timed_out and not pushed_out
-            residual_roll = residual_pitch = math.nan
-            if pushed_out:
-                code, phase = _OVERFLOW_CODE, _OVERFLOW
-            elif timed_out:
-                code, phase = _STALE_CODE, _STALE
-            else:
-                phase = _OWN
-                if kept and not gap:
-                    code = _OK
-                    if exact:
-                        residual_roll, residual_pitch = row[2] - truth_roll[h], row[3] - truth_pitch[h]
-                    else:
-                        weight = (s - truth_t[low]) / (truth_t[h] - truth_t[low])
-                        residual_roll = row[2] - (truth_roll[low] + weight * (truth_roll[h] - truth_roll[low]))
-                        residual_pitch = row[3] - (truth_pitch[low] + weight * (truth_pitch[h] - truth_pitch[low]))
-                else:
-                    code = _GAP if gap else _TOO_OLD if pruned else _NO_TRUTH
-            rows.append((settle[i] * 3 + phase, [row[0], s, float(code), residual_roll, residual_pitch, row[4],
-                                                 row[5], row[6]]))
-        # What stays: the buffer as the last truth event left it, and the samples still waiting.
-        if drop is not None:  # the lists are the buffer's own (grown above)
-            for column in (truth_t, truth_roll, truth_pitch):
-                del column[:drop[-1]]
-            self.truth_pruned = True
-        self._wait(waiting)
-        self._indexed = True
-        if on_arrival:
-            rows = immediate + rows
-            rows.sort(key=_first)
-        elif stale is not None or overflow is not None:
-            rows.sort(key=_first)
-        if not rows:
-            return Settled(np.empty((len(SETTLED_ROWS), 0)))
-        return Settled.from_rows([row for _, row in rows])
-
-
-def _first(item):
-    return item[0]
 
 
 def _phase(stale, overflow):

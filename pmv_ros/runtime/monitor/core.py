@@ -60,9 +60,9 @@ One path
     (:meth:`add_batch`). The inputs are validated in arrival order, into an
     open segment (:mod:`pmv_ros.runtime.monitor.scan`; on arrays when a batch
     is clean); a segment — never across a clock jump — is aligned on arrays
-    (:mod:`pmv_ros.runtime.monitor.alignment`), or in plain floats by the same
-    rules when it holds a few samples (a node's message), at the end of the
-    input that makes anything in it settle, and the used samples enter the
+    (:mod:`pmv_ros.runtime.monitor.alignment`), a node's message of one sample
+    as a campaign's orbit, at the end of the input that makes anything in it
+    settle, and the used samples enter the
     statistics when these are read (:meth:`summary`). How the same events are cut into
     batches changes nothing but the order in which sums are taken (≈ 1e-15
     relative).
@@ -79,7 +79,7 @@ from typing import Callable
 import numpy as np
 
 from ...analysis.statistics import CHANNELS, DEFAULT_MAX_CONDITION, ChannelStatistics, OrbitRing, update_rows
-from .alignment import SMALL_SEGMENT, Alignment, Segment, Settled
+from .alignment import Alignment, Segment, Settled
 from .records import (
     BATCH_STATUSES,
     COUNTER_NAMES,
@@ -193,6 +193,12 @@ class ErrorMonitor(EventScan):
     def truth_buffer_length(self) -> int:
         """Truth samples held (≤ truth_capacity)."""
         return self._alignment.truth_count
+
+    @property
+    def timelines(self) -> dict:
+        """The latest time of each timeline the monitor keeps since the last alignment reset, s (None: none yet):
+        ``clock`` (the node clock), ``sensor``, ``truth``, ``odometry`` (the accepted stamps of each input)."""
+        return {"clock": self._clock.latest_s, **{stream: check.latest_s for stream, check in self._stamps.items()}}
 
     @property
     def latest_truth_stamp_s(self) -> float | None:
@@ -369,7 +375,7 @@ class ErrorMonitor(EventScan):
             :class:`BatchOutcome`: per sensor sample, the status code and the residuals; samples of earlier
             inputs settled by this one in ``earlier``.
         """
-        feed = self._batch_feed(sensor_t_s, sensor_roll_rad, sensor_pitch_rad, truth_t_s, q_truth, truth_arrival,
+        feed = self.batch_feed(sensor_t_s, sensor_roll_rad, sensor_pitch_rad, truth_t_s, q_truth, truth_arrival,
                                 now_s=now_s, odometry=odometry, odometry_max_age_s=odometry_max_age_s, u_rad=u_rad,
                                 altitude_m=altitude_m, inclination_rad=inclination_rad,
                                 oblateness_roll_rad=oblateness_roll_rad, oblateness_pitch_rad=oblateness_pitch_rad)
@@ -385,11 +391,12 @@ class ErrorMonitor(EventScan):
         result.earlier = self._outcomes(settled.take(~mine))
         return result
 
-    def _batch_feed(self, sensor_t_s, sensor_roll_rad, sensor_pitch_rad, truth_t_s, q_truth, truth_arrival, *,
+    def batch_feed(self, sensor_t_s, sensor_roll_rad, sensor_pitch_rad, truth_t_s, q_truth, truth_arrival, *,
                     now_s=None, odometry=None, odometry_max_age_s: float = math.inf, u_rad=None,
                     altitude_m: float | None = None, inclination_rad: float | None = None,
                     oblateness_roll_rad=None, oblateness_pitch_rad=None) -> Feed:
-        """The :class:`Feed` of an :meth:`add_batch` call (ValueError for arrivals out of order)."""
+        """The :class:`Feed` an :meth:`add_batch` call with these arguments makes (ValueError for arrivals out of
+        order): what :meth:`add_inputs` takes."""
         t = np.asarray(sensor_t_s, float).ravel()
         n = t.size
         truth_t = np.asarray(truth_t_s, float).ravel()
@@ -440,11 +447,7 @@ class ErrorMonitor(EventScan):
         """Settle the open segment (its results go with the current input) and open a new one."""
         gathered = self._open
         if gathered.expiry:
-            if len(gathered.sensor) + self._alignment.pending_count <= SMALL_SEGMENT:
-                self._parts.append(self._account(self._alignment.settle_small(
-                    gathered.sensor, self._serial, gathered.truth, gathered.expiry, gathered.on_arrival)))
-            else:
-                self._parts.append(self._settle(self._segment(gathered)))
+            self._parts.append(self._settle(self._segment(gathered)))
         elif self._open.truth or self._open.sensor:
             raise RuntimeError("monitor: samples gathered without an event")
         self._open = OpenSegment()
@@ -458,8 +461,6 @@ class ErrorMonitor(EventScan):
         """Count what settled; give the used samples their reported values and keep them for the statistics."""
         if not settled.size:
             return settled
-        if settled.size <= SMALL_SEGMENT:
-            return self._account_small(settled)
         counters = self._counters
         ok = settled.values[2] == _OK
         used = int(np.count_nonzero(ok))
@@ -485,44 +486,6 @@ class ErrorMonitor(EventScan):
         angles[4] = np.where(has_model, angles[1] - model_pitch, np.nan)
         angles[2], angles[5] = np.hypot(angles[0], angles[1]), np.hypot(angles[3], angles[4])
         return self._keep(settled, rows, t, angles, altitude)
-
-    def _account_small(self, settled: Settled) -> Settled:
-        """:meth:`_account` of a few samples in floats: the same counts and the same values (numpy's hypot)."""
-        counters, config = self._counters, self.config
-        places, used_rows = [], []
-        for place, row in enumerate(settled.rows()):
-            code = int(row[2])
-            if code == _OK:
-                places.append(place)
-                used_rows.append(row)
-            elif code in _SKIP_CODES:
-                counters[_SKIP_CODES[code]] += 1
-        used = len(used_rows)
-        if not used:
-            return settled
-        one_angle = without_model = 0
-        kept_roll, kept_pitch, removed_roll, removed_pitch, t, altitude = [], [], [], [], [], []
-        for _, stamp, _, residual_roll, residual_pitch, model_roll, model_pitch, height in used_rows:
-            one_angle += math.isnan(residual_roll) or math.isnan(residual_pitch)
-            roll, pitch = residual_roll - config.roll_offset_rad, residual_pitch - config.pitch_offset_rad
-            kept_roll.append(roll)
-            kept_pitch.append(pitch)
-            if math.isfinite(model_roll) and math.isfinite(model_pitch):
-                removed_roll.append(roll - model_roll)
-                removed_pitch.append(pitch - model_pitch)
-            else:
-                without_model += 1
-                removed_roll.append(math.nan)
-                removed_pitch.append(math.nan)
-            t.append(stamp)
-            altitude.append(height)
-        counters["used"] += used
-        counters["used_one_angle"] += one_angle
-        counters["used_without_oblateness_model"] += without_model
-        angles = np.empty((6, used))  # rows as _account's; the meridional ones (2 and 5) from the two before
-        angles[0], angles[1], angles[3], angles[4] = kept_roll, kept_pitch, removed_roll, removed_pitch
-        np.hypot(angles[0::3], angles[1::3], out=angles[2::3])
-        return self._keep(settled, places, t, angles, altitude)
 
     def _keep(self, settled: Settled, rows, t, angles: np.ndarray, altitude) -> Settled:
         """Give the used samples (``rows`` of ``settled``) their reported values and keep them for the statistics:

@@ -25,8 +25,10 @@ with the ``input.*`` plausibility bounds), messages the shim cannot read as
 ``rejected_<stream>_unreadable``, messages stamped in another frame than their
 stream's (``frames.*``: angles in the sensor frame, truth in the orbital one,
 odometry from ``eci`` to the orbital frame) as
-``rejected_<stream>_wrong_frame``; only accepted sensor samples drive the
-statistics schedule. The node uses only the first publisher heard on each
+``rejected_<stream>_wrong_frame`` — the first such refusal is said on the
+log once, with the frame expected and the frame that came, and
+``/diagnostics`` names it while the refusals last; only accepted sensor
+samples drive the statistics schedule. The node uses only the first publisher heard on each
 input; a second one is an ERROR on ``/diagnostics`` with the publishers'
 count and its messages are dropped (``other_source_<topic>``). Outages, restarts and clock
 jumps: README "Truth outages and discontinuities" and the core monitor's
@@ -49,8 +51,8 @@ from ..common.frames import Frames
 from .core import ErrorMonitor
 from .records import (ODOMETRY_EVENT, SENSOR_EVENT, TRUTH_EVENT, BatchOutcome, Feed, MonitorConfig, MonitorSummary,
                       Outcome, Status)
-from ..common.records import HealthSummary, Level
-from ..common.validation import Rejection, check_frame
+from ..common.records import HealthSummary, Level, LogLine
+from ..common.validation import FrameCheck, Rejection
 
 #: The numeric statistics topics (``pmv/residual_<name>``) and the channel statistic each carries, rad;
 #: "limit" is the half-width 3σ of the bound mean ± 3σ (``three_sigma_arcmin`` on /pmv/error_statistics).
@@ -119,9 +121,10 @@ class MonitorStatistics:
 @dataclass
 class MonitorOutput:
     """What inputs make the monitor publish, in order: residuals (:class:`~pmv_ros.runtime.monitor.records.Outcome`
-    items, OK ones) and :class:`MonitorStatistics` when due."""
+    items, OK ones) and :class:`MonitorStatistics` when due; and ``log`` lines for the node's log."""
 
     published: list = field(default_factory=list)
+    log: list = field(default_factory=list)  #: :class:`~pmv_ros.runtime.common.records.LogLine` items
 
     @property
     def residuals(self) -> list[Outcome]:
@@ -177,6 +180,12 @@ class MonitorRuntime:
         # What is refused before the monitor sees it (fixed keys: memory stays bounded).
         self.rejected_messages = {f"rejected_{stream}_{reason}": 0 for stream in ("sensor", "truth", "odometry")
                                   for reason in ("unreadable", Rejection.WRONG_FRAME.value)}
+        # Each input's frame checks, with their words (odometry: the pose's frame and the twist's child frame).
+        frames = self.frames
+        self._frame_checks = {"sensor": (FrameCheck("sensor angles", frames.sensor),),
+                              "truth": (FrameCheck("star-tracker truth", frames.orbital),),
+                              "odometry": (FrameCheck("odometry pose", frames.eci),
+                                           FrameCheck("odometry child frame", frames.orbital))}
         self._next_statistics_s = None
         self._rejected_reported = 0
         self.latest_statistics = None  # the last MonitorStatistics computed (:meth:`statistics`)
@@ -189,12 +198,23 @@ class MonitorRuntime:
 
     # -- inputs ------------------------------------------------------------------------------------
 
-    def _in_frame(self, stream: str, frame_id: str, expected: str) -> bool:
-        """Whether a message of ``stream`` is stamped in ``expected``; counts it as rejected when not."""
-        rejection = check_frame(frame_id, expected)
-        if rejection is not None:
-            self.rejected_messages[f"rejected_{stream}_{rejection.value}"] += 1
-        return rejection is None
+    def _in_frame(self, stream: str, output: MonitorOutput, *frame_ids: str) -> bool:
+        """Whether a message of ``stream`` is stamped in the frames the stream expects (odometry: pose, then child
+        frame); counts it as rejected when not, and the first such refusal of each check goes to the log (once)."""
+        for check, frame_id in zip(self._frame_checks[stream], frame_ids):
+            rejection = check.check(frame_id)
+            if rejection is not None:
+                self.rejected_messages[f"rejected_{stream}_{rejection.value}"] += 1
+                line = check.take_log_line()
+                if line is not None:
+                    output.log.append(LogLine("error", line))
+                return False
+        return True
+
+    def frame_problems(self) -> list[str]:
+        """What /diagnostics says while an input's messages are refused for their frame (expected, got), if any."""
+        return [check.problem for checks in self._frame_checks.values() for check in checks
+                if check.problem is not None]
 
     def _readable(self, stream: str, value) -> bool:
         if value is None:
@@ -208,25 +228,23 @@ class MonitorRuntime:
         those methods give one message at a time, with the monitor fed once for the whole batch — cut only after a
         sensor sample at which the statistics fall due (at most ``statistics_rate_hz`` times a second of samples).
         """
-        output, batch, frames = MonitorOutput(), _Batch(), self.frames
+        output, batch = MonitorOutput(), _Batch()
         for to, arguments, now_s in events:
             if to == "add_sensor":
                 frame_id, stamp_s, roll_rad, pitch_rad = arguments
-                if self._in_frame("sensor", frame_id, frames.sensor) and self._readable("sensor", stamp_s):
+                if self._in_frame("sensor", output, frame_id) and self._readable("sensor", stamp_s):
                     batch.add(SENSOR_EVENT, batch.sensor, (stamp_s, roll_rad, pitch_rad, now_s))
                     if self._statistics_due(stamp_s):
                         self._give(batch, output, stamp_s)
                         batch = _Batch()
             elif to == "add_truth":
                 frame_id, stamp_s, q_xyzw = arguments
-                if self._in_frame("truth", frame_id, frames.orbital) and self._readable("truth", stamp_s):
+                if self._in_frame("truth", output, frame_id) and self._readable("truth", stamp_s):
                     batch.add(TRUTH_EVENT, batch.truth, (stamp_s, q_xyzw, now_s))
             elif to == "add_odometry":
                 frame_id, child_frame_id, state = arguments
                 # nav_msgs: the pose in ``frame_id`` (ECI), the twist in ``child_frame_id`` (orbital).
-                if (self._in_frame("odometry", frame_id, frames.eci)
-                        and self._in_frame("odometry", child_frame_id, frames.orbital)
-                        and self._readable("odometry", state)):
+                if self._in_frame("odometry", output, frame_id, child_frame_id) and self._readable("odometry", state):
                     batch.add(ODOMETRY_EVENT, batch.odometry, (*state, now_s))
             else:
                 raise ValueError(f"error monitor: no input {to!r}")
@@ -318,9 +336,11 @@ class MonitorRuntime:
         rejected.update({k: v for k, v in self.rejected_messages.items() if v})
         problems = self._source_problems()  # a second publisher on an input: ERROR
         source_error = bool(problems)
+        problems += self.frame_problems()  # what was expected, what came
         latest_truth = self.monitor.latest_truth_stamp_s
         if counters["truth_received"] == 0:
-            problems.append("no star-tracker truth received yet")
+            if not self._frame_checks["truth"][0].refused:  # else the refusal above says why there is none
+                problems.append("no star-tracker truth received yet")
         elif now_s is not None and latest_truth is not None and now_s - latest_truth > self.values["max_truth_wait_s"]:
             problems.append(f"no star-tracker truth for {now_s - latest_truth:.0f} s")
         # Samples waiting for truth are normal (the star tracker's latency); an outage shows as truth age above.

@@ -16,6 +16,15 @@ future, the node clock steady. The checks that can refuse a clean stamp
 (angles, quaternions, orbit states) run on every sample. Any other batch,
 and a short one (where numpy's per-call cost is more than the loop's), gets
 ``None`` and goes event by event.
+
+The two scans are a twin kept on purpose: a node's messages always go event
+by event, a campaign's flight is one clean batch of an orbit, and the array
+scan is most of what makes a campaign's monitor cheap —
+``design/twin_scan_clean.py`` measures what it buys, and
+``tests/runtime/test_monitor.py::test_the_array_scan_of_a_clean_batch_is_the_event_scan``
+holds the two to the same verdicts. A change to a check here is a change
+there (and in :mod:`pmv_ros.runtime.common.validation`, whose checks the
+event scan calls).
 """
 
 
@@ -28,7 +37,7 @@ import numpy as np
 from ...physics.attitude import true_roll_pitch
 from ...physics.constants import GM_EARTH_M3_S2
 from ...physics.orbit.two_body import orbit_angles_from_state
-from .alignment import SAMPLE_ROWS, Segment, oblateness_model
+from .alignment import Segment, oblateness_model
 from .records import BATCH_STATUSES, ODOMETRY_EVENT, PENDING_CODE, POLL_EVENT, SENSOR_EVENT, TRUTH_EVENT, Feed, \
     Status, orbit_record
 from ..common.validation import (
@@ -245,11 +254,12 @@ class OpenSegment:
         self.oldest_s = math.inf    # the oldest of them
 
 
-#: A gathered sensor sample: the input it came with and its place there, its verdict and event, its values,
-#: its oblateness model (NaN: none) and altitude (for the ground error).
-_SAMPLE_COLUMNS = ("serial", "index", "code", "event", "t_s", "roll_rad", "pitch_rad", "model_roll_rad",
-                   "model_pitch_rad", "altitude_m")
-_SAMPLE_ROWS = [_SAMPLE_COLUMNS.index(name) for name in SAMPLE_ROWS]
+#: A gathered sensor sample: the input it came with and its place there, its verdict and event, its values, its
+#: orbit (u and inclination NaN where unknown, or where the model came with the sample), its altitude (for the
+#: ground error) and the oblateness model given with it (NaN: none given; computed from the orbit when the segment
+#: is made, on arrays).
+_SAMPLE_COLUMNS = ("serial", "index", "code", "event", "t_s", "roll_rad", "pitch_rad", "u_rad", "inclination_rad",
+                   "altitude_m", "model_roll_rad", "model_pitch_rad")
 
 
 class EventScan:
@@ -258,13 +268,20 @@ class EventScan:
     open segment; a confirmed jump calls the monitor's ``_reset``."""
 
     def _segment(self, gathered: OpenSegment) -> Segment:
-        """The open segment's events as a :class:`Segment`, with each sample's oblateness model and altitude."""
-        rows = np.array(gathered.sensor, float).reshape(-1, len(_SAMPLE_COLUMNS)).T
+        """The open segment's events as a :class:`Segment`, with each sample's oblateness model (the one given with
+        it, or the closed form at its orbit) and altitude."""
+        (serial, index, code, event, t, roll, pitch, u, inclination, altitude, given_roll,
+         given_pitch) = np.array(gathered.sensor, float).reshape(-1, len(_SAMPLE_COLUMNS)).T
         if gathered.sensor and gathered.sensor[0][0] != self._serial:  # gathered in order: the first is the oldest
-            rows[1] = np.where(rows[0] == self._serial, rows[1], -1.0)  # a place in an earlier input means nothing
+            index = np.where(serial == self._serial, index, -1.0)  # a place in an earlier input means nothing
+        model_roll, model_pitch = oblateness_model(u, altitude, inclination)
+        given = np.isnan(u)  # the model came with the sample (or no orbit is known, and no model given: NaN)
+        if given.any():
+            model_roll, model_pitch = np.where(given, given_roll, model_roll), np.where(given, given_pitch, model_pitch)
         truth = np.array(gathered.truth, float).reshape(-1, 4).T
-        return Segment(rows[_SAMPLE_ROWS], rows[2].astype(np.int64), rows[3].astype(np.int64), truth[:3],
-                       truth[3].astype(np.int64), np.array(gathered.expiry, float), gathered.on_arrival)
+        samples = np.vstack((index, t, roll, pitch, model_roll, model_pitch, altitude))  # SAMPLE_ROWS
+        return Segment(samples, code.astype(np.int64), event.astype(np.int64), truth[:3], truth[3].astype(np.int64),
+                       np.array(gathered.expiry, float), gathered.on_arrival)
 
     def _scan_events(self, feed: Feed) -> None:
         """Validate ``feed`` event by event into the open segment; a confirmed clock jump settles what came
@@ -411,12 +428,14 @@ class EventScan:
             if gathered.waiting + self._alignment.pending_count > self.config.max_pending:
                 gathered.due = True
         gathered.sensor.append((self._serial, i, code, len(gathered.expiry), t_s, roll, pitch)
-                               + self._model(feed, i, t_s))
+                               + self._orbit_of(feed, i, t_s))
         self._close_event(clock_s)
 
-    def _model(self, feed: Feed, i: int, t_s: float) -> tuple:
-        """(model roll, model pitch, altitude) of sensor sample ``i`` of ``feed``: the model given with it, or
-        the closed form at its orbit (the odometry's, or the orbit columns); NaN where unknown."""
+    def _orbit_of(self, feed: Feed, i: int, t_s: float) -> tuple:
+        """(u, inclination, altitude, model roll, model pitch) of sensor sample ``i`` of ``feed``: its orbit (the
+        odometry's, or the orbit columns; NaN where unknown) and NaN for the model, whose closed form is taken
+        when the segment is made; or, where the model came with the sample, u and inclination NaN and that
+        model."""
         if feed.odometry_max_age_s is not None:  # the orbit of ErrorMonitor.orbit_at, or the configured one
             orbit = self._orbit
             if orbit is not None and abs(t_s - orbit[0]) <= feed.odometry_max_age_s:
@@ -430,8 +449,8 @@ class EventScan:
         else:
             u, inclination, altitude = float(feed.u_rad[i]), float(feed.inclination_rad[i]), float(feed.altitude_m[i])
         if feed.model_roll_rad is not None:
-            return float(feed.model_roll_rad[i]), float(feed.model_pitch_rad[i]), altitude
-        return oblateness_model(u, altitude, inclination) + (altitude,)
+            return math.nan, math.nan, altitude, float(feed.model_roll_rad[i]), float(feed.model_pitch_rad[i])
+        return u, inclination, altitude, math.nan, math.nan
 
     def _poll_event(self, feed: Feed, _: int) -> None:
         self._close_event(self._observe(feed.poll_now_s))
