@@ -98,10 +98,12 @@ def task_path(out: Path, task: Task) -> Path:
 def prepare_folder(out: Path, settings: Settings) -> None:
     """Create the output folder, or check that the campaign already in it used the same settings.
 
-    Leftover temporary files of a killed campaign are removed (one campaign per folder at a time).
+    Leftover temporary files of a killed campaign are removed (one campaign per folder at a time). A path
+    that is not a folder and cannot become one — a file, a symbolic link to nothing or a loop of them, a
+    parent that is a file, a place without write access — is a ValueError saying which.
     """
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    _make_folder(out)
     manifest = out / MANIFEST
     mine = finite_json(settings.manifest())
     if manifest.exists() or manifest.is_symlink():
@@ -121,6 +123,29 @@ def prepare_folder(out: Path, settings: Settings) -> None:
         _write_atomically(manifest, json.dumps(mine, indent=1).encode())
     for leftover in out.glob(".*.parquet.tmp*"):
         leftover.unlink(missing_ok=True)
+
+
+def _make_folder(out: Path) -> None:
+    """``out`` as a folder (made with its parents if missing); ValueError with the reason in one line."""
+    import errno
+    import stat
+
+    try:
+        mode = os.stat(out).st_mode
+    except OSError as error:
+        if error.errno == errno.ELOOP:
+            raise ValueError(f"--out {out}: a loop of symbolic links") from None
+        if out.is_symlink():
+            raise ValueError(f"--out {out}: a symbolic link to {os.readlink(out)!r}, which does not exist") from None
+        if error.errno not in (errno.ENOENT,):
+            raise ValueError(f"--out {out}: {error.strerror}") from None
+        mode = None
+    if mode is not None and not stat.S_ISDIR(mode):
+        raise ValueError(f"--out {out} exists and is not a folder")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise ValueError(f"--out {out}: cannot make the folder ({error.strerror or error})") from None
 
 
 def write_result(out: Path, task: Task, table) -> Path:
