@@ -26,15 +26,21 @@ def correct_reference_drift(values_rad, elapsed_s, drift_rate_rad_s: float):
     return np.asarray(values_rad, float) - drift_rate_rad_s * np.asarray(elapsed_s, float)
 
 
+#: Resolution of the orbital angle in step 2, rad: exact u is grouped to it, and no u bin is narrower (a bin
+#: far below it would only split equal angles, and near 0 its index would overflow).
+U_RESOLUTION_RAD = 1e-9
+
+
 def average_over_orbits(u_rad, values, bin_rad: float | None = None):
     """Average samples taken at the same orbital angle over the orbits (physics.md §5, step 2).
 
     Args:
         u_rad: ``(N,)`` argument of latitude of each sample, rad (any number of orbits).
         values: ``(N,)`` or ``(N, C)`` samples.
-        bin_rad: None to group samples with the same u (to 1e-9 rad), as in the
-            published telemetry sampled on a fixed grid of u; otherwise the
-            width of the u bins, rad, for telemetry sampled in time.
+        bin_rad: None to group samples with the same u (to
+            :data:`U_RESOLUTION_RAD`), as in the published telemetry sampled
+            on a fixed grid of u; otherwise the width of the u bins, rad, for
+            telemetry sampled in time: :data:`U_RESOLUTION_RAD` … 2π.
 
     Returns:
         (u_rad ``(G,)`` in [0, 2π) — the mean u of each group, sorted;
@@ -45,11 +51,11 @@ def average_over_orbits(u_rad, values, bin_rad: float | None = None):
     single = data.ndim == 1
     data = data.reshape(u.size, -1)
     if bin_rad is None:
-        scale = 1e9
+        scale = 1.0 / U_RESOLUTION_RAD
         keys = np.round(u * scale).astype(np.int64) % int(round(TWO_PI * scale))
     else:
-        if not (math.isfinite(bin_rad) and 0.0 < bin_rad <= TWO_PI):
-            raise ValueError(f"u bin width = {bin_rad} rad is outside the allowed range (0, 2π]")
+        if not (math.isfinite(bin_rad) and U_RESOLUTION_RAD <= bin_rad <= TWO_PI):
+            raise ValueError(f"u bin width = {bin_rad} rad is outside the allowed range [{U_RESOLUTION_RAD:g}, 2π]")
         keys = np.floor(u / bin_rad).astype(np.int64)
     groups, first, inverse, counts = np.unique(keys, return_index=True, return_inverse=True, return_counts=True)
     sums = np.zeros((groups.size, data.shape[1]))

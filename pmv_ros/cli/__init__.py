@@ -58,7 +58,7 @@ def one_line_failure(error: BaseException) -> str:
     if isinstance(error, OSError) and not isinstance(error, ValueError):
         reason = error.strerror or " ".join(str(error).split()) or type(error).__name__
         named = [name for name in (error.filename, error.filename2) if name is not None]
-        return ": ".join([*map(os.fsdecode, named), reason]) if named else reason
+        return f"{' -> '.join(map(os.fsdecode, named))}: {reason}" if named else reason
     text = " ".join(str(error).split()) or type(error).__name__
     return text if len(text) <= MAX_LINE_CHARS else text[:MAX_LINE_CHARS - 1] + "…"
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 
 
+from ..analysis.flight_test import U_RESOLUTION_RAD
 from ..physics.constants import ARCMIN_RAD
 from ..physics.conventions import CONVENTIONS, PAPER
 from ..physics.orbit.two_body import MAX_ALTITUDE_M, MIN_ALTITUDE_M
@@ -76,7 +77,7 @@ def add_parser(subparsers) -> None:
                         help="recording: where the orbital angle comes from — odometry (/orbit/odometry), "
                              "elements (the epoch and elements on the sensor's /diagnostics), auto (odometry, "
                              "else elements; default). Never from the stamps alone")
-    parser.add_argument("--u-bin-deg", type=ranged_float(0.0, 360.0, " deg", low_open=True), default=None,
+    parser.add_argument("--u-bin-deg", type=ranged_float(math.degrees(U_RESOLUTION_RAD), 360.0, " deg"), default=None,
                         help="width of the orbital-angle bins the orbits are averaged in (default: exact u for "
                              f"the orbit layout, {DEFAULT_TIME_LAYOUT_BIN_DEG:g} deg for time series)")
     parser.add_argument("--keep-oblateness", action="store_true",

@@ -44,6 +44,16 @@ def _positive_int(low: int, high: int):
     return parse
 
 
+def _scheduler(text: str) -> str:
+    """``--scheduler``: a Dask scheduler address a campaign can connect to."""
+    from ..apps.campaign.cluster import check_scheduler_address
+
+    try:
+        return check_scheduler_address(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
 def add_parser(subparsers) -> None:
     """Register ``pmv campaign``."""
     from ..apps.campaign import MAX_ORBITS_PER_TASK, MAX_SEEDS
@@ -70,7 +80,7 @@ def add_parser(subparsers) -> None:
                         help="also fly each environment component alone (oblateness, climatology, weather, layer "
                              "height) and give their root sum of squares beside the total")
     where = parser.add_mutually_exclusive_group()
-    where.add_argument("--scheduler", default=None,
+    where.add_argument("--scheduler", default=None, type=_scheduler,
                        help="address of a running Dask scheduler, e.g. tcp://host:8786 (default: an embedded cluster)")
     where.add_argument("--workers", type=_positive_int(1, MAX_WORKERS), default=None,
                        help="worker processes of the embedded cluster (default: the CPU count)")

@@ -220,25 +220,31 @@ MAX_CONNECTIONS = 1024
 
 #: Most text rosbags parses when it opens a recording file, bytes: each connection's message definition (with
 #: its dependencies), its QoS profiles and its names, summed over the connections — rosbags parses a definition
-#: once per connection, however many share it. Parsing costs 3–15 µs a byte (ROS 2's own commented definitions
-#: the cheapest, dense field lists the dearest; design/recording_bounds.py): ≤ 15 s at this bound. A rosbag2
-#: recording holds ≈ 2–4 kB a topic (nav_msgs/Odometry with its comments: 3.7 kB), so ≈ 300 topics fit.
+#: once per connection, however many share it. Parsing costs ≈ 1 µs of CPU a byte of ROS 2's own commented
+#: definitions and up to ≈ 7 µs a byte of dense field lists (design/recording_bounds.py): ≤ 7 s at this bound.
+#: A rosbag2 recording holds ≈ 2–4 kB a topic (nav_msgs/Odometry with its comments: 3.7 kB): ≈ 280 such topics.
 MAX_DEFINITION_BYTES = 1 << 20
 
-#: Most message definitions the distinct schemas of a recording file may hold together (a definition is a type
-#: rosbags registers: ≈ 45 kB of memory each, design/recording_bounds.py): ≤ 90 MB at this bound. ROS 2's own
-#: messages bring 1 to 16 definitions each.
+#: Most message definitions the distinct schemas of a recording file may hold together: each is a type rosbags
+#: registers, ≈ 31 kB of memory (design/recording_bounds.py), ≤ 62 MB at this bound. ROS 2's own messages
+#: bring 1 to 16 definitions each.
 MAX_DEFINITIONS = 2000
 
-#: Most records a chunk may hold: a reader keeps the messages of a chunk it reads as objects (≈ 160 bytes each
-#: beyond their data), so a chunk of tiny messages weighs ≈ 40 MB at this bound whatever its size in bytes.
+#: Most fields (and constants) the distinct schemas of a recording file may declare together: rosbags builds
+#: code for each, ≈ 8–11 kB of memory a field (design/recording_bounds.py), ≤ 220 MB at this bound. ROS 2's own
+#: messages declare 1 to ≈ 100 with their dependencies.
+MAX_DEFINITION_FIELDS = 20_000
+
+#: Most records a chunk may hold: a reader keeps the messages of a chunk it reads as objects (≈ 220 bytes each
+#: beyond their data, design/recording_bounds.py), so a chunk of tiny messages weighs ≈ 55 MB at this bound
+#: whatever its size in bytes (a 64 MiB chunk can hold 1.9 million empty messages).
 MAX_CHUNK_RECORDS = 250_000
 
 #: Most chunk indexes in a recording's summary (rosbags holds one object and, for each chunk of a topic read,
 #: one pending reader per index: ≈ 1 kB each): 100 GB of chunks of 1 MiB.
 MAX_CHUNK_INDEXES = 100_000
 
-#: Most bytes of chunks whose log-time ranges overlap, uncompressed, plus 160 bytes a message: a reader in
+#: Most bytes of chunks whose log-time ranges overlap, uncompressed, plus 220 bytes a message: a reader in
 #: log-time order holds every chunk it has begun until its last message is read. Recordings are written in
 #: log-time order, so their chunks follow each other (two at a time at most where one ends as the next begins).
 MAX_OVERLAPPING_CHUNK_BYTES = 256 << 20
@@ -247,8 +253,8 @@ MAX_OVERLAPPING_CHUNK_BYTES = 256 << 20
 #: the topics ``pmv analyze`` reads carry tens to thousands of bytes a message.
 MAX_MESSAGE_BYTES = 1 << 20
 
-#: Bytes a message's object weighs beyond its data in a reader's hands (the figure the bounds above count).
-_MESSAGE_OBJECT_BYTES = 160
+#: Bytes a message's object weighs beyond its data in a reader's hands (design/recording_bounds.py).
+_MESSAGE_OBJECT_BYTES = 220
 
 _MCAP_MAGIC = b"\x89MCAP0\r\n"
 _MESSAGE_HEADER = struct.Struct("<HIQQ")  # channel id, sequence, log time, publish time
@@ -273,6 +279,20 @@ def _definitions(data: bytes) -> int:
     or per ``struct`` of IDL: the larger count.
     """
     return 1 + max(data.count(_DEFINITION_SEPARATOR), data.count(b"\nMSG: "), len(re.findall(rb"\bstruct\b", data)))
+
+
+def _fields(data: bytes) -> int:
+    """How many fields and constants a schema's text declares, counted from above.
+
+    A line of the ros2msg format with something before its comment (not a
+    separator or a ``MSG:`` header), or a ``;`` of IDL: the larger count.
+    """
+    lines = 0
+    for line in data.split(b"\n"):
+        content = line.split(b"#", 1)[0].strip()
+        if content and not content.startswith(b"MSG:") and content != _DEFINITION_SEPARATOR:
+            lines += 1
+    return max(lines, data.count(b";"))
 
 
 def _decompress_chunk(chunk, path) -> bytes:
@@ -469,10 +489,10 @@ class _Layout:
             self.messages += 1
         elif kind == "schema":
             cost = len(record.data) + len(record.name) + len(record.encoding)
-            old = self.schemas.get(record.id, (0, 0))
-            self.schemas[record.id] = (max(old[0], cost), max(old[1], _definitions(record.data)))
-            if sum(definitions for _, definitions in self.schemas.values()) > MAX_DEFINITIONS:
-                raise RecordingError(f"{path}: its schemas hold more than {MAX_DEFINITIONS} message definitions")
+            old = self.schemas.get(record.id, (0, 0, 0))
+            self.schemas[record.id] = (max(old[0], cost), max(old[1], _definitions(record.data)),
+                                       max(old[2], _fields(record.data)))
+            _check_definitions(path, [(definitions, fields) for _, definitions, fields in self.schemas.values()])
         elif kind == "channel":
             cost = len(record.topic) + len(record.message_encoding) + sum(
                 len(key) + len(value) for key, value in record.metadata.items())
@@ -495,7 +515,7 @@ class _Layout:
     def check(self) -> None:
         """The bounds that need the whole walk; RecordingError naming the first one broken."""
         path = self.path
-        parsed = sum(self.schemas.get(schema_id, (0, 0))[0] + cost for schema_id, cost in self.channels.values())
+        parsed = sum(self.schemas.get(schema_id, (0, 0, 0))[0] + cost for schema_id, cost in self.channels.values())
         if parsed > MAX_DEFINITION_BYTES:
             raise RecordingError(f"{path}: its channels' definitions and metadata are {parsed} bytes to parse, more "
                                  f"than the {MAX_DEFINITION_BYTES} allowed")
@@ -519,6 +539,15 @@ class _Layout:
         if peak > MAX_OVERLAPPING_CHUNK_BYTES:
             raise RecordingError(f"{path}: its chunks overlap in log time: {peak} bytes would be held at once, more "
                                  f"than the {MAX_OVERLAPPING_CHUNK_BYTES} allowed")
+
+
+def _check_definitions(path, schemas) -> None:
+    """RecordingError if ``schemas`` — ``(definitions, fields)`` of each distinct schema — hold more definitions
+    than :data:`MAX_DEFINITIONS` or declare more fields than :data:`MAX_DEFINITION_FIELDS`."""
+    if sum(definitions for definitions, _ in schemas) > MAX_DEFINITIONS:
+        raise RecordingError(f"{path}: its schemas hold more than {MAX_DEFINITIONS} message definitions")
+    if sum(fields for _, fields in schemas) > MAX_DEFINITION_FIELDS:
+        raise RecordingError(f"{path}: its schemas declare more than {MAX_DEFINITION_FIELDS} fields")
 
 
 def _peak_overlap(intervals) -> int:
@@ -619,9 +648,8 @@ def _check_sqlite_cached(path: str, size: int, mtime_ns: int) -> None:
         if parsed > MAX_DEFINITION_BYTES:
             raise RecordingError(f"{path}: its topics' definitions and QoS profiles are {parsed} bytes to parse, "
                                  f"more than the {MAX_DEFINITION_BYTES} allowed")
-        count = sum(_definitions(str(text).encode("utf-8", "replace")) for text in definitions)
-        if count > MAX_DEFINITIONS:
-            raise RecordingError(f"{path}: its message definitions hold more than {MAX_DEFINITIONS} types")
+        texts = [str(text).encode("utf-8", "replace") for text in definitions]
+        _check_definitions(path, [(_definitions(text), _fields(text)) for text in texts])
     except apsw.Error as error:
         raise RecordingError(f"{path}: cannot read the recording ({_reason(error)})") from None
     finally:
@@ -634,8 +662,9 @@ def check_sqlite(path: str | Path) -> None:
     At most :data:`MAX_CONNECTIONS` topics; the text rosbags parses (each
     topic's definition, QoS profiles and names) at most
     :data:`MAX_DEFINITION_BYTES`; the definitions at most
-    :data:`MAX_DEFINITIONS`. Sizes are asked of SQLite, which keeps them
-    beside the values: no text is read before it is known to be small.
+    :data:`MAX_DEFINITIONS` and their fields :data:`MAX_DEFINITION_FIELDS`.
+    Sizes are asked of SQLite, which keeps them beside the values: no text is
+    read before it is known to be small.
     RecordingError naming the bound.
     """
     from .files import check_regular_file

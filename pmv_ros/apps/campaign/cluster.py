@@ -43,6 +43,38 @@ WORKER_TIMEOUT_S = 60.0
 TASKS_PER_WORKER = 2
 
 
+#: Address schemes a campaign connects to: Dask's TCP, TLS and websocket comms (UCX and in-process are not for a
+#: scheduler of another process started by a user).
+SCHEDULER_SCHEMES = ("tcp", "tls", "ws", "wss")
+
+
+def check_scheduler_address(address: str) -> str:
+    """``address`` if it is a Dask scheduler address a campaign can connect to; ValueError (one line) if not.
+
+    ``host:port`` or ``scheme://host:port`` with a scheme of
+    :data:`SCHEDULER_SCHEMES`; tls:// and wss:// only where Dask's TLS
+    settings give the client a certificate context (without one, distributed
+    fails inside its connector, not with a message).
+    """
+    from distributed.comm.addressing import parse_address
+    from distributed.security import Security
+
+    try:
+        scheme, location = parse_address(str(address), strict=False)
+    except ValueError as error:
+        raise ValueError(f"scheduler address {address!r} is not a Dask address ({error})") from None
+    if scheme not in SCHEDULER_SCHEMES:
+        raise ValueError(f"scheduler address {address!r}: the {scheme}:// comm is not supported here (one of "
+                         + ", ".join(f"{name}://" for name in SCHEDULER_SCHEMES) + ")")
+    host, _, port = location.rpartition(":")
+    if not host or not port.isdigit() or not 0 < int(port) < 65536:
+        raise ValueError(f"scheduler address {address!r} is not host:port (e.g. tcp://127.0.0.1:8786)")
+    if scheme in ("tls", "wss") and Security().get_connection_args("client").get("ssl_context") is None:
+        raise ValueError(f"scheduler address {address!r}: {scheme}:// needs Dask's TLS settings "
+                         "(distributed.comm.tls.ca-file, .client.cert and .client.key in the Dask configuration)")
+    return str(address)
+
+
 def open_client(scheduler: str | None, workers: int, timeout_s: float | None = None):
     """A Dask client: on the scheduler at ``scheduler``, or on an embedded LocalCluster of ``workers`` processes.
 
@@ -50,16 +82,16 @@ def open_client(scheduler: str | None, workers: int, timeout_s: float | None = N
     diagnostics (:data:`QUIET_DIAGNOSTICS`), and reschedules a task whose worker
     died (``allowed-failures``).
     Returns ``(client, cluster or None)``; ValueError naming the address if
-    the scheduler cannot be reached within ``timeout_s`` (default
-    :data:`SCHEDULER_TIMEOUT_S`).
+    it is not one (:func:`check_scheduler_address`) or the scheduler cannot
+    be reached within ``timeout_s`` (default :data:`SCHEDULER_TIMEOUT_S`).
     """
     import logging
 
     import dask
     from distributed import Client, LocalCluster
 
-    if scheduler:
-        return _connect(scheduler, SCHEDULER_TIMEOUT_S if timeout_s is None else timeout_s), None
+    if scheduler is not None:
+        return _connect(check_scheduler_address(scheduler), SCHEDULER_TIMEOUT_S if timeout_s is None else timeout_s), None
     with dask.config.set({"distributed.scheduler.allowed-failures": 3,
                           "distributed.nanny.pre-spawn-environ": WORKER_ENVIRONMENT, **QUIET_DIAGNOSTICS}):
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",

@@ -38,6 +38,10 @@ MAX_RESULT_BYTES = 512 << 20
 #: Largest task description in a result file's metadata, bytes (≈ 3 kB in practice).
 MAX_DESCRIPTION_BYTES = 1 << 20
 
+#: Largest Parquet footer of a result file, bytes: pyarrow parses it whole before anything can be checked, and a
+#: result's holds its seven columns' row groups (a few kB) and the description.
+MAX_FOOTER_BYTES = MAX_DESCRIPTION_BYTES + (1 << 20)
+
 #: Relative agreement asked of a file's values with the monitor's own summary in its description: float64
 #: sums of ≤ 5 million values in another order differ by ≲ 1e-12 relative; 1e-9 leaves room, a changed
 #: value of 0.01″ in 5 million moves a mean by more.
@@ -173,25 +177,41 @@ def read_result(path: Path, columns=None):
     """A task file: ``(pyarrow.Table, description dict)``; ResultRejected (one line) for a file that is not one.
 
     Bounded before anything is decompressed: a regular file of at most
-    :data:`MAX_RESULT_BYTES`, at most :data:`MAX_TASK_SAMPLES` rows and as
-    many uncompressed bytes as that many rows of the result's columns take,
-    and a description of at most :data:`MAX_DESCRIPTION_BYTES`.
+    :data:`MAX_RESULT_BYTES` whose footer (Parquet's metadata, parsed
+    whole) is at most :data:`MAX_FOOTER_BYTES`, the result's columns with
+    their types (a column of strings could hold anything), at most
+    :data:`MAX_TASK_SAMPLES` rows and as many uncompressed bytes as that
+    many rows of the result's columns take, and a description of at most
+    :data:`MAX_DESCRIPTION_BYTES`.
     """
+    import pyarrow as pa
     import pyarrow.parquet as pq
 
-    from ...storage.files import check_regular_file, parse_json
+    from ...storage.files import check_regular_file, open_regular_file, parse_json
 
     path = Path(path)
     try:
-        check_regular_file(path, "task result", MAX_RESULT_BYTES)
+        info = check_regular_file(path, "task result", MAX_RESULT_BYTES)
+        with open_regular_file(path, "task result", MAX_RESULT_BYTES) as stream:
+            stream.seek(max(0, info.st_size - 8))
+            tail = stream.read(8)
     except ValueError as error:
         raise ResultRejected(str(error)) from None
+    if len(tail) == 8 and tail[4:] == b"PAR1" and int.from_bytes(tail[:4], "little") > MAX_FOOTER_BYTES:
+        raise ResultRejected(f"{path}: not a Parquet file of a task's result (its footer declares "
+                             f"{int.from_bytes(tail[:4], 'little')} bytes, more than the {MAX_FOOTER_BYTES} allowed)")
     try:
         parquet = pq.ParquetFile(path)
     except Exception as error:  # pyarrow's errors (some are ValueErrors) for a file that is not Parquet
         raise ResultRejected(f"{path}: not a Parquet file ({_one_line(error)})") from None
     with parquet:
         meta = parquet.metadata
+        schema = parquet.schema_arrow
+        types = [(field.name, field.type) for field in schema]
+        expected = [(name, pa.int8() if name == "outcome" else pa.float64()) for name in RESULT_COLUMNS]
+        if types != expected:
+            raise ResultRejected(f"{path}: columns {[f'{name} {kind}' for name, kind in types][:10]} are not the "
+                                 "result's")
         declared = sum(meta.row_group(i).total_byte_size for i in range(meta.num_row_groups))
         if meta.num_rows > MAX_TASK_SAMPLES or declared > (MAX_TASK_SAMPLES * 8 * len(RESULT_COLUMNS)) * 2:
             raise ResultRejected(f"{path}: declares {meta.num_rows} rows, {declared} bytes, more than a task has")
