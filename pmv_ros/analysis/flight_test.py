@@ -187,7 +187,7 @@ def flight_test_statistics(u_rad, roll_rad, pitch_rad, altitude_m: float, inclin
 
     Cost, N samples in any number of orbits: O(N log N) time (two sorts: the
     orbital angles of step 2 and the orbit numbers of §5.1) and O(N) memory
-    (≈ 0.3 kB a sample at the peak). An orbit with fewer samples than
+    (≈ 0.2 kB a sample at the peak). An orbit with fewer samples than
     :func:`fewest_samples` cannot resolve a harmonic and is not fitted, so at
     most N/10 least-squares fits run, each linear in its samples: telemetry
     of one orbit per row costs what any other layout of the same N does.

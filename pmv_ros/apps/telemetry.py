@@ -293,7 +293,7 @@ _MAGIC = (b"\x89MCAP", b"SQLite format 3\x00")
 
 #: Most sensor samples (aligned with truth) and odometry messages one analysis of a recording holds: 55 h at
 #: 10 Hz, 23 days at 1 Hz. They are kept as numbers (24 bytes a sample) for the flight-test procedure, whose peak
-#: is ≈ 0.3 kB a sample: ≈ 0.6 GB at this bound. A longer recording: analyse a part of it.
+#: is ≈ 0.2 kB a sample: ≈ 0.5 GB and ≈ 15 s of CPU at this bound. A longer recording: analyse a part of it.
 MAX_RECORDING_SAMPLES = 2_000_000
 
 #: Most messages logged at one instant that are held to put the truth first among them (a recording made under a
@@ -487,7 +487,7 @@ def analyze_recording(path: str, altitude_m: float | None = None, inclination_ra
     which for each.
 
     Cost: linear in the messages read (each deserialised once a pass, two
-    passes); memory ≈ 24 bytes an aligned sample while reading, ≈ 0.3 kB a
+    passes); memory ≈ 24 bytes an aligned sample while reading, ≈ 0.2 kB a
     sample in the procedure. More than ``max_samples`` aligned sensor
     samples (or odometry messages) is a RecordingError.
     """

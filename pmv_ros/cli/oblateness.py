@@ -17,8 +17,8 @@ from ..physics.instrument.oblateness import closed_form_oblateness, oblateness_e
 from ..physics.orbit.two_body import MAX_ALTITUDE_M, MIN_ALTITUDE_M, CircularOrbit
 from .common import add_json_flag, format_table, print_json, ranged_float
 
-#: Finest step of the table, deg: 360,000 rows of ray geometry, the cost linear in the rows (≈ 10 s and
-#: ≈ 0.4 GB at this step); a finer one would only grow the table (and could not be allocated at all near 0).
+#: Finest step of the table, deg: 360,000 rows of ray geometry, the cost linear in the rows (≈ 2 s of CPU and
+#: ≈ 0.35 GB at this step); a finer one would only grow the table (and could not be allocated at all near 0).
 MIN_STEP_DEG = 0.001
 
 COLUMNS = [

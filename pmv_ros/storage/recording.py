@@ -7,13 +7,14 @@ Writing (``pmv simulate --record FILE.mcap``)
     type (``ros2msg``, the full definition with its dependencies, from
     ``rosbags``' Jazzy type store), a channel per topic (``cdr``), and the
     messages as the CDR bytes the subscription received, unchanged. The
-    container is written by the ``mcap`` library; nothing here knows its byte
-    layout.
+    container is written by the ``mcap`` library; the reader's walk below knows
+    only its record framing (opcode, length) and the message record's header.
 
 Reading (``pmv analyze RECORDING``)
-    :func:`read_recording` opens a rosbag2 directory (``metadata.yaml`` plus
-    its storage files), a bare ``.mcap`` file or a bare ``.db3`` (sqlite3)
-    file with ``rosbags`` and returns the messages of the topics asked for,
+    :func:`open_recording` (or :func:`read_recording`) opens a rosbag2
+    directory (``metadata.yaml`` plus its storage files), a bare ``.mcap``
+    file or a bare ``.db3`` (sqlite3) file with ``rosbags`` — once, however
+    often it is read — and returns the messages of the topics asked for,
     deserialised from the definitions the recording carries (Jazzy's standard
     definitions where it carries none). Fields are read by name, so the
     shim's ``read_*`` functions take these messages as they take rclpy's.
@@ -23,12 +24,26 @@ Reading (``pmv analyze RECORDING``)
 
 Bounds and recovery
     Before any library reads a recording, :func:`scan_mcap` walks an MCAP
-    file record by record: every file of a recording must be a regular file
-    (a FIFO or a device would block or never end), no record may be longer
-    than :data:`MAX_RECORD_BYTES`, and each compressed chunk's declared size
-    is checked against :data:`MAX_CHUNK_BYTES` before it is decompressed —
-    and then decompressed with that bound, so a chunk that expands beyond
-    what it declares is refused, not inflated. An MCAP file without its
+    file record by record (its own walk: records no reader needs are skipped
+    unread): every file of a recording must be a regular file (a FIFO or a
+    device would block or never end), no record may be longer than its
+    kind's cap (:data:`MAX_RECORD_BYTES` for a chunk), and each compressed
+    chunk's declared size is checked against :data:`MAX_CHUNK_BYTES` before
+    it is decompressed — and then decompressed with that bound, so a chunk
+    that expands beyond what it declares is refused, not inflated. What
+    rosbags will do with the file is bounded there too, since its cost does
+    not follow the file's size: the channels (:data:`MAX_CONNECTIONS`), the
+    definition text it parses once per channel (:data:`MAX_DEFINITION_BYTES`),
+    the types and fields it registers (:data:`MAX_DEFINITIONS`,
+    :data:`MAX_DEFINITION_FIELDS`), the records of a chunk
+    (:data:`MAX_CHUNK_RECORDS`), the chunk indexes (each must point at a
+    chunk the walk saw, :data:`MAX_CHUNK_INDEXES`), the footer's summary
+    offset, and the chunks a log-time reader holds at once
+    (:data:`MAX_OVERLAPPING_CHUNK_BYTES`). A sqlite3 file is checked through
+    SQLite the same way (:func:`check_sqlite`), and no message of a topic
+    read may be larger than :data:`MAX_MESSAGE_BYTES` (asked of SQLite
+    before a row is read). Each walk and check is linear in the file.
+    An MCAP file without its
     footer (the writer was killed, the disk filled up) is read the same way,
     as a stream, up to the last whole chunk; :func:`recording_status` says
     how much was recovered. The writer flushes a chunk at least every

@@ -30,7 +30,8 @@ def _raising(error):
 
 
 @pytest.mark.parametrize("error, phrase", [
-    (OSError(errno.ENOSPC, "No space left on device", "/data/budget.json"), "/data/budget.json: No space left on device"),
+    (OSError(errno.ENOSPC, "No space left on device", "/data/budget.json"),
+     "/data/budget.json: No space left on device"),
     (FileExistsError(errno.EEXIST, "File exists", ".out.tmp", None, "out"), ".out.tmp -> out: File exists"),
     (ConnectionRefusedError(errno.ECONNREFUSED, "Connection refused"), "Connection refused"),
     (TimeoutError("Timed out trying to connect to tcp://10.0.0.1:8786 after 10 s"), "Timed out trying to connect"),

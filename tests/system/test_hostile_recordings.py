@@ -134,8 +134,13 @@ def dense_definition(definitions: int) -> str:
     return "\n".join(parts)
 
 
-def _analyze(path: Path, *arguments, timeout_s: float = 240.0):
-    run = run_measured(pmv("analyze", path, *arguments), timeout_s=timeout_s, limit_mb=4096)
+#: The orbit of the recordings written here, given as the flags (the orbit test leaves them out).
+ORBIT_FLAGS = ("--altitude-km", "500", "--inclination-deg", "74.5")
+
+
+def _analyze(path: Path, *arguments, orbit_flags: bool = True, timeout_s: float = 240.0):
+    run = run_measured(pmv("analyze", path, *(ORBIT_FLAGS if orbit_flags else ()), *arguments), timeout_s=timeout_s,
+                       limit_mb=4096)
     print(f"{path.name} {' '.join(map(str, arguments))}: {run.summary()}")
     return run
 
@@ -302,17 +307,17 @@ def test_chunks_overlapping_in_log_time_beyond_the_bound_are_refused(tmp_path):
     held = size + 220 * (size // 35)  # the chunk's bytes and its messages' objects, as the bound counts them
     count = MAX_OVERLAPPING_CHUNK_BYTES // held + 1
     path = _crafted_mcap(tmp_path / "overlap.mcap", [(0, 1_000_000_000, size)] * count)
-    _refused(_analyze(path, "--altitude-km", "500", "--inclination-deg", "74.5"), "overlap in log time",
+    _refused(_analyze(path), "overlap in log time",
              f"more than the {MAX_OVERLAPPING_CHUNK_BYTES} allowed")
     # The same chunks one after another are read (to the refusal that the file has no sensor topic).
     sequential = _crafted_mcap(tmp_path / "sequential.mcap",
                                [(k * 10**9, k * 10**9 + 999_999_999, size) for k in range(count)])
-    _refused(_analyze(sequential, "--altitude-km", "500", "--inclination-deg", "74.5"), "no topic /pmv/attitude")
+    _refused(_analyze(sequential), "no topic /pmv/attitude")
 
 
 def test_a_chunk_index_pointing_at_no_chunk_is_refused(tmp_path):
     path = _crafted_mcap(tmp_path / "index.mcap", [(0, 10, 4096), (20, 30, 4096)], indexes=[(0, 0), (7, 1)])
-    _refused(_analyze(path, "--altitude-km", "500", "--inclination-deg", "74.5"), "a chunk index points at byte",
+    _refused(_analyze(path), "a chunk index points at byte",
              "where no such chunk is")
 
 
@@ -350,9 +355,11 @@ def test_a_sqlite3_message_beyond_the_bound_is_refused_before_it_is_read(tmp_pat
 # ------------------------------------------------------------------------ the orbit on /diagnostics
 
 def test_a_period_that_no_orbit_at_its_altitude_has_is_refused(tmp_path):
-    """1 s at 500 km: every sample would be an orbit of its own (5,668 s is the orbit's period)."""
+    """1 s at 500 km: every sample would be an orbit of its own (5,668 s is the orbit's period). Refused also
+    where the flags give the orbit: the period places the samples."""
     path = write_recording(tmp_path / "period.mcap", samples=3000, period_s=1.0)
     _refused(_analyze(path), "period_s = 1 s is not the period of an orbit at 500 km")
+    _refused(_analyze(path, orbit_flags=False), "period_s = 1 s is not the period of an orbit at 500 km")
     # Within the tolerance (a J2 or element-set period): read.
     from pmv_ros.physics.orbit.two_body import CircularOrbit
 
@@ -363,21 +370,21 @@ def test_a_period_that_no_orbit_at_its_altitude_has_is_refused(tmp_path):
 def test_the_orbit_comes_from_the_recording_unless_the_flags_give_it(tmp_path):
     """Issue 51: the flags are no longer needed where the sensor's /diagnostics states its orbit."""
     path = write_recording(tmp_path / "meteor.mcap", altitude_km=830.0, inclination_deg=98.8)
-    report = _report(_analyze(path, "--json"))
+    report = _report(_analyze(path, "--json", orbit_flags=False))
     assert (report["altitude_km"], report["inclination_deg"]) == pytest.approx((830.0, 98.8))
     assert report["orbit_source"] == {"altitude": "orbit elements on /diagnostics",
                                       "inclination": "orbit elements on /diagnostics"}
-    both = _report(_analyze(path, "--json", "--altitude-km", "820", "--inclination-deg", "98"))
+    both = _report(_analyze(path, "--json", "--altitude-km", "820", "--inclination-deg", "98", orbit_flags=False))
     assert (both["altitude_km"], both["inclination_deg"]) == pytest.approx((820.0, 98.0))
     assert both["orbit_source"] == {"altitude": "--altitude-km", "inclination": "--inclination-deg"}
-    one = _report(_analyze(path, "--json", "--altitude-km", "820"))
+    one = _report(_analyze(path, "--json", "--altitude-km", "820", orbit_flags=False))
     assert one["orbit_source"]["inclination"] == "orbit elements on /diagnostics"
-    text = _analyze(path)
+    text = _analyze(path, orbit_flags=False)
     assert text.status == 0 and "(from orbit elements on /diagnostics)" in text.stdout.splitlines()[1], text.stdout
     # A CSV carries no orbit: the flags it needs are named.
     csv = tmp_path / "telemetry.csv"
     csv.write_text("orbit,u_deg,roll_arcmin,pitch_arcmin\n1,0,0,0\n1,90,0,0\n")
-    _refused(_analyze(csv), "carries no orbit", "--altitude-km and --inclination-deg")
+    _refused(_analyze(csv, orbit_flags=False), "carries no orbit", "--altitude-km and --inclination-deg")
     # An altitude the recording states that no orbit has: refused as the flag would be.
     low = write_recording(tmp_path / "low.mcap", altitude_km=100.0, inclination_deg=50.0, period_s=5200.0)
-    _refused(_analyze(low), "the orbit on /diagnostics", "altitude")
+    _refused(_analyze(low, orbit_flags=False), "the orbit on /diagnostics", "altitude")

@@ -91,7 +91,8 @@ def open_client(scheduler: str | None, workers: int, timeout_s: float | None = N
     from distributed import Client, LocalCluster
 
     if scheduler is not None:
-        return _connect(check_scheduler_address(scheduler), SCHEDULER_TIMEOUT_S if timeout_s is None else timeout_s), None
+        timeout_s = SCHEDULER_TIMEOUT_S if timeout_s is None else timeout_s
+        return _connect(check_scheduler_address(scheduler), timeout_s), None
     with dask.config.set({"distributed.scheduler.allowed-failures": 3,
                           "distributed.nanny.pre-spawn-environ": WORKER_ENVIRONMENT, **QUIET_DIAGNOSTICS}):
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
