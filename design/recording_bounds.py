@@ -1,6 +1,6 @@
 """What a recording's definitions and chunks cost rosbags to open and read: the figures behind the bounds of
 :mod:`pmv_ros.storage.recording` (MAX_DEFINITION_BYTES, MAX_DEFINITIONS, MAX_DEFINITION_FIELDS,
-MAX_CHUNK_RECORDS, MAX_OVERLAPPING_CHUNK_BYTES).
+MAX_CHUNK_RECORDS, MAX_OVERLAPPING_CHUNK_BYTES, MAX_QOS_BYTES, MAX_BAG_METADATA_BYTES).
 
 Each figure is measured in a fresh child process (``python -m design.recording_bounds``, or run the file): the
 time rosbags' ``AnyReader.open`` takes and the peak resident memory of the process, for MCAP files whose only
@@ -11,6 +11,8 @@ cost is one kind of text:
 * dense definitions (short names, few fields): the time a byte and the memory a registered type costs;
 * definitions of many fields: the memory a field costs;
 * one chunk of tiny messages read in log-time order: the memory a message costs in rosbags' chunk list;
+* QoS profiles in the channels' metadata and a rosbag2 directory's ``metadata.yaml`` at their bounds, which rosbags
+  parses with a pure-Python YAML parser (MAX_QOS_BYTES, MAX_BAG_METADATA_BYTES);
 * 1800 definitions of 9 fields: a file near both the definitions' and the fields' bound.
 
 Prints one line per case; the docstrings of the constants quote these.
@@ -33,13 +35,16 @@ path, topic = Path(sys.argv[1]), sys.argv[2]
 before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 started = time.process_time()
 reader = AnyReader([path], default_typestore=get_typestore(Stores.ROS2_JAZZY))
-reader.open()
-opened = time.process_time() - started
 count = 0
+try:  # a dense flow list is no QoS profile: rosbags fails on it, after parsing it
+    reader.open()
+except Exception:
+    topic = ""
+opened = time.process_time() - started
 if topic:
     for _ in reader.messages(connections=[c for c in reader.connections if c.topic == topic]):
         count += 1
-reader.close()
+    reader.close()
 print(json.dumps({"open_s": opened, "read_s": time.process_time() - started - opened, "messages": count,
                   "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
                   "before_mb": before / 1024}))
@@ -82,14 +87,35 @@ def _dense(definitions: int, fields: int) -> str:
     return "\n".join([top] + ["=" * 80 + f"\nMSG: pkg/M{i}\n" + body for i in range(definitions - 1)])
 
 
-def _mcap(path: Path, schema_name: str, text: str, channels: int, messages: int = 0, chunk_size: int = 1 << 20):
+#: One publisher's QoS profile as rosbag2 writes it into a channel's metadata.
+_QOS_PROFILE = """- history: 3
+  depth: 0
+  reliability: 1
+  durability: 2
+  deadline:
+    sec: 9223372036
+    nsec: 854775807
+  lifespan:
+    sec: 9223372036
+    nsec: 854775807
+  liveliness: 1
+  liveliness_lease_duration:
+    sec: 9223372036
+    nsec: 854775807
+  avoid_ros_namespace_conventions: false
+"""
+
+
+def _mcap(path: Path, schema_name: str, text: str, channels: int, messages: int = 0, chunk_size: int = 1 << 20,
+          qos: str = ""):
     from mcap.writer import Writer
 
     with open(path, "wb") as stream:
         writer = Writer(stream, chunk_size=chunk_size)
         writer.start(profile="ros2", library="design")
         schema = writer.register_schema(schema_name, "ros2msg", text.encode())
-        ids = [writer.register_channel(f"/t{i}", "cdr", schema) for i in range(channels)]
+        ids = [writer.register_channel(f"/t{i}", "cdr", schema, metadata={"offered_qos_profiles": qos} if qos else {})
+               for i in range(channels)]
         for i in range(messages):
             writer.add_message(ids[0], log_time=i, data=b"\0\1\0\0", publish_time=i)
         writer.finish()
@@ -127,6 +153,30 @@ def main() -> None:
                   f"= {figures['open_s'] / (len(text) * channels) * 1e6:.1f} µs a byte; "
                   f"+{grown:.0f} MB = {grown * 1024 / definitions:.1f} kB a definition, "
                   f"{grown * 1024 / _fields(text.encode()):.1f} kB a field")
+        from pmv_ros.storage.recording import MAX_BAG_METADATA_BYTES, MAX_QOS_BYTES
+
+        for label, qos in (("real profiles", _QOS_PROFILE * (MAX_QOS_BYTES // len(_QOS_PROFILE))),
+                           ("a dense flow list", "[" + ",".join(["1"] * (MAX_QOS_BYTES // 2 - 1)) + "]")):
+            figures = _measure(_mcap(folder / "qos.mcap", "std_msgs/msg/Empty", "", 1, qos=qos))
+            grown = figures["peak_mb"] - empty["peak_mb"]
+            print(f"QoS metadata of {len(qos)} B, {label}: open {figures['open_s']:.2f} s "
+                  f"= {figures['open_s'] / len(qos) * 1e6:.1f} µs a byte, +{grown:.0f} MB "
+                  f"= {grown * (1 << 20) / len(qos):.0f} B a byte")
+        bag = folder / "bag"
+        bag.mkdir()
+        _mcap(bag / "bag_0.mcap", "std_msgs/msg/Empty", "", 1)
+        flow = "[" + ",".join(["1"] * (MAX_BAG_METADATA_BYTES // 2 - 200)) + "]"
+        (bag / "metadata.yaml").write_text("rosbag2_bagfile_information:\n  version: 9\n  storage_identifier: mcap\n"
+                                           f"  relative_file_paths: [bag_0.mcap]\n  junk: {flow}\n")
+        started = subprocess.run([sys.executable, "-c", "import resource, time\n"
+                                  "from rosbags.rosbag2.metadata import *\nfrom ruamel.yaml import YAML\n"
+                                  "t = time.process_time()\nYAML(typ='safe').load(open(__import__('sys').argv[1]))\n"
+                                  "print(time.process_time() - t, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)",
+                                  str(bag / "metadata.yaml")], capture_output=True, text=True, check=True)
+        seconds, peak_kb = started.stdout.split()
+        size = (bag / "metadata.yaml").stat().st_size
+        print(f"metadata.yaml of {size} B, a dense flow list, through rosbags' YAML parser: {float(seconds):.2f} s "
+              f"= {float(seconds) / size * 1e6:.1f} µs a byte, peak {int(peak_kb) / 1024:.0f} MB")
         messages = 250_000
         figures = _measure(_mcap(folder / "tiny.mcap", "std_msgs/msg/Empty", "", 1, messages, chunk_size=64 << 20),
                            "/t0")

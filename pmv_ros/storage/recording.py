@@ -36,7 +36,8 @@ Bounds and recovery
     definition text it parses once per channel (:data:`MAX_DEFINITION_BYTES`),
     the types and fields it registers (:data:`MAX_DEFINITIONS`,
     :data:`MAX_DEFINITION_FIELDS`), the records of a chunk
-    (:data:`MAX_CHUNK_RECORDS`), the chunk indexes (each must point at a
+    (:data:`MAX_CHUNK_RECORDS`), the channels' QoS profiles it parses as YAML
+    (:data:`MAX_QOS_BYTES`), the chunk indexes (each must point at a
     chunk the walk saw, :data:`MAX_CHUNK_INDEXES`), the footer's summary
     offset, and the chunks a log-time reader holds at once
     (:data:`MAX_OVERLAPPING_CHUNK_BYTES`). A sqlite3 file is checked through
@@ -76,6 +77,11 @@ MAX_RECORDING_BYTES = 1 << 40
 
 #: Most files a rosbag2 recording directory may hold.
 MAX_BAG_FILES = 1024
+
+#: Largest ``metadata.yaml`` of a rosbag2 directory, bytes: rosbags parses it again with a pure-Python YAML
+#: parser (≈ 4 µs a byte of ordinary YAML, ≈ 15 µs and ≈ 0.4 kB of memory a byte of a dense flow list,
+#: design/recording_bounds.py): ≤ 8 s and ≤ 0.23 GB here. A topic takes ≈ 0.6–0.9 kB of it: ≈ 600 topics.
+MAX_BAG_METADATA_BYTES = 512 << 10
 
 #: Wall time between two flushes of the recording being written, s: what ``kill -9`` can cost at most.
 FLUSH_INTERVAL_S = 0.1
@@ -263,6 +269,11 @@ MAX_CHUNK_INDEXES = 100_000
 #: log-time order holds every chunk it has begun until its last message is read. Recordings are written in
 #: log-time order, so their chunks follow each other (two at a time at most where one ends as the next begins).
 MAX_OVERLAPPING_CHUNK_BYTES = 256 << 20
+
+#: Most QoS-profile text of a recording file's connections, bytes, summed: rosbags parses each with a pure-Python
+#: YAML parser (≈ 4 µs and 0.1 kB of memory a byte of real profiles, ≈ 16 µs and ≈ 0.5 kB a byte of a dense flow
+#: list, design/recording_bounds.py): ≤ 4.2 s and ≤ 0.13 GB. A publisher's profile is ≈ 0.3 kB.
+MAX_QOS_BYTES = 256 << 10
 
 #: Largest message of a topic a reader asks for, bytes (deserialised, a message weighs several times its bytes):
 #: the topics ``pmv analyze`` reads carry tens to thousands of bytes a message.
@@ -491,7 +502,7 @@ class _Layout:
     def __init__(self, path):
         self.path = path
         self.schemas = {}  # id → (bytes rosbags parses, definitions)
-        self.channels = {}  # id → (schema id, bytes of its names and metadata)
+        self.channels = {}  # id → (schema id, bytes of its names and metadata, bytes of its metadata)
         self.chunks = {}  # start offset → (Chunk without data, messages)
         self.indexes = []
         self.summary_start = None  # where a summary may start: after the DataEnd record
@@ -509,12 +520,16 @@ class _Layout:
                                        max(old[2], _fields(record.data)))
             _check_definitions(path, [(definitions, fields) for _, definitions, fields in self.schemas.values()])
         elif kind == "channel":
-            cost = len(record.topic) + len(record.message_encoding) + sum(
-                len(key) + len(value) for key, value in record.metadata.items())
-            old = self.channels.get(record.id, (record.schema_id, 0))
-            self.channels[record.id] = (record.schema_id, max(old[1], cost))
+            metadata = sum(len(key) + len(value) for key, value in record.metadata.items())
+            old = self.channels.get(record.id, (record.schema_id, 0, 0))
+            self.channels[record.id] = (record.schema_id, max(old[1], len(record.topic) + len(record.message_encoding)
+                                                              + metadata), max(old[2], metadata))
             if len(self.channels) > MAX_CONNECTIONS:
                 raise RecordingError(f"{path}: more than {MAX_CONNECTIONS} channels")
+            qos = sum(metadata for _, _, metadata in self.channels.values())
+            if qos > MAX_QOS_BYTES:
+                raise RecordingError(f"{path}: its channels' metadata (QoS profiles) is {qos} bytes, more than the "
+                                     f"{MAX_QOS_BYTES} allowed")
         elif kind == "chunk":
             start, chunk, messages = record
             self.chunks[start] = (chunk, messages)
@@ -530,7 +545,7 @@ class _Layout:
     def check(self) -> None:
         """The bounds that need the whole walk; RecordingError naming the first one broken."""
         path = self.path
-        parsed = sum(self.schemas.get(schema_id, (0, 0, 0))[0] + cost for schema_id, cost in self.channels.values())
+        parsed = sum(self.schemas.get(schema_id, (0, 0, 0))[0] + cost for schema_id, cost, _ in self.channels.values())
         if parsed > MAX_DEFINITION_BYTES:
             raise RecordingError(f"{path}: its channels' definitions and metadata are {parsed} bytes to parse, more "
                                  f"than the {MAX_DEFINITION_BYTES} allowed")
@@ -659,6 +674,12 @@ def _check_sqlite_cached(path: str, size: int, mtime_ns: int) -> None:
                      "WHERE d.topic_type = t.type ORDER BY d.id LIMIT 1), 0)")
             definitions = [text for (text,) in connection.execute(
                 "SELECT encoded_message_definition FROM message_definitions")]
+        if "offered_qos_profiles" in columns:
+            (qos,) = connection.execute("SELECT coalesce(sum(octet_length(offered_qos_profiles)), 0) FROM topics")\
+                .fetchone()
+            if qos > MAX_QOS_BYTES:
+                raise RecordingError(f"{path}: its topics' QoS profiles are {qos} bytes, more than the "
+                                     f"{MAX_QOS_BYTES} allowed")
         (parsed,) = connection.execute(f"SELECT coalesce(sum({cost}), 0) FROM topics t").fetchone()
         if parsed > MAX_DEFINITION_BYTES:
             raise RecordingError(f"{path}: its topics' definitions and QoS profiles are {parsed} bytes to parse, "
@@ -674,9 +695,9 @@ def _check_sqlite_cached(path: str, size: int, mtime_ns: int) -> None:
 def check_sqlite(path: str | Path) -> None:
     """Check a sqlite3 (.db3) recording file against the bounds rosbags' opening of it needs.
 
-    At most :data:`MAX_CONNECTIONS` topics; the text rosbags parses (each
-    topic's definition, QoS profiles and names) at most
-    :data:`MAX_DEFINITION_BYTES`; the definitions at most
+    At most :data:`MAX_CONNECTIONS` topics; their QoS profiles at most
+    :data:`MAX_QOS_BYTES`; the text rosbags parses (each topic's definition,
+    QoS profiles and names) at most :data:`MAX_DEFINITION_BYTES`; the definitions at most
     :data:`MAX_DEFINITIONS` and their fields :data:`MAX_DEFINITION_FIELDS`.
     Sizes are asked of SQLite, which keeps them beside the values: no text is
     read before it is known to be small.
@@ -740,7 +761,7 @@ def _check_bag_directory(path: Path) -> list[Path]:
             check_regular_file(entry, "recording file", MAX_RECORDING_BYTES)
         metadata = path / "metadata.yaml"
         if metadata.exists():
-            document = read_yaml_file(metadata, "recording metadata")
+            document = read_yaml_file(metadata, "recording metadata", MAX_BAG_METADATA_BYTES)
             info = document.get("rosbag2_bagfile_information") if isinstance(document, dict) else None
             mode = str((info or {}).get("compression_mode") or "").lower()
             if mode not in ("", "none"):

@@ -83,12 +83,12 @@ def _orbit_status(types, altitude_km: float, inclination_deg: float, period_s: f
 
 def write_recording(path: Path, *, samples: int = SAMPLES, altitude_km: float = 500.0, inclination_deg: float = 74.5,
                     period_s: float | None = None, extra_schemas=(), extra_channels=(), junk_messages: int = 0,
-                    chunk_size: int = 1 << 20) -> Path:
+                    chunk_size: int = 1 << 20, extra_qos: str = "") -> Path:
     """A rosbag2 MCAP of a sensor at 10 Hz with star-tracker truth and its orbit status on /diagnostics.
 
     ``extra_schemas``: ``(name, definition text)`` registered beside the standard ones; ``extra_channels``:
-    ``(topic, index into extra_schemas)``; ``junk_messages``: empty messages on the first extra channel,
-    written before the sensor's (in the first chunk).
+    ``(topic, index into extra_schemas)``, each with ``extra_qos`` as its QoS profiles; ``junk_messages``: empty
+    messages on the first extra channel, written before the sensor's (in the first chunk).
     """
     from mcap.writer import Writer
 
@@ -103,7 +103,9 @@ def write_recording(path: Path, *, samples: int = SAMPLES, altitude_km: float = 
             schema = writer.register_schema(type_name, "ros2msg", definition.encode())
             channels[topic] = writer.register_channel(topic, "cdr", schema)
         extra_ids = [writer.register_schema(name, "ros2msg", text.encode()) for name, text in extra_schemas]
-        extra = [writer.register_channel(topic, "cdr", extra_ids[index]) for topic, index in extra_channels]
+        metadata = {"offered_qos_profiles": extra_qos} if extra_qos else {}
+        extra = [writer.register_channel(topic, "cdr", extra_ids[index], metadata=metadata)
+                 for topic, index in extra_channels]
         for i in range(junk_messages):
             writer.add_message(extra[0], log_time=i, data=b"\0\1\0\0", publish_time=i)
         status = _orbit_status(types, altitude_km, inclination_deg, period_s)
@@ -230,6 +232,55 @@ def test_channels_just_under_the_bound_are_read_and_just_over_are_refused(tmp_pa
     assert run.cpu_s < UNDER_CPU_S and run.peak_mb <= UNDER_PEAK_MB, run
     _refused(_analyze(made("over.mcap", MAX_CONNECTIONS - len(STANDARD_TOPICS) + 1)),
              f"more than {MAX_CONNECTIONS} channels")
+
+
+#: One publisher's QoS profile as rosbag2 writes it into a channel's metadata (YAML).
+QOS_PROFILE = """- history: 3
+  depth: 0
+  reliability: 1
+  durability: 2
+  deadline:
+    sec: 9223372036
+    nsec: 854775807
+  lifespan:
+    sec: 9223372036
+    nsec: 854775807
+  liveliness: 1
+  liveliness_lease_duration:
+    sec: 9223372036
+    nsec: 854775807
+  avoid_ros_namespace_conventions: false
+"""
+
+
+def test_qos_profiles_just_under_the_bound_are_read_and_just_over_are_refused(tmp_path):
+    """rosbags parses every channel's QoS profiles with a pure-Python YAML parser (≈ 16 µs a byte at worst)."""
+    from pmv_ros.storage.recording import MAX_QOS_BYTES
+
+    key = len("offered_qos_profiles")
+    profiles = MAX_QOS_BYTES // 4 // len(QOS_PROFILE)  # on each of four channels
+    qos = QOS_PROFILE * profiles
+    room = MAX_QOS_BYTES // 4 - key - len(qos)
+    under = qos + " " * room  # four channels of exactly a quarter of the bound
+    run = _analyze(write_recording(tmp_path / "under.mcap", extra_schemas=[("std_msgs/msg/Empty", "")],
+                                   extra_channels=[(f"/q{i}", 0) for i in range(4)], extra_qos=under), "--json")
+    assert _report(run)["per_sample"]["roll"]["count"] == SAMPLES
+    assert run.cpu_s < UNDER_CPU_S and run.peak_mb <= UNDER_PEAK_MB, run
+    over = write_recording(tmp_path / "over.mcap", extra_schemas=[("std_msgs/msg/Empty", "")],
+                           extra_channels=[(f"/q{i}", 0) for i in range(4)], extra_qos=under + " ")
+    _refused(_analyze(over), "QoS profiles", f"more than the {MAX_QOS_BYTES} allowed")
+
+
+def test_a_bag_metadata_file_past_its_bound_is_refused(tmp_path):
+    """rosbags parses a directory's metadata.yaml again, with its pure-Python YAML parser."""
+    from pmv_ros.storage.recording import MAX_BAG_METADATA_BYTES
+
+    bag = tmp_path / "bag"
+    bag.mkdir()
+    write_recording(bag / "bag_0.mcap")
+    head = "rosbag2_bagfile_information:\n  version: 9\n  storage_identifier: mcap\n  relative_file_paths: [bag_0.mcap]\n"
+    (bag / "metadata.yaml").write_text(head + "# " + "x" * (MAX_BAG_METADATA_BYTES - len(head) - 2) + "\n")
+    _refused(_analyze(bag), "metadata.yaml", f"more than the {MAX_BAG_METADATA_BYTES} allowed")
 
 
 # ------------------------------------------------------------------------ chunks
