@@ -2,7 +2,7 @@
 :mod:`pmv_ros.storage.recording` (MAX_DEFINITION_BYTES, MAX_DEFINITIONS, MAX_DEFINITION_FIELDS,
 MAX_CHUNK_RECORDS, MAX_OVERLAPPING_CHUNK_BYTES, MAX_QOS_BYTES, MAX_BAG_METADATA_BYTES).
 
-Each figure is measured in a fresh child process (``python -m design.recording_bounds``, or run the file): the
+Each figure is measured in a fresh child process (``python design/recording_bounds.py``): the
 time rosbags' ``AnyReader.open`` takes and the peak resident memory of the process, for MCAP files whose only
 cost is one kind of text:
 

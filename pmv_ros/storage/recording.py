@@ -501,35 +501,39 @@ class _Layout:
 
     def __init__(self, path):
         self.path = path
-        self.schemas = {}  # id → (bytes rosbags parses, definitions)
+        self.schemas = {}  # id → (bytes rosbags parses, definitions, fields)
         self.channels = {}  # id → (schema id, bytes of its names and metadata, bytes of its metadata)
         self.chunks = {}  # start offset → (Chunk without data, messages)
         self.indexes = []
         self.summary_start = None  # where a summary may start: after the DataEnd record
         self.footer = None
         self.messages = 0
+        self.definitions = self.fields = self.qos = 0  # summed over the schemas and channels: running totals
 
     def add(self, kind: str, record) -> None:
         path = self.path
         if kind in ("message", "skipped"):
             self.messages += 1
-        elif kind == "schema":
+        elif kind == "schema":  # a schema seen again (the summary repeats them) counts its largest version
             cost = len(record.data) + len(record.name) + len(record.encoding)
             old = self.schemas.get(record.id, (0, 0, 0))
-            self.schemas[record.id] = (max(old[0], cost), max(old[1], _definitions(record.data)),
-                                       max(old[2], _fields(record.data)))
-            _check_definitions(path, [(definitions, fields) for _, definitions, fields in self.schemas.values()])
+            new = (max(old[0], cost), max(old[1], _definitions(record.data)), max(old[2], _fields(record.data)))
+            self.schemas[record.id] = new
+            self.definitions += new[1] - old[1]
+            self.fields += new[2] - old[2]
+            _check_definitions(path, self.definitions, self.fields)
         elif kind == "channel":
             metadata = sum(len(key) + len(value) for key, value in record.metadata.items())
             old = self.channels.get(record.id, (record.schema_id, 0, 0))
-            self.channels[record.id] = (record.schema_id, max(old[1], len(record.topic) + len(record.message_encoding)
-                                                              + metadata), max(old[2], metadata))
+            new = (record.schema_id, max(old[1], len(record.topic) + len(record.message_encoding) + metadata),
+                   max(old[2], metadata))
+            self.channels[record.id] = new
+            self.qos += new[2] - old[2]
             if len(self.channels) > MAX_CONNECTIONS:
                 raise RecordingError(f"{path}: more than {MAX_CONNECTIONS} channels")
-            qos = sum(metadata for _, _, metadata in self.channels.values())
-            if qos > MAX_QOS_BYTES:
-                raise RecordingError(f"{path}: its channels' metadata (QoS profiles) is {qos} bytes, more than the "
-                                     f"{MAX_QOS_BYTES} allowed")
+            if self.qos > MAX_QOS_BYTES:
+                raise RecordingError(f"{path}: its channels' metadata (QoS profiles) is {self.qos} bytes, more than "
+                                     f"the {MAX_QOS_BYTES} allowed")
         elif kind == "chunk":
             start, chunk, messages = record
             self.chunks[start] = (chunk, messages)
@@ -571,12 +575,12 @@ class _Layout:
                                  f"than the {MAX_OVERLAPPING_CHUNK_BYTES} allowed")
 
 
-def _check_definitions(path, schemas) -> None:
-    """RecordingError if ``schemas`` — ``(definitions, fields)`` of each distinct schema — hold more definitions
-    than :data:`MAX_DEFINITIONS` or declare more fields than :data:`MAX_DEFINITION_FIELDS`."""
-    if sum(definitions for definitions, _ in schemas) > MAX_DEFINITIONS:
+def _check_definitions(path, definitions: int, fields: int) -> None:
+    """RecordingError if the distinct schemas of a file hold more ``definitions`` than :data:`MAX_DEFINITIONS` or
+    declare more ``fields`` than :data:`MAX_DEFINITION_FIELDS` (each summed over the schemas)."""
+    if definitions > MAX_DEFINITIONS:
         raise RecordingError(f"{path}: its schemas hold more than {MAX_DEFINITIONS} message definitions")
-    if sum(fields for _, fields in schemas) > MAX_DEFINITION_FIELDS:
+    if fields > MAX_DEFINITION_FIELDS:
         raise RecordingError(f"{path}: its schemas declare more than {MAX_DEFINITION_FIELDS} fields")
 
 
@@ -685,7 +689,7 @@ def _check_sqlite_cached(path: str, size: int, mtime_ns: int) -> None:
             raise RecordingError(f"{path}: its topics' definitions and QoS profiles are {parsed} bytes to parse, "
                                  f"more than the {MAX_DEFINITION_BYTES} allowed")
         texts = [str(text).encode("utf-8", "replace") for text in definitions]
-        _check_definitions(path, [(_definitions(text), _fields(text)) for text in texts])
+        _check_definitions(path, sum(map(_definitions, texts)), sum(map(_fields, texts)))
     except apsw.Error as error:
         raise RecordingError(f"{path}: cannot read the recording ({_reason(error)})") from None
     finally:
