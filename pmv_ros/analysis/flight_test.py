@@ -26,15 +26,21 @@ def correct_reference_drift(values_rad, elapsed_s, drift_rate_rad_s: float):
     return np.asarray(values_rad, float) - drift_rate_rad_s * np.asarray(elapsed_s, float)
 
 
+#: Resolution of the orbital angle in step 2, rad: exact u is grouped to it, and no u bin is narrower (a bin
+#: far below it would only split equal angles, and near 0 its index would overflow).
+U_RESOLUTION_RAD = 1e-9
+
+
 def average_over_orbits(u_rad, values, bin_rad: float | None = None):
     """Average samples taken at the same orbital angle over the orbits (physics.md §5, step 2).
 
     Args:
         u_rad: ``(N,)`` argument of latitude of each sample, rad (any number of orbits).
         values: ``(N,)`` or ``(N, C)`` samples.
-        bin_rad: None to group samples with the same u (to 1e-9 rad), as in the
-            published telemetry sampled on a fixed grid of u; otherwise the
-            width of the u bins, rad, for telemetry sampled in time.
+        bin_rad: None to group samples with the same u (to
+            :data:`U_RESOLUTION_RAD`), as in the published telemetry sampled
+            on a fixed grid of u; otherwise the width of the u bins, rad, for
+            telemetry sampled in time: :data:`U_RESOLUTION_RAD` … 2π.
 
     Returns:
         (u_rad ``(G,)`` in [0, 2π) — the mean u of each group, sorted;
@@ -45,11 +51,11 @@ def average_over_orbits(u_rad, values, bin_rad: float | None = None):
     single = data.ndim == 1
     data = data.reshape(u.size, -1)
     if bin_rad is None:
-        scale = 1e9
+        scale = 1.0 / U_RESOLUTION_RAD
         keys = np.round(u * scale).astype(np.int64) % int(round(TWO_PI * scale))
     else:
-        if not (math.isfinite(bin_rad) and 0.0 < bin_rad <= TWO_PI):
-            raise ValueError(f"u bin width = {bin_rad} rad is outside the allowed range (0, 2π]")
+        if not (math.isfinite(bin_rad) and U_RESOLUTION_RAD <= bin_rad <= TWO_PI):
+            raise ValueError(f"u bin width = {bin_rad} rad is outside the allowed range [{U_RESOLUTION_RAD:g}, 2π]")
         keys = np.floor(u / bin_rad).astype(np.int64)
     groups, first, inverse, counts = np.unique(keys, return_index=True, return_inverse=True, return_counts=True)
     sums = np.zeros((groups.size, data.shape[1]))
@@ -129,6 +135,30 @@ class FlightTestResult:
         raise KeyError(name)
 
 
+def fewest_samples(max_gap_fraction: float = DEFAULT_MAX_GAP_FRACTION) -> int:
+    """Fewest samples an orbit needs for :func:`harmonic_amplitudes` to resolve anything.
+
+    n distinct orbital angles leave a hole of at least 2π/n, and the fit
+    needs 3 or more angles and no hole wider than ``max_gap_fraction`` of a
+    turn: so an orbit with fewer than max(3, ⌈1/max_gap_fraction⌉) samples
+    gives only NaN (10 with the default 0.1), and is not fitted at all.
+    """
+    return max(3, math.ceil(1.0 / max_gap_fraction - 1e-9))
+
+
+def _orbit_members(orbits: np.ndarray, fewest: int):
+    """The sample indices of each orbit with at least ``fewest`` samples, in orbit order, each in sample order.
+
+    One stable sort of the orbit numbers, O(N log N) whatever the number of
+    orbits (a mask per orbit would be O(N × orbits): quadratic for telemetry
+    with one orbit per row).
+    """
+    order = np.argsort(orbits, kind="stable")
+    _, starts, counts = np.unique(orbits[order], return_index=True, return_counts=True)
+    for start, count in zip(starts[counts >= fewest].tolist(), counts[counts >= fewest].tolist()):
+        yield order[start:start + count]
+
+
 def flight_test_statistics(u_rad, roll_rad, pitch_rad, altitude_m: float, inclination_rad: float, *,
                            orbit_index=None, remove_oblateness: bool = True, u_bin_rad: float | None = None,
                            harmonics=ORBIT_HARMONICS, max_gap_fraction: float = DEFAULT_MAX_GAP_FRACTION,
@@ -154,6 +184,13 @@ def flight_test_statistics(u_rad, roll_rad, pitch_rad, altitude_m: float, inclin
     given (not orbit-averaged, which would wash out features that do not
     repeat from orbit to orbit, such as weather) after subtracting K, T and
     the oblateness model, and averaged over the complete orbits.
+
+    Cost, N samples in any number of orbits: O(N log N) time (two sorts: the
+    orbital angles of step 2 and the orbit numbers of §5.1) and O(N) memory
+    (≈ 0.2 kB a sample at the peak). An orbit with fewer samples than
+    :func:`fewest_samples` cannot resolve a harmonic and is not fitted, so at
+    most N/10 least-squares fits run, each linear in its samples: telemetry
+    of one orbit per row costs what any other layout of the same N does.
 
     Args:
         u_rad: ``(N,)`` argument of latitude of each sample, rad (unwrapped or
@@ -196,9 +233,8 @@ def flight_test_statistics(u_rad, roll_rad, pitch_rad, altitude_m: float, inclin
                                   roll - roll_offset, pitch - pitch_offset,
                                   np.hypot(roll - roll_offset, pitch - pitch_offset)])
     per_orbit = []
-    for orbit in np.unique(orbits):
-        in_orbit = orbits == orbit
-        amplitudes = harmonic_amplitudes(u[in_orbit], per_sample[in_orbit], harmonics,
+    for members in _orbit_members(orbits, fewest_samples(max_gap_fraction)):
+        amplitudes = harmonic_amplitudes(u[members], per_sample[members], harmonics,
                                          max_gap_fraction=max_gap_fraction, max_condition=max_condition)
         if np.isfinite(amplitudes[0]).any():
             per_orbit.append(amplitudes)

@@ -32,6 +32,7 @@ line and column, exit status 2.
 from __future__ import annotations
 
 import math
+from array import array
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -245,18 +246,17 @@ def _flight_test_report(u, roll, pitch, altitude_m: float, inclination_rad: floa
         if channel.channel != "meridional":
             detail = {"offset_arcmin": sign * _arcmin(channel.offset_rad), **detail}
         channels[channel.channel] = detail
-    series = []
-    for u_i, n, r, p, o_r, o_p, d_r, d_p, m in zip(
-            result.u_rad, result.samples_per_u, result.roll_mean_rad, result.pitch_mean_rad,
-            result.oblateness_roll_rad, result.oblateness_pitch_rad, result.roll_residual_rad,
-            result.pitch_residual_rad, result.meridional_rad):
-        roll_i, pitch_i = signed(r, p)
-        model_roll, model_pitch = signed(o_r, o_p)
-        residual_roll, residual_pitch = signed(d_r, d_p)
-        series.append({"u_deg": math.degrees(u_i), "samples": int(n), "roll_arcmin": roll_i,
-                       "pitch_arcmin": pitch_i, "oblateness_roll_arcmin": model_roll,
-                       "oblateness_pitch_arcmin": model_pitch, "residual_roll_arcmin": residual_roll,
-                       "residual_pitch_arcmin": residual_pitch, "meridional_arcmin": _arcmin(m)})
+    # One row per distinct orbital angle, built from whole columns (a Python step per value would be the
+    # slowest part of a large file).
+    columns = [np.degrees(result.u_rad), result.samples_per_u.astype(np.int64)]
+    for r, p in ((result.roll_mean_rad, result.pitch_mean_rad),
+                 (result.oblateness_roll_rad, result.oblateness_pitch_rad),
+                 (result.roll_residual_rad, result.pitch_residual_rad)):
+        columns += convert(r / ARCMIN_RAD, p / ARCMIN_RAD, ROS, convention)
+    columns.append(result.meridional_rad / ARCMIN_RAD)
+    keys = ("u_deg", "samples", "roll_arcmin", "pitch_arcmin", "oblateness_roll_arcmin", "oblateness_pitch_arcmin",
+            "residual_roll_arcmin", "residual_pitch_arcmin", "meridional_arcmin")
+    series = [dict(zip(keys, row)) for row in zip(*(column.tolist() for column in columns))]
     roll_offset, pitch_offset = signed(result.roll_offset_rad, result.pitch_offset_rad)
     limit_ground = ground_error(result.limit_high_rad, 0.0, altitude_m).circular_m
     return {
@@ -291,6 +291,21 @@ DIAGNOSTIC_ARRAY = ("diagnostic_msgs/msg/DiagnosticArray",)
 #: Magic bytes of the two rosbag2 storage formats.
 _MAGIC = (b"\x89MCAP", b"SQLite format 3\x00")
 
+#: Most sensor samples (aligned with truth) and odometry messages one analysis of a recording holds: 55 h at
+#: 10 Hz, 23 days at 1 Hz. They are kept as numbers (24 bytes a sample) for the flight-test procedure, whose peak
+#: is ≈ 0.2 kB a sample: ≈ 0.5 GB and ≈ 15 s of CPU at this bound. A longer recording: analyse a part of it.
+MAX_RECORDING_SAMPLES = 2_000_000
+
+#: Most messages logged at one instant that are held to put the truth first among them (a recording made under a
+#: paused /clock logs everything at one time); beyond it they go on in the order they were logged.
+MAX_SAME_TIME_MESSAGES = 1000
+
+#: Relative disagreement allowed between the period a sensor states on /diagnostics and the period of the
+#: circular orbit at the altitude it states: the secular J2 term changes the period of u by ≤ 0.5 %, an element
+#: set's nodal period differs from the circular one of its mean altitude by ≈ 0.1 % (Meteor-M's); more is not
+#: one orbit.
+ELEMENTS_PERIOD_TOLERANCE = 0.02
+
 
 def is_recording(path: str) -> bool:
     """True for a rosbag2 directory or an MCAP/sqlite3 file (by name or by its first bytes)."""
@@ -317,7 +332,8 @@ def phase_from_odometry(messages, timeout_s: float):
     ``header.frame_id`` is the pose orientation. Stamps within ``timeout_s``
     outside the odometry's span are extrapolated at the end rate; further
     out, NaN. Also returns the mean inclination (deg) and altitude (km)
-    the odometry flies, and how many messages were unreadable.
+    the odometry flies, and how many messages were unreadable. Memory:
+    ≈ 0.3 kB a message (the caller bounds how many it gives).
     """
     import pmv_msgs_shim as shim
     from ..physics.orbit.two_body import orbit_angles_from_state
@@ -372,11 +388,15 @@ def phase_from_odometry(messages, timeout_s: float):
     return phase, math.degrees(float(np.mean(inclination))), float(np.mean(altitude)) / 1e3, unreadable
 
 
-def _by_log_time(stream, first_topic: str):
-    """The (topic, message) stream with ``first_topic`` first among messages logged at the same time."""
+def _by_log_time(stream, first_topic: str, max_group: int = MAX_SAME_TIME_MESSAGES):
+    """The (topic, message) stream with ``first_topic`` first among messages logged at the same time.
+
+    At most ``max_group`` messages are held: a longer run of one log time goes
+    on in logged order, group by group.
+    """
     group, group_time = [], None
     for topic, recorded in stream:
-        if recorded.log_time_ns != group_time and group:
+        if group and (recorded.log_time_ns != group_time or len(group) >= max_group):
             yield from sorted(group, key=lambda item: item[0] != first_topic)
             group = []
         group_time = recorded.log_time_ns
@@ -384,10 +404,67 @@ def _by_log_time(stream, first_topic: str):
     yield from sorted(group, key=lambda item: item[0] != first_topic)
 
 
-def analyze_recording(path: str, altitude_m: float, inclination_rad: float, *, convention: str | None = None,
-                      truth_topic: str | None = None, phase: str = "auto", u_bin_rad: float | None = None,
-                      remove_oblateness: bool = True, roll_drift_rad_per_orbit: float = 0.0,
-                      pitch_drift_rad_per_orbit: float = 0.0, namespace: str = "") -> dict:
+def orbit_from_elements(elements) -> tuple[float, float]:
+    """``(altitude_m, inclination_rad)`` of the orbit a sensor states on /diagnostics, checked; ValueError if not one.
+
+    The ranges are the circular orbit's (:class:`pmv_ros.physics.orbit.two_body.CircularOrbit`), and the stated
+    period must be the period of that orbit within :data:`ELEMENTS_PERIOD_TOLERANCE`: the period sets where every
+    sample is on the orbit (u), so a period that no orbit at that altitude has is not taken.
+    """
+    altitude_m, inclination_rad = elements.altitude_km * 1e3, math.radians(elements.inclination_deg)
+    try:
+        period_s = CircularOrbit(altitude_m, inclination_rad).period_s
+    except ValueError as error:
+        raise ValueError(f"the orbit on {DIAGNOSTICS_TOPIC}: {error}") from None
+    if abs(elements.period_s / period_s - 1.0) > ELEMENTS_PERIOD_TOLERANCE:
+        raise ValueError(f"the orbit on {DIAGNOSTICS_TOPIC}: period_s = {elements.period_s:g} s is not the period of "
+                         f"an orbit at {elements.altitude_km:g} km ({period_s:.0f} s, ± "
+                         f"{ELEMENTS_PERIOD_TOLERANCE:.0%})")
+    return altitude_m, inclination_rad
+
+
+def _recording_orbit(path, altitude_m, inclination_rad, elements, odometry_info) -> tuple[float, float, dict]:
+    """The altitude (m) and inclination (rad) the analysis uses and where each came from.
+
+    The flags first (``altitude_m``, ``inclination_rad`` not None), then the orbit the sensor states on
+    /diagnostics, then the mean of /orbit/odometry; each checked as the circular orbit checks its own.
+    """
+    from ..storage.recording import RecordingError
+
+    found = {}
+    if elements is not None:
+        try:
+            found = dict(zip(("altitude", "inclination"), orbit_from_elements(elements)))
+        except ValueError as error:
+            raise RecordingError(f"{path}: {error}") from None
+        where = f"orbit elements on {DIAGNOSTICS_TOPIC}"
+    elif odometry_info is not None:
+        found = {"altitude": odometry_info["altitude_km"] * 1e3,
+                 "inclination": math.radians(odometry_info["inclination_deg"])}
+        where = f"the mean of {odometry_info['messages']} messages on {ODOMETRY_TOPIC}"
+    given = {"altitude": altitude_m, "inclination": inclination_rad}
+    flags = {"altitude": "--altitude-km", "inclination": "--inclination-deg"}
+    values, sources = {}, {}
+    for name in given:
+        if given[name] is not None:
+            values[name], sources[name] = given[name], flags[name]
+        elif name in found:
+            values[name], sources[name] = found[name], where
+        else:
+            raise RecordingError(f"{path}: the recording carries no orbit (no orbit elements on {DIAGNOSTICS_TOPIC}, "
+                                 f"no {ODOMETRY_TOPIC}): give {flags[name]}")
+    try:
+        CircularOrbit(values["altitude"], values["inclination"])
+    except ValueError as error:
+        raise RecordingError(f"{path}: the orbit from {sources['altitude']}: {error}") from None
+    return values["altitude"], values["inclination"], sources
+
+
+def analyze_recording(path: str, altitude_m: float | None = None, inclination_rad: float | None = None, *,
+                      convention: str | None = None, truth_topic: str | None = None, phase: str = "auto",
+                      u_bin_rad: float | None = None, remove_oblateness: bool = True,
+                      roll_drift_rad_per_orbit: float = 0.0, pitch_drift_rad_per_orbit: float = 0.0,
+                      namespace: str = "", max_samples: int = MAX_RECORDING_SAMPLES) -> dict:
     """The flight-test statistics of a rosbag2 recording of /pmv/attitude with truth; the report as a dict.
 
     The messages go, in the order they were logged, through the same
@@ -402,140 +479,172 @@ def analyze_recording(path: str, altitude_m: float, inclination_rad: float, *, c
     messages. ``namespace``: the spacecraft's topics are under it (``/sat1/pmv/attitude``; /diagnostics is
     shared, the orbit status is the namespaced sensor's). Raises ValueError (RecordingError) naming what is
     missing or wrong.
+
+    The orbit (altitude and inclination, for the oblateness model and the
+    period): ``altitude_m`` and ``inclination_rad`` where given, else the
+    orbit the sensor states on /diagnostics (:func:`orbit_from_elements`),
+    else the mean of /orbit/odometry; the report's ``orbit_source`` says
+    which for each.
+
+    Cost: linear in the messages read (each deserialised once a pass, two
+    passes); memory ≈ 24 bytes an aligned sample while reading, ≈ 0.2 kB a
+    sample in the procedure. More than ``max_samples`` aligned sensor
+    samples (or odometry messages) is a RecordingError.
     """
     import pmv_msgs_shim as shim
     from ..runtime.common.assembly import MONITOR_PARAMS
     from ..runtime.monitor.runtime import build_monitor
     from ..runtime.common.parameters import preset_values
-    from ..storage.recording import RecordingError, iter_recording, recorded_topics, recording_status
+    from ..storage.recording import RecordingError, open_recording
 
-    spacecraft = "/" + namespace.strip("/") if namespace.strip("/") else ""
-    sensor_topic, odometry_topic = spacecraft + SENSOR_TOPIC, spacecraft + ODOMETRY_TOPIC
-    orbit_status = shim.orbit_status_name(namespace)
-    status = recording_status(path)  # bounds first; a cut MCAP file is read up to its last whole chunk
-    truth_topics = (truth_topic,) if truth_topic else tuple(spacecraft + topic for topic in TRUTH_TOPICS)
-    wanted = {sensor_topic: VECTOR3_STAMPED, odometry_topic: ODOMETRY, DIAGNOSTICS_TOPIC: DIAGNOSTIC_ARRAY}
-    wanted.update({topic: QUATERNION_STAMPED for topic in truth_topics})
-    present = recorded_topics(path, wanted)
-    if sensor_topic not in present:
-        raise RecordingError(f"{path}: no topic {sensor_topic} in the recording (the sensor's roll and pitch)")
-    truth_topic = next((topic for topic in truth_topics if topic in present), None)
-    if truth_topic is None:
-        raise RecordingError(f"{path}: no truth in the recording: no topic " + " or ".join(truth_topics)
-                             + ("" if len(truth_topics) == 1 else " (give --truth TOPIC)"))
-    counts = dict.fromkeys(sorted(present), 0)
+    with open_recording(path) as recording:  # bounds first; a cut MCAP file is read up to its last whole chunk
+        spacecraft = "/" + namespace.strip("/") if namespace.strip("/") else ""
+        sensor_topic, odometry_topic = spacecraft + SENSOR_TOPIC, spacecraft + ODOMETRY_TOPIC
+        orbit_status = shim.orbit_status_name(namespace)
+        status = recording.status
+        truth_topics = (truth_topic,) if truth_topic else tuple(spacecraft + topic for topic in TRUTH_TOPICS)
+        wanted = {sensor_topic: VECTOR3_STAMPED, odometry_topic: ODOMETRY, DIAGNOSTICS_TOPIC: DIAGNOSTIC_ARRAY}
+        wanted.update({topic: QUATERNION_STAMPED for topic in truth_topics})
+        present = recording.topics(wanted)
+        if sensor_topic not in present:
+            raise RecordingError(f"{path}: no topic {sensor_topic} in the recording (the sensor's roll and pitch)")
+        truth_topic = next((topic for topic in truth_topics if topic in present), None)
+        if truth_topic is None:
+            raise RecordingError(f"{path}: no truth in the recording: no topic " + " or ".join(truth_topics)
+                                 + ("" if len(truth_topics) == 1 else " (give --truth TOPIC)"))
+        counts = dict.fromkeys(sorted(present), 0)
 
-    monitor_values = preset_values({}, "error_monitor_node", MONITOR_PARAMS, {
-        "orbit.altitude_km": altitude_m / 1e3, "orbit.inclination_deg": math.degrees(inclination_rad),
-        "remove_oblateness": remove_oblateness})
+        # Pass 1: the orbit — odometry and the sensor's orbit status on /diagnostics.
+        seen = {"first": None, "last": None, "sets": 0}  # the first orbit status and how many times it changed
 
-    # Pass 1: the orbit — odometry and the sensor's orbit status on /diagnostics.
-    elements_seen = []  # distinct orbit statuses, in order
+        def orbit_stream(topics):
+            for topic, recorded in recording.messages({t: wanted[t] for t in topics}):
+                counts[topic] += 1
+                if topic == odometry_topic:
+                    if counts[topic] > max_samples:
+                        raise RecordingError(f"{path}: more than {max_samples} messages on {odometry_topic}, the most "
+                                             "one analysis holds (analyse a part of the recording)")
+                    yield recorded
+                    continue
+                try:
+                    # The sensor whose topics are read (of this namespace), not another spacecraft's.
+                    found = shim.find_orbit_elements(recorded.message, orbit_status)
+                except (ValueError, AttributeError):
+                    continue
+                if found is not None and found != seen["last"]:
+                    seen["first"] = seen["first"] or found
+                    seen["last"] = found
+                    seen["sets"] += 1
 
-    def orbit_stream(topics):
-        for topic, recorded in iter_recording(path, {t: wanted[t] for t in topics}):
-            counts[topic] += 1
-            if topic == odometry_topic:
-                yield recorded
-                continue
+        use_odometry = phase in ("auto", "odometry") and odometry_topic in present
+        orbit_topics = [t for t in (odometry_topic, DIAGNOSTICS_TOPIC)
+                        if t in present and (t != odometry_topic or use_odometry)]
+        phase_of = odometry_info = None
+        timeout_s = preset_values({}, "error_monitor_node", MONITOR_PARAMS)["odometry_timeout_s"]
+        if use_odometry:
             try:
-                # The sensor whose topics are read (of this namespace), not another spacecraft's.
-                found = shim.find_orbit_elements(recorded.message, orbit_status)
-            except (ValueError, AttributeError):
-                continue
-            if found is not None and (not elements_seen or found != elements_seen[-1]):
-                elements_seen.append(found)
-
-    use_odometry = phase in ("auto", "odometry") and odometry_topic in present
-    orbit_topics = [t for t in (odometry_topic, DIAGNOSTICS_TOPIC)
-                    if t in present and (t != odometry_topic or use_odometry)]
-    phase_of = odometry_info = None
-    if use_odometry:
-        try:
-            phase_of, odo_inclination, odo_altitude, odo_unreadable = phase_from_odometry(
-                orbit_stream(orbit_topics), monitor_values["odometry_timeout_s"])
-            odometry_info = {"messages": counts[odometry_topic], "unreadable": odo_unreadable,
-                             "inclination_deg": odo_inclination, "altitude_km": odo_altitude}
-            phase_source = odometry_topic
-        except RecordingError:
-            raise
-        except ValueError as error:
-            if phase == "odometry":
+                phase_of, odo_inclination, odo_altitude, odo_unreadable = phase_from_odometry(
+                    orbit_stream(orbit_topics), timeout_s)
+                odometry_info = {"messages": counts[odometry_topic], "unreadable": odo_unreadable,
+                                 "inclination_deg": odo_inclination, "altitude_km": odo_altitude}
+                phase_source = odometry_topic
+            except RecordingError:
+                raise
+            except ValueError as error:
+                if phase == "odometry":
+                    raise RecordingError(f"{path}: {error}") from None
+        else:
+            for _ in orbit_stream(orbit_topics):
+                pass
+        elements = seen["first"]
+        if phase_of is None and phase in ("auto", "elements") and elements is not None:
+            try:
+                orbit_from_elements(elements)  # the period gives u: checked before it is used
+            except ValueError as error:
                 raise RecordingError(f"{path}: {error}") from None
-    else:
-        for _ in orbit_stream(orbit_topics):
-            pass
-    elements = elements_seen[0] if elements_seen else None
-    if phase_of is None and phase in ("auto", "elements") and elements is not None:
-        phase_of, phase_source = elements.argument_of_latitude_rad, f"orbit elements on {DIAGNOSTICS_TOPIC}"
-    if phase_of is None:
-        needed = {"odometry": f"no messages on {odometry_topic}",
-                  "elements": f"no orbit elements on {DIAGNOSTICS_TOPIC} (status '{orbit_status}')",
-                  "auto": f"no messages on {odometry_topic} and no orbit elements on {DIAGNOSTICS_TOPIC}"}[phase]
-        raise RecordingError(f"{path}: nothing gives the orbital phase: {needed} — stamps alone do not say where "
-                             "the orbit was")
-    if convention is None:
-        convention = elements.roll_pitch_convention if elements is not None else "ros"
+            phase_of, phase_source = elements.argument_of_latitude_rad, f"orbit elements on {DIAGNOSTICS_TOPIC}"
+        if phase_of is None:
+            needed = {"odometry": f"no messages on {odometry_topic}",
+                      "elements": f"no orbit elements on {DIAGNOSTICS_TOPIC} (status '{orbit_status}')",
+                      "auto": f"no messages on {odometry_topic} and no orbit elements on {DIAGNOSTICS_TOPIC}"}[phase]
+            raise RecordingError(f"{path}: nothing gives the orbital phase: {needed} — stamps alone do not say where "
+                                 "the orbit was")
+        if convention is None:
+            convention = elements.roll_pitch_convention if elements is not None else "ros"
+        altitude_m, inclination_rad, orbit_source = _recording_orbit(path, altitude_m, inclination_rad, elements,
+                                                                     odometry_info)
+        monitor_values = preset_values({}, "error_monitor_node", MONITOR_PARAMS, {
+            "orbit.altitude_km": altitude_m / 1e3, "orbit.inclination_deg": math.degrees(inclination_rad),
+            "remove_oblateness": remove_oblateness})
 
-    # Pass 2: sensor and truth in logged order (truth first within one log time, as it reached a live monitor).
-    monitor = build_monitor(monitor_values)
-    unreadable = {"sensor": 0, "truth": 0}
-    used = []  # (stamp, residual roll, residual pitch) in the wire's convention
+        # Pass 2: sensor and truth in logged order (truth first within one log time, as it reached a live monitor).
+        monitor = build_monitor(monitor_values)
+        unreadable = {"sensor": 0, "truth": 0}
+        used = tuple(array("d") for _ in range(3))  # stamp, residual roll, residual pitch in the wire's convention
 
-    def collect(outcomes):
-        used.extend((o.stamp_s, o.residual_roll_rad, o.residual_pitch_rad) for o in outcomes if o.ok)
+        def collect(outcomes):
+            for outcome in outcomes:
+                if outcome.ok:
+                    for column, value in zip(used, (outcome.stamp_s, outcome.residual_roll_rad,
+                                                    outcome.residual_pitch_rad)):
+                        column.append(value)
+            if len(used[0]) > max_samples:
+                raise RecordingError(f"{path}: more than {max_samples} sensor samples aligned with truth, the most one "
+                                     "analysis holds (analyse a part of the recording)")
 
-    stream = iter_recording(path, {truth_topic: QUATERNION_STAMPED, sensor_topic: VECTOR3_STAMPED})
-    for topic, recorded in _by_log_time(stream, truth_topic):
-        counts[topic] += 1
-        try:
-            if topic == truth_topic:
-                stamp_s, q = shim.read_attitude_quaternion(recorded.message)
-                collect(monitor.add_truth_quaternion(stamp_s, q))
+        stream = recording.messages({truth_topic: QUATERNION_STAMPED, sensor_topic: VECTOR3_STAMPED})
+        for topic, recorded in _by_log_time(stream, truth_topic):
+            counts[topic] += 1
+            try:
+                if topic == truth_topic:
+                    stamp_s, q = shim.read_attitude_quaternion(recorded.message)
+                    collect(monitor.add_truth_quaternion(stamp_s, q))
+                    continue
+                stamp_s, roll, pitch = shim.read_attitude_angles(recorded.message)
+            except (ValueError, AttributeError) as error:
+                if isinstance(error, RecordingError):
+                    raise
+                unreadable["truth" if topic == truth_topic else "sensor"] += 1
                 continue
-            stamp_s, roll, pitch = shim.read_attitude_angles(recorded.message)
-        except (ValueError, AttributeError):
-            unreadable["truth" if topic == truth_topic else "sensor"] += 1
-            continue
-        roll, pitch = convert(roll, pitch, convention, shim.WIRE_CONVENTION)
-        u_i = float(phase_of(stamp_s))
-        collect(monitor.add_sensor(stamp_s, roll, pitch, u_rad=u_i if math.isfinite(u_i) else None,
-                                   altitude_m=altitude_m, inclination_rad=inclination_rad))
-    for topic in (sensor_topic, truth_topic):
-        if not counts[topic]:
-            raise RecordingError(f"{path}: no messages on {topic} in the recording")
-    if len(used) < 2:
-        raise RecordingError(f"{path}: {len(used)} sensor samples could be aligned with truth on {truth_topic}; "
-                             "the statistics need at least 2")
-    summary = monitor.summary()
-    stamps, roll, pitch = np.array(used).T
-    u = phase_of(stamps)
-    # Back from the wire's convention to the input's for the flight-test procedure.
-    roll, pitch = convert(roll, pitch, shim.WIRE_CONVENTION, convention)
-    report = _flight_test_report(u, roll, pitch, altitude_m, inclination_rad, convention,
-                                 u_bin_rad=math.radians(DEFAULT_TIME_LAYOUT_BIN_DEG) if u_bin_rad is None
-                                 else u_bin_rad, remove_oblateness=remove_oblateness,
-                                 roll_drift_rad_per_orbit=roll_drift_rad_per_orbit,
-                                 pitch_drift_rad_per_orbit=pitch_drift_rad_per_orbit)
-    sign = convert(1.0, 1.0, shim.WIRE_CONVENTION, convention)[0]
-    per_sample = {}
-    for channel in summary.channels:
-        s = 1.0 if channel.channel == "meridional" else sign
-        per_sample[channel.channel] = {
-            "count": channel.count, "mean_arcmin": s * _arcmin(channel.mean_rad),
-            "sigma_arcmin": _arcmin(channel.sigma_rad), "three_sigma_arcmin": _arcmin(channel.three_sigma_rad),
-            "max_abs_arcmin": _arcmin(channel.max_abs_rad)}
-    counters = {k: v for k, v in summary.counters.items() if v}
-    counters.update({f"unreadable_{k}": v for k, v in unreadable.items() if v})
-    recording = {"messages": counts, "odometry": odometry_info,
-                 "orbit_elements": None if elements is None else dict(vars(elements)),
-                 "orbit_element_sets": len(elements_seen)}
-    if status is not None and not status.complete:
-        recording["recovered"] = {"messages": status.messages, "bytes_read": status.bytes_read,
-                                  "file_bytes": status.file_bytes, "stopped": status.stopped}
-    return {
-        "file": str(path), "layout": "recording", "rows_skipped": sum(unreadable.values()),
-        "phase_source": phase_source, "truth_topic": truth_topic,
-        "recording": recording,
-        **report, "per_sample": per_sample, "counters": counters,
-    }
+            roll, pitch = convert(roll, pitch, convention, shim.WIRE_CONVENTION)
+            u_i = float(phase_of(stamp_s))
+            collect(monitor.add_sensor(stamp_s, roll, pitch, u_rad=u_i if math.isfinite(u_i) else None,
+                                       altitude_m=altitude_m, inclination_rad=inclination_rad))
+        for topic in (sensor_topic, truth_topic):
+            if not counts[topic]:
+                raise RecordingError(f"{path}: no messages on {topic} in the recording")
+        if len(used[0]) < 2:
+            raise RecordingError(f"{path}: {len(used[0])} sensor samples could be aligned with truth on {truth_topic}; "
+                                 "the statistics need at least 2")
+        summary = monitor.summary()
+        stamps, roll, pitch = (np.frombuffer(column, dtype=float) for column in used)
+        u = phase_of(stamps)
+        # Back from the wire's convention to the input's for the flight-test procedure.
+        roll, pitch = convert(roll, pitch, shim.WIRE_CONVENTION, convention)
+        report = _flight_test_report(u, roll, pitch, altitude_m, inclination_rad, convention,
+                                     u_bin_rad=math.radians(DEFAULT_TIME_LAYOUT_BIN_DEG) if u_bin_rad is None
+                                     else u_bin_rad, remove_oblateness=remove_oblateness,
+                                     roll_drift_rad_per_orbit=roll_drift_rad_per_orbit,
+                                     pitch_drift_rad_per_orbit=pitch_drift_rad_per_orbit)
+        sign = convert(1.0, 1.0, shim.WIRE_CONVENTION, convention)[0]
+        per_sample = {}
+        for channel in summary.channels:
+            s = 1.0 if channel.channel == "meridional" else sign
+            per_sample[channel.channel] = {
+                "count": channel.count, "mean_arcmin": s * _arcmin(channel.mean_rad),
+                "sigma_arcmin": _arcmin(channel.sigma_rad), "three_sigma_arcmin": _arcmin(channel.three_sigma_rad),
+                "max_abs_arcmin": _arcmin(channel.max_abs_rad)}
+        counters = {k: v for k, v in summary.counters.items() if v}
+        counters.update({f"unreadable_{k}": v for k, v in unreadable.items() if v})
+        recording = {"messages": counts, "odometry": odometry_info,
+                     "orbit_elements": None if elements is None else dict(vars(elements)),
+                     "orbit_element_sets": seen["sets"]}
+        if status is not None and not status.complete:
+            recording["recovered"] = {"messages": status.messages, "bytes_read": status.bytes_read,
+                                      "file_bytes": status.file_bytes, "stopped": status.stopped}
+        return {
+            "file": str(path), "layout": "recording", "rows_skipped": sum(unreadable.values()),
+            "phase_source": phase_source, "truth_topic": truth_topic, "orbit_source": orbit_source,
+            "recording": recording,
+            **report, "per_sample": per_sample, "counters": counters,
+        }

@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 
 
+from ..analysis.flight_test import U_RESOLUTION_RAD
 from ..physics.constants import ARCMIN_RAD
 from ..physics.conventions import CONVENTIONS, PAPER
 from ..physics.orbit.two_body import MAX_ALTITUDE_M, MIN_ALTITUDE_M
@@ -54,11 +55,12 @@ def add_parser(subparsers) -> None:
     parser.add_argument("file", metavar="FILE", help="telemetry CSV (orbit,u_deg,roll_arcmin,pitch_arcmin or "
                         "t_s,roll_rad,pitch_rad[,truth_roll_rad,truth_pitch_rad][,u_deg]), or a rosbag2 recording: "
                         "a directory, FILE.mcap or FILE.db3 with /pmv/attitude, truth and /orbit/odometry")
-    parser.add_argument("--altitude-km", required=True,
+    parser.add_argument("--altitude-km", default=None,
                         type=ranged_float(MIN_ALTITUDE_M / 1e3, MAX_ALTITUDE_M / 1e3, " km"),
-                        help="circular orbit altitude above the 6371 km mean radius")
-    parser.add_argument("--inclination-deg", required=True, type=ranged_float(0.0, 180.0, " deg"),
-                        help="orbit inclination, 0 … 180 deg")
+                        help="circular orbit altitude above the 6371 km mean radius (a CSV needs it; a recording: "
+                             "default the orbit its sensor states on /diagnostics, else the mean of /orbit/odometry)")
+    parser.add_argument("--inclination-deg", default=None, type=ranged_float(0.0, 180.0, " deg"),
+                        help="orbit inclination, 0 … 180 deg (a CSV needs it; a recording: as --altitude-km)")
     parser.add_argument("--convention", choices=CONVENTIONS, default=None,
                         help="sign convention of roll and pitch in the input (and the report): paper for the "
                              "published tables (the CSV default); a recording's default is what its sensor states "
@@ -75,7 +77,7 @@ def add_parser(subparsers) -> None:
                         help="recording: where the orbital angle comes from — odometry (/orbit/odometry), "
                              "elements (the epoch and elements on the sensor's /diagnostics), auto (odometry, "
                              "else elements; default). Never from the stamps alone")
-    parser.add_argument("--u-bin-deg", type=ranged_float(0.0, 360.0, " deg", low_open=True), default=None,
+    parser.add_argument("--u-bin-deg", type=ranged_float(math.degrees(U_RESOLUTION_RAD), 360.0, " deg"), default=None,
                         help="width of the orbital-angle bins the orbits are averaged in (default: exact u for "
                              f"the orbit layout, {DEFAULT_TIME_LAYOUT_BIN_DEG:g} deg for time series)")
     parser.add_argument("--keep-oblateness", action="store_true",
@@ -88,13 +90,28 @@ def add_parser(subparsers) -> None:
     parser.set_defaults(func=run)
 
 
+def _orbit_source(sources: dict | None) -> str:
+    """Where the orbit came from, for the report's second line ('' for a CSV: the flags, always)."""
+    if not sources:
+        return ""
+    if sources["altitude"] == sources["inclination"]:
+        return f" (from {sources['altitude']})"
+    return f" (H from {sources['altitude']}, i from {sources['inclination']})"
+
+
+def _resolved(amplitude):
+    """An amplitude, or None (printed —) where the sampling cannot resolve it (NaN)."""
+    return amplitude if amplitude is not None and math.isfinite(amplitude) else None
+
+
 def _format_report(report: dict) -> str:
     lines = [
         f"{report['file']}: {report['layout']} layout, {report['samples']} samples "
         f"({report['rows_skipped']} rows skipped), {report['orbits']} orbits, "
         f"{report['orbital_angles']} orbital angles; orbital angle from {report['phase_source']}; "
         f"{report['convention']} sign convention",
-        f"H = {report['altitude_km']:g} km, i = {report['inclination_deg']:g}°, T = {report['period_s']:.0f} s; "
+        f"H = {report['altitude_km']:g} km, i = {report['inclination_deg']:g}°, T = {report['period_s']:.0f} s"
+        + _orbit_source(report.get("orbit_source")) + "; "
         + ("oblateness model removed (published closed form)" if report["oblateness_removed"]
            else "oblateness kept"),
         f"offsets: K (roll) = {report['roll_offset_arcmin']:+.2f}′, "
@@ -114,7 +131,7 @@ def _format_report(report: dict) -> str:
         hump = [harmonics[str(k)] for k in range(15, 26) if harmonics.get(str(k)) is not None]
         hump = [a for a in hump if math.isfinite(a)]
         rows.append({"channel": name, "mean": detail["mean_arcmin"], "sigma": detail["sigma_arcmin"],
-                     "max": detail["max_abs_arcmin"], "k1": harmonics["1"], "k2": harmonics["2"],
+                     "max": detail["max_abs_arcmin"], "k1": _resolved(harmonics["1"]), "k2": _resolved(harmonics["2"]),
                      "hump": max(hump) if hump else None})
     lines.append(format_table(rows, [("channel", "channel", ""), ("mean", "mean, ′", "+.2f"),
                                      ("sigma", "σ, ′", ".2f"), ("max", "max |e|, ′", ".2f"),
@@ -138,16 +155,22 @@ def run(args) -> int:
                    remove_oblateness=not args.keep_oblateness,
                    roll_drift_rad_per_orbit=args.roll_drift_arcmin_per_orbit * ARCMIN_RAD,
                    pitch_drift_rad_per_orbit=args.pitch_drift_arcmin_per_orbit * ARCMIN_RAD)
+    altitude_m = None if args.altitude_km is None else args.altitude_km * 1e3
+    inclination_rad = None if args.inclination_deg is None else math.radians(args.inclination_deg)
     if is_recording(args.file):
         # Errors of a recording name the file themselves.
-        report = analyze_recording(args.file, args.altitude_km * 1e3, math.radians(args.inclination_deg),
+        report = analyze_recording(args.file, altitude_m, inclination_rad,
                                    convention=args.convention, truth_topic=args.truth, phase=args.phase,
                                    namespace=args.namespace, **options)
     else:
+        missing = [flag for flag, value in (("--altitude-km", altitude_m), ("--inclination-deg", inclination_rad))
+                   if value is None]
+        if missing:
+            raise ValueError(f"{args.file}: a telemetry CSV carries no orbit: give {' and '.join(missing)}")
         telemetry = read_telemetry(args.file)
         try:
             report = analyze_telemetry(
-                telemetry, args.altitude_km * 1e3, math.radians(args.inclination_deg),
+                telemetry, altitude_m, inclination_rad,
                 u0_rad=None if args.u0_deg is None else math.radians(args.u0_deg),
                 convention=args.convention or PAPER, **options)
         except ValueError as error:

@@ -44,9 +44,20 @@ def _positive_int(low: int, high: int):
     return parse
 
 
+def _scheduler(text: str) -> str:
+    """``--scheduler``: a Dask scheduler address a campaign can connect to."""
+    from ..apps.campaign.cluster import check_scheduler_address
+
+    try:
+        return check_scheduler_address(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
 def add_parser(subparsers) -> None:
     """Register ``pmv campaign``."""
     from ..apps.campaign import MAX_ORBITS_PER_TASK, MAX_SEEDS
+    from ..apps.campaign.cluster import WORKER_TIMEOUT_S
 
     parser = subparsers.add_parser(
         "campaign", help="Monte-Carlo error budget over days of the year and seeds, on Dask",
@@ -69,10 +80,13 @@ def add_parser(subparsers) -> None:
                         help="also fly each environment component alone (oblateness, climatology, weather, layer "
                              "height) and give their root sum of squares beside the total")
     where = parser.add_mutually_exclusive_group()
-    where.add_argument("--scheduler", default=None,
+    where.add_argument("--scheduler", default=None, type=_scheduler,
                        help="address of a running Dask scheduler, e.g. tcp://host:8786 (default: an embedded cluster)")
     where.add_argument("--workers", type=_positive_int(1, MAX_WORKERS), default=None,
                        help="worker processes of the embedded cluster (default: the CPU count)")
+    parser.add_argument("--worker-timeout-s", type=ranged_float(1.0, 3600.0, " s"), default=WORKER_TIMEOUT_S,
+                        help="how long to wait for the cluster's first worker before giving up, s "
+                             f"(default {WORKER_TIMEOUT_S:g})")
     parser.add_argument("--out", required=True, help="folder for the task files, budget.json and the plots")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     add_json_flag(parser)
@@ -121,13 +135,11 @@ def run(args) -> int:
     except ParameterError as error:
         raise ValueError(f"{path}: {error}") from None
     out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise ValueError(f"--out {str(out)!r} exists and is not a folder")
     campaign.prepare_folder(out, settings)
     workers = args.workers or os.cpu_count() or 1
     started = time.perf_counter()
     ran = campaign.run_campaign(settings, tasks, out, scheduler=args.scheduler, workers=workers,
-                                progress=not args.quiet)
+                                progress=not args.quiet, worker_timeout_s=args.worker_timeout_s)
     result = campaign.budget(out, tasks, settings)
     files = campaign.write_budget(out, result)
     wall_s = time.perf_counter() - started

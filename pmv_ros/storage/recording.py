@@ -7,13 +7,14 @@ Writing (``pmv simulate --record FILE.mcap``)
     type (``ros2msg``, the full definition with its dependencies, from
     ``rosbags``' Jazzy type store), a channel per topic (``cdr``), and the
     messages as the CDR bytes the subscription received, unchanged. The
-    container is written by the ``mcap`` library; nothing here knows its byte
-    layout.
+    container is written by the ``mcap`` library; the reader's walk below knows
+    only its record framing (opcode, length) and the message record's header.
 
 Reading (``pmv analyze RECORDING``)
-    :func:`read_recording` opens a rosbag2 directory (``metadata.yaml`` plus
-    its storage files), a bare ``.mcap`` file or a bare ``.db3`` (sqlite3)
-    file with ``rosbags`` and returns the messages of the topics asked for,
+    :func:`open_recording` (or :func:`read_recording`) opens a rosbag2
+    directory (``metadata.yaml`` plus its storage files), a bare ``.mcap``
+    file or a bare ``.db3`` (sqlite3) file with ``rosbags`` — once, however
+    often it is read — and returns the messages of the topics asked for,
     deserialised from the definitions the recording carries (Jazzy's standard
     definitions where it carries none). Fields are read by name, so the
     shim's ``read_*`` functions take these messages as they take rclpy's.
@@ -23,12 +24,27 @@ Reading (``pmv analyze RECORDING``)
 
 Bounds and recovery
     Before any library reads a recording, :func:`scan_mcap` walks an MCAP
-    file record by record: every file of a recording must be a regular file
-    (a FIFO or a device would block or never end), no record may be longer
-    than :data:`MAX_RECORD_BYTES`, and each compressed chunk's declared size
-    is checked against :data:`MAX_CHUNK_BYTES` before it is decompressed —
-    and then decompressed with that bound, so a chunk that expands beyond
-    what it declares is refused, not inflated. An MCAP file without its
+    file record by record (its own walk: records no reader needs are skipped
+    unread): every file of a recording must be a regular file (a FIFO or a
+    device would block or never end), no record may be longer than its
+    kind's cap (:data:`MAX_RECORD_BYTES` for a chunk), and each compressed
+    chunk's declared size is checked against :data:`MAX_CHUNK_BYTES` before
+    it is decompressed — and then decompressed with that bound, so a chunk
+    that expands beyond what it declares is refused, not inflated. What
+    rosbags will do with the file is bounded there too, since its cost does
+    not follow the file's size: the channels (:data:`MAX_CONNECTIONS`), the
+    definition text it parses once per channel (:data:`MAX_DEFINITION_BYTES`),
+    the types and fields it registers (:data:`MAX_DEFINITIONS`,
+    :data:`MAX_DEFINITION_FIELDS`), the records of a chunk
+    (:data:`MAX_CHUNK_RECORDS`), the channels' QoS profiles it parses as YAML
+    (:data:`MAX_QOS_BYTES`), the chunk indexes (each must point at a
+    chunk the walk saw, :data:`MAX_CHUNK_INDEXES`), the footer's summary
+    offset, and the chunks a log-time reader holds at once
+    (:data:`MAX_OVERLAPPING_CHUNK_BYTES`). A sqlite3 file is checked through
+    SQLite the same way (:func:`check_sqlite`), and no message of a topic
+    read may be larger than :data:`MAX_MESSAGE_BYTES` (asked of SQLite
+    before a row is read). Each walk and check is linear in the file.
+    An MCAP file without its
     footer (the writer was killed, the disk filled up) is read the same way,
     as a stream, up to the last whole chunk; :func:`recording_status` says
     how much was recovered. The writer flushes a chunk at least every
@@ -39,6 +55,8 @@ Bounds and recovery
 from __future__ import annotations
 
 import functools
+import re
+import struct
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
@@ -59,6 +77,11 @@ MAX_RECORDING_BYTES = 1 << 40
 
 #: Most files a rosbag2 recording directory may hold.
 MAX_BAG_FILES = 1024
+
+#: Largest ``metadata.yaml`` of a rosbag2 directory, bytes: rosbags parses it again with a pure-Python YAML
+#: parser (≈ 4 µs a byte of ordinary YAML, ≈ 15 µs and ≈ 0.4 kB of memory a byte of a dense flow list,
+#: design/recording_bounds.py): ≤ 8 s and ≤ 0.23 GB here. A topic takes ≈ 0.6–0.9 kB of it: ≈ 600 topics.
+MAX_BAG_METADATA_BYTES = 512 << 10
 
 #: Wall time between two flushes of the recording being written, s: what ``kill -9`` can cost at most.
 FLUSH_INTERVAL_S = 0.1
@@ -212,22 +235,90 @@ class McapScan:
     stopped: str | None = None
 
 
-class _CappedStream:
-    """A file's ``read`` that refuses any single read longer than ``cap`` (a forged length never allocates)."""
+#: Most connections (MCAP channels, sqlite3 topics) a recording file may have: rosbags reads the message
+#: definition and the QoS profiles of each when it opens the file.
+MAX_CONNECTIONS = 1024
 
-    def __init__(self, stream, cap: int, path):
-        self._stream, self._cap, self._path = stream, cap, path
-        self.position = 0
-        self.short = False  # a read returned less than asked: the file ends inside a record
+#: Most text rosbags parses when it opens a recording file, bytes: each connection's message definition (with
+#: its dependencies), its QoS profiles and its names, summed over the connections — rosbags parses a definition
+#: once per connection, however many share it. Parsing costs ≈ 1 µs of CPU a byte of ROS 2's own commented
+#: definitions and up to ≈ 7 µs a byte of dense field lists (design/recording_bounds.py): ≤ 7 s at this bound.
+#: A rosbag2 recording holds ≈ 2–4 kB a topic (nav_msgs/Odometry with its comments: 3.7 kB): ≈ 280 such topics.
+MAX_DEFINITION_BYTES = 1 << 20
 
-    def read(self, size: int = -1) -> bytes:
-        if size is None or size < 0 or size > self._cap:
-            raise RecordingError(f"{self._path}: a record declares {size} bytes, more than the "
-                                 f"{self._cap} allowed")
-        data = self._stream.read(size)
-        self.position += len(data)
-        self.short = self.short or len(data) < size
-        return data
+#: Most message definitions the distinct schemas of a recording file may hold together: each is a type rosbags
+#: registers, ≈ 31 kB of memory (design/recording_bounds.py), ≤ 62 MB at this bound. ROS 2's own messages
+#: bring 1 to 16 definitions each.
+MAX_DEFINITIONS = 2000
+
+#: Most fields (and constants) the distinct schemas of a recording file may declare together: rosbags builds
+#: code for each, ≈ 8–11 kB of memory a field (design/recording_bounds.py), ≤ 220 MB at this bound. ROS 2's own
+#: messages declare 1 to ≈ 100 with their dependencies.
+MAX_DEFINITION_FIELDS = 20_000
+
+#: Most records a chunk may hold: a reader keeps the messages of a chunk it reads as objects (≈ 220 bytes each
+#: beyond their data, design/recording_bounds.py), so a chunk of tiny messages weighs ≈ 55 MB at this bound
+#: whatever its size in bytes (a 64 MiB chunk can hold 1.9 million empty messages).
+MAX_CHUNK_RECORDS = 250_000
+
+#: Most chunk indexes in a recording's summary (rosbags holds one object and, for each chunk of a topic read,
+#: one pending reader per index: ≈ 1 kB each): 100 GB of chunks of 1 MiB.
+MAX_CHUNK_INDEXES = 100_000
+
+#: Most bytes of chunks whose log-time ranges overlap, uncompressed, plus 220 bytes a message: a reader in
+#: log-time order holds every chunk it has begun until its last message is read. Recordings are written in
+#: log-time order, so their chunks follow each other (two at a time at most where one ends as the next begins).
+MAX_OVERLAPPING_CHUNK_BYTES = 256 << 20
+
+#: Most QoS-profile text of a recording file's connections, bytes, summed: rosbags parses each with a pure-Python
+#: YAML parser (≈ 4 µs and 0.1 kB of memory a byte of real profiles, ≈ 16 µs and ≈ 0.5 kB a byte of a dense flow
+#: list, design/recording_bounds.py): ≤ 4.2 s and ≤ 0.13 GB. A publisher's profile is ≈ 0.3 kB.
+MAX_QOS_BYTES = 256 << 10
+
+#: Largest message of a topic a reader asks for, bytes (deserialised, a message weighs several times its bytes):
+#: the topics ``pmv analyze`` reads carry tens to thousands of bytes a message.
+MAX_MESSAGE_BYTES = 1 << 20
+
+#: Bytes a message's object weighs beyond its data in a reader's hands (design/recording_bounds.py).
+_MESSAGE_OBJECT_BYTES = 220
+
+_MCAP_MAGIC = b"\x89MCAP0\r\n"
+_MESSAGE_HEADER = struct.Struct("<HIQQ")  # channel id, sequence, log time, publish time
+_SMALL_RECORD_BYTES = (64 << 10) + 10 * MAX_CONNECTIONS  # an index or statistics: ≤ 10 bytes a channel
+_DEFINITION_SEPARATOR = b"=" * 80
+
+
+def _record_caps() -> dict:
+    """Largest body of each MCAP record kind, bytes (any other kind: :data:`MAX_RECORD_BYTES`)."""
+    from mcap.opcode import Opcode
+
+    definition = MAX_DEFINITION_BYTES + (64 << 10)
+    return {Opcode.HEADER: 64 << 10, Opcode.FOOTER: 64 << 10, Opcode.DATA_END: 64 << 10,
+            Opcode.SCHEMA: definition, Opcode.CHANNEL: definition, Opcode.CHUNK_INDEX: _SMALL_RECORD_BYTES,
+            Opcode.STATISTICS: _SMALL_RECORD_BYTES}
+
+
+def _definitions(data: bytes) -> int:
+    """How many message definitions (types) a schema's text holds, counted from above.
+
+    One, plus one per separator line or ``MSG:`` header of the ros2msg format,
+    or per ``struct`` of IDL: the larger count.
+    """
+    return 1 + max(data.count(_DEFINITION_SEPARATOR), data.count(b"\nMSG: "), len(re.findall(rb"\bstruct\b", data)))
+
+
+def _fields(data: bytes) -> int:
+    """How many fields and constants a schema's text declares, counted from above.
+
+    A line of the ros2msg format with something before its comment (not a
+    separator or a ``MSG:`` header), or a ``;`` of IDL: the larger count.
+    """
+    lines = 0
+    for line in data.split(b"\n"):
+        content = line.split(b"#", 1)[0].strip()
+        if content and not content.startswith(b"MSG:") and content != _DEFINITION_SEPARATOR:
+            lines += 1
+    return max(lines, data.count(b";"))
 
 
 def _decompress_chunk(chunk, path) -> bytes:
@@ -267,16 +358,80 @@ def _decompress_chunk(chunk, path) -> bytes:
     return data
 
 
-def _mcap_records(path: Path, state: dict):
-    """Schema, Channel and Message records of an MCAP file in file order, chunks decompressed with bounds.
+def _parse(kind, body: bytes, path, start: int):
+    """An MCAP record of ``kind`` (an mcap.records class) from its body; RecordingError if malformed."""
+    from io import BytesIO
 
-    Stops quietly at the end of what is readable (a cut file); ``state`` gets
-    ``complete``, ``bytes_read`` (the end of the last whole record) and
-    ``stopped`` (why it ended early). A record or chunk beyond the caps is a
-    RecordingError.
+    from mcap.data_stream import ReadDataStream
+
+    try:
+        return kind.read(ReadDataStream(BytesIO(body)))
+    except Exception as error:  # the library's EndOfFile, struct and decode errors of a malformed body
+        raise RecordingError(f"{path}: a malformed {kind.__name__} record at byte {start} ({_reason(error)})") from None
+
+
+def _message(body, path, where: str, wants_channel):
+    """``("message", Message)`` of a message record's body if its channel is wanted, else ``("skipped", None)``."""
+    from mcap.records import Message
+
+    if len(body) < _MESSAGE_HEADER.size:
+        raise RecordingError(f"{path}: a malformed message record {where}")
+    channel_id, sequence, log_time, publish_time = _MESSAGE_HEADER.unpack_from(body)
+    if not wants_channel(channel_id):
+        return "skipped", None
+    size = len(body) - _MESSAGE_HEADER.size
+    if size > MAX_MESSAGE_BYTES:
+        raise RecordingError(f"{path}: a message {where} is {size} bytes, more than the {MAX_MESSAGE_BYTES} allowed "
+                             "for the topics read")
+    return "message", Message(channel_id=channel_id, sequence=sequence, log_time=log_time,
+                              publish_time=publish_time, data=bytes(body[_MESSAGE_HEADER.size:]))
+
+
+def _chunk_records(data: bytes, path, start: int, wants_channel, caps: dict):
+    """``(kind, record)`` of the records of a decompressed chunk: schemas, channels, wanted messages; and
+    ``("skipped", None)`` for every other message. At most :data:`MAX_CHUNK_RECORDS` records, each checked
+    against its cap; RecordingError if the chunk's records do not fill it exactly."""
+    from mcap.opcode import Opcode
+    from mcap.records import Channel, Schema
+
+    view, offset, records = memoryview(data), 0, 0
+    where = f"in the chunk at byte {start}"
+    while offset < len(data):
+        records += 1
+        if records > MAX_CHUNK_RECORDS:
+            raise RecordingError(f"{path}: the chunk at byte {start} holds more than {MAX_CHUNK_RECORDS} records")
+        if len(data) - offset < 9:
+            raise RecordingError(f"{path}: the records {where} are cut")
+        opcode, length = data[offset], int.from_bytes(view[offset + 1:offset + 9], "little")
+        body_start = offset + 9
+        offset = body_start + length
+        if offset > len(data) or length > caps.get(opcode, MAX_RECORD_BYTES):
+            raise RecordingError(f"{path}: a record {where} declares {length} bytes, more than it can hold")
+        if opcode == Opcode.MESSAGE:
+            yield _message(view[body_start:offset], path, where, wants_channel)
+        elif opcode in (Opcode.SCHEMA, Opcode.CHANNEL):
+            kind = Schema if opcode == Opcode.SCHEMA else Channel
+            yield kind.__name__.lower(), _parse(kind, bytes(view[body_start:offset]), path, start)
+
+
+def _mcap_records(path: Path, state: dict, wants_channel=lambda channel_id: False):
+    """``(kind, record)`` of an MCAP file in file order, every bound of this module checked as the records come.
+
+    Kinds: ``"schema"``, ``"channel"``, ``"message"`` (a message of a channel
+    ``wants_channel`` accepts, with its data), ``"skipped"`` (any other
+    message: counted, not read), ``"chunk"`` (``(start offset, Chunk,
+    messages)`` once its records are through), ``"chunk_index"``,
+    ``"data_end"`` (the offset after it), ``"footer"`` (``(start offset, Footer)``).
+    Records other readers do not need are skipped unread. Stops quietly at
+    the end of what is readable (a cut file); ``state`` gets ``complete``,
+    ``bytes_read`` (the end of the last whole record) and ``stopped`` (why it
+    ended early). A record beyond its cap, a chunk beyond the chunk bounds or
+    a malformed record is a RecordingError.
     """
-    from mcap.records import Chunk, Channel, Footer, Message, Schema
-    from mcap.stream_reader import StreamReader, breakup_chunk
+    import os
+
+    from mcap.opcode import Opcode
+    from mcap.records import Channel, Chunk, ChunkIndex, Footer, Schema
 
     from .files import open_regular_file
 
@@ -284,48 +439,172 @@ def _mcap_records(path: Path, state: dict):
         raw = open_regular_file(path, "recording", MAX_RECORDING_BYTES)
     except ValueError as error:
         raise RecordingError(str(error)) from None
+    caps = _record_caps()
+    parsed = {Opcode.SCHEMA: (Schema, "schema"), Opcode.CHANNEL: (Channel, "channel"),
+              Opcode.CHUNK_INDEX: (ChunkIndex, "chunk_index"), Opcode.FOOTER: (Footer, "footer")}
     state.update(complete=False, bytes_read=0, stopped=None)
+
+    def stop(reason: str) -> None:
+        state["stopped"] = reason if state["bytes_read"] else f"not an MCAP file ({reason})"
+
     with raw:
-        capped = _CappedStream(raw, MAX_RECORD_BYTES, path)
-        records = StreamReader(capped, emit_chunks=True, record_size_limit=MAX_RECORD_BYTES).records
+        size = os.fstat(raw.fileno()).st_size
+        if raw.read(len(_MCAP_MAGIC)) != _MCAP_MAGIC:
+            stop("no MCAP magic at its start")
+            return
+        position = len(_MCAP_MAGIC)
         while True:
-            try:
-                record = next(records)
-                if capped.short:
-                    raise EOFError("cut inside a record")
-                if isinstance(record, Chunk):
-                    inner = breakup_chunk(replace(record, compression="", data=_decompress_chunk(record, path)))
-                else:
-                    inner = [record]
-            except RecordingError:
-                raise
-            except StopIteration:
-                state["stopped"] = "no footer"
+            head = raw.read(9)
+            if len(head) < 9:
+                stop("no footer, the file ends after a whole record" if not head else "cut inside a record")
                 return
-            except Exception as error:  # a cut record: EndOfFile, a short read, struct errors of a partial header
-                if capped.position == state["bytes_read"]:
-                    reason = "no footer, the file ends after a whole record"
-                else:
-                    reason = "cut inside a record" if capped.short else _reason(error)
-                state["stopped"] = reason if state["bytes_read"] else f"not an MCAP file ({reason})"
+            opcode, length = head[0], int.from_bytes(head[1:], "little")
+            cap = caps.get(opcode, MAX_RECORD_BYTES)
+            if length > cap:
+                raise RecordingError(f"{path}: a record declares {length} bytes, more than the {cap} allowed")
+            start, end = position, position + 9 + length
+            if end > size:
+                stop("cut inside a record")
                 return
-            state["bytes_read"] = capped.position
-            for item in inner:
-                if isinstance(item, (Schema, Channel, Message)):
-                    yield item
-            if isinstance(record, Footer):
-                state["complete"] = True
-                return
+            if opcode in parsed or opcode in (Opcode.CHUNK, Opcode.MESSAGE):
+                body = raw.read(length)
+                if len(body) < length:
+                    stop("cut inside a record")
+                    return
+            else:
+                raw.seek(length, os.SEEK_CUR)  # not needed by any reader here: not read
+            position = state["bytes_read"] = end
+            if opcode == Opcode.CHUNK:
+                chunk = _parse(Chunk, body, path, start)
+                del body
+                messages = 0
+                for kind, record in _chunk_records(_decompress_chunk(chunk, path), path, start, wants_channel, caps):
+                    messages += kind in ("message", "skipped")
+                    yield kind, record
+                yield "chunk", (start, replace(chunk, data=b""), messages)
+            elif opcode == Opcode.MESSAGE:
+                yield _message(memoryview(body), path, f"at byte {start}", wants_channel)
+            elif opcode in parsed:
+                kind, name = parsed[opcode]
+                record = _parse(kind, body, path, start)
+                if opcode == Opcode.FOOTER:
+                    yield name, (start, record)
+                    state["complete"] = True
+                    return
+                yield name, record
+            elif opcode == Opcode.DATA_END:
+                yield "data_end", end
+
+
+class _Layout:
+    """What one walk of an MCAP file found that rosbags' reading of it depends on, checked against the bounds."""
+
+    def __init__(self, path):
+        self.path = path
+        self.schemas = {}  # id → (bytes rosbags parses, definitions, fields)
+        self.channels = {}  # id → (schema id, bytes of its names and metadata, bytes of its metadata)
+        self.chunks = {}  # start offset → (Chunk without data, messages)
+        self.indexes = []
+        self.summary_start = None  # where a summary may start: after the DataEnd record
+        self.footer = None
+        self.messages = 0
+        self.definitions = self.fields = self.qos = 0  # summed over the schemas and channels: running totals
+
+    def add(self, kind: str, record) -> None:
+        path = self.path
+        if kind in ("message", "skipped"):
+            self.messages += 1
+        elif kind == "schema":  # a schema seen again (the summary repeats them) counts its largest version
+            cost = len(record.data) + len(record.name) + len(record.encoding)
+            old = self.schemas.get(record.id, (0, 0, 0))
+            new = (max(old[0], cost), max(old[1], _definitions(record.data)), max(old[2], _fields(record.data)))
+            self.schemas[record.id] = new
+            self.definitions += new[1] - old[1]
+            self.fields += new[2] - old[2]
+            _check_definitions(path, self.definitions, self.fields)
+        elif kind == "channel":
+            metadata = sum(len(key) + len(value) for key, value in record.metadata.items())
+            old = self.channels.get(record.id, (record.schema_id, 0, 0))
+            new = (record.schema_id, max(old[1], len(record.topic) + len(record.message_encoding) + metadata),
+                   max(old[2], metadata))
+            self.channels[record.id] = new
+            self.qos += new[2] - old[2]
+            if len(self.channels) > MAX_CONNECTIONS:
+                raise RecordingError(f"{path}: more than {MAX_CONNECTIONS} channels")
+            if self.qos > MAX_QOS_BYTES:
+                raise RecordingError(f"{path}: its channels' metadata (QoS profiles) is {self.qos} bytes, more than "
+                                     f"the {MAX_QOS_BYTES} allowed")
+        elif kind == "chunk":
+            start, chunk, messages = record
+            self.chunks[start] = (chunk, messages)
+        elif kind == "chunk_index":
+            self.indexes.append(record)
+            if len(self.indexes) > MAX_CHUNK_INDEXES:
+                raise RecordingError(f"{path}: more than {MAX_CHUNK_INDEXES} chunk indexes")
+        elif kind == "data_end":
+            self.summary_start = record
+        elif kind == "footer":
+            self.footer = record
+
+    def check(self) -> None:
+        """The bounds that need the whole walk; RecordingError naming the first one broken."""
+        path = self.path
+        parsed = sum(self.schemas.get(schema_id, (0, 0, 0))[0] + cost for schema_id, cost, _ in self.channels.values())
+        if parsed > MAX_DEFINITION_BYTES:
+            raise RecordingError(f"{path}: its channels' definitions and metadata are {parsed} bytes to parse, more "
+                                 f"than the {MAX_DEFINITION_BYTES} allowed")
+        if self.footer is None:
+            return
+        footer_start, footer = self.footer
+        if footer.summary_start not in (0, self.summary_start, footer_start):
+            raise RecordingError(f"{path}: its footer puts the summary at byte {footer.summary_start}, where no "
+                                 "record starts")
+        held = []
+        for index in self.indexes:
+            chunk, messages = self.chunks.get(index.chunk_start_offset, (None, 0))
+            if chunk is None or (index.compression, index.uncompressed_size, index.message_start_time,
+                                 index.message_end_time) != (chunk.compression, chunk.uncompressed_size,
+                                                             chunk.message_start_time, chunk.message_end_time):
+                raise RecordingError(f"{path}: a chunk index points at byte {index.chunk_start_offset}, where no "
+                                     "such chunk is")
+            held.append((index.message_start_time, index.message_end_time,
+                         chunk.uncompressed_size + _MESSAGE_OBJECT_BYTES * messages))
+        peak = _peak_overlap(held)
+        if peak > MAX_OVERLAPPING_CHUNK_BYTES:
+            raise RecordingError(f"{path}: its chunks overlap in log time: {peak} bytes would be held at once, more "
+                                 f"than the {MAX_OVERLAPPING_CHUNK_BYTES} allowed")
+
+
+def _check_definitions(path, definitions: int, fields: int) -> None:
+    """RecordingError if the distinct schemas of a file hold more ``definitions`` than :data:`MAX_DEFINITIONS` or
+    declare more ``fields`` than :data:`MAX_DEFINITION_FIELDS` (each summed over the schemas)."""
+    if definitions > MAX_DEFINITIONS:
+        raise RecordingError(f"{path}: its schemas hold more than {MAX_DEFINITIONS} message definitions")
+    if fields > MAX_DEFINITION_FIELDS:
+        raise RecordingError(f"{path}: its schemas declare more than {MAX_DEFINITION_FIELDS} fields")
+
+
+def _peak_overlap(intervals) -> int:
+    """The largest sum of ``weight`` over ``(start, end, weight)`` intervals that share an instant (ends included)."""
+    events = sorted([(start, 0, weight) for start, _, weight in intervals]
+                    + [(end, 1, -weight) for _, end, weight in intervals])
+    held = peak = 0
+    for _, _, weight in events:
+        held += weight
+        peak = max(peak, held)
+    return peak
 
 
 @functools.lru_cache(maxsize=8)
 def _scan_cached(path: str, size: int, mtime_ns: int) -> McapScan:
-    from mcap.records import Message
-
     state = {}
-    messages = sum(1 for record in _mcap_records(Path(path), state) if isinstance(record, Message))
+    layout = _Layout(path)
+    for kind, record in _mcap_records(Path(path), state):
+        layout.add(kind, record)
+    layout.check()
     complete = state.get("complete", False)
-    return McapScan(complete, messages, state.get("bytes_read", 0), size, None if complete else state.get("stopped"))
+    return McapScan(complete, layout.messages, state.get("bytes_read", 0), size,
+                    None if complete else state.get("stopped"))
 
 
 def scan_mcap(path: str | Path) -> McapScan:
@@ -349,6 +628,128 @@ def _is_mcap(path: Path) -> bool:
         return False
 
 
+def _is_sqlite(path: Path) -> bool:
+    from .files import open_regular_file
+
+    try:
+        with open_regular_file(path, "recording", MAX_RECORDING_BYTES) as stream:
+            return stream.read(16) == b"SQLite format 3\x00"
+    except ValueError:
+        return False
+
+
+def _sqlite(path: Path):
+    """A read-only connection to a sqlite3 recording file, as rosbags opens it (the same SQLite library)."""
+    import apsw
+
+    try:
+        return apsw.Connection(f"file:{path}?immutable=1", flags=apsw.SQLITE_OPEN_READONLY | apsw.SQLITE_OPEN_URI)
+    except apsw.Error as error:
+        raise RecordingError(f"{path}: cannot read the recording ({_reason(error)})") from None
+
+
+@functools.lru_cache(maxsize=8)
+def _check_sqlite_cached(path: str, size: int, mtime_ns: int) -> None:
+    """:func:`check_sqlite` once per file version."""
+    import apsw
+
+    connection = _sqlite(Path(path))
+    try:
+        tables = {name for (name,) in connection.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+        if not {"messages", "topics"} <= tables:
+            return  # not a rosbag2 file: rosbags says so
+        columns = {row[1] for row in connection.execute("PRAGMA table_info(topics)")}
+        (topics,) = connection.execute("SELECT count(*) FROM topics").fetchone()
+        if topics > MAX_CONNECTIONS:
+            raise RecordingError(f"{path}: more than {MAX_CONNECTIONS} topics")
+        # What rosbags reads for each topic, in bytes (octet_length reads no text: the size is in the record).
+        cost = " + ".join(f"coalesce(octet_length(t.{name}), 0)" for name in
+                          ("name", "type", "serialization_format", "offered_qos_profiles", "type_description_hash")
+                          if name in columns)
+        definitions = []
+        if "message_definitions" in tables:
+            (rows, stored) = connection.execute(
+                "SELECT count(*), coalesce(sum(octet_length(encoded_message_definition) + octet_length(topic_type)), 0)"
+                " FROM message_definitions").fetchone()
+            if rows > MAX_CONNECTIONS or stored > MAX_DEFINITION_BYTES:
+                raise RecordingError(f"{path}: {rows} message definitions of {stored} bytes, more than the "
+                                     f"{MAX_CONNECTIONS} and {MAX_DEFINITION_BYTES} bytes allowed")
+            cost += (" + coalesce((SELECT octet_length(d.encoded_message_definition) FROM message_definitions d "
+                     "WHERE d.topic_type = t.type ORDER BY d.id LIMIT 1), 0)")
+            definitions = [text for (text,) in connection.execute(
+                "SELECT encoded_message_definition FROM message_definitions")]
+        if "offered_qos_profiles" in columns:
+            (qos,) = connection.execute("SELECT coalesce(sum(octet_length(offered_qos_profiles)), 0) FROM topics")\
+                .fetchone()
+            if qos > MAX_QOS_BYTES:
+                raise RecordingError(f"{path}: its topics' QoS profiles are {qos} bytes, more than the "
+                                     f"{MAX_QOS_BYTES} allowed")
+        (parsed,) = connection.execute(f"SELECT coalesce(sum({cost}), 0) FROM topics t").fetchone()
+        if parsed > MAX_DEFINITION_BYTES:
+            raise RecordingError(f"{path}: its topics' definitions and QoS profiles are {parsed} bytes to parse, "
+                                 f"more than the {MAX_DEFINITION_BYTES} allowed")
+        texts = [str(text).encode("utf-8", "replace") for text in definitions]
+        _check_definitions(path, sum(map(_definitions, texts)), sum(map(_fields, texts)))
+    except apsw.Error as error:
+        raise RecordingError(f"{path}: cannot read the recording ({_reason(error)})") from None
+    finally:
+        connection.close()
+
+
+def check_sqlite(path: str | Path) -> None:
+    """Check a sqlite3 (.db3) recording file against the bounds rosbags' opening of it needs.
+
+    At most :data:`MAX_CONNECTIONS` topics; their QoS profiles at most
+    :data:`MAX_QOS_BYTES`; the text rosbags parses (each topic's definition,
+    QoS profiles and names) at most :data:`MAX_DEFINITION_BYTES`; the definitions at most
+    :data:`MAX_DEFINITIONS` and their fields :data:`MAX_DEFINITION_FIELDS`.
+    Sizes are asked of SQLite, which keeps them beside the values: no text is
+    read before it is known to be small.
+    RecordingError naming the bound.
+    """
+    from .files import check_regular_file
+
+    try:
+        info = check_regular_file(path, "recording", MAX_RECORDING_BYTES)
+    except ValueError as error:
+        raise RecordingError(str(error)) from None
+    _check_sqlite_cached(str(path), info.st_size, info.st_mtime_ns)
+
+
+def _check_sqlite_messages(path: Path, topics) -> None:
+    """No message of ``topics`` in a sqlite3 recording file is larger than :data:`MAX_MESSAGE_BYTES`.
+
+    Asked before any message is read: rosbags reads a message whole, and a
+    single row can hold gigabytes. One pass over the messages' sizes (not
+    their data).
+    """
+    import apsw
+
+    topics = sorted(topics)
+    if not topics:
+        return
+    connection = _sqlite(path)
+    try:
+        marks = ", ".join("?" for _ in topics)
+        (largest,) = connection.execute(
+            "SELECT max(octet_length(m.data)) FROM messages m JOIN topics t ON m.topic_id = t.id "
+            f"WHERE t.name IN ({marks})", topics).fetchone()
+    except apsw.Error as error:
+        raise RecordingError(f"{path}: cannot read the recording ({_reason(error)})") from None
+    finally:
+        connection.close()
+    if largest is not None and largest > MAX_MESSAGE_BYTES:
+        raise RecordingError(f"{path}: a message of the topics read is {largest} bytes, more than the "
+                             f"{MAX_MESSAGE_BYTES} allowed")
+
+
+def _storage_files(path: Path) -> list[Path]:
+    """The files of a recording that hold messages: the file itself, or a directory's MCAP and sqlite3 files."""
+    if not path.is_dir():
+        return [path]
+    return [entry for entry in sorted(path.iterdir()) if _is_mcap(entry) or _is_sqlite(entry)]
+
+
 def _check_bag_directory(path: Path) -> list[Path]:
     """Every entry of a rosbag2 directory a regular file, metadata.yaml bounded; returns its MCAP files."""
     from .files import check_regular_file, read_yaml_file
@@ -364,7 +765,7 @@ def _check_bag_directory(path: Path) -> list[Path]:
             check_regular_file(entry, "recording file", MAX_RECORDING_BYTES)
         metadata = path / "metadata.yaml"
         if metadata.exists():
-            document = read_yaml_file(metadata, "recording metadata")
+            document = read_yaml_file(metadata, "recording metadata", MAX_BAG_METADATA_BYTES)
             info = document.get("rosbag2_bagfile_information") if isinstance(document, dict) else None
             mode = str((info or {}).get("compression_mode") or "").lower()
             if mode not in ("", "none"):
@@ -381,7 +782,9 @@ def recording_status(path: str | Path) -> McapScan | None:
     """How much of a bare MCAP recording is readable (None for a directory or another format).
 
     RecordingError if any file of the recording breaks a bound (not a regular
-    file, a record or chunk too large, a chunk that expands beyond what it declares).
+    file, a record or chunk too large, a chunk that expands beyond what it
+    declares, more definitions or connections than rosbags may parse: see
+    :func:`scan_mcap` and :func:`check_sqlite`).
     """
     path = Path(path)
     if not path.exists() and not path.is_symlink():
@@ -392,9 +795,15 @@ def recording_status(path: str | Path) -> McapScan | None:
             if not scan.complete:
                 raise RecordingError(f"{storage}: the recording is cut short ({scan.stopped}); give the .mcap "
                                      "file itself to read what it holds")
+        for storage in _storage_files(path):
+            if _is_sqlite(storage):
+                check_sqlite(storage)
         return None
     if _is_mcap(path):
         return scan_mcap(path)
+    if _is_sqlite(path):
+        check_sqlite(path)
+        return None
     from .files import check_regular_file
 
     try:
@@ -402,23 +811,6 @@ def recording_status(path: str | Path) -> McapScan | None:
     except ValueError as error:
         raise RecordingError(str(error)) from None
     return None
-
-
-@contextmanager
-def _open(path: Path):
-    """An open rosbags ``AnyReader`` of ``path``, closed on leaving; RecordingError if it cannot be opened."""
-    from rosbags.highlevel import AnyReader
-
-    recording_status(path)  # every bound checked before rosbags reads anything
-    try:
-        reader = AnyReader([path], default_typestore=_jazzy_typestore())
-        reader.open()
-    except Exception as error:  # rosbags' reader, storage and type-system errors, struct errors of a cut file
-        raise RecordingError(f"{path}: cannot read the recording ({_reason(error)})") from None
-    try:
-        yield reader
-    finally:
-        reader.close()
 
 
 class _StreamConnection:
@@ -430,34 +822,30 @@ class _StreamConnection:
 
 def _stream_connections(path: Path):
     """Channels of a cut MCAP file as ``{channel id: _StreamConnection}`` (one bounded walk)."""
-    from mcap.records import Channel, Schema
-
     schemas, channels = {}, {}
-    for record in _mcap_records(path, {}):
-        if isinstance(record, Schema):
+    for kind, record in _mcap_records(path, {}):
+        if kind == "schema":
             schemas[record.id] = record.name
-        elif isinstance(record, Channel):
+        elif kind == "channel":
             channels[record.id] = _StreamConnection(record.topic, schemas.get(record.schema_id, ""))
     return channels
 
 
 def _iter_stream(path: Path, wanted: dict[str, tuple[str, ...]]):
     """``(topic, RecordedMessage)`` of a cut MCAP file, in file order (the order this package writes in)."""
-    from mcap.records import Channel, Message, Schema
-
     typestore = _jazzy_typestore()
     schemas, channels = {}, {}
-    for record in _mcap_records(path, {}):
-        if isinstance(record, Schema):
+    for kind, record in _mcap_records(path, {}, wants_channel=channels.__contains__):
+        if kind == "schema":
             schemas[record.id] = record.name
-        elif isinstance(record, Channel):
+        elif kind == "channel":
             accepted = wanted.get(record.topic)
             msgtype = schemas.get(record.schema_id, "")
             if accepted is not None:
                 if msgtype not in accepted:
                     raise RecordingError(f"{path}: {record.topic} is {msgtype}, expected " + " or ".join(accepted))
                 channels[record.id] = (record.topic, msgtype)
-        elif isinstance(record, Message) and record.channel_id in channels:
+        elif kind == "message":
             topic, msgtype = channels[record.channel_id]
             try:
                 message = typestore.deserialize_cdr(record.data, msgtype)
@@ -483,49 +871,100 @@ def _checked_connections(path: Path, reader, wanted: dict[str, tuple[str, ...]])
     return connections
 
 
-def recorded_topics(path: str | Path, wanted: dict[str, tuple[str, ...]]) -> set[str]:
-    """The topics of ``wanted`` (``{topic: accepted types}``) the recording has; RecordingError on a wrong type."""
+class Recording:
+    """An open recording: its topics and their messages, every bound checked before rosbags reads anything.
+
+    Use :func:`open_recording`. A complete recording is opened once with
+    rosbags' ``AnyReader`` (which parses every connection's definition:
+    :data:`MAX_DEFINITION_BYTES` bounds that) and read as often as asked; an
+    MCAP file cut short (no footer) is read as a stream, each time.
+    """
+
+    def __init__(self, path: Path, status: McapScan | None, reader=None):
+        self.path, self.status, self._reader = path, status, reader
+
+    def topics(self, wanted: dict[str, tuple[str, ...]]) -> set[str]:
+        """The topics of ``wanted`` (``{topic: accepted types}``) the recording has; RecordingError on a wrong type."""
+        if self._reader is None:
+            found = set()
+            for connection in _stream_connections(self.path).values():
+                accepted = wanted.get(connection.topic)
+                if accepted is None:
+                    continue
+                if connection.msgtype not in accepted:
+                    raise RecordingError(f"{self.path}: {connection.topic} is {connection.msgtype}, expected "
+                                         + " or ".join(accepted))
+                found.add(connection.topic)
+            return found
+        return {connection.topic for connection in _checked_connections(self.path, self._reader, wanted)}
+
+    def messages(self, wanted: dict[str, tuple[str, ...]]) -> Iterator[tuple[str, RecordedMessage]]:
+        """``(topic, message)`` of the topics in ``wanted``, in log-time order (a cut file: in file order)."""
+        path = self.path
+        if self._reader is None:
+            yield from _iter_stream(path, wanted)
+            return
+        connections = _checked_connections(path, self._reader, wanted)
+        if not connections:
+            return
+        for storage in _storage_files(path):
+            if _is_sqlite(storage):
+                _check_sqlite_messages(storage, {connection.topic for connection in connections})
+        try:
+            for connection, log_time_ns, data in self._reader.messages(connections=connections):
+                if len(data) > MAX_MESSAGE_BYTES:
+                    raise RecordingError(f"{path}: a {connection.topic} message is {len(data)} bytes, more than the "
+                                         f"{MAX_MESSAGE_BYTES} allowed for the topics read")
+                yield connection.topic, RecordedMessage(int(log_time_ns),
+                                                        self._reader.deserialize(data, connection.msgtype))
+        except RecordingError:
+            raise
+        except Exception as error:
+            raise RecordingError(f"{path}: cannot read the recording ({_reason(error)})") from None
+
+
+@contextmanager
+def open_recording(path: str | Path):
+    """A :class:`Recording` of ``path`` (a rosbag2 directory, an MCAP or a sqlite3 file), closed on leaving.
+
+    Every bound is checked first (:func:`recording_status`); RecordingError
+    (one line) if the recording breaks one or cannot be opened.
+    """
+    from rosbags.highlevel import AnyReader
+
     path = Path(path)
     status = recording_status(path)
     if status is not None and not status.complete:
-        found = set()
-        for connection in _stream_connections(path).values():
-            accepted = wanted.get(connection.topic)
-            if accepted is None:
-                continue
-            if connection.msgtype not in accepted:
-                raise RecordingError(f"{path}: {connection.topic} is {connection.msgtype}, expected "
-                                     + " or ".join(accepted))
-            found.add(connection.topic)
-        return found
-    with _open(path) as reader:
-        return {connection.topic for connection in _checked_connections(path, reader, wanted)}
+        yield Recording(path, status)
+        return
+    try:
+        reader = AnyReader([path], default_typestore=_jazzy_typestore())
+        reader.open()
+    except Exception as error:  # rosbags' reader, storage and type-system errors, struct errors of a cut file
+        raise RecordingError(f"{path}: cannot read the recording ({_reason(error)})") from None
+    try:
+        yield Recording(path, status, reader)
+    finally:
+        reader.close()
+
+
+def recorded_topics(path: str | Path, wanted: dict[str, tuple[str, ...]]) -> set[str]:
+    """The topics of ``wanted`` (``{topic: accepted types}``) the recording has; RecordingError on a wrong type."""
+    with open_recording(path) as recording:
+        return recording.topics(wanted)
 
 
 def iter_recording(path: str | Path, wanted: dict[str, tuple[str, ...]]) -> Iterator[tuple[str, RecordedMessage]]:
     """``(topic, message)`` for every message of the topics in ``wanted``, in log-time order, one at a time.
 
     Memory does not grow with the recording. A topic whose type is not among
-    the accepted ones or an unreadable message is a :class:`RecordingError`.
-    An MCAP file cut short (no footer) is read as a stream up to its last
-    whole chunk, in the order it was written.
+    the accepted ones, an unreadable message or one larger than
+    :data:`MAX_MESSAGE_BYTES` is a :class:`RecordingError`. An MCAP file cut
+    short (no footer) is read as a stream up to its last whole chunk, in the
+    order it was written.
     """
-    path = Path(path)
-    status = recording_status(path)
-    if status is not None and not status.complete:
-        yield from _iter_stream(path, wanted)
-        return
-    with _open(path) as reader:
-        connections = _checked_connections(path, reader, wanted)
-        if not connections:
-            return
-        try:
-            for connection, log_time_ns, data in reader.messages(connections=connections):
-                yield connection.topic, RecordedMessage(int(log_time_ns), reader.deserialize(data, connection.msgtype))
-        except RecordingError:
-            raise
-        except Exception as error:
-            raise RecordingError(f"{path}: cannot read the recording ({_reason(error)})") from None
+    with open_recording(path) as recording:
+        yield from recording.messages(wanted)
 
 
 def read_recording(path: str | Path, wanted: dict[str, tuple[str, ...]]) -> dict[str, list[RecordedMessage]]:
@@ -534,7 +973,8 @@ def read_recording(path: str | Path, wanted: dict[str, tuple[str, ...]]) -> dict
     For small recordings and tests (:func:`iter_recording` streams). A topic of
     ``wanted`` that is not in the recording is left out of the result.
     """
-    result: dict[str, list[RecordedMessage]] = {topic: [] for topic in recorded_topics(path, wanted)}
-    for topic, message in iter_recording(path, wanted):
-        result[topic].append(message)
+    with open_recording(path) as recording:
+        result: dict[str, list[RecordedMessage]] = {topic: [] for topic in recording.topics(wanted)}
+        for topic, message in recording.messages(wanted):
+            result[topic].append(message)
     return result

@@ -27,12 +27,12 @@ from .error_budget import budget, write_budget
 from .cluster import WORKER_ENVIRONMENT, open_client, run_campaign
 from .results import (METADATA_KEY, RESULT_COLUMNS, RESULT_FORMAT, ResultRejected, check_result, prepare_folder,
                       read_result, run_task, stale_results, task_path, write_result)
-from .tasks import (COMPONENTS, MAX_ORBITS_PER_TASK, MAX_SEEDS, MAX_TASK_SAMPLES, SEASONS, Settings, Task, check,
-                    day_epoch, elements_day_epoch, parse_days, plan, season_of, settings_digest, task_overrides,
-                    task_samples)
+from .tasks import (COMPONENTS, MAX_ORBITS_PER_TASK, MAX_SEEDS, MAX_TASK_SAMPLES, MAX_TASKS, SEASONS, Settings, Task,
+                    check, day_epoch, elements_day_epoch, parse_days, plan, season_of, settings_digest,
+                    task_overrides, task_samples)
 
-__all__ = ["COMPONENTS", "MAX_ORBITS_PER_TASK", "MAX_SEEDS", "MAX_TASK_SAMPLES", "METADATA_KEY", "RESULT_COLUMNS",
-           "RESULT_FORMAT", "ResultRejected", "SEASONS", "Settings", "Task", "WORKER_ENVIRONMENT", "budget", "check",
-           "check_result", "day_epoch", "elements_day_epoch", "open_client", "parse_days", "plan", "prepare_folder",
-           "read_result", "run_campaign", "run_task", "season_of", "settings_digest", "stale_results", "task_overrides",
-           "task_path", "task_samples", "write_budget", "write_result"]
+__all__ = ["COMPONENTS", "MAX_ORBITS_PER_TASK", "MAX_SEEDS", "MAX_TASK_SAMPLES", "MAX_TASKS", "METADATA_KEY",
+           "RESULT_COLUMNS", "RESULT_FORMAT", "ResultRejected", "SEASONS", "Settings", "Task", "WORKER_ENVIRONMENT",
+           "budget", "check", "check_result", "day_epoch", "elements_day_epoch", "open_client", "parse_days", "plan",
+           "prepare_folder", "read_result", "run_campaign", "run_task", "season_of", "settings_digest",
+           "stale_results", "task_overrides", "task_path", "task_samples", "write_budget", "write_result"]

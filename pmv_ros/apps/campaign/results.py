@@ -38,6 +38,10 @@ MAX_RESULT_BYTES = 512 << 20
 #: Largest task description in a result file's metadata, bytes (≈ 3 kB in practice).
 MAX_DESCRIPTION_BYTES = 1 << 20
 
+#: Largest Parquet footer of a result file, bytes: pyarrow parses it whole before anything can be checked, and a
+#: result's holds its seven columns' row groups (a few kB) and the description.
+MAX_FOOTER_BYTES = MAX_DESCRIPTION_BYTES + (1 << 20)
+
 #: Relative agreement asked of a file's values with the monitor's own summary in its description: float64
 #: sums of ≤ 5 million values in another order differ by ≲ 1e-12 relative; 1e-9 leaves room, a changed
 #: value of 0.01″ in 5 million moves a mean by more.
@@ -98,10 +102,12 @@ def task_path(out: Path, task: Task) -> Path:
 def prepare_folder(out: Path, settings: Settings) -> None:
     """Create the output folder, or check that the campaign already in it used the same settings.
 
-    Leftover temporary files of a killed campaign are removed (one campaign per folder at a time).
+    Leftover temporary files of a killed campaign are removed (one campaign per folder at a time). A path
+    that is not a folder and cannot become one — a file, a symbolic link to nothing or a loop of them, a
+    parent that is a file, a place without write access — is a ValueError saying which.
     """
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    _make_folder(out)
     manifest = out / MANIFEST
     mine = finite_json(settings.manifest())
     if manifest.exists() or manifest.is_symlink():
@@ -121,6 +127,29 @@ def prepare_folder(out: Path, settings: Settings) -> None:
         _write_atomically(manifest, json.dumps(mine, indent=1).encode())
     for leftover in out.glob(".*.parquet.tmp*"):
         leftover.unlink(missing_ok=True)
+
+
+def _make_folder(out: Path) -> None:
+    """``out`` as a folder (made with its parents if missing); ValueError with the reason in one line."""
+    import errno
+    import stat
+
+    try:
+        mode = os.stat(out).st_mode
+    except OSError as error:
+        if error.errno == errno.ELOOP:
+            raise ValueError(f"--out {out}: a loop of symbolic links") from None
+        if out.is_symlink():
+            raise ValueError(f"--out {out}: a symbolic link to {os.readlink(out)!r}, which does not exist") from None
+        if error.errno not in (errno.ENOENT,):
+            raise ValueError(f"--out {out}: {error.strerror}") from None
+        mode = None
+    if mode is not None and not stat.S_ISDIR(mode):
+        raise ValueError(f"--out {out} exists and is not a folder")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        raise ValueError(f"--out {out}: cannot make the folder ({error.strerror or error})") from None
 
 
 def write_result(out: Path, task: Task, table) -> Path:
@@ -148,25 +177,41 @@ def read_result(path: Path, columns=None):
     """A task file: ``(pyarrow.Table, description dict)``; ResultRejected (one line) for a file that is not one.
 
     Bounded before anything is decompressed: a regular file of at most
-    :data:`MAX_RESULT_BYTES`, at most :data:`MAX_TASK_SAMPLES` rows and as
-    many uncompressed bytes as that many rows of the result's columns take,
-    and a description of at most :data:`MAX_DESCRIPTION_BYTES`.
+    :data:`MAX_RESULT_BYTES` whose footer (Parquet's metadata, parsed
+    whole) is at most :data:`MAX_FOOTER_BYTES`, the result's columns with
+    their types (a column of strings could hold anything), at most
+    :data:`MAX_TASK_SAMPLES` rows and as many uncompressed bytes as that
+    many rows of the result's columns take, and a description of at most
+    :data:`MAX_DESCRIPTION_BYTES`.
     """
+    import pyarrow as pa
     import pyarrow.parquet as pq
 
-    from ...storage.files import check_regular_file, parse_json
+    from ...storage.files import check_regular_file, open_regular_file, parse_json
 
     path = Path(path)
     try:
-        check_regular_file(path, "task result", MAX_RESULT_BYTES)
+        info = check_regular_file(path, "task result", MAX_RESULT_BYTES)
+        with open_regular_file(path, "task result", MAX_RESULT_BYTES) as stream:
+            stream.seek(max(0, info.st_size - 8))
+            tail = stream.read(8)
     except ValueError as error:
         raise ResultRejected(str(error)) from None
+    if len(tail) == 8 and tail[4:] == b"PAR1" and int.from_bytes(tail[:4], "little") > MAX_FOOTER_BYTES:
+        raise ResultRejected(f"{path}: not a Parquet file of a task's result (its footer declares "
+                             f"{int.from_bytes(tail[:4], 'little')} bytes, more than the {MAX_FOOTER_BYTES} allowed)")
     try:
         parquet = pq.ParquetFile(path)
     except Exception as error:  # pyarrow's errors (some are ValueErrors) for a file that is not Parquet
         raise ResultRejected(f"{path}: not a Parquet file ({_one_line(error)})") from None
     with parquet:
         meta = parquet.metadata
+        schema = parquet.schema_arrow
+        types = [(field.name, field.type) for field in schema]
+        expected = [(name, pa.int8() if name == "outcome" else pa.float64()) for name in RESULT_COLUMNS]
+        if types != expected:
+            raise ResultRejected(f"{path}: columns {[f'{name} {kind}' for name, kind in types][:10]} are not the "
+                                 "result's")
         declared = sum(meta.row_group(i).total_byte_size for i in range(meta.num_row_groups))
         if meta.num_rows > MAX_TASK_SAMPLES or declared > (MAX_TASK_SAMPLES * 8 * len(RESULT_COLUMNS)) * 2:
             raise ResultRejected(f"{path}: declares {meta.num_rows} rows, {declared} bytes, more than a task has")

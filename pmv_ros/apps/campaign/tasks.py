@@ -41,6 +41,12 @@ LATITUDE_BIN_DEG = 10.0
 MAX_SEEDS = 100_000
 MAX_ORBITS_PER_TASK = 100.0
 
+#: Most tasks one campaign plans: a year of days × 27 seeds × the five components, or 136 seeds a day without
+#: them. What grows with the tasks is small and linear: ≈ 0.2 kB a task planned, one file stat a task before the
+#: run, a bounded window of tasks on the cluster (:data:`~pmv_ros.apps.campaign.cluster.TASKS_PER_WORKER`), and
+#: each task's own statistics in budget.json (≈ 2 kB a task).
+MAX_TASKS = 50_000
+
 #: Most sensor samples one task may fly: a task holds its samples in memory (≈ 250 bytes each while it
 #: runs), so 5 million is ≈ 1.3 GB on a worker. More orbits at a high rate: more days or seeds instead.
 MAX_TASK_SAMPLES = 5_000_000
@@ -149,8 +155,17 @@ def settings_digest(settings: Settings) -> str:
 
 
 def plan(days, seeds: int, components: bool) -> list[Task]:
-    """Every task: days × seeds (0 … seeds − 1) × components (just "total" without ``components``)."""
+    """Every task: days × seeds (0 … seeds − 1) × components (just "total" without ``components``).
+
+    The count is checked before anything is built: more than :data:`MAX_TASKS`
+    is a ValueError naming the bound.
+    """
     names = list(COMPONENTS) if components else ["total"]
+    count = len(days) * seeds * len(names)
+    if count > MAX_TASKS:
+        raise ValueError(f"{len(days)} days × {seeds} seeds" + (f" × {len(names)} components" if components else "")
+                         + f" is {count} tasks, more than the {MAX_TASKS} one campaign plans (fewer days or seeds, "
+                         "or several campaigns into several --out folders)")
     return [Task(day, seed, name) for name in names for day in days for seed in range(seeds)]
 
 
