@@ -245,7 +245,11 @@ class SensorRuntime:
         if rejection is not None:
             self.health.count(f"rejected_odometry_{rejection.value}")
             return
-        self.stream.orbit.buffer.add(stamp_s, position, velocity)
+        buffer = self.stream.orbit.buffer
+        buffer.add(stamp_s, position, velocity)
+        # The sensor's field nodes placed ahead of the odometry are placed again once it covers them; a buffer
+        # that started over (its first state) voids them all.
+        self.stream.model.track.follow(stamp_s, reset=len(buffer) == 1)
 
     # -- ticks ----------------------------------------------------------------------------------
 

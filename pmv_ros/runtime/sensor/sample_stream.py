@@ -16,6 +16,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ...physics.instrument.sensing import LINE_OF_SIGHT, PITCH, PITCH_UNCORRECTED, POSITION, ROLL, \
+    ROLL_UNCORRECTED, STATUS, VELOCITY
 from ...physics.instrument.sensor import ChordStatus
 
 
@@ -182,22 +184,28 @@ class SampleStream:
         return samples
 
     def samples(self, times, q_xyzw) -> list[SensorSample]:
-        """Samples at ``(N,)`` times, s, with the given ``(N, 4)`` attitudes (x, y, z, w) — follow mode."""
-        times, q = np.asarray(times, float), np.asarray(q_xyzw, float).reshape(-1, 4)
-        return [row for start in range(0, times.size, FAST_TIME_BLOCK)
-                for row in self.rows(times[start:start + FAST_TIME_BLOCK], q[start:start + FAST_TIME_BLOCK].T)]
+        """Samples at ``(N,)`` times, s, with the given ``(N, 4)`` attitudes (x, y, z, w) — follow mode: one
+        sample or many, the same code (a sample reads the same in any block)."""
+        return self.rows(np.array(times, float), np.array(q_xyzw, float).reshape(-1, 4).T)
 
     def rows(self, times: np.ndarray, q: np.ndarray, reading=None) -> list[SensorSample]:
         """Run the instrument for ``(N,)`` times and ``(4, N)`` attitudes (or take its ``reading`` of them):
-        N samples."""
+        N samples, made from the reading's rows (:attr:`~pmv_ros.physics.instrument.sensor.SensorReading.table`)."""
         if reading is None:
             reading = self.model.sense(times, q)
-        position, velocity = self.orbit.state_eci(times)
-        status, blinding = reading.chord_status, reading.blinding_body
-        line_of_sight = reading.line_of_sight_sensor.transpose(2, 1, 0)  # (N, 4, 3)
+        table = reading.table
+        sights = None
         if self._check is not None:
-            line_of_sight = self._check(line_of_sight, (status == ChordStatus.VALID).T)
-        columns = (times, q.T, line_of_sight, reading.sensed_roll_rad, reading.sensed_pitch_rad,
-                   reading.sensed_roll_uncorrected_rad, reading.sensed_pitch_uncorrected_rad, status.T,
-                   (np.full_like(status, -1) if blinding is None else blinding).T, position.T, velocity.T)
-        return list(map(SensorSample._make, zip(*(np.asarray(column).tolist() for column in columns))))
+            sights = self._check(table[:, LINE_OF_SIGHT].reshape(-1, 4, 3), table[:, STATUS] == ChordStatus.VALID)
+            sights = [tuple(map(tuple, sight)) for sight in sights.tolist()]
+        samples = []
+        for n, (t_s, q_xyzw, row) in enumerate(zip(reading.t_s.tolist(), reading.q_orbital_to_body.T.tolist(),
+                                                   table.tolist())):
+            sight = sights[n] if sights is not None else (tuple(row[13:16]), tuple(row[16:19]), tuple(row[19:22]),
+                                                           tuple(row[22:25]))
+            samples.append(SensorSample(t_s, tuple(q_xyzw), sight, row[ROLL], row[PITCH], row[ROLL_UNCORRECTED],
+                                        row[PITCH_UNCORRECTED],
+                                        (int(row[25]), int(row[26]), int(row[27]), int(row[28])),
+                                        (int(row[29]), int(row[30]), int(row[31]), int(row[32])),
+                                        tuple(row[POSITION]), tuple(row[VELOCITY])))
+        return samples
