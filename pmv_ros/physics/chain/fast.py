@@ -238,6 +238,11 @@ class ChainArrays(NamedTuple):
     vector: np.ndarray  #: the parameters, then the ramp's knots, the ground-distance fit, the correction table
     tables: np.ndarray  #: (2, 5, L): the responses Y of the elementary shapes and the slope to the next entry
 
+    @property
+    def knots(self) -> int:
+        """Knots of the window ramp (a chord has at most 2·knots + 5 profile terms)."""
+        return int(self.vector[_KNOTS])
+
 
 class ChainKit(NamedTuple):
     """:class:`ChainArrays` taken apart inside a kernel (:func:`unpack`)."""
@@ -315,17 +320,18 @@ def _profile_terms(phi0, slope, radius, b_m, gradient, jump, jump_d, h_w, b_a, p
     knots = kit.ramp_heights.size
     flat = h_w < 1.0  # a window layer at the surface: the ramp is a step at the horizon
     # The disc: a gradient along the surface, d(x) ≈ R Σ c_j x^p_j, and a sampled profile Σ c_j x^p_j.
-    disc = np.zeros(4)
+    x_half = x_one = x_three_halves = x_two = 0.0  # the disc's coefficients of the powers x^p
     if gradient != 0.0:
         log_k = math.log(min(max(slope / radius, _KAPPA_RANGE[0]), _KAPPA_RANGE[1]))
-        for j in range(4):
-            size = kit.log_kappa.size
-            disc[j] += np.interp(log_k, kit.log_kappa, kit.ground_distance[j * size:(j + 1) * size]) \
-                * (gradient * radius)
+        size, scale = kit.log_kappa.size, gradient * radius
+        x_half += np.interp(log_k, kit.log_kappa, kit.ground_distance[:size]) * scale
+        x_one += np.interp(log_k, kit.log_kappa, kit.ground_distance[size:2 * size]) * scale
+        x_three_halves += np.interp(log_k, kit.log_kappa, kit.ground_distance[2 * size:3 * size]) * scale
+        x_two += np.interp(log_k, kit.log_kappa, kit.ground_distance[3 * size:]) * scale
     if sampled:
-        disc[0] += disc_c[0]  # x^½
-        disc[1] += disc_c[1]  # x
-        disc[3] += disc_c[2]  # x²
+        x_half += disc_c[0]
+        x_one += disc_c[1]
+        x_two += disc_c[2]
     previous_nadir = previous_height = previous_value = 0.0
     linear_before = quadratic_before = 0.0  # the slope and curvature arriving at the knot
     for k in range(knots):
@@ -348,8 +354,8 @@ def _profile_terms(phi0, slope, radius, b_m, gradient, jump, jump_d, h_w, b_a, p
         slope_jump = 0.0 if flat else linear_after - linear_before
         curve_jump = 0.0 if flat else quadratic_after - quadratic_before
         if k == knots - 1:  # the lowest knot is the horizon φ₀: it carries the disc's x and x² terms
-            slope_jump += disc[1]
-            curve_jump += disc[3]
+            slope_jump += x_one
+            curve_jump += x_two
         if slope_jump != 0.0:
             origins[count], coefficients[count], shapes[count] = nadir, slope_jump, _LINEAR
             count += 1
@@ -361,10 +367,12 @@ def _profile_terms(phi0, slope, radius, b_m, gradient, jump, jump_d, h_w, b_a, p
     if flat and b_m - b_a != 0.0:
         origins[count], coefficients[count], shapes[count] = phi0, b_m - b_a, _STEP
         count += 1
-    for j, shape in ((0, _SQRT), (2, _POW15)):
-        if disc[j] != 0.0:
-            origins[count], coefficients[count], shapes[count] = phi0, disc[j], shape
-            count += 1
+    if x_half != 0.0:
+        origins[count], coefficients[count], shapes[count] = phi0, x_half, _SQRT
+        count += 1
+    if x_three_halves != 0.0:
+        origins[count], coefficients[count], shapes[count] = phi0, x_three_halves, _POW15
+        count += 1
     if jump != 0.0 and math.isfinite(jump_d):
         origins[count] = nadir_of_ground_distance(jump_d, phi0, slope, radius)
         coefficients[count], shapes[count] = jump, _STEP
@@ -398,37 +406,44 @@ def _crossing_times(count, base, fraction, coefficients, shapes, first_step, kit
     below, first above) to two adjacent steps, between which the comparator interpolates linearly.
     """
     last_step = int(kit.scalars[_MAX_STEPS]) - 1
-    thresholds = (kit.scalars[_THRESHOLD_1], kit.scalars[_THRESHOLD_2])
-    found = [-1, -1]
+    threshold_1, threshold_2 = kit.scalars[_THRESHOLD_1], kit.scalars[_THRESHOLD_2]
+    found_1 = found_2 = -1
     start = first_step
-    while (found[0] < 0 or found[1] < 0) and start <= last_step:
+    while (found_1 < 0 or found_2 < 0) and start <= last_step:
         for point in range(COARSE_POINTS):
             step = start + COARSE_STRIDE * point
             if step > last_step:
                 break
             y = _detector_output(step, count, base, fraction, coefficients, shapes, kit)
-            for which in range(2):
-                if found[which] < 0 and y > thresholds[which]:
-                    found[which] = step
+            if found_1 < 0 and y > threshold_1:
+                found_1 = step
+            if found_2 < 0 and y > threshold_2:
+                found_2 = step
+            if found_1 >= 0 and found_2 >= 0:  # the rest of the window cannot change them
+                break
         start += COARSE_STRIDE * COARSE_POINTS
-    times = [math.nan, math.nan]
-    for which in range(2):
-        if found[which] < 0:
-            continue
-        threshold = thresholds[which]
-        hi = found[which]
-        lo = max(hi - COARSE_STRIDE, 0)
-        y_lo = _detector_output(lo, count, base, fraction, coefficients, shapes, kit)
-        y_hi = _detector_output(hi, count, base, fraction, coefficients, shapes, kit)
-        while hi - lo > 1:
-            mid = (lo + hi) // 2
-            y_mid = _detector_output(mid, count, base, fraction, coefficients, shapes, kit)
-            if y_mid > threshold:
-                hi, y_hi = mid, y_mid
-            else:
-                lo, y_lo = mid, y_mid
-        times[which] = (lo + (threshold - y_lo) / (y_hi - y_lo)) * kit.scalars[_TIME_STEP]
-    return times[0], times[1]
+    return (_crossing_time(found_1, threshold_1, count, base, fraction, coefficients, shapes, kit),
+            _crossing_time(found_2, threshold_2, count, base, fraction, coefficients, shapes, kit))
+
+
+@kernel
+def _crossing_time(found, threshold, count, base, fraction, coefficients, shapes, kit):
+    """The comparator's time, s from the scan start, between the last step at or below ``threshold`` and the first
+    above it, bisected from the coarse step ``found`` (−1: never above, NaN)."""
+    if found < 0:
+        return math.nan
+    hi = found
+    lo = max(hi - COARSE_STRIDE, 0)
+    y_lo = _detector_output(lo, count, base, fraction, coefficients, shapes, kit)
+    y_hi = _detector_output(hi, count, base, fraction, coefficients, shapes, kit)
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        y_mid = _detector_output(mid, count, base, fraction, coefficients, shapes, kit)
+        if y_mid > threshold:
+            hi, y_hi = mid, y_mid
+        else:
+            lo, y_lo = mid, y_mid
+    return (lo + (threshold - y_lo) / (y_hi - y_lo)) * kit.scalars[_TIME_STEP]
 
 
 @kernel
@@ -446,12 +461,14 @@ def sense_chord(phi0, slope, b_m, gradient, jump, jump_d, radius, h_w, b_a, h_co
              and radius < math.inf and b_m > 0.0 and b_m < math.inf and math.isfinite(gradient)
              and math.isfinite(jump) and jump_d >= 0.0 and h_w >= 0.0 and h_w <= MAX_LAYER_HEIGHT_M
              and b_a >= 0.0 and b_a < kit.scalars[_THRESHOLD_1] and h_co2 >= 0.0 and h_co2 <= MAX_LAYER_HEIGHT_M)
-    disc_c = np.zeros(3)
+    c0 = c1 = c2 = 0.0
     if valid and sampled:
-        for j in range(3):
-            for i in range(3):
-                disc_c[j] += (disc_samples[i] - b_m) * kit.disc_inverse[3 * j + i]
-            valid = valid and math.isfinite(disc_c[j])
+        inverse = kit.disc_inverse
+        d0, d1, d2 = disc_samples[0] - b_m, disc_samples[1] - b_m, disc_samples[2] - b_m
+        c0 = d0 * inverse[0] + d1 * inverse[1] + d2 * inverse[2]
+        c1 = d0 * inverse[3] + d1 * inverse[4] + d2 * inverse[5]
+        c2 = d0 * inverse[6] + d1 * inverse[7] + d2 * inverse[8]
+        valid = math.isfinite(c0) and math.isfinite(c1) and math.isfinite(c2)
     if not valid:
         return nan, nan, nan, nan, nan, nan, DetectionStatus.INVALID_INPUT
     phi_top = nadir_of_height(max(h_co2, h_w), phi0, slope, radius)
@@ -460,7 +477,7 @@ def sense_chord(phi0, slope, b_m, gradient, jump, jump_d, radius, h_w, b_a, h_co
         return nan, nan, nan, nan, nan, nan, DetectionStatus.INVALID_INPUT
     if phi_top > theta0 - gamma + 1e-12:
         return nan, nan, nan, nan, nan, nan, DetectionStatus.SCAN_STARTED_IN_ATMOSPHERE
-    count = _profile_terms(phi0, slope, radius, b_m, gradient, jump, jump_d, h_w, b_a, phi_top, disc_c, sampled,
+    count = _profile_terms(phi0, slope, radius, b_m, gradient, jump, jump_d, h_w, b_a, phi_top, (c0, c1, c2), sampled,
                            kit, origins, coefficients, shapes)
     spacing, zero_index = kit.scalars[_SPACING], kit.scalars[_ZERO_INDEX]
     for k in range(count):

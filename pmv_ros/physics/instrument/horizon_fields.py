@@ -68,6 +68,9 @@ ON_NODE = 1e-9
 #: forward (:meth:`~pmv_ros.physics.instrument.track.OrbitTrack.node_states`): two, not further.
 NODES_AHEAD = 64
 NODES_AHEAD_FOLLOWED = 2
+#: Misses a sample compares a missing node with before it records it (a sample's nodes: 4 chords × 4 time nodes ×
+#: 2 azimuth nodes × 2 fields, mostly the sample before's).
+RECENT_MISSES = 64
 #: Key of an empty place in a :class:`NodeTable`.
 EMPTY = np.iinfo(np.int64).min
 #: Layout of :attr:`FieldGrid.params`.
@@ -157,11 +160,11 @@ def horizon_azimuth(chord, up, x_axis, y_axis):
 
 
 @kernel
-def grid_value(grid, params, keys, values, t_s, psi, misses, count, missed):
+def grid_value(grid, params, keys, values, t_s, psi, misses, count):
     """A field's value at time ``t_s`` and azimuth ``psi`` from its grid (number ``grid``, ``params``, the
-    node table's ``keys`` and ``values``); each node it lacks and ``missed`` (a set of their keys) does not
-    hold yet is appended to ``misses`` as (grid, time node, azimuth node) from row ``count``. Returns (value —
-    NaN if a node was missing —, the new count)."""
+    node table's ``keys`` and ``values``); each node it lacks is appended to ``misses`` as (grid, time node,
+    azimuth node) from row ``count`` unless one of the last :data:`RECENT_MISSES` rows has it (the samples
+    before asked for the same nodes). Returns (value — NaN if a node was missing —, the new count)."""
     position = (params[_ORIGIN] + t_s) / params[_SPACING]
     k = math.floor(position)
     wt = lagrange_weights(position - k)
@@ -185,8 +188,13 @@ def grid_value(grid, params, keys, values, t_s, psi, misses, count, missed):
             place = _slot(keys, key)
             if keys[place] == EMPTY:
                 missing = True
-                if 2 * key + grid not in missed:
-                    missed.add(2 * key + grid)
+                recorded = min(count, misses.shape[0])
+                seen = False
+                for row in range(max(0, recorded - RECENT_MISSES), recorded):
+                    if misses[row, 0] == grid and misses[row, 1] == node and misses[row, 2] == jj:
+                        seen = True
+                        break
+                if not seen:
                     if count < misses.shape[0]:
                         misses[count, 0], misses[count, 1], misses[count, 2] = grid, node, jj
                     count += 1
@@ -293,7 +301,7 @@ class HorizonFields:
         self.refresh()
         first_s = float(sample_times.min())
         for index, grid in enumerate(self.grids):
-            rows = misses[:count][misses[:count, 0] == index][:, 1:]  # each once (the kernel keeps a set)
+            rows = np.unique(misses[:count][misses[:count, 0] == index][:, 1:], axis=0)
             if rows.size == 0:
                 continue
             # and the time nodes after the last one missing at each azimuth node (NODES_AHEAD)

@@ -72,27 +72,23 @@ _INWARD = np.asarray(DISC_SAMPLE_INWARD_RAD)
 
 
 @kernel
-def _body_axes(q, mounting, mounted):
-    """Columns of the sensor's axes in the orbital frame: the rotation of the unit quaternion q (x, y, z, w),
-    then the mounting's (9 values, its 3 × 3 body → sensor row by row) when ``mounted``."""
-    norm = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
-    x, y, z, w = q[0] / norm, q[1] / norm, q[2] / norm, q[3] / norm
-    r = np.empty((3, 3))
+def _body_axes(x, y, z, w, mounting, mounted, r, out):
+    """The sensor's axes in the orbital frame into ``out`` (3 × 3, columns): the rotation of the quaternion
+    (x, y, z, w), normalised, then the mounting's (9 values, its 3 × 3 body → sensor row by row) when
+    ``mounted``; ``r`` is scratch (3 × 3)."""
+    norm = math.sqrt(x * x + y * y + z * z + w * w)
+    x, y, z, w = x / norm, y / norm, z / norm, w / norm
     r[0, 0], r[0, 1], r[0, 2] = 1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - z * w), 2.0 * (x * z + y * w)
     r[1, 0], r[1, 1], r[1, 2] = 2.0 * (x * y + z * w), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - x * w)
     r[2, 0], r[2, 1], r[2, 2] = 2.0 * (x * z - y * w), 2.0 * (y * z + x * w), 1.0 - 2.0 * (x * x + y * y)
-    if not mounted:
-        return r
-    product = np.empty((3, 3))
     for i in range(3):
         for j in range(3):
-            product[i, j] = r[i, 0] * mounting[j] + r[i, 1] * mounting[3 + j] + r[i, 2] * mounting[6 + j]
-    return product
+            out[i, j] = (r[i, 0] * mounting[j] + r[i, 1] * mounting[3 + j] + r[i, 2] * mounting[6 + j]) if mounted \
+                else r[i, j]
 
 
 @kernel
-def _chord_radiance(config, t_s, up, x_axis, y_axis, central_angle, radius, chord, grids, misses, count,
-                    missed, samples):
+def _chord_radiance(config, t_s, up, x_axis, y_axis, central_angle, radius, chord, grids, misses, count, samples):
     """Horizon radiance B_m (r.u.) and window-layer height h_w (m) of one chord, the disc samples into
     ``samples`` (line-of-sight climatology), and the misses' count (physics.md §3.2 item 3: the weather and
     the climatology a level at the horizon point, or the climatology along the line of sight)."""
@@ -102,12 +98,10 @@ def _chord_radiance(config, t_s, up, x_axis, y_axis, central_angle, radius, chor
     height_params, height_keys, height_values = grids[1]
     anomaly = math.nan
     if weather_params[3] != 0.0:
-        anomaly, count = grid_value(0, weather_params, weather_keys, weather_values, t_s, psi, misses, count,
-                                    missed)
+        anomaly, count = grid_value(0, weather_params, weather_keys, weather_values, t_s, psi, misses, count)
     window = config[WINDOW_MEAN_M]
     if height_params[3] != 0.0:
-        gaussian, count = grid_value(1, height_params, height_keys, height_values, t_s, psi, misses, count,
-                                     missed)
+        gaussian, count = grid_value(1, height_params, height_keys, height_values, t_s, psi, misses, count)
         window = uniform_height(gaussian, config[WINDOW_MEAN_M], config[WINDOW_HALF_RANGE_M])
     levels = (central_angle, central_angle, central_angle, central_angle)
     if config[ALONG_SIGHT] != 0.0:  # the ground the lines of sight at the inward sample angles hit
@@ -139,22 +133,30 @@ def _chord_radiance(config, t_s, up, x_axis, y_axis, central_angle, radius, chor
     return level, window, count
 
 
+def scratch_sizes(knots: int) -> tuple[int, int]:
+    """Lengths of :func:`sense_samples`' float and int scratch arrays for a window ramp of ``knots`` knots."""
+    terms = 2 * knots + 5
+    return 3 * terms + 74, 2 * terms + 4
+
+
 @kernel
-def sense_samples(times, inputs, track_nodes, track_params, static, kit_vector, kit_tables, weather_keys,
-                  weather_values, height_keys, height_values, out, misses, need):
-    """Sense N samples: ``times`` (N,) s; ``inputs`` (N, 10): the quaternion orbital → body (x, y, z, w) and,
-    for a followed orbit, the position and velocity there (ECI, m, m/s); the track's node rows and (first
+def sense_samples(times, attitude, states, track_nodes, track_params, static, kit_vector, kit_tables, weather_keys,
+                  weather_values, height_keys, height_values, out, misses, need, scratch, int_scratch):
+    """Sense N samples: ``times`` (N,) s; ``attitude`` (N, 4): the quaternions orbital → body (x, y, z, w);
+    ``states`` (N, 6), for a followed orbit, the position and velocity there (ECI, m, m/s); the track's node rows and (first
     node, spacing s, 1 if the orbit is followed) (:class:`~pmv_ros.physics.instrument.track.OrbitTrack`);
     ``static`` (:data:`STATIC_SIZE`): the configuration vector (layout above), the mounting (3 × 3, row by
     row), the two field grids' parameters; the chain's arrays (:class:`~pmv_ros.physics.chain.ChainArrays`);
-    the field grids' node tables. Each sample's results go into its row of ``out`` (N, :data:`COLUMNS`).
+    the field grids' node tables. Each sample's results go into its row of ``out`` (N, :data:`COLUMNS`);
+    ``scratch`` and ``int_scratch`` hold the pass's working arrays (:func:`scratch_sizes`: a call of one
+    sample allocates nothing).
 
     Every argument is an array: numba checks the arguments' types at each call, an array's in ≈ 0.1 µs,
     a tuple's in Python (≈ 5 µs for the chain's tables) — a sample's whole cost.
 
     Returns −1 when the track lacks nodes (the first and last it needs in ``need``), else the number of
     field nodes found missing (their rows in ``misses``: grid, time node, azimuth node); unless it is 0 the
-    samples' rows are incomplete.
+    rows from the first sample that lacked one (``need[0]``) on are incomplete.
     """
     config, mounting = static[:CONFIG_SIZE], static[CONFIG_SIZE:CONFIG_SIZE + 9]
     grids = ((static[CONFIG_SIZE + 9:CONFIG_SIZE + 13], weather_keys, weather_values),
@@ -172,9 +174,16 @@ def sense_samples(times, inputs, track_nodes, track_params, static, kit_vector, 
         return -1
     followed = track_params[2] != 0.0
     terms = 2 * kit.ramp_heights.size + 5
-    origins, coefficients, fraction = np.empty(terms), np.empty(terms), np.empty(terms)
-    shapes, base = np.empty(terms, np.int64), np.empty(terms, np.int64)
-    samples = np.empty(3)
+    origins, coefficients, fraction = scratch[:terms], scratch[terms:2 * terms], scratch[2 * terms:3 * terms]
+    o = 3 * terms
+    samples, track_row, corrected, uncorrected, blinding = (scratch[o:o + 3], scratch[o + 3:o + 15],
+                                                            scratch[o + 15:o + 19], scratch[o + 19:o + 23],
+                                                            scratch[o + 23:o + 27])
+    o += 27
+    axes, rotation, body = (scratch[o:o + 9].reshape((3, 3)), scratch[o + 9:o + 18].reshape((3, 3)),
+                            scratch[o + 18:o + 27].reshape((3, 3)))
+    seen = scratch[o + 27:o + 47].reshape((4, 5))
+    shapes, base, status = int_scratch[:terms], int_scratch[terms:2 * terms], int_scratch[2 * terms:2 * terms + 4]
     earth_radius = config[EARTH_RADIUS_M]
     ground = (config[A_M], config[A_M], config[B_M])
     co2_top = (config[A_M] + config[CO2_TOP_M], config[A_M] + config[CO2_TOP_M], config[B_M] + config[CO2_TOP_M])
@@ -182,36 +191,32 @@ def sense_samples(times, inputs, track_nodes, track_params, static, kit_vector, 
              config[B_M] + config[IDEAL_HEIGHT_M])
     scan_start = config[SCAN_START_RAD]
     count = 0
-    missed = {np.int64(-1)}  # the keys of the missing nodes found so far (-1: none, it types the set)
+    first_missing = -1
     for n in range(times.size):
         t = times[n]
         row, w = track_weights(t, first_node, spacing)
-        track_row = np.empty(12)
         for column in range(0 if followed else 12):
             track_row[column] = (w[0] * nodes[row, column] + w[1] * nodes[row + 1, column]
                                  + w[2] * nodes[row + 2, column] + w[3] * nodes[row + 3, column])
         if followed:
             for column in range(6):
-                track_row[column] = inputs[n, 4 + column]
+                track_row[column] = states[n, column]
             for column in range(6, 12):
                 track_row[column] = (w[0] * nodes[row, column] + w[1] * nodes[row + 1, column]
                                      + w[2] * nodes[row + 2, column] + w[3] * nodes[row + 3, column])
         position = (track_row[0], track_row[1], track_row[2])
         velocity = (track_row[3], track_row[4], track_row[5])
         x_axis, y_axis, up = orbital_axes(position, velocity)
-        body = _body_axes(inputs[n, 0:4], mounting, config[MOUNTED] != 0.0)
-        axes = np.empty((3, 3))  # columns: the sensor's X, Y, Z in ECI
-        for j in range(3):
+        _body_axes(attitude[n, 0], attitude[n, 1], attitude[n, 2], attitude[n, 3], mounting, config[MOUNTED] != 0.0,
+                   rotation, body)
+        for j in range(3):  # axes: columns the sensor's X, Y, Z in ECI
             for i in range(3):
                 axes[i, j] = x_axis[i] * body[0, j] + y_axis[i] * body[1, j] + up[i] * body[2, j]
         sx = (axes[0, 0], axes[1, 0], axes[2, 0])
         sy = (axes[0, 1], axes[1, 1], axes[2, 1])
         sz = (axes[0, 2], axes[1, 2], axes[2, 2])
         horizon = tangent_angles(position, sx, sy, sz, ground)
-        corrected = np.empty(4)
-        uncorrected = np.empty(4)
-        status = np.empty(4, np.int64)
-        seen = np.full((4, 5), math.nan)  # per chord: B_m, h_w, the three disc samples
+        seen[:] = math.nan  # per chord: B_m, h_w, the three disc samples
         if config[CHAIN] == 0.0:  # the ideal detector: the geometric horizon of the emitting layer
             layer = tangent_angles(position, sx, sy, sz, ideal)
             for c in range(4):
@@ -232,10 +237,12 @@ def sense_samples(times, inputs, track_nodes, track_params, static, kit_vector, 
                 if config[ENVIRONMENT] != 0.0:
                     chord = (sign * column[0], sign * column[1], sign * column[2])
                     level, window, count = _chord_radiance(config, t, up, x_axis, y_axis, central_angle, radius,
-                                                           chord, grids, misses, count, missed, samples)
+                                                           chord, grids, misses, count, samples)
                 else:
                     level, window = config[DISC_RU], config[WINDOW_M]
                 if count:  # a field node is missing: look for the others only
+                    if first_missing < 0:
+                        first_missing = n
                     continue
                 seen[c, 0], seen[c, 1] = level, window
                 if config[ALONG_SIGHT] != 0.0 and config[ENVIRONMENT] != 0.0:
@@ -251,7 +258,7 @@ def sense_samples(times, inputs, track_nodes, track_params, static, kit_vector, 
                     or code == DetectionStatus.SCAN_STARTED_IN_ATMOSPHERE else _NOT_DETECTED)
         if count:
             continue
-        blinding = np.full(4, -1.0)
+        blinding[:] = -1.0
         if config[EXCLUSION_RAD] > 0.0:
             for body_index in range(2):
                 first = 6 + 3 * body_index
@@ -299,4 +306,5 @@ def sense_samples(times, inputs, track_nodes, track_params, static, kit_vector, 
             row[39 + c], row[43 + c] = seen[c, 0], seen[c, 1]
             for i in range(3):
                 row[47 + 3 * c + i] = seen[c, 2 + i]
+    need[0] = first_missing
     return count

@@ -408,6 +408,8 @@ class SensorModel:
                                        _NO_GRID_PARAMS if self.fields is None else self.fields.params])
         self._misses = np.empty((_MISSES, 3), np.int64)
         self._need = np.empty(2, np.int64)  # the track nodes the kernel lacks
+        floats, ints = sensing.scratch_sizes(self._kit.knots)
+        self._scratch, self._int_scratch = np.empty(floats), np.empty(ints, np.int64)
 
     def _config_vector(self, mounted: bool) -> np.ndarray:
         config, detector = self.config, self.detector
@@ -443,13 +445,13 @@ class SensorModel:
         nothing random is drawn and no sample is sensed."""
         if hasattr(self.detector, "prepare"):
             self.detector.prepare()
-        self._run(np.empty(0), np.empty((0, 10)), np.empty((0, sensing.COLUMNS)))
+        self._run(np.empty(0), np.empty((0, 4)), np.empty((0, 6)), np.empty((0, sensing.COLUMNS)))
 
-    def _run(self, t, inputs, table):
+    def _run(self, t, attitude, states, table):
         nodes, track = self.track.kernel_inputs()
         grids = _NO_GRIDS if self.fields is None else self.fields.kernel_inputs()
-        return sensing.sense_samples(t, inputs, nodes, track, self._static, *self._kit, *grids, table, self._misses,
-                                     self._need)
+        return sensing.sense_samples(t, attitude, states, nodes, track, self._static, *self._kit, *grids, table,
+                                     self._misses, self._need, self._scratch, self._int_scratch)
 
     def sense(self, t_s, q_orbital_to_body) -> SensorReading:
         """Run the instrument for N samples.
@@ -467,23 +469,22 @@ class SensorModel:
         table = np.empty((t.size, sensing.COLUMNS))
         if t.size == 0:
             return SensorReading(t, q, table)
-        inputs = np.empty((t.size, 10))
-        inputs[:, :4] = q.T
+        attitude = q.T if q.T.flags.c_contiguous else np.ascontiguousarray(q.T)  # (N, 4), as the kernel reads it
         states = self.track.states(t)
-        if states.shape[0]:
-            inputs[:, 4:] = states
         fields = self.fields
         if fields is not None and not fields.current:
             fields.refresh()
         if self.track.has_errors:
             self.track.needs(math.floor(float(t.min()) / TRACK_NODE_S) - 1, math.floor(float(t.max()) / TRACK_NODE_S) + 2)
-        while True:
-            missing = self._run(t, inputs, table)
-            if missing == 0:
-                return SensorReading(t, q, table)
+        missing = self._run(t, attitude, states, table)
+        first = 0  # the samples before are done
+        while missing:
             if missing < 0:
                 self.track.needs(int(self._need[0]), int(self._need[1]))
-                continue
-            fields.fill(self._misses, min(missing, self._misses.shape[0]), t, states)
-            if missing > self._misses.shape[0]:
-                self._misses = np.empty((2 * missing, 3), np.int64)
+            else:
+                fields.fill(self._misses, min(missing, self._misses.shape[0]), t, states)
+                first += int(self._need[0])
+                if missing > self._misses.shape[0]:
+                    self._misses = np.empty((2 * missing, 3), np.int64)
+            missing = self._run(t[first:], attitude[first:], states[first:], table[first:])
+        return SensorReading(t, q, table)

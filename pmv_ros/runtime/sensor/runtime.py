@@ -376,24 +376,25 @@ class SensorRuntime:
         reports nothing but health."""
         if not found:
             return
-        usable = [(t_s, q) for t_s, q, source in found if source.usable]
-        covered = set(self._orbit_covered([t for t, _ in usable])) if self.orbit_following else None
+        usable = [item for item in found if item[2].usable]
+        covered = set(self._orbit_covered([t for t, _, _ in usable])) if self.orbit_following else None
         if covered is not None:
-            usable = [(t_s, q) for t_s, q in usable if t_s in covered]
+            usable = [item for item in usable if item[0] in covered]
         samples = iter(self._orbit_samples(found[-1][0], lambda: self.stream.samples(
-            [t for t, _ in usable], [q for _, q in usable])) if usable else ())
+            [t for t, _, _ in usable], [q for _, q, _ in usable])) if usable else ())
         for t_s, _, source in found:
             self._truth_state = source
+            usable_here = source.usable
             # Said once each way: samples between the stale ones and the truth's return may read truth_gap.
             if source is TruthAt.STALE and not self._stale_logged:
                 self._stale_logged = True
                 self._out.log.append(LogLine("error", f"/attitude/truth is stale at t = {t_s:.3f} s (newest "
                                                       f"{self.truth.newest_stamp_s:.3f} s): no angles until it "
                                                       "returns"))
-            elif source.usable and self._stale_logged:
+            elif usable_here and self._stale_logged:
                 self._stale_logged = False
                 self._out.log.append(LogLine("info", f"/attitude/truth is back at t = {t_s:.3f} s"))
-            if not source.usable:
+            if not usable_here:
                 self.health.count(f"skipped_{source.value}")
                 self._emit_health(t_s)
                 continue
