@@ -77,8 +77,8 @@ def test_following_truth_is_checked_then_measured_at_the_sample_time():
     runtime = runtime_of(values)
     orbital = runtime.frames.orbital
     q = np.array(quaternion_from_roll_pitch_yaw(10 * ARCMIN_RAD, -4 * ARCMIN_RAD, 0.0))
-    assert runtime.add_truth("eci", runtime.sim_time_s, q, 0.0).published == []
-    assert runtime.add_truth(orbital, None, q, 0.0).published == []
+    assert not runtime.add_truth("eci", runtime.sim_time_s, q, 0.0).published
+    assert not runtime.add_truth(orbital, None, q, 0.0).published
     counters = runtime.health.counters
     assert counters["rejected_truth_wrong_frame"] == 1 and counters["rejected_truth_zero_stamp"] == 1
     # No truth yet: a step publishes health only, and says why.

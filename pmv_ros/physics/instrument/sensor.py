@@ -51,7 +51,7 @@ from ..radiance import CO2_TOP_HEIGHT_M
 from . import sensing
 from .horizon_fields import (FIELD_AZIMUTH_FRACTION, FIELD_TIME_FRACTION, HORIZON_POINT_SPEED_M_S, MAX_FIELD_GRID_S,
                              HorizonFields)
-from .track import TRACK_NODE_S, OrbitTrack
+from .track import NO_STATES, TRACK_NODE_S, OrbitTrack
 
 
 #: Default exclusion angle of the Sun or the Moon from a chord's swept arc, rad:
@@ -469,8 +469,10 @@ class SensorModel:
         table = np.empty((t.size, sensing.COLUMNS))
         if t.size == 0:
             return SensorReading(t, q, table)
-        attitude = q.T if q.T.flags.c_contiguous else np.ascontiguousarray(q.T)  # (N, 4), as the kernel reads it
-        states = self.track.states(t)
+        attitude = q.T  # (N, 4), as the kernel reads it
+        if not attitude.flags.c_contiguous:
+            attitude = np.ascontiguousarray(attitude)
+        states = NO_STATES if self.track.model_orbit else self.track.states(t)
         fields = self.fields
         if fields is not None and not fields.current:
             fields.refresh()

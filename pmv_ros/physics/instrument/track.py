@@ -47,7 +47,8 @@ TRACK_CHUNK = 256
 TRACK_CHUNKS_KEPT = 16
 #: Columns of a track row: position (m), velocity (m/s), the Sun's and the Moon's geocentric positions (m), ECI.
 TRACK_COLUMNS = 12
-_NO_STATES = np.empty((0, 6))
+#: The states of a model orbit's samples: none (the kernel interpolates its track).
+NO_STATES = np.empty((0, 6))
 
 
 @kernel
@@ -189,7 +190,7 @@ class OrbitTrack:
         """``(N, 6)`` position and velocity a followed orbit gives at ``times`` (it raises where it has none);
         ``(0, 6)`` for a model orbit, whose states the kernel interpolates from the nodes."""
         if self.model_orbit:
-            return _NO_STATES
+            return NO_STATES
         position, velocity = self.orbit.state_eci(times)
         return np.ascontiguousarray(np.concatenate([position, velocity]).T)
 

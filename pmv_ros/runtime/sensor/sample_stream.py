@@ -16,7 +16,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ...physics.instrument.sensing import LINE_OF_SIGHT, PITCH, PITCH_UNCORRECTED, POSITION, ROLL, \
+from ...physics.instrument.sensing import BLINDING, LINE_OF_SIGHT, PITCH, PITCH_UNCORRECTED, POSITION, ROLL, \
     ROLL_UNCORRECTED, STATUS, VELOCITY
 from ...physics.instrument.sensor import ChordStatus
 
@@ -62,6 +62,14 @@ def block_times(first_s: float, period_s: float, block: int) -> np.ndarray:
 #: Grid times within this fraction of a period after the clock reading are due already: a clock
 #: stepping by whole periods lands on the grid up to rounding (1 s = 10 × 0.1 s in binary floats).
 GRID_TOLERANCE = 1e-6
+
+
+#: The columns of a reading's row a sample is made of (pmv_ros.physics.instrument.sensing), by name.
+_S0, _S1, _S2, _S3, _S4, _S5, _S6, _S7, _S8, _S9, _S10, _S11 = range(LINE_OF_SIGHT.start, LINE_OF_SIGHT.stop)
+_C0, _C1, _C2, _C3 = range(STATUS.start, STATUS.stop)
+_B0, _B1, _B2, _B3 = range(BLINDING.start, BLINDING.stop)
+_P0, _P1, _P2 = range(POSITION.start, POSITION.stop)
+_V0, _V1, _V2 = range(VELOCITY.start, VELOCITY.stop)
 
 
 class SampleGrid:
@@ -201,11 +209,10 @@ class SampleStream:
         samples = []
         for n, (t_s, q_xyzw, row) in enumerate(zip(reading.t_s.tolist(), reading.q_orbital_to_body.T.tolist(),
                                                    table.tolist())):
-            sight = sights[n] if sights is not None else (tuple(row[13:16]), tuple(row[16:19]), tuple(row[19:22]),
-                                                           tuple(row[22:25]))
+            sight = sights[n] if sights is not None else ((row[_S0], row[_S1], row[_S2]), (row[_S3], row[_S4], row[_S5]),
+                                                           (row[_S6], row[_S7], row[_S8]), (row[_S9], row[_S10], row[_S11]))
             samples.append(SensorSample(t_s, tuple(q_xyzw), sight, row[ROLL], row[PITCH], row[ROLL_UNCORRECTED],
-                                        row[PITCH_UNCORRECTED],
-                                        (int(row[25]), int(row[26]), int(row[27]), int(row[28])),
-                                        (int(row[29]), int(row[30]), int(row[31]), int(row[32])),
-                                        tuple(row[POSITION]), tuple(row[VELOCITY])))
+                                        row[PITCH_UNCORRECTED], (int(row[_C0]), int(row[_C1]), int(row[_C2]), int(row[_C3])),
+                                        (int(row[_B0]), int(row[_B1]), int(row[_B2]), int(row[_B3])),
+                                        (row[_P0], row[_P1], row[_P2]), (row[_V0], row[_V1], row[_V2])))
         return samples
