@@ -300,7 +300,7 @@ class RadianceConfig:
             raise ValueError(f"field_grid_s = {self.field_grid_s} is outside the allowed range 0.1 … 60 s")
 
     def grid_spacing_s(self) -> tuple[float, float]:
-        """The coarse grids' spacings, s: (the radiance — climatology and weather —, the window-layer height).
+        """The field grids' time-node spacings, s: (the weather, the window-layer height).
 
         See ``field_grid_s``. The radiance grid serves the weather's background (the finer of its two
         fields) and so the synoptic band too, whose shortest wavelength — its zone length ÷ 1.25, degree

@@ -1,11 +1,12 @@
 """The sensor's output sample by sample, as plain values a node publishes — computed in blocks when it can.
 
-:class:`SampleStream` runs :class:`pmv_ros.physics.instrument.sensor.SensorModel` and the
-orbit for the sensor node: with the node's own attitude profile it computes
-a block of future samples in one call (numpy overhead amortised; the output
-is identical sample for sample), with a given attitude (follow mode, the
-real-time tick) one sample. Each sample is a :class:`SensorSample` of Python
-floats and tuples, so publishing does no numpy indexing.
+:class:`SampleStream` runs :class:`pmv_ros.physics.instrument.sensor.SensorModel` for the
+sensor node: with the node's own attitude profile it computes a block of
+future samples in one call (the per-call cost amortised), with a given
+attitude (follow mode) the samples due, one or more. A sample reads the same
+in any block (the instrument's grids are fixed on the clock). Each sample is a
+:class:`SensorSample` of Python floats and tuples, so publishing does no numpy
+indexing.
 """
 
 from __future__ import annotations
@@ -36,8 +37,9 @@ class SensorSample(NamedTuple):
     position_eci_m: tuple  #: spacecraft position in ECI
     velocity_eci_m_s: tuple  #: spacecraft velocity in ECI
 
-#: Samples computed per call in fast time with the own attitude profile: 512 cost
-#: ≈ 35 µs each against ≈ 70 µs in blocks of 64. A parameter change discards the block.
+#: Samples computed per call in fast time with the own attitude profile (the per-call cost of the instrument,
+#: a few µs, and of the environment's node evaluations amortised; benchmarks/bench_sensing.py). A parameter
+#: change discards the block.
 FAST_TIME_BLOCK = 512
 
 #: Paced fast time: a block should take no longer than one tick, or /clock stops while it
@@ -87,8 +89,7 @@ class SampleGrid:
 
     Sample k is the k-th step of a fast-time run that started at ``epoch_s``
     (:meth:`pmv_ros.runtime.sensor.runtime.SensorRuntime.step`): the same
-    instants, and computed in the same blocks
-    (:meth:`SampleStream.grid_profile_samples`).
+    instants (:meth:`SampleStream.grid_profile_samples`).
 
     Args:
         epoch_s: the grid's origin, s (the node clock at the start: the orbit's epoch).
@@ -174,11 +175,10 @@ class SampleStream:
     def grid_profile_samples(self, grid: SampleGrid, indices: range) -> list[SensorSample]:
         """Own-profile samples at the grid ``indices`` (real time: the samples a clock step made due).
 
-        Computed in the grid's blocks of :data:`FAST_TIME_BLOCK` samples —
-        indices 1 … 512, 513 … 1024, …: the blocks of a fast-time run from the
-        grid's origin — and the current block kept. The environment's fields
-        are interpolated over a block (:mod:`pmv_ros.physics.instrument.sensor`), so the
-        same blocks make a run on any clock sense what fast time senses.
+        Computed ahead in the grid's blocks of :data:`FAST_TIME_BLOCK` samples —
+        indices 1 … 512, 513 … 1024, … — and the current block kept: one call a
+        block. A sample reads the same in any block, so a run on any clock senses
+        what fast time senses.
         """
         samples = []
         for index in indices:
