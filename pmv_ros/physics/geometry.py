@@ -14,7 +14,7 @@ Arrays: vectors ``(3, ...)``, rotation matrices ``(3, 3, ...)`` whose
 columns are the sensor X, Y, Z axes expressed in an Earth-centred frame with
 z along the polar axis (ECI or ECEF: the ellipsoid is the same in both).
 The sensor's kernel works on one sample: vectors as 3-tuples of floats
-(:func:`dot`, :func:`cross`, :func:`unit`), and the same compiled stages
+(:func:`dot`), and the same compiled stages
 (:func:`tangent_angles`, :func:`roll_pitch`, :func:`line_of_sight_x` …)
 that the array functions here run over their arrays.
 """
@@ -40,19 +40,6 @@ BORESIGHT_SENSOR = np.array([0.0, 0.0, -1.0])
 def dot(a, b):
     """a·b of two 3-tuples."""
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-
-@kernel
-def cross(a, b):
-    """a × b of two 3-tuples."""
-    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
-
-
-@kernel
-def unit(a):
-    """a/|a| of a 3-tuple."""
-    norm = math.sqrt(dot(a, a))
-    return (a[0] / norm, a[1] / norm, a[2] / norm)
 
 
 @elementwise

@@ -57,7 +57,7 @@ from ..radiance import CO2_RADIANCE_RU, CO2_TOP_HEIGHT_M, MAX_LAYER_HEIGHT_M
 from ..compiled import kernel
 from .chord_geometry import central_angle_inwards, nadir_of_ground_distance, nadir_of_height
 from .parameters import DEFAULT_CHAIN_PARAMETERS, ChainParameters, DetectionStatus
-from .stages import ChordReadings, _hat_kernel, ifov_edge_response
+from .stages import ChordReadings, _hat_kernel, crossing_angle, edge_slope, ifov_edge_response
 
 #: Table samples per scan step (the interpolation error is then < 0.001′).
 TABLE_OVERSAMPLING = 16
@@ -497,8 +497,8 @@ def sense_chord(phi0, slope, b_m, gradient, jump, jump_d, radius, h_w, b_a, h_co
     if math.isnan(t2):
         return nan, nan, nan, nan, nan, nan, DetectionStatus.SECOND_THRESHOLD_NOT_REACHED
     # Stages 5–6: Gam = t(1)·W, Del = (t(2) − t(1))·W, POP = F(Del) (linear, clamped at the table's ends).
-    gam = t1 * kit.scalars[_SCAN_RATE]
-    dele = (t2 - t1) * kit.scalars[_SCAN_RATE]
+    gam = crossing_angle(t1, kit.scalars[_SCAN_RATE])
+    dele = edge_slope(t1, t2, kit.scalars[_SCAN_RATE])
     pop = np.interp(dele, kit.correction_del, kit.correction_pop) if kit.correction_del.size else 0.0
     gam_corrected = gam - pop
     return gam, dele, pop, gam_corrected, theta0 - gam_corrected, theta0 - gam, DetectionStatus.OK

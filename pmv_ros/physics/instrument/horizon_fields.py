@@ -71,6 +71,8 @@ NODES_AHEAD_FOLLOWED = 2
 #: Misses a sample compares a missing node with before it records it (a sample's nodes: 4 chords × 4 time nodes ×
 #: 2 azimuth nodes × 2 fields, mostly the sample before's).
 RECENT_MISSES = 64
+#: Time nodes whose horizon circles a grid keeps before it drops those behind the samples.
+RINGS_KEPT = 4096
 #: Key of an empty place in a :class:`NodeTable`.
 EMPTY = np.iinfo(np.int64).min
 #: Layout of :attr:`FieldGrid.params`.
@@ -337,6 +339,6 @@ class HorizonFields:
         angle = np.arccos(EARTH_MEAN_RADIUS_M / radius)
         for n, k in enumerate(nodes):
             grid.rings[k] = np.concatenate([frame[:, 2, n], frame[:, 0, n], frame[:, 1, n], [angle[n], final[n]]])
-        if len(grid.rings) > 4 * len(nodes) + 1024:  # rings of nodes no sample needs any more
+        if len(grid.rings) > RINGS_KEPT:  # the rings of time nodes the samples no longer reach
             for k in [k for k in grid.rings if k < grid.first_needed]:
                 del grid.rings[k]
