@@ -9,9 +9,10 @@ one ``@kernel`` function in the module of its physics; the numpy-facing
 functions of those modules marshal arrays into the same kernels, so there is
 one implementation of each stage.
 
-* ``cache=True``: the machine code is kept on disk, so a process compiles a
-  kernel once per source and CPU, and later processes load it (≈ 20 ms a
-  kernel, after numba's own start of ≈ 0.5 s in the first call of a process).
+* ``cache=True``: the machine code is kept on disk, so the sensing path is
+  compiled once per source and CPU (≈ 11 s of CPU), and later processes load
+  it (a process that senses starts ≈ 0.45 s of CPU later than without numba:
+  its import, its start, the kernels loaded).
   The folder is the package's own — ``pmv_ros/physics/__pycache__/numba-<key>``
   — or, where the package is read-only, ``pmv_ros/numba-<key>`` in the user's
   cache folder (``$XDG_CACHE_HOME`` or ``~/.cache``), or inside a

@@ -53,7 +53,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..constants import EARTH_MEAN_RADIUS_M
-from ..radiance import CO2_RADIANCE_RU, CO2_TOP_HEIGHT_M, MAX_LAYER_HEIGHT_M
+from ..radiance import MAX_LAYER_HEIGHT_M
 from ..compiled import kernel
 from .chord_geometry import central_angle_inwards, nadir_of_ground_distance, nadir_of_height
 from .parameters import DEFAULT_CHAIN_PARAMETERS, ChainParameters, DetectionStatus
@@ -332,7 +332,6 @@ def _profile_terms(phi0, slope, radius, b_m, gradient, jump, jump_d, h_w, b_a, p
         x_half += disc_c[0]
         x_one += disc_c[1]
         x_two += disc_c[2]
-    previous_nadir = previous_height = previous_value = 0.0
     linear_before = quadratic_before = 0.0  # the slope and curvature arriving at the knot
     for k in range(knots):
         height = kit.ramp_heights[k] * h_w
