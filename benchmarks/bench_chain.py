@@ -108,8 +108,9 @@ def time_instrument(samples: int, repeats: int, sources=("uniform", "environment
 
     Per source of radiance: "uniform" (one disc radiance) or "environment"
     (the flight environment of the presets: climatology, synoptic weather and
-    window-layer height sampled on the rotating Earth along each chord's line
-    of sight, on the coarse track grid). The sources alternate repeat by
+    window-layer height at each chord's horizon point on the rotating Earth,
+    the random fields kept on their grid along the horizon — filled in the
+    warm-up, so the repeats time the look-ups). The sources alternate repeat by
     repeat and each keeps its best, so a slow minute of the machine does not
     land on one of them only.
     """

@@ -13,12 +13,19 @@ pair (:func:`tangent_nadir_angles`).
 Arrays: vectors ``(3, ...)``, rotation matrices ``(3, 3, ...)`` whose
 columns are the sensor X, Y, Z axes expressed in an Earth-centred frame with
 z along the polar axis (ECI or ECEF: the ellipsoid is the same in both).
+The sensor's kernel works on one sample: vectors as 3-tuples of floats
+(:func:`dot`), and the same compiled stages
+(:func:`tangent_angles`, :func:`roll_pitch`, :func:`line_of_sight_x` …)
+that the array functions here run over their arrays.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
+from .compiled import elementwise, kernel
 from .constants import GRS80, Ellipsoid
 
 #: Chord order on the wire and in every (4, ...) array (interfaces.md).
@@ -27,6 +34,30 @@ CHORD_NAMES = ("+X", "+Y", "-X", "-Y")
 CHORD_AZIMUTHS_RAD = np.array([0.0, 0.5 * np.pi, np.pi, 1.5 * np.pi])
 #: Boresight in the sensor frame.
 BORESIGHT_SENSOR = np.array([0.0, 0.0, -1.0])
+
+
+@kernel
+def dot(a, b):
+    """a·b of two 3-tuples."""
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+@elementwise
+def line_of_sight_x(nadir_angle_rad, azimuth_rad):
+    """x of the unit line of sight at a nadir angle along a chord azimuth (sensor frame): sin φ cos α."""
+    return math.sin(nadir_angle_rad) * math.cos(azimuth_rad)
+
+
+@elementwise
+def line_of_sight_y(nadir_angle_rad, azimuth_rad):
+    """y of the unit line of sight: sin φ sin α."""
+    return math.sin(nadir_angle_rad) * math.sin(azimuth_rad)
+
+
+@elementwise
+def line_of_sight_z(nadir_angle_rad, azimuth_rad):
+    """z of the unit line of sight: −cos φ (the boresight is −Z)."""
+    return -math.cos(nadir_angle_rad) + 0.0 * azimuth_rad
 
 
 def chord_line_of_sight(nadir_angle_rad, azimuth_rad):
@@ -39,10 +70,8 @@ def chord_line_of_sight(nadir_angle_rad, azimuth_rad):
     Returns:
         ``(3, ...)`` unit vectors in the sensor frame.
     """
-    phi = np.asarray(nadir_angle_rad, float)
-    alpha = np.asarray(azimuth_rad, float)
-    s = np.sin(phi)
-    return np.array([s * np.cos(alpha), s * np.sin(alpha), -np.cos(phi) + 0.0 * alpha])
+    return np.array([line_of_sight_x(nadir_angle_rad, azimuth_rad), line_of_sight_y(nadir_angle_rad, azimuth_rad),
+                     line_of_sight_z(nadir_angle_rad, azimuth_rad)])
 
 
 def _scaled(vectors, axes_m):
@@ -61,6 +90,63 @@ def _semi_axes(ellipsoid: Ellipsoid, height_m) -> np.ndarray:
     return np.array([ellipsoid.a_m + h, ellipsoid.a_m + h, ellipsoid.b_m + h])
 
 
+@kernel
+def _pair_tangents(p, chord, boresight, k, p_b, b_b):
+    """The horizons of the chord pair (+, −) in one plane: nadir angles, rad, NaN where there is none.
+
+    (p·d)² − k |d|² = 0 with d = t c + b, t = tan φ: qa t² + 2 qb t + qc = 0. qc > 0 with p·b < 0: the
+    boresight ray (not just its line) hits the Earth; qa < 0: a ray across it misses. Then the roots have
+    opposite signs, one horizon on each chord, and both tangent rays lie ahead.
+    """
+    p_c, c_c, c_b = dot(p, chord), dot(chord, chord), dot(chord, boresight)
+    qa = p_c * p_c - k * c_c
+    qb = p_c * p_b - k * c_b
+    qc = p_b * p_b - k * b_b
+    disc = qb * qb - qa * qc
+    if not (qa < 0.0 and qc > 0.0 and p_b < 0.0 and disc >= 0.0):
+        return math.nan, math.nan
+    root = math.sqrt(disc)
+    t_plus = (-qb - root) / qa
+    t_minus = (-qb + root) / qa
+    plus = math.atan(t_plus) if p_c * t_plus + p_b < 0.0 else math.nan
+    minus = -math.atan(t_minus) if p_c * t_minus + p_b < 0.0 else math.nan
+    return plus, minus
+
+
+@kernel
+def tangent_angles(position_m, x_axis, y_axis, z_axis, semi_axes_m):
+    """:func:`tangent_nadir_angles` of one sample: 3-tuples (position; the sensor axes; the raised ellipsoid's
+    semi-axes, :func:`semi_axes`) → the four nadir angles (+X, +Y, −X, −Y), rad."""
+    a, b, c = semi_axes_m
+    p = (position_m[0] / a, position_m[1] / b, position_m[2] / c)
+    boresight = (-z_axis[0] / a, -z_axis[1] / b, -z_axis[2] / c)
+    k = dot(p, p) - 1.0
+    p_b, b_b = dot(p, boresight), dot(boresight, boresight)
+    px, mx = _pair_tangents(p, (x_axis[0] / a, x_axis[1] / b, x_axis[2] / c), boresight, k, p_b, b_b)
+    py, my = _pair_tangents(p, (y_axis[0] / a, y_axis[1] / b, y_axis[2] / c), boresight, k, p_b, b_b)
+    return px, py, mx, my
+
+
+@kernel
+def _tangent_angles_each(position, axes, semi_axes_m, out):
+    for n in range(position.shape[1]):
+        out[0, n], out[1, n], out[2, n], out[3, n] = tangent_angles(
+            (position[0, n], position[1, n], position[2, n]), (axes[0, 0, n], axes[1, 0, n], axes[2, 0, n]),
+            (axes[0, 1, n], axes[1, 1, n], axes[2, 1, n]), (axes[0, 2, n], axes[1, 2, n], axes[2, 2, n]),
+            semi_axes_m)
+
+
+def _leading(array, fixed: int, shape) -> np.ndarray:
+    """``array`` with its first ``fixed`` axes kept and the rest aligned to broadcast against ``shape``."""
+    rest = array.shape[fixed:]
+    return array.reshape(array.shape[:fixed] + (1,) * (len(shape) - len(rest)) + rest)
+
+
+def semi_axes(ellipsoid: Ellipsoid, height_m=0.0) -> tuple:
+    """Semi-axes (a+h, a+h, b+h), m, of the ellipsoid raised by ``height_m``, as the kernels take them."""
+    return tuple(float(x) for x in _semi_axes(ellipsoid, height_m))
+
+
 def tangent_nadir_angles(position_m, sensor_axes, ellipsoid: Ellipsoid = GRS80, height_m=0.0):
     """Nadir angle at which each chord's line of sight grazes the raised ellipsoid.
 
@@ -68,7 +154,7 @@ def tangent_nadir_angles(position_m, sensor_axes, ellipsoid: Ellipsoid = GRS80, 
     unit sphere, a ray p + s·d grazes it when (p·d)² = (|p|² − 1)|d|². With
     d = sin φ·c + cos φ·b (c the chord direction, b the boresight) this is a
     quadratic in tan φ whose two roots are the horizons of the two opposite
-    chords of the plane.
+    chords of the plane (:func:`tangent_angles`, sample by sample).
 
     Args:
         position_m: spacecraft position ``(3, ...)``, m, Earth-centred, z polar.
@@ -80,37 +166,15 @@ def tangent_nadir_angles(position_m, sensor_axes, ellipsoid: Ellipsoid = GRS80, 
         ``(4, ...)`` nadir angles, rad, chords +X, +Y, −X, −Y; NaN where the
         chord's half-plane has no horizon (the boresight misses the Earth).
     """
-    axes = _semi_axes(ellipsoid, height_m)
-    p = _scaled(np.asarray(position_m, float), axes)
-    sensor_axes = np.asarray(sensor_axes, float)
-    boresight = _scaled(-sensor_axes[:, 2], axes)
-    k = np.einsum("i...,i...->...", p, p) - 1.0
-    p_b = np.einsum("i...,i...->...", p, boresight)
-    b_b = np.einsum("i...,i...->...", boresight, boresight)
-    angles = []
-    for column in (0, 1):  # the +X/−X pair, then the +Y/−Y pair
-        chord = _scaled(sensor_axes[:, column], axes)
-        p_c = np.einsum("i...,i...->...", p, chord)
-        c_c = np.einsum("i...,i...->...", chord, chord)
-        c_b = np.einsum("i...,i...->...", chord, boresight)
-        # (p·d)^2 - k |d|^2 = 0 with d = t c + b, t = tan φ:  qa t^2 + 2 qb t + qc = 0
-        qa = p_c**2 - k * c_c
-        qb = p_c * p_b - k * c_b
-        qc = p_b**2 - k * b_b
-        disc = qb**2 - qa * qc
-        # qc > 0 with p·b < 0: the boresight ray (not just its line) hits the
-        # Earth; qa < 0: a ray across it misses. Then the roots have opposite
-        # signs, one horizon on each chord, and both tangent rays lie ahead.
-        ok = (qa < 0.0) & (qc > 0.0) & (p_b < 0.0) & (disc >= 0.0)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            root = np.sqrt(np.where(ok, disc, np.nan))
-            t_plus = (-qb - root) / qa
-            t_minus = (-qb + root) / qa
-        t_plus = np.where(p_c * t_plus + p_b < 0.0, t_plus, np.nan)
-        t_minus = np.where(p_c * t_minus + p_b < 0.0, t_minus, np.nan)
-        angles.append((np.arctan(t_plus), -np.arctan(t_minus)))
-    (px, mx), (py, my) = angles
-    return np.stack([px, py, mx, my])
+    position = np.asarray(position_m, float)
+    axes = np.asarray(sensor_axes, float)
+    shape = np.broadcast_shapes(position.shape[1:], axes.shape[2:])
+    position = np.ascontiguousarray(np.broadcast_to(_leading(position, 1, shape), (3,) + shape))
+    axes = np.ascontiguousarray(np.broadcast_to(_leading(axes, 2, shape), (3, 3) + shape))
+    out = np.empty((4,) + shape)
+    _tangent_angles_each(position.reshape(3, -1), axes.reshape(3, 3, -1), semi_axes(ellipsoid, height_m),
+                         out.reshape(4, -1))
+    return out
 
 
 def vertical_from_horizon_angles(horizon_nadir_rad):
@@ -135,6 +199,22 @@ def vertical_from_horizon_angles(horizon_nadir_rad):
     return nadir / np.linalg.norm(nadir, axis=0)
 
 
+@kernel
+def roll_pitch(plus_x, plus_y, minus_x, minus_y):
+    """:func:`roll_pitch_from_horizon_angles` of one sample's four nadir angles, rad: (roll, pitch)."""
+    tilt_x = 0.5 * (plus_x - minus_x)
+    tilt_y = 0.5 * (plus_y - minus_y)
+    # With n ∝ (tan δx, tan δy, −1): roll = atan2(−n_y, −n_z) = −δy and
+    # pitch = atan2(n_x, |(n_y, n_z)|) = atan(tan δx · cos δy) (REP-103, pmv_ros.physics.attitude).
+    return -tilt_y, math.atan(math.tan(tilt_x) * math.cos(tilt_y if math.isfinite(tilt_y) else 0.0))
+
+
+@kernel
+def _roll_pitch_each(angles, roll, pitch):
+    for n in range(angles.shape[1]):
+        roll[n], pitch[n] = roll_pitch(angles[0, n], angles[1, n], angles[2, n], angles[3, n])
+
+
 def roll_pitch_from_horizon_angles(horizon_nadir_rad):
     """Roll and pitch, rad, read from the four horizon nadir angles, each pair on its own.
 
@@ -151,13 +231,11 @@ def roll_pitch_from_horizon_angles(horizon_nadir_rad):
         (roll_rad, pitch_rad) shaped like one chord's angles.
     """
     phi = np.asarray(horizon_nadir_rad, float)
-    tilt_x = 0.5 * (phi[0] - phi[2])
-    tilt_y = 0.5 * (phi[1] - phi[3])
-    # With n ∝ (tan δx, tan δy, −1): roll = atan2(−n_y, −n_z) = −δy and
-    # pitch = atan2(n_x, |(n_y, n_z)|) = atan(tan δx · cos δy) (REP-103, pmv_ros.physics.attitude).
-    roll = -tilt_y
-    pitch = np.arctan(np.tan(tilt_x) * np.cos(np.where(np.isfinite(tilt_y), tilt_y, 0.0)))
-    return roll, pitch
+    shape = phi.shape[1:]
+    flat = np.ascontiguousarray(phi.reshape(4, -1))
+    roll, pitch = np.empty(flat.shape[1]), np.empty(flat.shape[1])
+    _roll_pitch_each(flat, roll, pitch)
+    return (roll.reshape(shape), pitch.reshape(shape)) if shape else (roll[0], pitch[0])
 
 def sphere_tangent_height(nadir_angle_rad, orbit_radius_m, earth_radius_m):
     """Height above a sphere of the closest point of a line of sight, m: (R + H) sin φ − R.

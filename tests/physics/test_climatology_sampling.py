@@ -21,7 +21,7 @@ from pmv_ros.apps.report import harmonic_spectrum
 from pmv_ros.physics.constants import ARCMIN_RAD, EARTH_MEAN_RADIUS_M
 from pmv_ros.physics.environment import EnvironmentParameters, horizon_radiance_climatology
 from pmv_ros.physics.instrument.oblateness import sensor_axes_eci
-from pmv_ros.physics.instrument.sensor import ChainDetector, RadianceConfig
+from pmv_ros.physics.instrument.sensor import ChainDetector, RadianceConfig, SensorConfig, SensorModel
 from pmv_ros.physics.orbit.two_body import CircularOrbit, eci_to_ecef, geocentric_latitude_longitude
 
 ALTITUDE_M = 835e3
@@ -32,21 +32,22 @@ def _track(n=300):
     orbit = CircularOrbit(ALTITUDE_M, math.radians(98.8))
     t = np.linspace(0.0, orbit.period_s, n)
     position, _ = orbit.state_eci(t)
-    return t, position, sensor_axes_eci(orbit, t, np.tile(LEVEL, n))
+    return orbit, t, position, sensor_axes_eci(orbit, t, np.tile(LEVEL, n))
 
 
 def test_the_horizon_level_is_the_climatology_at_the_limb_point():
-    # Climatology alone, evaluated at every sample (field_grid_s 0.1 s against samples 20 s apart): each
-    # chord's level is the climatology where its line of sight grazes the sphere, and its disc is uniform.
-    # The limb point is computed here independently of the sensor: the ray at the nadir angle
-    # asin(R/r) along the chord's azimuth touches the sphere at r + √(r² − R²)·u.
+    # Climatology alone (a formula, evaluated at each sample's horizon points): each chord's level is the
+    # climatology where its line of sight grazes the sphere, and its disc is uniform. The limb point is computed
+    # here independently of the sensor: the ray at the nadir angle asin(R/r) along the chord's azimuth touches
+    # the sphere at r + √(r² − R²)·u.
     environment = EnvironmentParameters(weather_enabled=False, height_variation_enabled=False,
                                         epoch_day_of_year=15.0)
     detector = ChainDetector(ALTITUDE_M, RadianceConfig(source="environment", environment=environment,
-                                                        earth_rotation_at_epoch_rad=0.3, field_grid_s=0.1))
-    t, position, axes = _track()
-    level, samples, window = detector._chord_radiance(t, position, axes)
-    assert samples is None
+                                                        earth_rotation_at_epoch_rad=0.3))
+    orbit, t, position, axes = _track()
+    reading = SensorModel(orbit, SensorConfig(), detector).sense(t, np.tile(LEVEL, t.size))
+    level, window = reading.horizon_radiance_ru, reading.window_height_m
+    assert np.all(np.isnan(reading.disc_samples_ru))
     np.testing.assert_array_equal(window, 40e3)
     r = np.linalg.norm(position, axis=0)
     up = position / r
@@ -57,7 +58,8 @@ def test_the_horizon_level_is_the_climatology_at_the_limb_point():
         limb = position + np.sqrt(r**2 - EARTH_MEAN_RADIUS_M**2) * ray
         lat, _ = geocentric_latitude_longitude(eci_to_ecef(limb, t, 0.3))
         expected = horizon_radiance_climatology(lat, 15.0 + t / 86400.0)
-        # 1e-9 r.u.: the same point by two formulas (rounding of the geometry only).
+        # 1e-9 r.u.: the same point by two formulas (rounding of the geometry only; the orbit's state is the
+        # track's, interpolated to ≈ 1e-5 m).
         np.testing.assert_allclose(level[chord], expected, rtol=0, atol=1e-9)
     # and the limb, not the sub-satellite point: ≈ 30° of latitude apart, up to ≈ 2 r.u. of climatology
     below, _ = geocentric_latitude_longitude(eci_to_ecef(position, t, 0.3))

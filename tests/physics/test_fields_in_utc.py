@@ -21,7 +21,7 @@ from pmv_ros.physics.environment import EnvironmentParameters
 from pmv_ros.physics.orbit.ephemeris import (Epoch, local_time_of_node_h, raan_from_local_time_of_node,
                                        sun_position_eci_m)
 from pmv_ros.physics.orbit.two_body import CircularOrbit
-from pmv_ros.physics.instrument.sensor import ChainDetector, RadianceConfig
+from pmv_ros.physics.instrument.sensor import ChainDetector, RadianceConfig, SensorConfig, SensorModel
 from pmv_ros.runtime.common import parameters
 from pmv_ros.runtime.common.assembly import SENSOR_PARAMS, build_detector, build_models, parse_epoch
 
@@ -38,29 +38,47 @@ def preset_values(name: str, given: dict) -> dict:
 # The weather as a horizon level (§3.2 item 3)
 # --------------------------------------------------------------------------
 
-def _detector(climatology: bool):
+def _reading(climatology: bool, n=400):
     # The climatology along the line of sight, so that the disc samples show the weather's factor (with the
     # climatology as a horizon level the disc is uniform: tests/physics/test_climatology_sampling.py).
     environment = EnvironmentParameters(climatology_enabled=climatology, climatology_sampling="line_of_sight",
                                         relative_variability=0.3, synoptic_fraction=0.55,
                                         height_variation_enabled=False, seed=3)
-    return ChainDetector(835e3, RadianceConfig(source="environment", environment=environment))
-
-
-def _chords(detector, n=400):
     orbit = CircularOrbit(835e3, math.radians(98.8))
+    detector = ChainDetector(835e3, RadianceConfig(source="environment", environment=environment))
     t = np.linspace(0.0, orbit.period_s, n)
+    return orbit, t, SensorModel(orbit, SensorConfig(), detector).sense(t, np.tile(LEVEL, n)), detector
+
+
+def _disc_points_latitude(orbit, t):
+    """Geocentric latitude of each chord's horizon point and of the ground its lines of sight at the inward sample
+    angles hit, (points, chords, samples): computed here from the sphere, independently of the sensor."""
+    from pmv_ros.physics import chain
+    from pmv_ros.physics.constants import EARTH_MEAN_RADIUS_M
     from pmv_ros.physics.instrument.oblateness import sensor_axes_eci
+
     position, _ = orbit.state_eci(t)
-    axes = sensor_axes_eci(orbit, t, np.tile(LEVEL, n))
-    return t, position, axes
+    radius = np.linalg.norm(position, axis=0)
+    up = position / radius
+    axes = sensor_axes_eci(orbit, t, np.tile(LEVEL, t.size))
+    phi0, slope = chain.sphere_chord(radius - EARTH_MEAN_RADIUS_M)
+    inward = np.asarray(chain.DISC_SAMPLE_INWARD_RAD)[:, None]
+    distance = chain.chord_ground_distance(phi0 - inward, phi0, slope)
+    angles = np.concatenate([np.arccos(EARTH_MEAN_RADIUS_M / radius)[None], np.arccos(EARTH_MEAN_RADIUS_M / radius)
+                             - distance / EARTH_MEAN_RADIUS_M])
+    lat = np.empty((4, 4, t.size))
+    for chord, (axis, sign) in enumerate(((0, 1.0), (1, 1.0), (0, -1.0), (1, -1.0))):
+        horizontal = sign * axes[:, axis]  # horizontal at zero attitude on a circular orbit
+        points = np.cos(angles)[None] * up[:, None] + np.sin(angles)[None] * horizontal[:, None]
+        lat[:, chord] = np.arctan2(points[2], np.hypot(points[0], points[1]))
+    return lat
 
 
 def test_without_climatology_the_whole_profile_is_the_horizon_level():
     # A uniform climatology and the weather's anomaly at the horizon point only: every disc sample of a
     # chord equals its horizon radiance (a Model-A level), while the level varies along the track.
-    detector = _detector(climatology=False)
-    horizon, samples, _ = detector._chord_radiance(*_chords(detector))
+    _, _, reading, _ = _reading(climatology=False)
+    horizon, samples = reading.horizon_radiance_ru, reading.disc_samples_ru
     np.testing.assert_allclose(samples, np.broadcast_to(horizon[..., None], samples.shape), rtol=0, atol=1e-12)
     assert np.std(horizon) > 0.3  # η = 0.3 of 2.4 r.u.: the level does vary (σ ≈ 0.7 r.u.)
 
@@ -68,20 +86,18 @@ def test_without_climatology_the_whole_profile_is_the_horizon_level():
 def test_with_climatology_every_sample_carries_the_same_weather_factor():
     # B(x) = B_clim(x)·(1 + η·a_horizon): samples ÷ climatology is the horizon's factor wherever
     # nothing is clipped to 1 … 4 r.u.
-    weather = _detector(climatology=True)
-    t, position, axes = _chords(weather)
-    horizon, samples, _ = weather._chord_radiance(t, position, axes)
-    lat, lon, tt = weather._ground_points(t, position, axes, True)
-    clim = weather.environment.mean_radiance_ru(lat, tt).reshape(4, 4, t.size)  # (points, chords, samples)
+    orbit, t, reading, detector = _reading(climatology=True)
+    horizon, samples = reading.horizon_radiance_ru, reading.disc_samples_ru
+    clim = detector.environment.mean_radiance_ru(_disc_points_latitude(orbit, t), t)  # (points, chords, samples)
     factor_h = horizon / clim[0]
     factor_s = samples.transpose(2, 0, 1) / clim[1:]
     inside = np.all((samples > 1.0 + 1e-9) & (samples < 4.0 - 1e-9), axis=-1) & (horizon > 1.0 + 1e-9) \
         & (horizon < 4.0 - 1e-9)
     assert inside.mean() > 0.8
-    # 1e-3: the climatology and the anomaly are interpolated in time on their own grids (cubic splines),
-    # the samples here are 15 s apart, so the factors agree to the spline's error, not to rounding.
+    # 1e-9: the climatology is a formula evaluated at each point and the anomaly one value per chord, so the
+    # factors agree to the rounding of the two computations of the points (the sensor's from its track).
     np.testing.assert_allclose(factor_s[:, inside], np.broadcast_to(factor_h[inside], factor_s[:, inside].shape),
-                               rtol=2e-3)
+                               rtol=1e-9)
     assert np.std(factor_h) > 0.15
 
 

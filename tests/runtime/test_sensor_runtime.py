@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 import yaml
@@ -75,8 +77,8 @@ def test_following_truth_is_checked_then_measured_at_the_sample_time():
     runtime = runtime_of(values)
     orbital = runtime.frames.orbital
     q = np.array(quaternion_from_roll_pitch_yaw(10 * ARCMIN_RAD, -4 * ARCMIN_RAD, 0.0))
-    assert runtime.add_truth("eci", runtime.sim_time_s, q, 0.0).published == []
-    assert runtime.add_truth(orbital, None, q, 0.0).published == []
+    assert not runtime.add_truth("eci", runtime.sim_time_s, q, 0.0).published
+    assert not runtime.add_truth(orbital, None, q, 0.0).published
     counters = runtime.health.counters
     assert counters["rejected_truth_wrong_frame"] == 1 and counters["rejected_truth_zero_stamp"] == 1
     # No truth yet: a step publishes health only, and says why.
@@ -137,17 +139,78 @@ def test_a_host_steps_the_follower_to_its_own_times_as_the_node_clock_would():
 
 
 def test_a_built_sensor_is_ready_its_first_sample_builds_nothing_of_the_chain():
-    # The chain's one-off start (its tables: ≈ 0.07 s of CPU) is paid when the
-    # runtime is built, so a real-time node's first tick is on time: the first sample finds everything built.
+    # The chain's one-off start (its tables: ≈ 0.07 s of CPU; its compiled kernels: loaded from numba's cache,
+    # or compiled) is paid when the runtime is built, so a real-time node's first tick is on time: the first
+    # sample finds everything built and compiles nothing.
     from pmv_ros.physics.chain import fast
+    from pmv_ros.physics.instrument import sensing
 
-    caches = (fast.response_tables, fast._ground_distance_table, fast._disc_sample_inverse)
+    caches = (fast._kit, fast.response_tables, fast._ground_distance_table, fast._disc_sample_inverse)
     for cache in caches:
         cache.cache_clear()
     values = preset_values("kondor", sensor__rate_hz=10.0)
     runtime = runtime_of(values)
     built = [cache.cache_info().misses for cache in caches]
-    assert built == [1, 1, 1]
+    assert all(built)  # (the kit twice: with the correction table, and without it by chain.prepare)
+    kernels = {kernel: len(kernel.signatures) for kernel in (sensing.sense_samples, fast._sense_chords)}
+    assert all(kernels.values())
     sample = runtime.step().samples[0]
     assert [cache.cache_info().misses for cache in caches] == built
+    assert {kernel: len(kernel.signatures) for kernel in kernels} == kernels
     assert np.isfinite(sample.roll_rad) and np.isfinite(sample.pitch_rad)
+
+
+@pytest.mark.parametrize("preset", ["kondor", "meteor_m2"])
+def test_following_a_recorded_truth_history_reads_what_the_own_attitude_read(preset):
+    # Issue 48: the own attitude (blocks of 512 computed ahead) publishes its truth at each sample time; a
+    # follower fed that history, one truth message per sample, senses each sample alone — and a real-time
+    # follower several due samples as one block. The flight environment and the Sun and Moon check on: the same
+    # readings to 1e-6′ (what is left is rounding in the fields' nodes, computed in other batches).
+    values = preset_values(preset, sensor__rate_hz=10.0)
+    own = runtime_of(values)
+    recorded = [sample for _ in range(700) for sample in own.step().samples]
+    follower = runtime_of(dict(values, **{"attitude.source": "follow"}))
+    followed = []
+    for sample in recorded:
+        follower.add_truth(follower.frames.orbital, sample.t_s, sample.q_xyzw, sample.t_s)
+        followed += follower.step().samples
+    # (the follower's clock is its steps summed, the own blocks' stamps first + k·period: 1e-13 s apart at most)
+    np.testing.assert_allclose([s.t_s for s in followed], [s.t_s for s in recorded], rtol=0, atol=1e-9)
+    assert [s.chord_status for s in followed] == [s.chord_status for s in recorded]
+    for name in ("roll_rad", "pitch_rad", "roll_uncorrected_rad", "pitch_uncorrected_rad"):
+        mine, theirs = (np.array([getattr(s, name) for s in samples]) for samples in (followed, recorded))
+        assert np.nanmax(np.abs(mine - theirs)) / ARCMIN_RAD <= 1e-6, name
+    assert np.std([s.pitch_rad for s in recorded]) / ARCMIN_RAD > 0.1  # the environment does move the angles
+
+
+def test_a_followed_orbits_field_nodes_placed_ahead_are_placed_again_when_odometry_arrives():
+    # orbit.source follow, fast time, one sample a step. The first sample, at 0.1 s, is 0.05 s past the only
+    # odometry: it is sensed on the extrapolated state, and the field nodes it and the next samples need are
+    # placed from that state. Then the user's orbit determination corrects the orbit (from 0.1 s on, its states
+    # are 1 km further along the track). The nodes placed from the extrapolation are placed again once the new
+    # odometry arrives: the samples after read as those of a sensor that had the corrected odometry from the
+    # start, to 1e-6′ (kept, the sample at 0.2 s differs by 0.08′: the horizon points 1 km off, against fields of
+    # ≥ 100 km).
+    values = preset_values("meteor_m2", orbit__source="follow", sensor__rate_hz=10.0, orbit__j2_node_drift=False)
+    first = runtime_of(preset_values("meteor_m2", orbit__j2_node_drift=False)).orbit
+    shift_rad = 1e3 / first.radius_m
+    corrected = dataclasses.replace(first, arg_latitude_at_epoch_rad=first.arg_latitude_at_epoch_rad + shift_rad)
+    early, informed = runtime_of(values), runtime_of(values)
+
+    def odometry(runtime, orbit, stamps):
+        for t_s in stamps:
+            position, velocity = orbit.state_eci(t_s)
+            runtime.add_odometry(runtime.frames.eci, runtime.frames.orbital, (t_s, position, velocity), 0.0)
+
+    odometry(early, first, [0.05])
+    extrapolated = early.step().samples  # 0.1 s: extrapolated from 0.05 s
+    odometry(early, corrected, np.arange(0.1, 2.01, 0.1))
+    odometry(informed, first, [0.05])
+    odometry(informed, corrected, np.arange(0.1, 2.01, 0.1))
+    informed.step()  # 0.1 s: the corrected state
+    after = {name: [sample for _ in range(15) for sample in runtime.step().samples]
+             for name, runtime in (("early", early), ("informed", informed))}
+    assert len(extrapolated) == 1 and len(after["early"]) == len(after["informed"]) == 15
+    for mine, theirs in zip(after["early"], after["informed"]):
+        assert mine.t_s == pytest.approx(theirs.t_s, abs=1e-9)
+        assert max(abs(mine.roll_rad - theirs.roll_rad), abs(mine.pitch_rad - theirs.pitch_rad)) / ARCMIN_RAD <= 1e-6

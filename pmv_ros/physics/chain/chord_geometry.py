@@ -9,14 +9,20 @@ a sphere (:func:`chord_tangent_height`, :func:`chord_ground_distance` and
 their inverses). On the ellipsoid only the curvature term of h(φ) is
 approximate: a radius off by 0.6 % (GRS80's meridian radius at the
 equator against the mean R) moves the 60 km layer by ≈ 10 m, 0.01′.
+
+Each formula the chain's kernel uses is a compiled elementwise function (:mod:`pmv_ros.physics.compiled`):
+the kernel calls it on one chord, numpy callers on arrays — the same code.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
+from ..compiled import elementwise
 from ..constants import EARTH_MEAN_RADIUS_M
-from ..geometry import sphere_nadir_angle_of_height, sphere_tangent_height
+from ..geometry import sphere_tangent_height
 from ..radiance import CO2_TOP_HEIGHT_M
 from .parameters import DEFAULT_CHAIN_PARAMETERS, ChainParameters
 
@@ -43,40 +49,69 @@ def chord_tangent_height(nadir_angle_rad, horizon_nadir_rad, tangent_height_rate
     return sphere_tangent_height(np.asarray(nadir_angle_rad, float) - offset, rho, earth_radius_m)
 
 
+@elementwise
+def nadir_of_height(height_m, horizon_nadir_rad, tangent_height_rate_m, earth_radius_m):
+    """:func:`chord_nadir_of_height` of one chord (the kernels' form: every argument given)."""
+    rho = math.hypot(earth_radius_m, tangent_height_rate_m)
+    return (math.asin((earth_radius_m + height_m) / rho) + horizon_nadir_rad
+            - math.atan2(earth_radius_m, tangent_height_rate_m))
+
+
 def chord_nadir_of_height(height_m, horizon_nadir_rad, tangent_height_rate_m, earth_radius_m=EARTH_MEAN_RADIUS_M):
-    """Nadir angle of the line of sight grazing ``height_m`` on a chord, rad (inverse of the above)."""
-    rho, offset = _equivalent_sphere(horizon_nadir_rad, tangent_height_rate_m, earth_radius_m)
-    return sphere_nadir_angle_of_height(height_m, rho, earth_radius_m) + offset
+    """Nadir angle of the line of sight grazing ``height_m`` on a chord, rad (inverse of the above):
+    asin((R + h)/ρ) + φ₀ − atan2(R, s) on the equivalent sphere of orbit radius ρ = √(R² + s²)."""
+    return nadir_of_height(height_m, horizon_nadir_rad, tangent_height_rate_m, earth_radius_m)
 
 
-def _central_angle_inwards(inward_angle_rad, kappa):
+@elementwise
+def central_angle_inwards(inward_angle_rad, kappa):
     """Central angle, rad, from the horizon point to where a line of sight x inside the limb hits.
 
     Stable form of acos(cos x − κ sin x) − x (κ = s/R): the near
     intersection of the equivalent sphere; NaN where x < 0.
     """
-    x = np.asarray(inward_angle_rad, float)
-    with np.errstate(invalid="ignore"):
-        arg = np.sqrt(np.sin(0.5 * x) ** 2 + 0.5 * kappa * np.sin(x))
-        return np.where(x >= 0.0, 2.0 * np.arcsin(np.minimum(arg, 1.0)) - x, np.nan)
+    if math.isnan(inward_angle_rad) or math.isnan(kappa) or inward_angle_rad < 0.0:  # (NaN first: no signal)
+        return math.nan
+    arg = math.sqrt(math.sin(0.5 * inward_angle_rad) ** 2 + 0.5 * kappa * math.sin(inward_angle_rad))
+    if arg > 1.0:
+        arg = 1.0
+    return 2.0 * math.asin(arg) - inward_angle_rad
+
+
+@elementwise
+def ground_distance(nadir_angle_rad, horizon_nadir_rad, tangent_height_rate_m, earth_radius_m):
+    """:func:`chord_ground_distance` of one chord (the kernels' form: every argument given)."""
+    return earth_radius_m * central_angle_inwards(horizon_nadir_rad - nadir_angle_rad,
+                                                  tangent_height_rate_m / earth_radius_m)
 
 
 def chord_ground_distance(nadir_angle_rad, horizon_nadir_rad, tangent_height_rate_m,
                           earth_radius_m=EARTH_MEAN_RADIUS_M):
     """Ground distance inwards from the horizon point to where a line of sight hits, m (NaN if it misses)."""
-    x = np.asarray(horizon_nadir_rad, float) - np.asarray(nadir_angle_rad, float)
-    kappa = np.asarray(tangent_height_rate_m, float) / np.asarray(earth_radius_m, float)
-    return np.asarray(earth_radius_m, float) * _central_angle_inwards(x, kappa)
+    return ground_distance(nadir_angle_rad, horizon_nadir_rad, tangent_height_rate_m, earth_radius_m)
+
+
+@elementwise
+def nadir_of_ground_distance(ground_distance_m, horizon_nadir_rad, tangent_height_rate_m, earth_radius_m):
+    """:func:`chord_nadir_of_ground_distance` of one chord (the kernels' form: every argument given)."""
+    rho = math.hypot(earth_radius_m, tangent_height_rate_m)
+    offset = horizon_nadir_rad - math.atan2(earth_radius_m, tangent_height_rate_m)
+    horizon_central = math.atan2(tangent_height_rate_m, earth_radius_m)  # π/2 − φ₀ of the sphere
+    central = horizon_central - ground_distance_m / earth_radius_m
+    return math.atan2(earth_radius_m * math.sin(central), rho - earth_radius_m * math.cos(central)) + offset
 
 
 def chord_nadir_of_ground_distance(ground_distance_m, horizon_nadir_rad, tangent_height_rate_m,
                                    earth_radius_m=EARTH_MEAN_RADIUS_M):
     """Nadir angle, rad, of the line of sight hitting the ground ``ground_distance_m`` inside the horizon point."""
-    rho, offset = _equivalent_sphere(horizon_nadir_rad, tangent_height_rate_m, earth_radius_m)
-    r = np.asarray(earth_radius_m, float)
-    horizon_central = np.arctan2(np.asarray(tangent_height_rate_m, float), r)  # π/2 − φ₀ of the sphere
-    central = horizon_central - np.asarray(ground_distance_m, float) / r
-    return np.arctan2(r * np.sin(central), rho - r * np.cos(central)) + offset
+    return nadir_of_ground_distance(ground_distance_m, horizon_nadir_rad, tangent_height_rate_m, earth_radius_m)
+
+
+@elementwise
+def height_rate_from_layer(horizon_nadir_rad, layer_nadir_rad, layer_height_m, earth_radius_m):
+    """:func:`tangent_height_rate_from_layer` of one chord (the kernels' form: every argument given)."""
+    delta = layer_nadir_rad - horizon_nadir_rad
+    return (layer_height_m + earth_radius_m * (1.0 - math.cos(delta))) / math.sin(delta)
 
 
 def tangent_height_rate_from_layer(horizon_nadir_rad, layer_nadir_rad, layer_height_m,
@@ -95,16 +130,24 @@ def tangent_height_rate_from_layer(horizon_nadir_rad, layer_nadir_rad, layer_hei
         layer_height_m: the layer's height, m (> 0).
         earth_radius_m: local Earth radius R, m.
     """
-    delta = np.asarray(layer_nadir_rad, float) - np.asarray(horizon_nadir_rad, float)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return (np.asarray(layer_height_m, float) + earth_radius_m * (1.0 - np.cos(delta))) / np.sin(delta)
+    return height_rate_from_layer(horizon_nadir_rad, layer_nadir_rad, layer_height_m, earth_radius_m)
+
+
+@elementwise
+def sphere_horizon_nadir(altitude_m, earth_radius_m):
+    """φ₀ = asin(R/(R + H)) of a chord at zero attitude over a sphere, rad."""
+    return math.asin(earth_radius_m / (earth_radius_m + altitude_m))
+
+
+@elementwise
+def sphere_slant_range(altitude_m, earth_radius_m):
+    """s = (R + H)·cos φ₀ of a chord at zero attitude over a sphere, m (the slope dh/dφ at its horizon)."""
+    return (earth_radius_m + altitude_m) * math.cos(sphere_horizon_nadir(altitude_m, earth_radius_m))
 
 
 def sphere_chord(altitude_m, earth_radius_m=EARTH_MEAN_RADIUS_M):
     """(φ₀, s) of a chord at zero attitude over a sphere: asin(R/(R+H)), (R+H)·cos φ₀ (physics.md §2)."""
-    rho = earth_radius_m + np.asarray(altitude_m, float)
-    phi0 = np.arcsin(earth_radius_m / rho)
-    return phi0, rho * np.cos(phi0)
+    return sphere_horizon_nadir(altitude_m, earth_radius_m), sphere_slant_range(altitude_m, earth_radius_m)
 
 
 def scan_start_nadir_angle(horizon_nadir_rad, tangent_height_rate_m, top_height_m=CO2_TOP_HEIGHT_M,

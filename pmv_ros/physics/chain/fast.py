@@ -34,9 +34,11 @@ coarse points only if the output grazes a threshold by less than
 ≈ 0.005 r.u. and falls back — a tangency, where the reading is
 ill-conditioned anyway.
 
-Speed (benchmarks/bench_chain.py, one core): ≈ 3·10⁵ chords/s in
-batches of ≥ 10⁴ chords; a call costs ≈ 0.5 ms of fixed overhead, so
-batch the chords of many time samples into one call.
+One chord is one call of the compiled kernel :func:`sense_chord`
+(:mod:`pmv_ros.physics.compiled`): the sensor's kernel calls it for each chord
+of each sample, :func:`sense_horizon_chords` for arrays of chords — the same
+code, so a chord's reading does not depend on the batch it came in. Speed:
+benchmarks/bench_chain.py.
 
 Agreement with the literal loop program (tests/reference_chain.py):
 within 0.05′ in Gam and Del (tests/physics/test_chain.py).
@@ -46,14 +48,16 @@ from __future__ import annotations
 
 import math
 from functools import lru_cache
+from typing import NamedTuple
 
 import numpy as np
 
 from ..constants import EARTH_MEAN_RADIUS_M
-from ..radiance import CO2_RADIANCE_RU, CO2_TOP_HEIGHT_M, MAX_LAYER_HEIGHT_M
-from .chord_geometry import _central_angle_inwards, chord_nadir_of_ground_distance, chord_nadir_of_height
+from ..radiance import MAX_LAYER_HEIGHT_M
+from ..compiled import kernel
+from .chord_geometry import central_angle_inwards, nadir_of_ground_distance, nadir_of_height
 from .parameters import DEFAULT_CHAIN_PARAMETERS, ChainParameters, DetectionStatus
-from .stages import ChordReadings, _hat_kernel, _readings, ifov_edge_response
+from .stages import ChordReadings, _hat_kernel, crossing_angle, edge_slope, ifov_edge_response
 
 #: Table samples per scan step (the interpolation error is then < 0.001′).
 TABLE_OVERSAMPLING = 16
@@ -61,8 +65,6 @@ TABLE_OVERSAMPLING = 16
 #: of a varied batch fall in the first window; the rest continue window by window).
 COARSE_STRIDE = 16
 COARSE_POINTS = 18
-#: Table look-ups per evaluation block (keeps the working set in cache).
-EVALUATION_CHUNK = 1 << 16
 #: Powers of the inward angle x that carry the ground distance d(x) (gradient over the surface).
 GROUND_DISTANCE_POWERS = (0.5, 1.0, 1.5, 2.0)
 #: Fit range of d(x): x ≤ 10° (and ≤ half the disc), rad.
@@ -117,9 +119,8 @@ class ResponseTables:
         lagged = _first_order_lag(np.moveaxis(increments, 1, -1), params.lag_decay_per_step)
         self.values = (energy - np.moveaxis(lagged, -1, 1).reshape(5, length))
         self.length = length
-        # Flat table of value + i·(slope to the next entry): one gather per term and step.
-        slopes = np.diff(self.values, axis=1, append=self.values[:, -1:])
-        self.flat_complex = (self.values + 1j * slopes).ravel()
+        #: Slope from each entry to the next: the kernel interpolates value + fraction·slope.
+        self.slopes = np.diff(self.values, axis=1, append=self.values[:, -1:])
 
     def response(self, shape: int, offset_rad):
         """Y of one shape at offsets u (rad, field centre inwards of the origin), linear interpolation."""
@@ -178,7 +179,7 @@ def _ground_distance_fit(kappa):
     z = np.linspace(0.0, 1.0, 41) ** 2
     powers = np.asarray(GROUND_DISTANCE_POWERS)
     projector = np.linalg.pinv(z[:, None] ** powers[None, :])
-    target = _central_angle_inwards(fit_range[:, None] * z[None, :], kappa[:, None])
+    target = central_angle_inwards(fit_range[:, None] * z[None, :], kappa[:, None])
     return (target @ projector.T) / fit_range[:, None] ** powers[None, :]
 
 
@@ -187,13 +188,6 @@ def _ground_distance_table():
     """The fit tabulated against log κ (the coefficients are smooth in κ; interpolation error < 1 m)."""
     log_kappa = np.linspace(*np.log(_KAPPA_RANGE), _KAPPA_SAMPLES)
     return log_kappa, _ground_distance_fit(np.exp(log_kappa))
-
-
-def _ground_distance_coefficients(kappa):
-    """Per chord, c_j of d(x)/R ≈ Σ c_j·x^p_j (interpolated in the table; κ clamped to its range)."""
-    log_kappa, table = _ground_distance_table()
-    x = np.log(np.clip(kappa, *_KAPPA_RANGE))
-    return np.stack([np.interp(x, log_kappa, table[:, j]) for j in range(table.shape[1])], axis=1)
 
 
 @lru_cache(maxsize=1)
@@ -205,11 +199,9 @@ def _disc_sample_inverse():
 
 def prepare(params: ChainParameters = DEFAULT_CHAIN_PARAMETERS) -> None:
     """Build now what the chain's first :func:`sense_horizon_chords` of ``params`` would build: the response
-    tables, the ground-distance table, the disc-sample inverse.
-    All cached, none random: what the chain then reads is unchanged."""
-    response_tables(params)
-    _ground_distance_table()
-    _disc_sample_inverse()
+    tables, the ground-distance table, the disc-sample inverse, and the compiled kernel (loaded from numba's
+    cache, or compiled). All cached, none random: what the chain then reads is unchanged."""
+    sense_horizon_chords(1.0, 2.5e6, 2.4, params=params)
 
 
 def disc_sample_profile(inward_rad, horizon_radiance_ru, disc_samples_ru):
@@ -231,10 +223,304 @@ def disc_sample_profile(inward_rad, horizon_radiance_ru, disc_samples_ru):
     return b_m[..., None] + np.sum(c[..., None, :] * x[:, None] ** np.asarray(DISC_SAMPLE_POWERS), axis=-1)
 
 
+#: Layout of the head of :attr:`ChainArrays.vector`: the chain's parameters as the kernel reads them, then the
+#: lengths of the arrays that follow.
+_GAMMA, _STEP_ANGLE, _TIME_STEP, _MAX_STEPS, _THRESHOLD_1, _THRESHOLD_2, _SCAN_RATE, _SPACING, _ZERO_INDEX, \
+    _LENGTH, _KNOTS, _KAPPAS, _CORRECTIONS = range(13)
+_HEAD = 13
+
+
+class ChainArrays(NamedTuple):
+    """What the compiled chain reads besides a chord's inputs, as two arrays (:func:`chain_kit`; a kernel's
+    arguments are checked at each call, each array's quickly, a tuple's slowly): the tables of one parameter
+    set and one correction table."""
+
+    vector: np.ndarray  #: the parameters, then the ramp's knots, the ground-distance fit, the correction table
+    tables: np.ndarray  #: (2, 5, L): the responses Y of the elementary shapes and the slope to the next entry
+
+    @property
+    def knots(self) -> int:
+        """Knots of the window ramp (a chord has at most 2·knots + 5 profile terms)."""
+        return int(self.vector[_KNOTS])
+
+
+class ChainKit(NamedTuple):
+    """:class:`ChainArrays` taken apart inside a kernel (:func:`unpack`)."""
+
+    values: np.ndarray  #: (5, L) responses Y of the elementary shapes (:class:`ResponseTables`)
+    slopes: np.ndarray  #: (5, L) slope from each entry to the next
+    ramp_heights: np.ndarray  #: (K,) knots of the window ramp, u = h/h_w, from the top (1) down (0)
+    ramp_values: np.ndarray  #: (K,) S at those knots
+    log_kappa: np.ndarray  #: (S,) abscissae of the tabulated ground-distance fit, log κ
+    ground_distance: np.ndarray  #: (4·S,) its coefficients c_j (powers :data:`GROUND_DISTANCE_POWERS`), by power
+    disc_inverse: np.ndarray  #: (9,) the disc samples' interpolation (:data:`DISC_SAMPLE_POWERS`), row by row
+    correction_del: np.ndarray  #: (M,) the correction table's Del, rad (M = 0: no correction)
+    correction_pop: np.ndarray  #: (M,) its POP, rad
+    scalars: np.ndarray  #: the parameters (the head of the vector)
+
+
+@kernel
+def unpack(vector, tables):
+    """The :class:`ChainKit` of a :class:`ChainArrays` (views, no copies)."""
+    knots, kappas, corrections = int(vector[_KNOTS]), int(vector[_KAPPAS]), int(vector[_CORRECTIONS])
+    o = _HEAD
+    ramp_heights, ramp_values = vector[o:o + knots], vector[o + knots:o + 2 * knots]
+    o += 2 * knots
+    log_kappa, ground_distance = vector[o:o + kappas], vector[o + kappas:o + 5 * kappas]
+    o += 5 * kappas
+    disc_inverse = vector[o:o + 9]
+    o += 9
+    return ChainKit(tables[0], tables[1], ramp_heights, ramp_values, log_kappa, ground_distance, disc_inverse,
+                    vector[o:o + corrections], vector[o + corrections:o + 2 * corrections], vector[:_HEAD])
+
+
+@lru_cache(maxsize=32)
+def _kit(params: ChainParameters, correction_del: tuple, correction_pop: tuple) -> ChainArrays:
+    tables = response_tables(params)
+    log_kappa, ground_distance = _ground_distance_table()
+    head = [params.ifov_half_angle_rad, params.step_angle_rad, params.time_step_s, params.max_steps,
+            params.threshold_1_ru, params.threshold_2_ru, params.scan_rate_rad_s, tables.spacing_rad,
+            tables.zero_index, tables.length, len(params.ramp.heights), log_kappa.size, len(correction_del)]
+    vector = np.concatenate([head, params.ramp.heights[::-1], params.ramp.values[::-1], log_kappa,
+                             ground_distance.T.ravel(), _disc_sample_inverse().ravel(), correction_del,
+                             correction_pop]).astype(float)
+    return ChainArrays(vector, np.ascontiguousarray(np.stack([tables.values, tables.slopes])))
+
+
+def chain_kit(params: ChainParameters = DEFAULT_CHAIN_PARAMETERS, correction=None) -> ChainArrays:
+    """The compiled chain's tables for ``params`` and a correction table (None: no correction; a
+    :class:`~pmv_ros.physics.instrument.correction.CorrectionTable` or anything with ``del_rad`` and
+    ``pop_rad`` arrays — the curve is applied by linear interpolation, clamped at its ends)."""
+    if correction is None:
+        return _kit(params, (), ())
+    try:
+        del_rad, pop_rad = correction.del_rad, correction.pop_rad
+    except AttributeError:
+        raise ValueError(f"correction {correction!r} is not a table with del_rad and pop_rad") from None
+    return _kit(params, tuple(np.asarray(del_rad, float).tolist()), tuple(np.asarray(pop_rad, float).tolist()))
+
+
+@kernel
+def _profile_terms(phi0, slope, radius, b_m, gradient, jump, jump_d, h_w, b_a, phi_top, disc_c, sampled, kit,
+                   origins, coefficients, shapes):
+    """Decompose a chord's profile into elementary shapes: fills ``origins``, ``coefficients``, ``shapes``
+    (the terms whose coefficient is not zero, in a fixed order) and returns their number.
+
+    The disc's powers x^p (gradient, sampled profile) start at the horizon φ₀, where the window ramp has
+    its lowest knot: its x and x² terms share that knot's terms (one look-up each instead of two).
+    """
+    count = 0
+    # The top of the atmosphere: space → B_a (the CO₂ layer, or the top of the window layer if higher).
+    if b_a != 0.0:
+        origins[count], coefficients[count], shapes[count] = phi_top, b_a, _STEP
+        count += 1
+    # The window ramp B_a + (B_m − B_a)·S(h/h_w), piecewise linear in h, knots from the top down. On a
+    # segment, with ξ inwards of its upper knot: h ≈ h_k + A ξ − ½(R + h_mid) ξ², exact at both knots; the
+    # profile is P_k + b (h − h_k), b = ΔP/Δh.
+    knots = kit.ramp_heights.size
+    flat = h_w < 1.0  # a window layer at the surface: the ramp is a step at the horizon
+    # The disc: a gradient along the surface, d(x) ≈ R Σ c_j x^p_j, and a sampled profile Σ c_j x^p_j.
+    x_half = x_one = x_three_halves = x_two = 0.0  # the disc's coefficients of the powers x^p
+    if gradient != 0.0:
+        log_k = math.log(min(max(slope / radius, _KAPPA_RANGE[0]), _KAPPA_RANGE[1]))
+        size, scale = kit.log_kappa.size, gradient * radius
+        x_half += np.interp(log_k, kit.log_kappa, kit.ground_distance[:size]) * scale
+        x_one += np.interp(log_k, kit.log_kappa, kit.ground_distance[size:2 * size]) * scale
+        x_three_halves += np.interp(log_k, kit.log_kappa, kit.ground_distance[2 * size:3 * size]) * scale
+        x_two += np.interp(log_k, kit.log_kappa, kit.ground_distance[3 * size:]) * scale
+    if sampled:
+        x_half += disc_c[0]
+        x_one += disc_c[1]
+        x_two += disc_c[2]
+    linear_before = quadratic_before = 0.0  # the slope and curvature arriving at the knot
+    for k in range(knots):
+        height = kit.ramp_heights[k] * h_w
+        nadir = nadir_of_height(height, phi0, slope, radius)
+        value = b_a + (b_m - b_a) * kit.ramp_values[k]
+        if k + 1 < knots:
+            next_height = kit.ramp_heights[k + 1] * h_w
+            next_nadir = nadir_of_height(next_height, phi0, slope, radius)
+            next_value = b_a + (b_m - b_a) * kit.ramp_values[k + 1]
+            seg_length = nadir - next_nadir
+            seg_dh = next_height - height
+            seg_b = (next_value - value) / seg_dh if seg_dh != 0.0 else 0.0
+            curvature = radius + 0.5 * (next_height + height)
+            seg_a = (seg_dh / seg_length if seg_length > 0.0 else 0.0) + 0.5 * curvature * seg_length
+            linear_after = seg_b * seg_a  # dP/dξ at the segment's upper knot
+            quadratic_after = -0.5 * seg_b * curvature  # coefficient of ξ²
+        else:
+            seg_length = linear_after = quadratic_after = 0.0
+        slope_jump = 0.0 if flat else linear_after - linear_before
+        curve_jump = 0.0 if flat else quadratic_after - quadratic_before
+        if k == knots - 1:  # the lowest knot is the horizon φ₀: it carries the disc's x and x² terms
+            slope_jump += x_one
+            curve_jump += x_two
+        if slope_jump != 0.0:
+            origins[count], coefficients[count], shapes[count] = nadir, slope_jump, _LINEAR
+            count += 1
+        if curve_jump != 0.0:
+            origins[count], coefficients[count], shapes[count] = nadir, curve_jump, _QUADRATIC
+            count += 1
+        linear_before = linear_after + 2.0 * quadratic_after * seg_length
+        quadratic_before = quadratic_after
+    if flat and b_m - b_a != 0.0:
+        origins[count], coefficients[count], shapes[count] = phi0, b_m - b_a, _STEP
+        count += 1
+    if x_half != 0.0:
+        origins[count], coefficients[count], shapes[count] = phi0, x_half, _SQRT
+        count += 1
+    if x_three_halves != 0.0:
+        origins[count], coefficients[count], shapes[count] = phi0, x_three_halves, _POW15
+        count += 1
+    if jump != 0.0 and math.isfinite(jump_d):
+        origins[count] = nadir_of_ground_distance(jump_d, phi0, slope, radius)
+        coefficients[count], shapes[count] = jump, _STEP
+        count += 1
+    return count
+
+
+@kernel
+def _detector_output(step, count, base, fraction, coefficients, shapes, kit):
+    """The detector output at integer scan step ``step``, r.u.: Σ_k c_k·Y_k at the step (table look-ups)."""
+    m = TABLE_OVERSAMPLING
+    last = kit.values.shape[1] - 1
+    total = 0.0
+    for k in range(count):
+        index = base[k] + m * step
+        if index < 0:  # far before a term's origin its response is 0 (the row's first entries)
+            index = 0
+        elif index > last:
+            index = last
+        c = coefficients[k]
+        total += c * kit.values[shapes[k], index] + (c * fraction[k]) * kit.slopes[shapes[k], index]
+    return total
+
+
+@kernel
+def _crossing_times(count, base, fraction, coefficients, shapes, first_step, kit):
+    """First interpolated crossings of J(1) and J(2), s from the scan start (NaN if none).
+
+    A coarse pass every COARSE_STRIDE steps finds, for each threshold, the first coarse step above it
+    (window by window from ``first_step``); bisection then narrows the bracket (last coarse step at or
+    below, first above) to two adjacent steps, between which the comparator interpolates linearly.
+    """
+    last_step = int(kit.scalars[_MAX_STEPS]) - 1
+    threshold_1, threshold_2 = kit.scalars[_THRESHOLD_1], kit.scalars[_THRESHOLD_2]
+    found_1 = found_2 = -1
+    start = first_step
+    while (found_1 < 0 or found_2 < 0) and start <= last_step:
+        for point in range(COARSE_POINTS):
+            step = start + COARSE_STRIDE * point
+            if step > last_step:
+                break
+            y = _detector_output(step, count, base, fraction, coefficients, shapes, kit)
+            if found_1 < 0 and y > threshold_1:
+                found_1 = step
+            if found_2 < 0 and y > threshold_2:
+                found_2 = step
+            if found_1 >= 0 and found_2 >= 0:  # the rest of the window cannot change them
+                break
+        start += COARSE_STRIDE * COARSE_POINTS
+    return (_crossing_time(found_1, threshold_1, count, base, fraction, coefficients, shapes, kit),
+            _crossing_time(found_2, threshold_2, count, base, fraction, coefficients, shapes, kit))
+
+
+@kernel
+def _crossing_time(found, threshold, count, base, fraction, coefficients, shapes, kit):
+    """The comparator's time, s from the scan start, between the last step at or below ``threshold`` and the first
+    above it, bisected from the coarse step ``found`` (−1: never above, NaN)."""
+    if found < 0:
+        return math.nan
+    hi = found
+    lo = max(hi - COARSE_STRIDE, 0)
+    y_lo = _detector_output(lo, count, base, fraction, coefficients, shapes, kit)
+    y_hi = _detector_output(hi, count, base, fraction, coefficients, shapes, kit)
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        y_mid = _detector_output(mid, count, base, fraction, coefficients, shapes, kit)
+        if y_mid > threshold:
+            hi, y_hi = mid, y_mid
+        else:
+            lo, y_lo = mid, y_mid
+    return (lo + (threshold - y_lo) / (y_hi - y_lo)) * kit.scalars[_TIME_STEP]
+
+
+@kernel
+def sense_chord(phi0, slope, b_m, gradient, jump, jump_d, radius, h_w, b_a, h_co2, scan_start, disc_samples,
+                sampled, kit, origins, coefficients, shapes, base, fraction):
+    """One chord through the chain: (Gam, Del, POP, Gam′, θ₀ − Gam′, θ₀ − Gam, status), rad and a
+    :class:`DetectionStatus` code — the readings of :func:`sense_horizon_chords` (see there for the inputs;
+    ``scan_start`` NaN: the chord's own default, ``disc_samples`` the three samples when ``sampled``).
+
+    ``origins`` … ``fraction``: scratch arrays of at least the chord's number of terms.
+    """
+    nan = math.nan
+    gamma = kit.scalars[_GAMMA]
+    valid = (phi0 > 0.0 and phi0 <= 0.5 * math.pi and slope > 0.0 and slope < math.inf and radius > 0.0
+             and radius < math.inf and b_m > 0.0 and b_m < math.inf and math.isfinite(gradient)
+             and math.isfinite(jump) and jump_d >= 0.0 and h_w >= 0.0 and h_w <= MAX_LAYER_HEIGHT_M
+             and b_a >= 0.0 and b_a < kit.scalars[_THRESHOLD_1] and h_co2 >= 0.0 and h_co2 <= MAX_LAYER_HEIGHT_M)
+    c0 = c1 = c2 = 0.0
+    if valid and sampled:
+        inverse = kit.disc_inverse
+        d0, d1, d2 = disc_samples[0] - b_m, disc_samples[1] - b_m, disc_samples[2] - b_m
+        c0 = d0 * inverse[0] + d1 * inverse[1] + d2 * inverse[2]
+        c1 = d0 * inverse[3] + d1 * inverse[4] + d2 * inverse[5]
+        c2 = d0 * inverse[6] + d1 * inverse[7] + d2 * inverse[8]
+        valid = math.isfinite(c0) and math.isfinite(c1) and math.isfinite(c2)
+    if not valid:
+        return nan, nan, nan, nan, nan, nan, DetectionStatus.INVALID_INPUT
+    phi_top = nadir_of_height(max(h_co2, h_w), phi0, slope, radius)
+    theta0 = phi_top + gamma if math.isnan(scan_start) else scan_start
+    if not math.isfinite(theta0):
+        return nan, nan, nan, nan, nan, nan, DetectionStatus.INVALID_INPUT
+    if phi_top > theta0 - gamma + 1e-12:
+        return nan, nan, nan, nan, nan, nan, DetectionStatus.SCAN_STARTED_IN_ATMOSPHERE
+    count = _profile_terms(phi0, slope, radius, b_m, gradient, jump, jump_d, h_w, b_a, phi_top, (c0, c1, c2), sampled,
+                           kit, origins, coefficients, shapes)
+    spacing, zero_index = kit.scalars[_SPACING], kit.scalars[_ZERO_INDEX]
+    for k in range(count):
+        # Geometry with no real solution (e.g. a layer above the orbit of the equivalent sphere) is bad input.
+        if not (math.isfinite(origins[k]) and math.isfinite(coefficients[k])):
+            return nan, nan, nan, nan, nan, nan, DetectionStatus.INVALID_INPUT
+        position = (origins[k] - theta0) / spacing + zero_index
+        base[k] = math.floor(position)
+        fraction[k] = position - base[k]
+    # The output stays ≤ B_a < J(1) until the field reaches the window ramp: start searching there.
+    first = math.floor((theta0 - gamma - nadir_of_height(h_w, phi0, slope, radius)) / kit.scalars[_STEP_ANGLE])
+    last_step = kit.scalars[_MAX_STEPS] - 1.0
+    first_step = 0 if math.isnan(first) else int(min(max(first, 0.0), last_step))
+    t1, t2 = _crossing_times(count, base, fraction, coefficients, shapes, first_step, kit)
+    if math.isnan(t1):
+        return nan, nan, nan, nan, nan, nan, DetectionStatus.FIRST_THRESHOLD_NOT_REACHED
+    if math.isnan(t2):
+        return nan, nan, nan, nan, nan, nan, DetectionStatus.SECOND_THRESHOLD_NOT_REACHED
+    # Stages 5–6: Gam = t(1)·W, Del = (t(2) − t(1))·W, POP = F(Del) (linear, clamped at the table's ends).
+    gam = crossing_angle(t1, kit.scalars[_SCAN_RATE])
+    dele = edge_slope(t1, t2, kit.scalars[_SCAN_RATE])
+    pop = np.interp(dele, kit.correction_del, kit.correction_pop) if kit.correction_del.size else 0.0
+    gam_corrected = gam - pop
+    return gam, dele, pop, gam_corrected, theta0 - gam_corrected, theta0 - gam, DetectionStatus.OK
+
+
+@kernel
+def _sense_chords(phi0, slope, b_m, gradient, jump, jump_d, radius, h_w, b_a, h_co2, scan_start, disc_samples,
+                  sampled, kit_vector, kit_tables, out, status):
+    """:func:`sense_chord` for every chord of the flat inputs; readings into ``out`` (6, N), codes into ``status``."""
+    kit = unpack(kit_vector, kit_tables)
+    terms = 2 * kit.ramp_heights.size + 5  # the most a chord has: top, two a knot, flat step, two powers, jump
+    origins, coefficients, fraction = np.empty(terms), np.empty(terms), np.empty(terms)
+    shapes, base = np.empty(terms, np.int64), np.empty(terms, np.int64)
+    for n in range(phi0.size):
+        out[0, n], out[1, n], out[2, n], out[3, n], out[4, n], out[5, n], status[n] = sense_chord(
+            phi0[n], slope[n], b_m[n], gradient[n], jump[n], jump_d[n], radius[n], h_w[n], b_a[n], h_co2[n],
+            scan_start[n], disc_samples[n], sampled, kit, origins, coefficients, shapes, base, fraction)
+
+
 def _as_chords(value, n, name):
     array = np.asarray(value, float)
     try:
-        return np.broadcast_to(array, (n,)).astype(float, copy=True)
+        return np.ascontiguousarray(np.broadcast_to(array, (n,)))
     except ValueError:
         raise ValueError(f"{name} has shape {array.shape}, which does not broadcast to the {n} chords") from None
 
@@ -248,7 +534,7 @@ def sense_horizon_chords(horizon_nadir_rad, tangent_height_rate_m, disc_radiance
 
     Every argument is a scalar or an ``(N,)`` array (broadcast together).
     Bad values of a chord give NaN and :attr:`DetectionStatus.INVALID_INPUT` for
-    that chord; nothing raises for bad samples.
+    that chord; nothing raises for bad samples. Each chord is one :func:`sense_chord`.
 
     Args:
         horizon_nadir_rad: φ₀, the chord's hard-Earth horizon nadir angle, rad
@@ -273,7 +559,7 @@ def sense_horizon_chords(horizon_nadir_rad, tangent_height_rate_m, disc_radiance
             with B_m at the horizon (:func:`disc_sample_profile`); it adds to any
             gradient and jump. None: no sampled profile.
         earth_radius_m: local Earth radius R, m (the chord's curvature; mean radius by default).
-        correction: the brightness-correction table F (callable Del → POP, rad) or None.
+        correction: the brightness-correction table F (:func:`chain_kit`) or None.
         params: chain parameters.
 
     Returns:
@@ -283,231 +569,32 @@ def sense_horizon_chords(horizon_nadir_rad, tangent_height_rate_m, disc_radiance
               jump_distance_m, earth_radius_m]
     optional = [scan_start_nadir_rad, window_height_m, co2_radiance_ru, co2_top_height_m]
     n = int(np.broadcast(*[np.asarray(a, float) for a in inputs + [o for o in optional if o is not None]]).size)
+    kit = chain_kit(params, correction)
     if n == 0:
         empty = np.empty(0)
         return ChordReadings(empty, empty, empty, empty, empty, empty, np.empty(0, np.int8))
-    phi0 = _as_chords(horizon_nadir_rad, n, "horizon_nadir_rad")
-    slope = _as_chords(tangent_height_rate_m, n, "tangent_height_rate_m")
-    b_m = _as_chords(disc_radiance_ru, n, "disc_radiance_ru")
-    gradient = _as_chords(gradient_ru_per_m, n, "gradient_ru_per_m")
-    jump = _as_chords(jump_ru, n, "jump_ru")
-    jump_d = _as_chords(jump_distance_m, n, "jump_distance_m")
-    radius = _as_chords(earth_radius_m, n, "earth_radius_m")
-    h_w = _as_chords(params.window_height_m if window_height_m is None else window_height_m, n, "window_height_m")
-    b_a = _as_chords(params.co2_radiance_ru if co2_radiance_ru is None else co2_radiance_ru, n, "co2_radiance_ru")
-    h_co2 = _as_chords(params.co2_top_height_m if co2_top_height_m is None else co2_top_height_m, n,
-                       "co2_top_height_m")
+    columns = [_as_chords(value, n, name) for value, name in (
+        (horizon_nadir_rad, "horizon_nadir_rad"), (tangent_height_rate_m, "tangent_height_rate_m"),
+        (disc_radiance_ru, "disc_radiance_ru"), (gradient_ru_per_m, "gradient_ru_per_m"), (jump_ru, "jump_ru"),
+        (jump_distance_m, "jump_distance_m"), (earth_radius_m, "earth_radius_m"),
+        (params.window_height_m if window_height_m is None else window_height_m, "window_height_m"),
+        (params.co2_radiance_ru if co2_radiance_ru is None else co2_radiance_ru, "co2_radiance_ru"),
+        (params.co2_top_height_m if co2_top_height_m is None else co2_top_height_m, "co2_top_height_m"),
+        (math.nan if scan_start_nadir_rad is None else scan_start_nadir_rad, "scan_start_nadir_rad"))]
+    if scan_start_nadir_rad is not None:  # a given start that is NaN is bad input, not the default
+        columns[-1] = np.where(np.isnan(columns[-1]), math.inf, columns[-1])
     if disc_samples_ru is None:
-        disc_c = None
+        samples = np.zeros((n, 3))
     else:
         samples = np.asarray(disc_samples_ru, float)
         try:
-            samples = np.broadcast_to(samples, (n, len(DISC_SAMPLE_INWARD_RAD)))
+            samples = np.ascontiguousarray(np.broadcast_to(samples, (n, len(DISC_SAMPLE_INWARD_RAD))))
         except ValueError:
             raise ValueError(f"disc_samples_ru has shape {samples.shape}, which does not broadcast to "
                              f"({n}, {len(DISC_SAMPLE_INWARD_RAD)})") from None
-        with np.errstate(invalid="ignore"):
-            disc_c = (samples - b_m[:, None]) @ _disc_sample_inverse().T
-
-    with np.errstate(invalid="ignore"):
-        valid = (np.isfinite(phi0) & (phi0 > 0.0) & (phi0 <= 0.5 * math.pi)
-                 & np.isfinite(slope) & (slope > 0.0) & np.isfinite(radius) & (radius > 0.0)
-                 & np.isfinite(b_m) & (b_m > 0.0) & np.isfinite(gradient) & np.isfinite(jump)
-                 & ~np.isnan(jump_d) & (jump_d >= 0.0)
-                 & (h_w >= 0.0) & (h_w <= MAX_LAYER_HEIGHT_M)
-                 & (b_a >= 0.0) & (b_a < params.threshold_1_ru)
-                 & (h_co2 >= 0.0) & (h_co2 <= MAX_LAYER_HEIGHT_M))
-        if disc_c is not None:
-            valid &= np.all(np.isfinite(disc_c), axis=1)
-            disc_c[~valid] = 0.0
-    # Neutral stand-ins keep the arithmetic quiet on invalid chords; their results are discarded.
-    phi0[~valid], slope[~valid], radius[~valid], b_m[~valid] = 1.0, 2.5e6, EARTH_MEAN_RADIUS_M, 1.0
-    gradient[~valid], jump[~valid], jump_d[~valid], h_w[~valid] = 0.0, 0.0, math.inf, 40e3
-    b_a[~valid], h_co2[~valid] = CO2_RADIANCE_RU, CO2_TOP_HEIGHT_M
-
-    h_top = np.maximum(h_co2, h_w)
-    phi_top = chord_nadir_of_height(h_top, phi0, slope, radius)
-    if scan_start_nadir_rad is None:
-        theta0 = phi_top + params.ifov_half_angle_rad
-    else:
-        theta0 = _as_chords(scan_start_nadir_rad, n, "scan_start_nadir_rad")
-        valid &= np.isfinite(theta0)
-        theta0[~valid] = phi_top[~valid] + params.ifov_half_angle_rad
-    status = np.where(valid, DetectionStatus.OK, DetectionStatus.INVALID_INPUT).astype(np.int8)
-    started_inside = valid & (phi_top > theta0 - params.ifov_half_angle_rad + 1e-12)
-    status[started_inside] = DetectionStatus.SCAN_STARTED_IN_ATMOSPHERE
-
-    origins, coefficients, shapes = _profile_terms(phi0, slope, radius, b_m, gradient, jump, jump_d, h_w, b_a,
-                                                   phi_top, params, disc_c)
-    tables = response_tables(params)
-    # Geometry with no real solution (e.g. a layer above the orbit of the equivalent sphere) is bad input.
-    finite = np.all(np.isfinite(origins) & np.isfinite(coefficients), axis=1)
-    status[(status == DetectionStatus.OK) & ~finite] = DetectionStatus.INVALID_INPUT
-    coefficients[~finite] = 0.0
-    origins[~finite] = 0.0
-    active = status == DetectionStatus.OK
-    t1 = np.full(n, np.nan)
-    t2 = np.full(n, np.nan)
-    if active.any():
-        # The output stays ≤ B_a < J(1) until the field reaches the window ramp: start searching there.
-        phi_w = chord_nadir_of_height(h_w, phi0, slope, radius)
-        first_step = np.floor((theta0 - params.ifov_half_angle_rad - phi_w) / params.step_angle_rad)
-        first_step = np.clip(np.nan_to_num(first_step), 0, params.max_steps - 1).astype(np.int64)
-        idx = np.flatnonzero(active)
-        t1[idx], t2[idx] = _search_crossings(tables, origins[idx] - theta0[idx, None], coefficients[idx], shapes,
-                                             first_step[idx], params)
-    status[active & np.isnan(t1)] = DetectionStatus.FIRST_THRESHOLD_NOT_REACHED
-    status[active & ~np.isnan(t1) & np.isnan(t2)] = DetectionStatus.SECOND_THRESHOLD_NOT_REACHED
-    return _readings(theta0, t1, t2, status, correction, params)
-
-
-def _profile_terms(phi0, slope, radius, b_m, gradient, jump, jump_d, h_w, b_a, phi_top, params, disc_c=None):
-    """Decompose each chord's profile into elementary shapes: origins (N, K), coefficients (N, K), shapes (K,).
-
-    Shapes whose coefficient is zero on every chord are dropped. The disc's
-    powers x^p (gradient, sampled profile) start at the horizon φ₀, where the
-    window ramp has its lowest knot: its x and x² terms share that knot's
-    terms (one look-up each instead of two).
-    """
-    n = phi0.size
-    origins, coefficients, shapes = [], [], []
-
-    def add(shape, origin, coefficient):
-        if np.any(coefficient != 0.0):
-            origins.append(origin)
-            coefficients.append(coefficient)
-            shapes.append(shape)
-
-    # The top of the atmosphere: space → B_a (the CO₂ layer, or the top of the window layer if higher).
-    add(_STEP, phi_top, b_a.copy())
-
-    # The window ramp B_a + (B_m − B_a)·S(h/h_w), piecewise linear in h, knots from the top down.
-    knot_u = np.asarray(params.ramp.heights)[::-1]
-    knot_s = np.asarray(params.ramp.values)[::-1]
-    flat = h_w < 1.0  # a window layer at the surface: the ramp is a step at the horizon
-    heights = knot_u[None, :] * h_w[:, None]
-    knot_nadir = chord_nadir_of_height(heights, phi0[:, None], slope[:, None], radius[:, None])
-    knot_value = b_a[:, None] + (b_m - b_a)[:, None] * knot_s[None, :]
-    # On a segment, with ξ inwards of its upper knot: h ≈ h_k + A ξ − ½(R + h_mid) ξ²,
-    # exact at both knots; the profile is P_k + b (h − h_k), b = ΔP/Δh.
-    seg_length = knot_nadir[:, :-1] - knot_nadir[:, 1:]
-    seg_dh = heights[:, 1:] - heights[:, :-1]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        seg_b = np.where(seg_dh != 0.0, (knot_value[:, 1:] - knot_value[:, :-1]) / seg_dh, 0.0)
-        curvature = radius[:, None] + 0.5 * (heights[:, 1:] + heights[:, :-1])
-        seg_a = np.where(seg_length > 0.0, seg_dh / seg_length, 0.0) + 0.5 * curvature * seg_length
-    linear = seg_b * seg_a                      # dP/dξ at the segment's upper knot
-    quadratic = -0.5 * seg_b * curvature        # coefficient of ξ²
-    zeros = np.zeros((n, 1))
-    lin_before = np.hstack([zeros, linear + 2.0 * quadratic * seg_length])   # slope arriving at each knot
-    lin_after = np.hstack([linear, zeros])                                   # slope leaving it
-    quad_before = np.hstack([zeros, quadratic])
-    quad_after = np.hstack([quadratic, zeros])
-    jump_in_slope = np.where(flat[:, None], 0.0, lin_after - lin_before)
-    jump_in_curve = np.where(flat[:, None], 0.0, quad_after - quad_before)
-
-    # The disc: a gradient along the surface, d(x) ≈ R Σ c_j x^p_j, and a sampled profile Σ c_j x^p_j.
-    disc = np.zeros((n, len(GROUND_DISTANCE_POWERS)))
-    if np.any(gradient != 0.0):
-        disc += _ground_distance_coefficients(slope / radius) * (gradient * radius)[:, None]
-    if disc_c is not None:
-        for j, power in enumerate(DISC_SAMPLE_POWERS):
-            disc[:, list(GROUND_DISTANCE_POWERS).index(power)] += disc_c[:, j]
-    powers = list(GROUND_DISTANCE_POWERS)
-    lowest = knot_u.size - 1 if knot_u[-1] == 0.0 else None
-    if lowest is not None:  # the ramp's lowest knot is the horizon φ₀: share its x and x² terms
-        jump_in_slope[:, lowest] += disc[:, powers.index(1.0)]
-        jump_in_curve[:, lowest] += disc[:, powers.index(2.0)]
-    for k in range(knot_u.size):
-        add(_LINEAR, knot_nadir[:, k], jump_in_slope[:, k])
-        add(_QUADRATIC, knot_nadir[:, k], jump_in_curve[:, k])
-    add(_STEP, phi0, np.where(flat, b_m - b_a, 0.0))
-    for j, power in enumerate(powers):
-        if lowest is not None and power in (1.0, 2.0):
-            continue
-        shape = {0.5: _SQRT, 1.0: _LINEAR, 1.5: _POW15, 2.0: _QUADRATIC}[power]
-        add(shape, phi0, disc[:, j])
-    if np.any(jump != 0.0):
-        jump_nadir = chord_nadir_of_ground_distance(np.where(np.isfinite(jump_d), jump_d, 0.0), phi0, slope, radius)
-        add(_STEP, jump_nadir, np.where(np.isfinite(jump_d), jump, 0.0))
-    return np.stack(origins, axis=1), np.stack(coefficients, axis=1), np.asarray(shapes)
-
-
-def _search_crossings(tables: ResponseTables, origin_offset, coefficients, shapes, first_step, params):
-    """First interpolated crossings of J(1) and J(2), in seconds from the scan start (NaN if none).
-
-    A coarse pass every COARSE_STRIDE steps finds, for each threshold, the
-    first coarse step above it; bisection then narrows the bracket (last
-    coarse step at or below, first above) to two adjacent steps, between
-    which the comparator interpolates linearly.
-
-    Args:
-        origin_offset: (N, K) φ_k − θ₀ of every term, rad.
-        coefficients: (N, K) term amplitudes.
-        shapes: (K,) table rows.
-        first_step: (N,) step at which to start the search.
-    """
-    m = TABLE_OVERSAMPLING
-    position = origin_offset / tables.spacing_rad + tables.zero_index
-    base = np.floor(position)
-    frac = position - base
-    # Table row offsets folded into the base index; int32 halves the index traffic.
-    base = (base + (shapes * tables.length)[None, :]).astype(np.int32)
-    row_start = np.broadcast_to((shapes * tables.length)[None, :], base.shape).astype(np.int32)
-    # Re(w·(value + i·slope)) with w = c − i·c·frac is c·(value + frac·slope): one gather per term.
-    weights = coefficients - 1j * (coefficients * frac)
-    last_step = params.max_steps - 1
-
-    def output(rows, steps):
-        """Detector output at integer steps ``steps`` (len(rows), P) of the chords ``rows``."""
-        result = np.empty(steps.shape)
-        k = base.shape[1]
-        chunk = max(1, EVALUATION_CHUNK // (k * steps.shape[1]))
-        for lo in range(0, rows.size, chunk):
-            r = rows[lo:lo + chunk]
-            index = base[r, :, None] + (m * steps[lo:lo + chunk, None, :]).astype(np.int32)
-            # Far before a term's origin its response is 0: clamp to the row's first (zero) entry.
-            np.maximum(index, row_start[r, :, None], out=index)
-            values = tables.flat_complex[index]
-            result[lo:lo + chunk] = np.einsum("nk,nkp->np", weights[r], values).real
-        return result
-
-    thresholds = (params.threshold_1_ru, params.threshold_2_ru)
-    n = first_step.size
-    coarse_found = [np.full(n, -1, np.int64), np.full(n, -1, np.int64)]
-    pending = np.arange(n)
-    start = first_step.astype(np.int64)
-    span = COARSE_STRIDE * np.arange(COARSE_POINTS)
-    while pending.size:
-        steps = start[pending, None] + span[None, :]
-        y = output(pending, np.minimum(steps, last_step))
-        y[steps > last_step] = -np.inf
-        for which, threshold in enumerate(thresholds):
-            todo = coarse_found[which][pending] < 0
-            above = y > threshold
-            hit = above.any(axis=1) & todo
-            coarse_found[which][pending[hit]] = steps[hit, np.argmax(above[hit], axis=1)]
-        # Continue, window by window, with chords for which a threshold is still unseen.
-        start[pending] += COARSE_STRIDE * COARSE_POINTS
-        unresolved = (coarse_found[0][pending] < 0) | (coarse_found[1][pending] < 0)
-        pending = pending[unresolved & (start[pending] <= last_step)]
-
-    times = []
-    for which, threshold in enumerate(thresholds):
-        time = np.full(n, np.nan)
-        rows = np.flatnonzero(coarse_found[which] >= 0)
-        if rows.size:
-            hi = coarse_found[which][rows]
-            lo = np.maximum(hi - COARSE_STRIDE, 0)
-            ends = output(rows, np.stack([lo, hi], axis=1))
-            y_lo, y_hi = ends[:, 0], ends[:, 1]
-            while np.any(hi - lo > 1):
-                mid = (lo + hi) // 2
-                y_mid = output(rows, mid[:, None])[:, 0]
-                move_hi = y_mid > threshold
-                hi, y_hi = np.where(move_hi, mid, hi), np.where(move_hi, y_mid, y_hi)
-                lo, y_lo = np.where(move_hi, lo, mid), np.where(move_hi, y_lo, y_mid)
-            with np.errstate(invalid="ignore", divide="ignore"):
-                time[rows] = (lo + (threshold - y_lo) / (y_hi - y_lo)) * params.time_step_s
-        times.append(time)
-    return times[0], times[1]
+    out = np.empty((6, n))
+    status = np.empty(n, np.int8)
+    phi0, slope, b_m, gradient, jump, jump_d, radius, h_w, b_a, h_co2, start = columns
+    _sense_chords(phi0, slope, b_m, gradient, jump, jump_d, radius, h_w, b_a, h_co2, start, samples,
+                  disc_samples_ru is not None, *kit, out, status)
+    return ChordReadings(*out, status)

@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..compiled import elementwise
 from .parameters import DEFAULT_CHAIN_PARAMETERS, ChainParameters, DetectionStatus
 
 
@@ -208,10 +209,21 @@ def comparator_times(output_ru, params: ChainParameters = DEFAULT_CHAIN_PARAMETE
 # Stages 5–7
 # --------------------------------------------------------------------------------------------
 
+@elementwise
+def crossing_angle(t1_s, scan_rate_rad_s):
+    """Gam = t(1)·W, rad, of one chord (the fast chain's kernel calls it; :func:`gam_del` on arrays)."""
+    return t1_s * scan_rate_rad_s
+
+
+@elementwise
+def edge_slope(t1_s, t2_s, scan_rate_rad_s):
+    """Del = (t(2) − t(1))·W, rad, of one chord (the fast chain's kernel calls it; :func:`gam_del` on arrays)."""
+    return (t2_s - t1_s) * scan_rate_rad_s
+
+
 def gam_del(t1_s, t2_s, params: ChainParameters = DEFAULT_CHAIN_PARAMETERS):
     """Gam = t(1)·W and Del = (t(2) − t(1))·W, rad (physics.md §4, step 5)."""
-    t1 = np.asarray(t1_s, float)
-    return t1 * params.scan_rate_rad_s, (np.asarray(t2_s, float) - t1) * params.scan_rate_rad_s
+    return crossing_angle(t1_s, params.scan_rate_rad_s), edge_slope(t1_s, t2_s, params.scan_rate_rad_s)
 
 
 def brightness_correction(del_rad, correction=None):

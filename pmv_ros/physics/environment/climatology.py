@@ -12,6 +12,8 @@ import math
 import numpy as np
 from numpy.polynomial import legendre
 
+from ..compiled import elementwise
+
 #: Length of the climatological year, days.
 YEAR_DAYS = 365.25
 
@@ -87,6 +89,19 @@ _ANNUAL_COEFFS, _SEASONAL_COEFFS = _fit_climatology()
 _POWER_COEFFS = np.stack([legendre.leg2poly(_ANNUAL_COEFFS), legendre.leg2poly(_SEASONAL_COEFFS)], axis=1)
 
 
+@elementwise
+def climatology_ru(lat_rad, day_of_year):
+    """:func:`horizon_radiance_climatology` at one point (the sensor's kernel calls it per chord), r.u."""
+    x = math.sin(lat_rad)
+    annual = seasonal = 0.0
+    power = 1.0
+    for k in range(_POWER_COEFFS.shape[0]):  # powers 1, x, x², … of x = sin φ
+        annual += _POWER_COEFFS[k, 0] * power
+        seasonal += _POWER_COEFFS[k, 1] * power
+        power *= x
+    return annual + math.cos((2.0 * math.pi / YEAR_DAYS) * (day_of_year - SEASON_PEAK_DAY)) * seasonal
+
+
 def horizon_radiance_climatology(lat_rad, day_of_year):
     """Climatological horizon radiance B_m at a latitude and day of year, r.u.
 
@@ -105,10 +120,5 @@ def horizon_radiance_climatology(lat_rad, day_of_year):
     Returns:
         Radiance, r.u. (1 r.u. = 2.5 mW/(cm²·sr)), broadcast shape of the inputs.
     """
-    lat, day = np.broadcast_arrays(np.asarray(lat_rad, float), np.asarray(day_of_year, float))
-    shape = lat.shape
-    # Powers 1, x, x², … of x = sin φ (a Vandermonde matrix), then both series in one product.
-    annual, seasonal = (np.vander(np.sin(lat.ravel()), _POWER_COEFFS.shape[0], increasing=True) @ _POWER_COEFFS).T
-    season = np.cos((2.0 * math.pi / YEAR_DAYS) * (day.ravel() - SEASON_PEAK_DAY))
-    out = (annual + season * seasonal).reshape(shape)
-    return out[()] if out.ndim == 0 else out
+    out = climatology_ru(lat_rad, day_of_year)
+    return out[()] if np.ndim(out) == 0 else out

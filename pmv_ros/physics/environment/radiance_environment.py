@@ -23,7 +23,7 @@ from .weather import WINDOW_HALF_RANGE_M, LayerHeightField, WeatherField, backgr
 #: its chord, ≈ 100 km of limb at the slant range of 500 km (≈ 130 km at 835 km), so structure finer than
 #: this reaches the comparators averaged out. Components drawn beyond it are clipped to it (the variance,
 #: e.g. σ_h = 10 km, is kept); it also bounds how fast a field can change along a chord's track, which lets
-#: the sensor evaluate it on a coarse grid (pmv_ros/physics/instrument/sensor.py).
+#: the sensor keep it on a grid along the horizon (pmv_ros/physics/instrument/horizon_fields.py).
 IFOV_MIN_WAVELENGTH_M = 100e3
 #: Shortest wavelength of the flight weather, m: the weather is a horizon level per chord (physics.md §3.2
 #: item 3), the level of the ≈ 1000 km of ground the comparators weigh, so finer weather would not act as

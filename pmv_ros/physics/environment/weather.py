@@ -11,8 +11,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.special import eval_legendre, ndtr
+from scipy.special import eval_legendre
 
+from ..compiled import elementwise
 from ..constants import EARTH_MEAN_RADIUS_M
 from ..orbit.two_body import check_range
 from ..radiance import MAX_EARTH_RADIANCE_RU, MIN_EARTH_RADIANCE_RU
@@ -31,6 +32,29 @@ WINDOW_HALF_RANGE_M = math.sqrt(3.0) * 10e3
 #: float64 cosine costs ≈ 6× its float32 one here, and the layer height's is the largest item of the
 #: environment's cost (benchmarks/bench_environment.py --profile).
 PRECISE_FIELD_DTYPE = np.float64
+
+
+@elementwise
+def radiance_level(mean_radiance_ru, anomaly, relative_variability):
+    """B_mean·(1 + η·a), r.u., kept inside 1 … 4 r.u. or the mean if that is outside
+    (:meth:`WeatherField.radiance_from_anomaly`; the sensor's kernel calls it per chord)."""
+    if math.isnan(mean_radiance_ru) or math.isnan(anomaly):  # (no ordered comparison with NaN: it would signal)
+        return math.nan
+    low = min(MIN_EARTH_RADIANCE_RU, mean_radiance_ru)
+    high = max(MAX_EARTH_RADIANCE_RU, mean_radiance_ru)
+    radiance = mean_radiance_ru * (1.0 + relative_variability * anomaly)
+    if radiance < low:
+        return low
+    if radiance > high:
+        return high
+    return radiance
+
+
+@elementwise
+def uniform_height(gaussian, mean_m, half_range_m):
+    """mean + half_range·(2Φ(g) − 1), m: a standard-normal value g mapped to the uniform law
+    (:meth:`LayerHeightField.height_from_gaussian`; the sensor's kernel calls it per chord)."""
+    return mean_m + half_range_m * (2.0 * (0.5 * math.erfc(-gaussian / math.sqrt(2.0))) - 1.0)
 
 
 def synoptic_degrees(zone_length_m: float, relative_half_width: float = 0.25) -> tuple[int, int]:
@@ -186,10 +210,7 @@ class WeatherField:
         already outside the range (a uniform test radiance) is not moved
         further out by the weather: the bounds widen to include it.
         """
-        mean = np.asarray(mean_radiance_ru, float)
-        low = np.minimum(MIN_EARTH_RADIANCE_RU, mean)
-        high = np.maximum(MAX_EARTH_RADIANCE_RU, mean)
-        return np.clip(mean * (1.0 + self.relative_variability * np.asarray(anomaly, float)), low, high)
+        return radiance_level(mean_radiance_ru, anomaly, self.relative_variability)
 
 
 class LayerHeightField:
@@ -237,4 +258,4 @@ class LayerHeightField:
 
     def height_from_gaussian(self, gaussian):
         """Height, m, from the standard-normal field value (dimensionless) through Φ to uniform."""
-        return self.mean_m + self.half_range_m * (2.0 * ndtr(gaussian) - 1.0)
+        return uniform_height(gaussian, self.mean_m, self.half_range_m)

@@ -18,11 +18,30 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..compiled import elementwise, kernel
 from ..constants import EARTH_MEAN_RADIUS_M
 from ..orbit.ephemeris import _DIRECTION_FROM, BODY_NAMES, Epoch, _as_columns
-from ..geometry import CHORD_AZIMUTHS_RAD
+from ..geometry import CHORD_AZIMUTHS_RAD, dot
 from .oblateness import sensor_axes_eci
 from ..orbit.two_body import CircularOrbit, check_range
+
+
+@elementwise
+def arc_distance(x, y, z, low_rad, high_rad):
+    """Angle, rad, from a direction (x, y, z) — x along the chord, y across its plane, z along the
+    boresight — to the chord's arc of lines of sight at nadir angles ``low_rad`` … ``high_rad``; NaN where
+    an end is NaN (:func:`angular_distance_to_scan_arc`; the sensor's kernel calls it per chord)."""
+    along = math.atan2(x, z)
+    if not (math.isfinite(low_rad) and math.isfinite(high_rad)) or math.isnan(along) or math.isnan(y):
+        return math.nan
+    if low_rad <= along <= high_rad:
+        return math.atan2(abs(y), math.hypot(x, z))
+    # Angle between p and the line of sight (sin φ, cos φ, 0) in (x, z, y), to the nearer end.
+    to_low = math.atan2(math.hypot(y, x * math.cos(low_rad) - z * math.sin(low_rad)),
+                        x * math.sin(low_rad) + z * math.cos(low_rad))
+    to_high = math.atan2(math.hypot(y, x * math.cos(high_rad) - z * math.sin(high_rad)),
+                         x * math.sin(high_rad) + z * math.cos(high_rad))
+    return min(to_low, to_high)
 
 
 def angular_distance_to_scan_arc(direction_sensor, crossing_nadir_rad, scan_start_nadir_rad):
@@ -35,7 +54,7 @@ def angular_distance_to_scan_arc(direction_sensor, crossing_nadir_rad, scan_star
     the direction is p = (z, x, y) = (p·b, p·c_k, p·n_k); its projection on
     the chord plane sits at the signed nadir angle ψ = atan2(x, z). If ψ lies
     on the arc the distance is the angle to the plane, atan2(|y|, √(x² + z²));
-    otherwise it is the angle to the nearer end of the arc.
+    otherwise it is the angle to the nearer end of the arc (:func:`arc_distance`).
 
     Args:
         direction_sensor: ``(3,)`` or ``(3, N)`` direction in the sensor frame
@@ -56,21 +75,16 @@ def angular_distance_to_scan_arc(direction_sensor, crossing_nadir_rad, scan_star
     for name, angles in (("crossing_nadir_rad", crossing), ("scan_start_nadir_rad", start)):
         if angles.shape[:1] != (4,):
             raise ValueError(f"{name} must be shaped (4,) or (4, N) (chords +X, +Y, −X, −Y), got {angles.shape}")
-    azimuth = CHORD_AZIMUTHS_RAD.reshape((4,) + (1,) * (p.ndim - 1))
-    x = np.cos(azimuth) * p[0] + np.sin(azimuth) * p[1]
-    y = -np.sin(azimuth) * p[0] + np.cos(azimuth) * p[1]
-    z = -p[2] + 0.0 * x
-    low, high = np.minimum(crossing, start), np.maximum(crossing, start)
+    x, y, z = chord_coordinates(p, CHORD_AZIMUTHS_RAD.reshape((4,) + (1,) * (p.ndim - 1)))
+    return arc_distance(x, y, z, np.minimum(crossing, start), np.maximum(crossing, start))
 
-    def to_end(nadir):
-        # Angle between p and the line of sight (sin φ, cos φ, 0) in (x, z, y).
-        across = np.hypot(y, x * np.cos(nadir) - z * np.sin(nadir))
-        return np.arctan2(across, x * np.sin(nadir) + z * np.cos(nadir))
 
-    along = np.arctan2(x, z)
-    to_plane = np.arctan2(np.abs(y), np.hypot(x, z))
-    distance = np.where((along >= low) & (along <= high), to_plane, np.fmin(to_end(low), to_end(high)))
-    return np.where(np.isfinite(low) & np.isfinite(high), distance, np.nan)
+def chord_coordinates(direction_sensor, azimuth_rad):
+    """(x, y, z) of a sensor-frame direction in a chord's coordinates: along the chord at ``azimuth_rad``,
+    across its plane, along the boresight (arrays broadcast)."""
+    p = np.asarray(direction_sensor, float)
+    cos_a, sin_a = np.cos(azimuth_rad), np.sin(azimuth_rad)
+    return cos_a * p[0] + sin_a * p[1], -sin_a * p[0] + cos_a * p[1], -p[2] + 0.0 * cos_a
 
 
 def _check_exclusion(name: str, exclusion_rad) -> float:
@@ -102,6 +116,22 @@ def chords_seeing_body(body_direction_sensor, horizon_nadir_rad, scan_start_nadi
     return np.nan_to_num(distance, nan=np.inf) <= exclusion
 
 
+@kernel
+def occulted(direction, position_m, earth_radius_m):
+    """:func:`occulted_by_earth` of one direction and position (3-tuples): the sensor's kernel calls it."""
+    r_norm = math.sqrt(dot(position_m, position_m))
+    cos_to_nadir = -dot(direction, position_m) / (math.sqrt(dot(direction, direction)) * r_norm)
+    ratio = earth_radius_m / r_norm
+    return cos_to_nadir > math.sqrt(1.0 - ratio * ratio)
+
+
+@kernel
+def _occulted_each(direction, position, earth_radius_m, out):
+    for n in range(direction.shape[1]):
+        out[n] = occulted((direction[0, n], direction[1, n], direction[2, n]),
+                          (position[0, n], position[1, n], position[2, n]), earth_radius_m)
+
+
 def occulted_by_earth(direction, position_m, earth_radius_m: float = EARTH_MEAN_RADIUS_M):
     """Whether a direction seen from ``position_m`` points behind the Earth's disc (a sphere), bool.
 
@@ -120,11 +150,10 @@ def occulted_by_earth(direction, position_m, earth_radius_m: float = EARTH_MEAN_
     """
     radius = check_range("Earth radius for occultation", earth_radius_m / 1e3, 1000.0, 10000.0, " km") * 1e3
     d, r = _as_columns(direction, position_m)
-    r_norm = np.linalg.norm(r, axis=0)
-    cos_to_nadir = -np.einsum("i...,i...->...", d, r) / (np.linalg.norm(d, axis=0) * r_norm)
-    with np.errstate(invalid="ignore"):
-        cos_limb = np.sqrt(1.0 - (radius / r_norm) ** 2)
-    return cos_to_nadir > cos_limb
+    shape = d.shape[1:]
+    out = np.empty(int(np.prod(shape)), bool)
+    _occulted_each(np.ascontiguousarray(d.reshape(3, -1)), np.ascontiguousarray(r.reshape(3, -1)), radius, out)
+    return out.reshape(shape)[()] if not shape else out.reshape(shape)
 
 
 @dataclass(frozen=True)

@@ -18,6 +18,7 @@ import math
 import numpy as np
 
 from ..attitude import body_axes_in_orbital, roll_pitch_from_nadir
+from ..compiled import kernel
 from ..constants import EARTH_MEAN_RADIUS_M, GRS80, Ellipsoid
 from ..geometry import tangent_nadir_angles, vertical_from_horizon_angles
 from ..orbit.two_body import CircularOrbit
@@ -64,11 +65,29 @@ def oblateness_error(orbit: CircularOrbit, u_rad, ellipsoid: Ellipsoid = GRS80, 
     return sensed_roll_pitch(orbit, orbit.time_of_argument_of_latitude(u_rad), None, ellipsoid, height_m)
 
 
-def meridian_radius(latitude_rad, ellipsoid: Ellipsoid = GRS80):
-    """Distance from the centre to the meridian ellipse at geocentric latitude, m (any latitude, wraps)."""
-    a, b = ellipsoid.a_m, ellipsoid.b_m
-    lat = np.asarray(latitude_rad, float)
-    return a * b / np.sqrt((b * np.cos(lat)) ** 2 + (a * np.sin(lat)) ** 2)
+@kernel
+def closed_form(u_rad, altitude_m, inclination_rad, a_m, b_m, mean_radius_m):
+    """:func:`closed_form_oblateness` of one orbit position (floats): (meridional, roll, pitch), rad; NaN for a
+    non-finite u or inclination or an altitude outside (0, ∞). The sensor's kernel calls it per sample."""
+    if not (math.isfinite(u_rad) and math.isfinite(inclination_rad) and 0.0 < altitude_m < math.inf):
+        return math.nan, math.nan, math.nan
+    r, h = mean_radius_m, altitude_m
+    subsatellite_lat = math.asin(math.sin(inclination_rad) * math.sin(u_rad))
+    offset = 0.5 * math.pi - math.asin(r / (r + h))
+    slant = math.sqrt(h * (2.0 * r + h))
+    lat1, lat2 = subsatellite_lat - offset, subsatellite_lat + offset
+    r1 = a_m * b_m / math.hypot(b_m * math.cos(lat1), a_m * math.sin(lat1))
+    r2 = a_m * b_m / math.hypot(b_m * math.cos(lat2), a_m * math.sin(lat2))
+    meridional = 0.5 * (math.atan((r1 - r) / slant) - math.atan((r2 - r) / slant))
+    b_angle = math.atan2(math.cos(inclination_rad), math.sin(inclination_rad) * math.cos(u_rad))
+    return meridional, meridional * math.sin(b_angle), -meridional * math.cos(b_angle)
+
+
+@kernel
+def _closed_form_each(u_rad, altitude_m, inclination_rad, a_m, b_m, mean_radius_m, out):
+    for n in range(u_rad.size):
+        out[0, n], out[1, n], out[2, n] = closed_form(u_rad[n], altitude_m[n], inclination_rad[n], a_m, b_m,
+                                                      mean_radius_m)
 
 
 def closed_form_oblateness(u_rad, altitude_m, inclination_rad, ellipsoid: Ellipsoid = GRS80,
@@ -89,43 +108,27 @@ def closed_form_oblateness(u_rad, altitude_m, inclination_rad, ellipsoid: Ellips
       confirms. In REP-103, which this function returns, both are reversed:
       roll = (Δβ)m·sin B, pitch = −(Δβ)m·cos B (physics.md "Sign conventions").
 
+    One position in floats is one call of the compiled :func:`closed_form` (the monitor's per-sample
+    use); arrays run it element by element.
+
     Args:
         u_rad: argument of latitude, rad (array-like).
-        altitude_m: orbit altitude H above the mean radius, m.
+        altitude_m: orbit altitude H above the mean radius, m (> 0; NaN results otherwise).
         inclination_rad: inclination i, rad.
         ellipsoid: figure for R1, R2.
         mean_radius_m: R of the method, m.
 
     Returns:
-        (meridional_rad, roll_rad, pitch_rad) shaped like ``u_rad``: (Δβ)m as the
+        (meridional_rad, roll_rad, pitch_rad) shaped like the broadcast inputs: (Δβ)m as the
         paper defines it, roll and pitch in REP-103.
     """
+    a, b = float(ellipsoid.a_m), float(ellipsoid.b_m)
     if type(u_rad) is float and type(altitude_m) is float and type(inclination_rad) is float:
-        if not (math.isfinite(u_rad) and math.isfinite(inclination_rad) and 0.0 < altitude_m < math.inf):
-            return math.nan, math.nan, math.nan  # what the array path gives (without its warnings)
-        return _closed_form_oblateness_scalar(u_rad, altitude_m, inclination_rad, ellipsoid, mean_radius_m)
-    u = np.asarray(u_rad, float)
-    r, h = mean_radius_m, np.asarray(altitude_m, float)
-    horizon_nadir = np.arcsin(r / (r + h))
-    subsatellite_lat = np.arcsin(np.sin(inclination_rad) * np.sin(u))
-    offset = 0.5 * np.pi - horizon_nadir
-    r1 = meridian_radius(subsatellite_lat - offset, ellipsoid)
-    r2 = meridian_radius(subsatellite_lat + offset, ellipsoid)
-    slant = np.sqrt(h * (2.0 * r + h))
-    meridional = 0.5 * (np.arctan((r1 - r) / slant) - np.arctan((r2 - r) / slant))
-    b_angle = np.arctan2(np.cos(inclination_rad), np.sin(inclination_rad) * np.cos(u))
-    return meridional, meridional * np.sin(b_angle), -meridional * np.cos(b_angle)
-
-
-def _closed_form_oblateness_scalar(u: float, h: float, inclination: float, ellipsoid: Ellipsoid,
-                                   r: float) -> tuple[float, float, float]:
-    """:func:`closed_form_oblateness` for one orbit position in plain floats (the monitor calls it per sample)."""
-    a, b = ellipsoid.a_m, ellipsoid.b_m
-    subsatellite_lat = math.asin(math.sin(inclination) * math.sin(u))
-    offset = 0.5 * math.pi - math.asin(r / (r + h))
-    slant = math.sqrt(h * (2.0 * r + h))
-    r1, r2 = (a * b / math.hypot(b * math.cos(lat), a * math.sin(lat))
-              for lat in (subsatellite_lat - offset, subsatellite_lat + offset))
-    meridional = 0.5 * (math.atan((r1 - r) / slant) - math.atan((r2 - r) / slant))
-    b_angle = math.atan2(math.cos(inclination), math.sin(inclination) * math.cos(u))
-    return meridional, meridional * math.sin(b_angle), -meridional * math.cos(b_angle)
+        return closed_form(u_rad, altitude_m, inclination_rad, a, b, float(mean_radius_m))
+    u, h, i = np.broadcast_arrays(*(np.asarray(x, float) for x in (u_rad, altitude_m, inclination_rad)))
+    out = np.empty((3,) + u.shape)
+    _closed_form_each(np.ascontiguousarray(u).ravel(), np.ascontiguousarray(h).ravel(),
+                      np.ascontiguousarray(i).ravel(), a, b, float(mean_radius_m), out.reshape(3, -1))
+    if u.ndim == 0:
+        return out[0][()], out[1][()], out[2][()]
+    return out[0], out[1], out[2]

@@ -11,7 +11,7 @@ its physics reads):
    reports the geometric horizon of the emitting layer (``detector=None``);
 3. validity — a chord whose half-plane has no horizon, whose scan found no
    crossing, or whose swept arc has the Sun or the Moon within the exclusion
-   angle (:func:`pmv_ros.physics.instrument.bright_body.bright_body_in_chords`) reports no
+   angle (:mod:`pmv_ros.physics.instrument.bright_body`) reports no
    crossing (NaN) and says why (:class:`ChordStatus`);
 4. pair angles — roll from the ±Y pair, pitch from the ±X pair
    (:func:`pmv_ros.physics.geometry.roll_pitch_from_horizon_angles`): a lost
@@ -19,6 +19,14 @@ its physics reads):
    nothing is fabricated from three chords;
 5. optional on-board oblateness compensation with the closed-form model
    (physics.md §2.1), off by default as flown.
+
+What depends on the attitude and what does not are kept apart. The orbit,
+its frame and the Sun and Moon along the track are evaluated once on a fixed
+time grid (:mod:`.track`), the environment's fields along the horizon once
+on a fixed (time, azimuth) grid (:mod:`.horizon_fields`); each sample does
+only what its attitude changes, in one compiled pass (:mod:`.sensing`): a
+block of one sample and of thousands run the same code, and a sample reads
+the same in any of them.
 
 True and sensed quantities are kept apart: ``true_*`` is what an ideal
 sensor would read for the true attitude, ``sensed_*`` what this one reports.
@@ -29,20 +37,21 @@ from __future__ import annotations
 import enum
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
 from .. import chain
-from ..attitude import quaternion_product, true_roll_pitch
-from .bright_body import bright_body_in_chords
+from ..attitude import body_axes_in_orbital, true_roll_pitch
 from ..constants import EARTH_MEAN_RADIUS_M, GRS80, Ellipsoid
 from ..environment import EnvironmentParameters, RadianceEnvironment
-from ..orbit.ephemeris import BODY_NAMES, Epoch
-from ..geometry import CHORD_AZIMUTHS_RAD, chord_line_of_sight, roll_pitch_from_horizon_angles, tangent_nadir_angles
-from .oblateness import closed_form_oblateness, sensor_axes_eci
-from .track_grid import FIELD_GRID_FRACTION, HORIZON_POINT_SPEED_M_S, MAX_FIELD_GRID_S, grid_nodes, interpolate_in_time
-from ..orbit.two_body import CircularOrbit, eci_to_ecef, geocentric_latitude_longitude
+from ..orbit.ephemeris import Epoch
+from ..orbit.two_body import CircularOrbit
 from ..radiance import CO2_TOP_HEIGHT_M
+from . import sensing
+from .horizon_fields import (FIELD_AZIMUTH_FRACTION, FIELD_TIME_FRACTION, HORIZON_POINT_SPEED_M_S, MAX_FIELD_GRID_S,
+                             HorizonFields)
+from .track import NO_STATES, TRACK_NODE_S, OrbitTrack
 
 
 #: Default exclusion angle of the Sun or the Moon from a chord's swept arc, rad:
@@ -117,22 +126,108 @@ class SensorConfig:
 
 @dataclass(frozen=True)
 class SensorReading:
-    """What the sensor reports for N samples (arrays; rad; chords +X, +Y, −X, −Y)."""
+    """What the sensor reports for N samples (arrays; rad; chords +X, +Y, −X, −Y).
+
+    Every per-sample quantity is a view of ``table`` (N rows, the columns of
+    :mod:`.sensing`), which a caller that wants rows (a node publishing) reads whole.
+    """
 
     t_s: np.ndarray  #: (N,) sample times, s
-    argument_of_latitude_rad: np.ndarray  #: (N,)
-    crossing_nadir_rad: np.ndarray  #: (4, N) brightness-corrected crossing angles (NaN if invalid)
-    crossing_nadir_uncorrected_rad: np.ndarray  #: (4, N)
-    line_of_sight_sensor: np.ndarray  #: (3, 4, N) unit vectors to the corrected crossings (NaN if invalid)
-    chord_status: np.ndarray  #: (4, N) ChordStatus codes
-    sensed_roll_rad: np.ndarray  #: (N,) brightness-corrected
-    sensed_pitch_rad: np.ndarray  #: (N,)
-    sensed_roll_uncorrected_rad: np.ndarray  #: (N,)
-    sensed_pitch_uncorrected_rad: np.ndarray  #: (N,)
-    true_roll_rad: np.ndarray  #: (N,) what an ideal sensor reads for the true attitude
-    true_pitch_rad: np.ndarray  #: (N,)
-    #: (4, N) index into :data:`~pmv_ros.physics.orbit.ephemeris.BODY_NAMES` of the body that blinds the chord, −1 for none
-    blinding_body: np.ndarray | None = None
+    q_orbital_to_body: np.ndarray  #: (4, N) the true attitudes sensed at (x, y, z, w)
+    table: np.ndarray  #: (N, sensing.COLUMNS) the samples' rows
+
+    @property
+    def argument_of_latitude_rad(self) -> np.ndarray:
+        """(N,) of the orbit's state at each sample, 0 … 2π."""
+        return self.table[:, sensing.ARGUMENT_OF_LATITUDE]
+
+    @property
+    def crossing_nadir_rad(self) -> np.ndarray:
+        """(4, N) brightness-corrected crossing angles (NaN if invalid)."""
+        return self.table[:, sensing.CORRECTED].T
+
+    @property
+    def crossing_nadir_uncorrected_rad(self) -> np.ndarray:
+        """(4, N)."""
+        return self.table[:, sensing.UNCORRECTED].T
+
+    @property
+    def line_of_sight_sensor(self) -> np.ndarray:
+        """(3, 4, N) unit vectors to the corrected crossings (NaN if invalid)."""
+        return self.table[:, sensing.LINE_OF_SIGHT].reshape(-1, 4, 3).transpose(2, 1, 0)
+
+    @cached_property
+    def chord_status(self) -> np.ndarray:
+        """(4, N) ChordStatus codes."""
+        return self.table[:, sensing.STATUS].T.astype(np.int8)
+
+    @property
+    def sensed_roll_rad(self) -> np.ndarray:
+        """(N,) brightness-corrected."""
+        return self.table[:, sensing.ROLL]
+
+    @property
+    def sensed_pitch_rad(self) -> np.ndarray:
+        """(N,)."""
+        return self.table[:, sensing.PITCH]
+
+    @property
+    def sensed_roll_uncorrected_rad(self) -> np.ndarray:
+        """(N,)."""
+        return self.table[:, sensing.ROLL_UNCORRECTED]
+
+    @property
+    def sensed_pitch_uncorrected_rad(self) -> np.ndarray:
+        """(N,)."""
+        return self.table[:, sensing.PITCH_UNCORRECTED]
+
+    @cached_property
+    def _true(self):
+        roll, pitch = true_roll_pitch(self.q_orbital_to_body)
+        return np.atleast_1d(roll), np.atleast_1d(pitch)
+
+    @property
+    def true_roll_rad(self) -> np.ndarray:
+        """(N,) what an ideal sensor reads for the true attitude."""
+        return self._true[0]
+
+    @property
+    def true_pitch_rad(self) -> np.ndarray:
+        """(N,)."""
+        return self._true[1]
+
+    @cached_property
+    def blinding_body(self) -> np.ndarray:
+        """(4, N) index into :data:`~pmv_ros.physics.orbit.ephemeris.BODY_NAMES` of the body that blinds the
+        chord, −1 for none."""
+        return self.table[:, sensing.BLINDING].T.astype(np.int8)
+
+    @property
+    def position_eci_m(self) -> np.ndarray:
+        """(3, N) the spacecraft's position at each sample (ECI, m)."""
+        return self.table[:, sensing.POSITION].T
+
+    @property
+    def velocity_eci_m_s(self) -> np.ndarray:
+        """(3, N) its velocity (ECI, m/s)."""
+        return self.table[:, sensing.VELOCITY].T
+
+    @property
+    def horizon_radiance_ru(self) -> np.ndarray:
+        """(4, N) the radiance level B_m of each chord's profile, r.u. (physics.md §3.2 item 3: the climatology
+        and the weather at its horizon point); NaN where the chord has no horizon or the detector is ideal."""
+        return self.table[:, sensing.HORIZON_RADIANCE].T
+
+    @property
+    def window_height_m(self) -> np.ndarray:
+        """(4, N) the window-layer height h_w each chord sees, m (NaN as above)."""
+        return self.table[:, sensing.WINDOW_HEIGHT].T
+
+    @property
+    def disc_samples_ru(self) -> np.ndarray:
+        """(4, N, 3) the disc's radiance at the inward sample angles (climatology along the line of sight), r.u.;
+        NaN where the disc is uniform (the climatology a level)."""
+        return self.table[:, sensing.DISC_SAMPLES].reshape(-1, 4, 3).transpose(1, 0, 2)
 
     @property
     def chord_valid(self) -> np.ndarray:
@@ -155,13 +250,6 @@ def nominal_scan_start_nadir_rad(altitude_m: float, scan_margin_rad: float = DEF
     return float(chain.scan_start_nadir_angle(phi0, slope, CO2_TOP_HEIGHT_M, params)) + scan_margin_rad
 
 
-#: How the chain's per-chord codes map onto the sensor's chord status.
-_CHAIN_STATUS = np.full(max(chain.DetectionStatus) + 1, ChordStatus.NOT_DETECTED, np.int8)
-_CHAIN_STATUS[chain.DetectionStatus.OK] = ChordStatus.VALID
-_CHAIN_STATUS[chain.DetectionStatus.INVALID_INPUT] = ChordStatus.NO_HORIZON
-_CHAIN_STATUS[chain.DetectionStatus.SCAN_STARTED_IN_ATMOSPHERE] = ChordStatus.NO_HORIZON
-
-
 @dataclass(frozen=True)
 class RadianceConfig:
     """Where the horizon radiance seen by each chord comes from.
@@ -182,17 +270,16 @@ class RadianceConfig:
         window_height_m: uniform source: h_w, m.
         environment: parameters of the environment source.
         earth_rotation_at_epoch_rad: Greenwich angle at simulation time 0, rad.
-        field_grid_s: spacing of the coarse time grid on which the environment
-            is evaluated when samples are denser, s (0.1 … 60); None: a fraction
-            (:data:`FIELD_GRID_FRACTION`) of the time a horizon point takes to
-            cross the smallest scale of a field (its correlation radius, or its
-            shortest wavelength: 1600 km for the synoptic band of 2000 km zones,
-            300 km for the weather's background, 100 km for the layer height),
-            at most :data:`MAX_FIELD_GRID_S` — ≈ 30, 10 and 3.5 s; the band
-            rides on the weather background's grid (:meth:`grid_spacing_s`).
-            Between grid points the values are interpolated in time by cubic
-            splines: a horizon point moves < 1 km between samples 0.1 s apart,
-            against scales of hundreds of km.
+        field_grid_s: spacing of the time grid on which the environment's random
+            fields are kept along the horizon, s (0.1 … 60; :mod:`.horizon_fields`);
+            None: a fraction (:data:`~.horizon_fields.FIELD_TIME_FRACTION`) of the
+            time a horizon point takes to cross the smallest scale of a field (its
+            correlation radius, or its shortest wavelength: 1600 km for the synoptic
+            band of 2000 km zones, 300 km for the weather's background, 100 km for
+            the layer height), at most :data:`~.horizon_fields.MAX_FIELD_GRID_S` —
+            ≈ 4.2 s for the weather, 1.4 s for the layer height; the band rides on
+            the weather background's grid (:meth:`grid_spacing_s`). The climatology
+            is a formula, evaluated at each horizon point itself.
     """
 
     source: str = "uniform"
@@ -213,7 +300,7 @@ class RadianceConfig:
             raise ValueError(f"field_grid_s = {self.field_grid_s} is outside the allowed range 0.1 … 60 s")
 
     def grid_spacing_s(self) -> tuple[float, float]:
-        """The coarse grids' spacings, s: (the radiance — climatology and weather —, the window-layer height).
+        """The field grids' time-node spacings, s: (the weather, the window-layer height).
 
         See ``field_grid_s``. The radiance grid serves the weather's background (the finer of its two
         fields) and so the synoptic band too, whose shortest wavelength — its zone length ÷ 1.25, degree
@@ -221,19 +308,27 @@ class RadianceConfig:
         """
         if self.field_grid_s is not None:
             return (float(self.field_grid_s),) * 2
+        return tuple(float(min(MAX_FIELD_GRID_S, FIELD_TIME_FRACTION * scale / HORIZON_POINT_SPEED_M_S))
+                     for scale in self.field_scales_m())
+
+    def field_scales_m(self) -> tuple[float, float]:
+        """The smallest scales of the gridded fields, m: (the weather — its background or its synoptic band —,
+        the window-layer height)."""
         p = self.environment
         height = p.correlation_radius_m if p.height_correlation_radius_m is None else p.height_correlation_radius_m
+        return (min(p.synoptic_zone_m / 1.25, p.correlation_radius_m, p.weather_min_wavelength_m),
+                max(height, p.min_wavelength_m))
 
-        def spacing(scale_m, fraction):
-            return float(min(MAX_FIELD_GRID_S, fraction * scale_m / HORIZON_POINT_SPEED_M_S))
-
-        return (min(spacing(p.synoptic_zone_m / 1.25, FIELD_GRID_FRACTION["band"]),
-                    spacing(min(p.correlation_radius_m, p.weather_min_wavelength_m), FIELD_GRID_FRACTION["weather"])),
-                spacing(max(height, p.min_wavelength_m), FIELD_GRID_FRACTION["height"]))
+    def azimuth_nodes(self, altitude_m: float) -> tuple[int, int]:
+        """Azimuth nodes around the horizon circle of an orbit ``altitude_m`` high: (weather, layer height), each
+        a multiple of 4 spacing them ≤ :data:`~.horizon_fields.FIELD_AZIMUTH_FRACTION` of the field's scale."""
+        circle_m = 2.0 * math.pi * EARTH_MEAN_RADIUS_M * math.sin(
+            math.acos(EARTH_MEAN_RADIUS_M / (EARTH_MEAN_RADIUS_M + altitude_m)))
+        return tuple(4 * math.ceil(circle_m / (4.0 * FIELD_AZIMUTH_FRACTION * scale)) for scale in self.field_scales_m())
 
 
 class ChainDetector:
-    """Detection by the signal chain of physics.md §4 (:func:`pmv_ros.physics.chain.sense_horizon_chords`).
+    """Detection by the signal chain of physics.md §4 (:func:`pmv_ros.physics.chain.sense_chord`).
 
     Per chord, the ellipsoid geometry gives the hard-Earth horizon φ₀ and the
     grazing angle of the CO₂ top, hence dh/dφ; the radiance comes from
@@ -242,7 +337,7 @@ class ChainDetector:
     that covers oblateness (≈ 0.5° at 500 km) and attitude excursions.
 
     Args:
-        altitude_m: nominal orbit altitude (for the scan start), m.
+        altitude_m: nominal orbit altitude (for the scan start and the fields' azimuth grid), m.
         radiance: the radiance source.
         correction: brightness-correction table F (None: no correction).
         params: chain parameters.
@@ -255,132 +350,32 @@ class ChainDetector:
         self.radiance = radiance or RadianceConfig()
         self.correction = correction
         self.params = params
+        self.altitude_m = float(altitude_m)
         self.scan_start_rad = nominal_scan_start_nadir_rad(altitude_m, scan_margin_rad, params)
         self.environment = (RadianceEnvironment(self.radiance.environment)
                             if self.radiance.source == "environment" else None)
         self.grid_s, self.height_grid_s = self.radiance.grid_spacing_s()
+        self.kit = chain.chain_kit(params, correction)
 
     def prepare(self) -> None:
         """Pay the chain's one-off start now (:func:`pmv_ros.physics.chain.prepare`), not at the first sample."""
         chain.prepare(self.params)
 
-    def _chord_radiance(self, t_s, position_m, sensor_axes):
-        """Horizon radiance B_m (r.u.), disc samples (r.u.) or None, and h_w (m) of each chord: ``(4, N)``, ``(4, N, 3)``.
-
-        The horizon level (physics.md §3.2 item 3): the weather anomaly a and
-        the climatology B_clim are taken once per chord and sample, at the
-        chord's horizon point; B_m = B_clim·(1 + η·a), kept inside 1 … 4 r.u.,
-        is the level of the chord's whole profile (a uniform disc: no samples,
-        None). The window-layer height is taken at the horizon point too. With
-        ``climatology_sampling = "line_of_sight"`` the climatology is taken at
-        the disc samples as well, and every sample x carries the same weather
-        factor: B(x) = B_clim(x)·(1 + η·a), each kept inside 1 … 4 r.u.
-
-        Each field is evaluated at grid samples (one per grid spacing of the
-        sample times, and the first and last) and interpolated in time to the
-        other samples by a cubic spline: the climatology and the weather
-        (background and synoptic band) every ``grid_s``, the window-layer
-        height every ``height_grid_s`` (:mod:`.track_grid`); the horizon points
-        are found once for both grids, and each grid's fields share one spline.
-        When the samples are sparser than a grid: at every sample. The grids
-        are tied to the fields' clock (UTC when the environment has a time
-        origin), so runs of the same instants see the same nodes whatever their
-        own clock reads.
-        """
-        t = np.atleast_1d(np.asarray(t_s, float))
-        n = t.size
-        shape = (4, n)
-        if self.environment is None:
-            return (np.full(shape, self.radiance.disc_radiance_ru), None,
-                    np.full(shape, self.radiance.window_height_m))
+    def horizon_fields(self, track: OrbitTrack) -> HorizonFields | None:
+        """The gridded fields along the horizon for a track (None without weather or layer height)."""
         environment = self.environment
-        parameters = environment.parameters
-        # The climatology at the horizon point only (a level, physics.md §3.2 item 3), or also at the disc
-        # samples along the line of sight.
-        along_line_of_sight = parameters.climatology_sampling == "line_of_sight"
-        band_field = environment.weather and environment.weather.band_field
-        layer = environment.window_layer
-        origin_s = parameters.field_time_origin_s
-        nodes = {"radiance": grid_nodes(t, self.grid_s, origin_s)}
-        if layer is not None:
-            nodes["height"] = grid_nodes(t, self.height_grid_s, origin_s)
-        # The horizon points once, at both grids' nodes in a row: (4 chords, nodes) each.
-        every = np.concatenate(list(nodes.values()))
-        horizon = [v.reshape(4, every.size) for v in self._ground_points(t[every], position_m[:, every],
-                                                                          sensor_axes[:, :, every], False)]
-        grid = nodes["radiance"]
+        if environment is None or (environment.weather is None and environment.window_layer is None):
+            return None
+        return HorizonFields(environment, (self.grid_s, self.height_grid_s),
+                             self.radiance.azimuth_nodes(self.altitude_m),
+                             self.radiance.earth_rotation_at_epoch_rad, track)
 
-        def where(name):
-            """Latitude, longitude and time of the horizon points at a grid's nodes, flat (chord, node)."""
-            columns = slice(0, grid.size) if name == "radiance" else slice(grid.size, every.size)
-            return tuple(v[:, columns].ravel() for v in horizon)
 
-        at_horizon = where("radiance")
-        if along_line_of_sight:  # the horizon points lead the profile's points
-            lat, _, t_points = self._ground_points(t[grid], position_m[:, grid], sensor_axes[:, :, grid], True)
-        else:
-            lat, _, t_points = at_horizon
-        # The radiance grid's fields through one spline: (rows, 4 chords, nodes) → (rows, 4, N).
-        climatology = environment.mean_radiance_ru(lat, t_points).reshape(-1, 4, grid.size)
-        rows = [climatology]
-        if environment.weather is not None:
-            rows.append(environment.background_anomaly(*at_horizon).reshape(1, 4, grid.size))
-            if band_field is not None:
-                rows.append(band_field.evaluate(*at_horizon).reshape(1, 4, grid.size))
-        values = interpolate_in_time(t, grid, np.concatenate(rows))
-        parts = iter(values[climatology.shape[0]:])
-        background = next(parts) if environment.weather is not None else None
-        band = next(parts) if band_field is not None else None
-        radiance = environment.radiance_from_parts(values[:climatology.shape[0]], background, band)  # (points, 4, N)
-        if layer is None:
-            window = np.full(shape, parameters.window_height_mean_m)
-        else:  # the smooth Gaussian field is interpolated, then mapped to the uniform law at the samples
-            gaussian = layer.gaussian_field(*where("height")).reshape(4, -1)
-            window = layer.height_from_gaussian(interpolate_in_time(t, nodes["height"], gaussian))
-        # A horizon level scales the whole profile: a uniform disc, no samples for the chain to interpolate.
-        samples = radiance[1:].transpose(1, 2, 0) if along_line_of_sight else None
-        return radiance[0], samples, window
-
-    def _ground_points(self, t, position_m, sensor_axes, inner: bool):
-        """Latitude, longitude (rad) and time of each chord's horizon point (and the disc sample points if ``inner``).
-
-        Flat arrays ordered (point, chord, sample): the horizon point first,
-        then the ground hit by the lines of sight at the inward sample angles.
-        """
-        radius = np.sqrt(np.einsum("in,in->n", position_m, position_m))
-        up = position_m / radius
-        # Chord directions ±X, ±Y of the sensor, made horizontal at the sub-satellite point.
-        chords = np.concatenate([sensor_axes[:, :2], -sensor_axes[:, :2]], axis=1)
-        horizontal = chords - np.einsum("ikn,in->kn", chords, up)[None] * up[:, None]
-        horizontal /= np.sqrt(np.einsum("ikn,ikn->kn", horizontal, horizontal))
-        # Spherical horizon: central angle acos(R/r) from the sub-satellite point; the ground the
-        # lines of sight at the sample angles hit lies further in.
-        angles = np.arccos(EARTH_MEAN_RADIUS_M / radius)[None]
-        if inner:
-            phi0, slope = chain.sphere_chord(radius - EARTH_MEAN_RADIUS_M)
-            inward = np.asarray(chain.DISC_SAMPLE_INWARD_RAD)[:, None]
-            distance = chain.chord_ground_distance(phi0 - inward, phi0, slope)  # (samples, N)
-            angles = np.concatenate([angles, angles - distance / EARTH_MEAN_RADIUS_M])
-        # (3, points, 4 chords, N)
-        eci = np.cos(angles)[None, :, None, :] * up[:, None, None, :] + \
-            np.sin(angles)[None, :, None, :] * horizontal[:, None, :, :]
-        t_points = np.broadcast_to(t, eci.shape[1:]).reshape(-1)
-        ecef = eci_to_ecef(eci.reshape(3, -1), t_points, self.radiance.earth_rotation_at_epoch_rad)
-        lat, lon = geocentric_latitude_longitude(ecef)
-        return lat, lon, t_points
-
-    def __call__(self, t_s, horizon_nadir_rad, co2_top_nadir_rad, position_m, sensor_axes):
-        """Corrected and uncorrected crossing nadir angles and statuses, each ``(4, N)``."""
-        shape = horizon_nadir_rad.shape
-        slope = chain.tangent_height_rate_from_layer(horizon_nadir_rad, co2_top_nadir_rad, CO2_TOP_HEIGHT_M)
-        disc, samples, window = self._chord_radiance(t_s, position_m, sensor_axes)
-        readings = chain.sense_horizon_chords(
-            horizon_nadir_rad.ravel(), slope.ravel(), disc.ravel(), scan_start_nadir_rad=self.scan_start_rad,
-            window_height_m=window.ravel(), disc_samples_ru=None if samples is None else samples.reshape(-1, len(chain.DISC_SAMPLE_INWARD_RAD)),
-            correction=self.correction, params=self.params)
-        return (readings.sensed_horizon_nadir_rad.reshape(shape),
-                readings.sensed_horizon_nadir_uncorrected_rad.reshape(shape),
-                _CHAIN_STATUS[readings.status].reshape(shape))
+#: The field grids of a sensor without gridded fields: both switched off, their tables empty.
+_NO_GRID_PARAMS = np.array([1.0, 0.0, 4.0, 0.0] * 2)
+_NO_GRIDS = (np.full(1, np.iinfo(np.int64).min, np.int64), np.full(1, np.nan)) * 2
+#: Field nodes a call can report missing before it fills them and runs again.
+_MISSES = 4096
 
 
 class SensorModel:
@@ -389,30 +384,74 @@ class SensorModel:
     Args:
         orbit: the spacecraft orbit.
         config: instrument configuration.
-        detector: callable ``detector(t_s, horizon_nadir_rad, co2_top_nadir_rad, position_m, sensor_axes)``
-            returning ``(corrected (4, N), uncorrected (4, N), status (4, N))``
-            crossing nadir angles; None for the ideal geometric detector.
+        detector: a :class:`ChainDetector`, or None for the ideal geometric detector.
     """
 
-    def __init__(self, orbit: CircularOrbit, config: SensorConfig | None = None, detector=None):
+    def __init__(self, orbit: CircularOrbit, config: SensorConfig | None = None, detector: ChainDetector | None = None):
         self.orbit = orbit
-        self.config = config or SensorConfig()
+        self.config = config = config or SensorConfig()
         self.detector = detector
-        if self.config.scan_start_nadir_rad is not None:
-            self.scan_start_rad = self.config.scan_start_nadir_rad
+        if config.scan_start_nadir_rad is not None:
+            self.scan_start_rad = config.scan_start_nadir_rad
         else:
             self.scan_start_rad = getattr(detector, "scan_start_rad", None) or nominal_scan_start_nadir_rad(
                 orbit.altitude_m)
+        blinding = config.bright_body_exclusion_rad > 0.0
+        #: The orbit, the Sun and the Moon along the track (nothing here depends on the attitude).
+        self.track = OrbitTrack(orbit, config.epoch if blinding else None)
+        self.fields = detector.horizon_fields(self.track) if detector is not None else None
+        self._kit = detector.kit if detector is not None else chain.chain_kit()
+        mounted = config.mounting_q_xyzw is not None
+        self._mounting = np.ascontiguousarray(body_axes_in_orbital(np.asarray(config.mounting_q_xyzw, float))) \
+            if mounted else np.eye(3)
+        self._static = np.concatenate([self._config_vector(mounted), self._mounting.ravel(),
+                                       _NO_GRID_PARAMS if self.fields is None else self.fields.params])
+        self._misses = np.empty((_MISSES, 3), np.int64)
+        self._need = np.empty(2, np.int64)  # the track nodes the kernel lacks
+        floats, ints = sensing.scratch_sizes(self._kit.knots)
+        self._scratch, self._int_scratch = np.empty(floats), np.empty(ints, np.int64)
+
+    def _config_vector(self, mounted: bool) -> np.ndarray:
+        config, detector = self.config, self.detector
+        c = np.zeros(sensing.CONFIG_SIZE)
+        c[sensing.A_M], c[sensing.B_M] = config.ellipsoid.a_m, config.ellipsoid.b_m
+        c[sensing.IDEAL_HEIGHT_M] = config.ideal_layer_height_m
+        c[sensing.CO2_TOP_M] = CO2_TOP_HEIGHT_M
+        c[sensing.SCAN_START_RAD] = self.scan_start_rad
+        c[sensing.EXCLUSION_RAD] = config.bright_body_exclusion_rad
+        c[sensing.COMPENSATION] = config.oblateness_compensation
+        c[sensing.MOUNTED] = mounted
+        c[sensing.EARTH_RADIUS_M] = EARTH_MEAN_RADIUS_M
+        if detector is not None:
+            radiance, params = detector.radiance, detector.params
+            c[sensing.CHAIN] = 1.0
+            c[sensing.CO2_RADIANCE_RU], c[sensing.CO2_HEIGHT_M] = params.co2_radiance_ru, params.co2_top_height_m
+            c[sensing.DISC_RU], c[sensing.WINDOW_M] = radiance.disc_radiance_ru, radiance.window_height_m
+            if detector.environment is not None:
+                e = detector.environment.parameters
+                c[sensing.ENVIRONMENT] = 1.0
+                c[sensing.CLIMATOLOGY] = e.climatology_enabled
+                c[sensing.UNIFORM_RU] = e.uniform_radiance_ru
+                c[sensing.EPOCH_DAY] = e.epoch_day_of_year
+                c[sensing.ETA] = e.relative_variability
+                layer = detector.environment.window_layer
+                c[sensing.WINDOW_MEAN_M] = e.window_height_mean_m
+                c[sensing.WINDOW_HALF_RANGE_M] = layer.half_range_m if layer is not None else 0.0
+                c[sensing.ALONG_SIGHT] = e.climatology_sampling == "line_of_sight"
+        return c
 
     def prepare(self) -> None:
-        """Build what the first :meth:`sense` would build once (the detector's tables); nothing random is drawn."""
+        """Build what the first :meth:`sense` would build once (the detector's tables, the compiled kernels);
+        nothing random is drawn and no sample is sensed."""
         if hasattr(self.detector, "prepare"):
             self.detector.prepare()
+        self._run(np.empty(0), np.empty((0, 4)), np.empty((0, 6)), np.empty((0, sensing.COLUMNS)))
 
-    def _ideal_detection(self, position, axes):
-        horizon = tangent_nadir_angles(position, axes, self.config.ellipsoid, self.config.ideal_layer_height_m)
-        status = np.where(np.isfinite(horizon), ChordStatus.VALID, ChordStatus.NO_HORIZON).astype(np.int8)
-        return horizon, horizon, status
+    def _run(self, t, attitude, states, table):
+        nodes, track = self.track.kernel_inputs()
+        grids = _NO_GRIDS if self.fields is None else self.fields.kernel_inputs()
+        return sensing.sense_samples(t, attitude, states, nodes, track, self._static, *self._kit, *grids, table,
+                                     self._misses, self._need, self._scratch, self._int_scratch)
 
     def sense(self, t_s, q_orbital_to_body) -> SensorReading:
         """Run the instrument for N samples.
@@ -421,64 +460,33 @@ class SensorModel:
             t_s: ``(N,)`` simulation times, s.
             q_orbital_to_body: ``(4, N)`` true body attitudes (x, y, z, w); the sensor frame is the
                 body frame turned by the mounting (``SensorConfig.mounting_q_xyzw``).
+
+        Raises what the orbit raises where it has no state (an element set SGP4 cannot propagate, a
+        followed orbit without odometry there).
         """
-        t = np.atleast_1d(np.asarray(t_s, float))
+        t = np.asarray(t_s, float).reshape(-1)
         q = np.asarray(q_orbital_to_body, float).reshape(4, -1)
-        q_sensor = q if self.config.mounting_q_xyzw is None else quaternion_product(q, self.config.mounting_q_xyzw)
-        position, _ = self.orbit.state_eci(t)
-        axes = sensor_axes_eci(self.orbit, t, q_sensor)
-        horizon = None
-        if self.detector is None:
-            corrected, uncorrected, status = self._ideal_detection(position, axes)
-        else:
-            horizon = tangent_nadir_angles(position, axes, self.config.ellipsoid, 0.0)
-            co2_top = tangent_nadir_angles(position, axes, self.config.ellipsoid, CO2_TOP_HEIGHT_M)
-            corrected, uncorrected, status = self.detector(t, horizon, co2_top, position, axes)
-            status = np.where(np.isfinite(horizon), status, ChordStatus.NO_HORIZON).astype(np.int8)
-        blinding = np.full(status.shape, -1, np.int8)
-        if self.config.bright_body_exclusion_rad > 0.0:
-            if horizon is None:
-                horizon = tangent_nadir_angles(position, axes, self.config.ellipsoid, 0.0)
-            status, blinding = self._exclude_bright_bodies(t, q_sensor, horizon, status)
-        valid = status == ChordStatus.VALID
-        corrected = np.where(valid, corrected, np.nan)
-        uncorrected = np.where(valid, uncorrected, np.nan)
-
-        roll, pitch = roll_pitch_from_horizon_angles(corrected)
-        roll_raw, pitch_raw = roll_pitch_from_horizon_angles(uncorrected)
-        # The orbit where it is at each sample (constant altitude and inclination on the circular orbit).
-        u, inclination, altitude = self.orbit.orbit_angles(t)
-        if self.config.oblateness_compensation:
-            _, model_roll, model_pitch = closed_form_oblateness(u, altitude, inclination, self.config.ellipsoid)
-            roll, pitch = roll - model_roll, pitch - model_pitch
-            roll_raw, pitch_raw = roll_raw - model_roll, pitch_raw - model_pitch
-        true_roll, true_pitch = true_roll_pitch(q)
-        return SensorReading(
-            t_s=t,
-            argument_of_latitude_rad=u,
-            crossing_nadir_rad=corrected,
-            crossing_nadir_uncorrected_rad=uncorrected,
-            line_of_sight_sensor=chord_line_of_sight(corrected, CHORD_AZIMUTHS_RAD[:, None]),
-            chord_status=status,
-            sensed_roll_rad=roll,
-            sensed_pitch_rad=pitch,
-            sensed_roll_uncorrected_rad=roll_raw,
-            sensed_pitch_uncorrected_rad=pitch_raw,
-            true_roll_rad=np.atleast_1d(true_roll),
-            true_pitch_rad=np.atleast_1d(true_pitch),
-            blinding_body=blinding,
-        )
-
-    def _exclude_bright_bodies(self, t, q, horizon_nadir_rad, status):
-        """Statuses with SUN_OR_MOON where a body is in a chord's field, and which body, each ``(4, N)``.
-
-        The arc is the hard-Earth horizon to the scan start: the part of the
-        scan that looks at space (a body below it is behind the Earth). A
-        chord that has no horizon keeps NO_HORIZON — the body is not why.
-        """
-        check = bright_body_in_chords(self.orbit, t, q, self.config.epoch, horizon_nadir_rad,
-                                      np.full_like(horizon_nadir_rad, self.scan_start_rad),
-                                      self.config.bright_body_exclusion_rad, bodies=BODY_NAMES)
-        blinded = check.blinded & (status != ChordStatus.NO_HORIZON)
-        return (np.where(blinded, ChordStatus.SUN_OR_MOON, status).astype(np.int8),
-                np.where(blinded, check.blinding_body, -1).astype(np.int8))
+        table = np.empty((t.size, sensing.COLUMNS))
+        if t.size == 0:
+            return SensorReading(t, q, table)
+        attitude = q.T  # (N, 4), as the kernel reads it
+        if not attitude.flags.c_contiguous:
+            attitude = np.ascontiguousarray(attitude)
+        states = NO_STATES if self.track.model_orbit else self.track.states(t)
+        fields = self.fields
+        if fields is not None and not fields.current:
+            fields.refresh()
+        if self.track.has_errors:
+            self.track.needs(math.floor(float(t.min()) / TRACK_NODE_S) - 1, math.floor(float(t.max()) / TRACK_NODE_S) + 2)
+        missing = self._run(t, attitude, states, table)
+        first = 0  # the samples before are done
+        while missing:
+            if missing < 0:
+                self.track.needs(int(self._need[0]), int(self._need[1]))
+            else:
+                fields.fill(self._misses, min(missing, self._misses.shape[0]), t, states)
+                first += int(self._need[0])
+                if missing > self._misses.shape[0]:
+                    self._misses = np.empty((2 * missing, 3), np.int64)
+            missing = self._run(t[first:], attitude[first:], states[first:], table[first:])
+        return SensorReading(t, q, table)

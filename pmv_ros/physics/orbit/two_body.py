@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..compiled import kernel
 from ..constants import (
     EARTH_MEAN_RADIUS_M,
     EARTH_ROTATION_RATE_RAD_S,
@@ -180,25 +181,16 @@ def geocentric_latitude_longitude(r_m):
     return np.arctan2(r[2], np.hypot(r[0], r[1])), np.arctan2(r[1], r[0])
 
 
-def orbit_angles_from_state(position_eci_m, velocity_eci_m_s):
-    """Argument of latitude u (rad), inclination (rad) and altitude above the mean radius (m) from r, v in ECI.
-
-    For the oblateness model of an orbit known by its state (a monitor fed
-    from /orbit/odometry, an orbit from an element set). u is the angle from
-    the ascending node to r in the orbit plane (0 … 2π); for an equatorial
-    orbit the node is undefined and u is measured from the ECI x axis. One
-    state in plain floats rather than numpy: it runs once per odometry
-    message, where numpy's per-call overhead on 3-vectors would dominate;
-    ``(3, N)`` arrays give ``(N,)`` arrays (the batch monitor), the same steps.
-    """
-    if type(position_eci_m) is not tuple and np.ndim(position_eci_m) == 2:  # (a tuple is one state: no numpy)
-        return _orbit_angles_arrays(np.asarray(position_eci_m, float), np.asarray(velocity_eci_m_s, float))
-    rx, ry, rz = map(float, position_eci_m)
-    vx, vy, vz = map(float, velocity_eci_m_s)
+@kernel
+def orbit_angles(position_m, velocity_m_s):
+    """:func:`orbit_angles_from_state` of one state (3-tuples): (u, inclination, altitude), rad, rad, m; NaN for a
+    state with no angular momentum. The sensor's kernel calls it per sample."""
+    rx, ry, rz = position_m
+    vx, vy, vz = velocity_m_s
     hx, hy, hz = ry * vz - rz * vy, rz * vx - rx * vz, rx * vy - ry * vx
     h_norm = math.sqrt(hx * hx + hy * hy + hz * hz)
-    if not (math.isfinite(h_norm) and h_norm > 0.0):
-        raise ValueError("position and velocity must be finite and not parallel")
+    if not (0.0 < h_norm < math.inf):
+        return math.nan, math.nan, math.nan
     inclination = math.acos(max(-1.0, min(1.0, hz / h_norm)))
     nx, ny = -hy, hx  # node direction: z × h
     n_norm = math.hypot(nx, ny)
@@ -212,61 +204,87 @@ def orbit_angles_from_state(position_eci_m, velocity_eci_m_s):
     return u % (2.0 * math.pi), inclination, radius - EARTH_MEAN_RADIUS_M
 
 
-def _orbit_angles_arrays(r: np.ndarray, v: np.ndarray):
-    """:func:`orbit_angles_from_state` for ``(3, N)`` states, step for step."""
-    rx, ry, rz = r
-    vx, vy, vz = v
-    hx, hy, hz = ry * vz - rz * vy, rz * vx - rx * vz, rx * vy - ry * vx
-    h_norm = np.sqrt(hx * hx + hy * hy + hz * hz)
-    if not np.all(np.isfinite(h_norm) & (h_norm > 0.0)):
-        raise ValueError("position and velocity must be finite and not parallel")
-    inclination = np.arccos(np.clip(hz / h_norm, -1.0, 1.0))
-    nx, ny = -hy, hx
-    n_norm = np.hypot(nx, ny)
-    equatorial = n_norm < 1e-12 * h_norm
-    nx, ny, n_norm = np.where(equatorial, 1.0, nx), np.where(equatorial, 0.0, ny), np.where(equatorial, 1.0, n_norm)
-    nx, ny = nx / n_norm, ny / n_norm
-    cx, cy, cz = ny * rz, -nx * rz, nx * ry - ny * rx
-    u = np.arctan2((cx * hx + cy * hy + cz * hz) / h_norm, nx * rx + ny * ry)
-    radius = np.sqrt(rx * rx + ry * ry + rz * rz)
-    return np.mod(u, 2.0 * np.pi), inclination, radius - EARTH_MEAN_RADIUS_M
+@kernel
+def _orbit_angles_each(position, velocity, out):
+    for n in range(position.shape[1]):
+        out[0, n], out[1, n], out[2, n] = orbit_angles((position[0, n], position[1, n], position[2, n]),
+                                                       (velocity[0, n], velocity[1, n], velocity[2, n]))
 
 
-def orbital_axes_of_state(position_eci_m, velocity_eci_m_s) -> tuple[tuple, tuple, tuple]:
-    """:func:`orbital_frame_from_state` of one state in plain floats: the axes X, Y, Z in ECI as 3-tuples.
+def orbit_angles_from_state(position_eci_m, velocity_eci_m_s):
+    """Argument of latitude u (rad), inclination (rad) and altitude above the mean radius (m) from r, v in ECI.
 
-    The same steps in the same order, so the same bits (the sensor writes one odometry message per sample,
-    where numpy's per-call cost on 3-vectors dominates); NaN axes where r or its horizontal velocity is zero
-    or not finite.
+    For the oblateness model of an orbit known by its state (a monitor fed
+    from /orbit/odometry, an orbit from an element set). u is the angle from
+    the ascending node to r in the orbit plane (0 … 2π); for an equatorial
+    orbit the node is undefined and u is measured from the ECI x axis. One
+    state ((3,) or a tuple) gives floats, ``(3, N)`` arrays give ``(N,)`` arrays, both through the compiled
+    :func:`orbit_angles`. ValueError for a state that is not finite or whose r and v are parallel.
     """
-    rx, ry, rz = map(float, position_eci_m)
-    vx, vy, vz = map(float, velocity_eci_m_s)
+    if type(position_eci_m) is tuple or np.ndim(position_eci_m) == 1:
+        state = tuple(map(float, position_eci_m)), tuple(map(float, velocity_eci_m_s))
+        u, inclination, altitude = orbit_angles(*state)
+        if math.isnan(inclination) or not all(map(math.isfinite, state[0] + state[1])):
+            raise ValueError("position and velocity must be finite and not parallel")
+        return u, inclination, altitude
+    position = np.ascontiguousarray(position_eci_m, float)
+    velocity = np.ascontiguousarray(velocity_eci_m_s, float)
+    out = np.empty((3, position.shape[1]))
+    _orbit_angles_each(position, velocity, out)
+    if not (np.all(np.isfinite(position)) and np.all(np.isfinite(velocity)) and not np.any(np.isnan(out[1]))):
+        raise ValueError("position and velocity must be finite and not parallel")
+    return out[0], out[1], out[2]
+
+
+@kernel
+def orbital_axes(position_m, velocity_m_s):
+    """:func:`orbital_axes_of_state` in the kernels: 3-tuples r (m), v (m/s) → the axes X, Y, Z (3-tuples)."""
+    rx, ry, rz = position_m
+    vx, vy, vz = velocity_m_s
+    nan3 = (math.nan, math.nan, math.nan)
     radius = math.sqrt(rx * rx + ry * ry + rz * rz)
     if not 0.0 < radius < math.inf:
-        return ((math.nan,) * 3,) * 3
+        return nan3, nan3, nan3
     zx, zy, zz = rx / radius, ry / radius, rz / radius
     radial = vx * zx + vy * zy + vz * zz
     xx, xy, xz = vx - radial * zx, vy - radial * zy, vz - radial * zz
     along = math.sqrt(xx * xx + xy * xy + xz * xz)
     if not 0.0 < along < math.inf:
-        return ((math.nan,) * 3,) * 3
+        return nan3, nan3, nan3
     xx, xy, xz = xx / along, xy / along, xz / along
     return (xx, xy, xz), (zy * xz - zz * xy, zz * xx - zx * xz, zx * xy - zy * xx), (zx, zy, zz)
+
+
+@kernel
+def _orbital_axes_each(position, velocity, out):
+    for n in range(position.shape[1]):
+        axes = orbital_axes((position[0, n], position[1, n], position[2, n]),
+                            (velocity[0, n], velocity[1, n], velocity[2, n]))
+        for column in range(3):
+            for row in range(3):
+                out[row, column, n] = axes[column][row]
+
+
+def orbital_axes_of_state(position_eci_m, velocity_eci_m_s) -> tuple[tuple, tuple, tuple]:
+    """The orbital frame's axes X, Y, Z in ECI of one state, as 3-tuples of floats (the compiled
+    :func:`orbital_axes`): Z along r, X the velocity without its radial part, Y = Z × X. NaN axes where r or
+    its horizontal velocity is zero or not finite."""
+    return orbital_axes(tuple(map(float, position_eci_m)), tuple(map(float, velocity_eci_m_s)))
 
 
 def orbital_frame_from_state(position_eci_m, velocity_eci_m_s):
     """Orbital-frame axes (columns X, Y, Z) in ECI from ``(3[, N])`` r and v: ``(3, 3[, N])``.
 
     Z along r, X the velocity without its radial part (the along-track
-    horizontal), Y = Z × X (the orbit normal). One state in plain floats: :func:`orbital_axes_of_state`.
+    horizontal), Y = Z × X (the orbit normal); state by state (:func:`orbital_axes`).
     """
     r = np.asarray(position_eci_m, float)
     v = np.asarray(velocity_eci_m_s, float)
-    z_axis = r / np.linalg.norm(r, axis=0)
-    x_axis = v - np.sum(v * z_axis, axis=0) * z_axis
-    x_axis = x_axis / np.linalg.norm(x_axis, axis=0)
-    y_axis = np.cross(z_axis, x_axis, axis=0)
-    return np.stack([x_axis, y_axis, z_axis], axis=1)
+    shape = np.broadcast_shapes(r.shape, v.shape)[1:]
+    out = np.empty((3, 3, int(np.prod(shape))))
+    _orbital_axes_each(np.ascontiguousarray(np.broadcast_to(r, (3,) + shape).reshape(3, -1)),
+                       np.ascontiguousarray(np.broadcast_to(v, (3,) + shape).reshape(3, -1)), out)
+    return out.reshape((3, 3) + shape)
 
 
 class StateOrbit:
@@ -289,7 +307,7 @@ class StateOrbit:
     def orbit_angles(self, t_s):
         """Argument of latitude (rad, 0 … 2π), inclination (rad) and altitude above the mean radius (m) at ``t_s``."""
         position, velocity = self.state_eci(np.atleast_1d(np.asarray(t_s, float)))
-        u, inclination, altitude = _orbit_angles_arrays(position, velocity)
+        u, inclination, altitude = orbit_angles_from_state(position, velocity)
         if np.ndim(t_s) == 0:
             return float(u[0]), float(inclination[0]), float(altitude[0])
         return u, inclination, altitude

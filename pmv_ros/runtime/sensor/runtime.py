@@ -75,12 +75,12 @@ class LogLine(NamedTuple):
     text: str
 
 
-@dataclass
+@dataclass(slots=True)
 class SensorOutput:
     """What one input or tick makes the sensor say: ``published`` in order, and ``log`` lines."""
 
-    published: list = field(default_factory=list)  #: SamplePublication and HealthAt items
-    log: list = field(default_factory=list)  #: LogLine items
+    published: list = field(default_factory=list)  #: SamplePublication and HealthAt items (a tuple when empty)
+    log: list = field(default_factory=list)  #: LogLine items (a tuple when empty)
 
     @property
     def samples(self) -> list[SensorSample]:
@@ -91,6 +91,15 @@ class SensorOutput:
     def health(self) -> list[HealthAt]:
         """The ``/diagnostics`` reports of :attr:`published`, in order."""
         return [item for item in self.published if isinstance(item, HealthAt)]
+
+
+#: Where a followed attitude can come from (TruthAt.usable), and two of them, looked up once (an enum member's
+#: lookup is a descriptor call, a sample's follow path asks several).
+_USABLE_TRUTH = frozenset(source for source in TruthAt if source.usable)
+_STALE, _BRIDGED = TruthAt.STALE, TruthAt.BRIDGED
+
+#: What a call returns when it says nothing (a fresh one is made only when something is said; never appended to).
+_NOTHING = SensorOutput((), ())
 
 
 def _no_graph_problems() -> tuple[int, tuple]:
@@ -195,7 +204,10 @@ class SensorRuntime:
         return self.sim_time_s if self.values["sim.fast_time"] else clock_s
 
     def _take(self) -> SensorOutput:
-        out, self._out = self._out, SensorOutput()
+        out = self._out
+        if not (out.published or out.log):  # nothing said: the same empty output again (no new object a message)
+            return _NOTHING
+        self._out = SensorOutput()
         return out
 
     # -- inputs ---------------------------------------------------------------------------------
@@ -245,7 +257,11 @@ class SensorRuntime:
         if rejection is not None:
             self.health.count(f"rejected_odometry_{rejection.value}")
             return
-        self.stream.orbit.buffer.add(stamp_s, position, velocity)
+        buffer = self.stream.orbit.buffer
+        buffer.add(stamp_s, position, velocity)
+        # The sensor's field nodes placed ahead of the odometry are placed again once it covers them; a buffer
+        # that started over (its first state) voids them all.
+        self.stream.model.track.follow(stamp_s, reset=len(buffer) == 1)
 
     # -- ticks ----------------------------------------------------------------------------------
 
@@ -374,30 +390,31 @@ class SensorRuntime:
         reports nothing but health."""
         if not found:
             return
-        usable = [(t_s, q) for t_s, q, source in found if source.usable]
-        covered = set(self._orbit_covered([t for t, _ in usable])) if self.orbit_following else None
+        usable = [item for item in found if item[2] in _USABLE_TRUTH]
+        covered = set(self._orbit_covered([t for t, _, _ in usable])) if self.orbit_following else None
         if covered is not None:
-            usable = [(t_s, q) for t_s, q in usable if t_s in covered]
+            usable = [item for item in usable if item[0] in covered]
         samples = iter(self._orbit_samples(found[-1][0], lambda: self.stream.samples(
-            [t for t, _ in usable], [q for _, q in usable])) if usable else ())
+            [t for t, _, _ in usable], [q for _, q, _ in usable])) if usable else ())
         for t_s, _, source in found:
             self._truth_state = source
+            usable_here = source in _USABLE_TRUTH
             # Said once each way: samples between the stale ones and the truth's return may read truth_gap.
-            if source is TruthAt.STALE and not self._stale_logged:
+            if source is _STALE and not self._stale_logged:
                 self._stale_logged = True
                 self._out.log.append(LogLine("error", f"{self.health.truth_topic} is stale at t = {t_s:.3f} s "
                                                       f"(newest {self.truth.newest_stamp_s:.3f} s): no angles until "
                                                       "it returns"))
-            elif source.usable and self._stale_logged:
+            elif usable_here and self._stale_logged:
                 self._stale_logged = False
                 self._out.log.append(LogLine("info", f"{self.health.truth_topic} is back at t = {t_s:.3f} s"))
-            if not source.usable:
+            if not usable_here:
                 self.health.count(f"skipped_{source.value}")
                 self._emit_health(t_s)
                 continue
             if covered is not None and t_s not in covered:  # no orbit at t_s: counted and said already
                 continue
-            if source is TruthAt.BRIDGED:  # a late truth sample, bridged by the last rate: counted, no alarm
+            if source is _BRIDGED:  # a late truth sample, bridged by the last rate: counted, no alarm
                 self.health.count("truth_bridged")
             sample = next(samples, None)
             if sample is not None:

@@ -1,11 +1,12 @@
 """The sensor's output sample by sample, as plain values a node publishes — computed in blocks when it can.
 
-:class:`SampleStream` runs :class:`pmv_ros.physics.instrument.sensor.SensorModel` and the
-orbit for the sensor node: with the node's own attitude profile it computes
-a block of future samples in one call (numpy overhead amortised; the output
-is identical sample for sample), with a given attitude (follow mode, the
-real-time tick) one sample. Each sample is a :class:`SensorSample` of Python
-floats and tuples, so publishing does no numpy indexing.
+:class:`SampleStream` runs :class:`pmv_ros.physics.instrument.sensor.SensorModel` for the
+sensor node: with the node's own attitude profile it computes a block of
+future samples in one call (the per-call cost amortised), with a given
+attitude (follow mode) the samples due, one or more. A sample reads the same
+in any block (the instrument's grids are fixed on the clock). Each sample is a
+:class:`SensorSample` of Python floats and tuples, so publishing does no numpy
+indexing.
 """
 
 from __future__ import annotations
@@ -16,6 +17,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ...physics.instrument.sensing import BLINDING, LINE_OF_SIGHT, PITCH, PITCH_UNCORRECTED, POSITION, ROLL, \
+    ROLL_UNCORRECTED, STATUS, VELOCITY
 from ...physics.instrument.sensor import ChordStatus
 
 
@@ -34,8 +37,9 @@ class SensorSample(NamedTuple):
     position_eci_m: tuple  #: spacecraft position in ECI
     velocity_eci_m_s: tuple  #: spacecraft velocity in ECI
 
-#: Samples computed per call in fast time with the own attitude profile: 512 cost
-#: ≈ 35 µs each against ≈ 70 µs in blocks of 64. A parameter change discards the block.
+#: Samples computed per call in fast time with the own attitude profile (the per-call cost of the instrument,
+#: a few µs, and of the environment's node evaluations amortised; benchmarks/bench_sensing.py). A parameter
+#: change discards the block.
 FAST_TIME_BLOCK = 512
 
 #: Paced fast time: a block should take no longer than one tick, or /clock stops while it
@@ -62,6 +66,14 @@ def block_times(first_s: float, period_s: float, block: int) -> np.ndarray:
 GRID_TOLERANCE = 1e-6
 
 
+#: The columns of a reading's row a sample is made of (pmv_ros.physics.instrument.sensing), by name.
+_S0, _S1, _S2, _S3, _S4, _S5, _S6, _S7, _S8, _S9, _S10, _S11 = range(LINE_OF_SIGHT.start, LINE_OF_SIGHT.stop)
+_C0, _C1, _C2, _C3 = range(STATUS.start, STATUS.stop)
+_B0, _B1, _B2, _B3 = range(BLINDING.start, BLINDING.stop)
+_P0, _P1, _P2 = range(POSITION.start, POSITION.stop)
+_V0, _V1, _V2 = range(VELOCITY.start, VELOCITY.stop)
+
+
 class SampleGrid:
     """The sensor's own sample times on a clock it does not step: ``epoch_s + k·period_s``, k = 1, 2, …
 
@@ -77,8 +89,7 @@ class SampleGrid:
 
     Sample k is the k-th step of a fast-time run that started at ``epoch_s``
     (:meth:`pmv_ros.runtime.sensor.runtime.SensorRuntime.step`): the same
-    instants, and computed in the same blocks
-    (:meth:`SampleStream.grid_profile_samples`).
+    instants (:meth:`SampleStream.grid_profile_samples`).
 
     Args:
         epoch_s: the grid's origin, s (the node clock at the start: the orbit's epoch).
@@ -164,11 +175,10 @@ class SampleStream:
     def grid_profile_samples(self, grid: SampleGrid, indices: range) -> list[SensorSample]:
         """Own-profile samples at the grid ``indices`` (real time: the samples a clock step made due).
 
-        Computed in the grid's blocks of :data:`FAST_TIME_BLOCK` samples —
-        indices 1 … 512, 513 … 1024, …: the blocks of a fast-time run from the
-        grid's origin — and the current block kept. The environment's fields
-        are interpolated over a block (:mod:`pmv_ros.physics.instrument.sensor`), so the
-        same blocks make a run on any clock sense what fast time senses.
+        Computed ahead in the grid's blocks of :data:`FAST_TIME_BLOCK` samples —
+        indices 1 … 512, 513 … 1024, … — and the current block kept: one call a
+        block. A sample reads the same in any block, so a run on any clock senses
+        what fast time senses.
         """
         samples = []
         for index in indices:
@@ -182,22 +192,27 @@ class SampleStream:
         return samples
 
     def samples(self, times, q_xyzw) -> list[SensorSample]:
-        """Samples at ``(N,)`` times, s, with the given ``(N, 4)`` attitudes (x, y, z, w) — follow mode."""
-        times, q = np.asarray(times, float), np.asarray(q_xyzw, float).reshape(-1, 4)
-        return [row for start in range(0, times.size, FAST_TIME_BLOCK)
-                for row in self.rows(times[start:start + FAST_TIME_BLOCK], q[start:start + FAST_TIME_BLOCK].T)]
+        """Samples at ``(N,)`` times, s, with the given ``(N, 4)`` attitudes (x, y, z, w) — follow mode: one
+        sample or many, the same code (a sample reads the same in any block)."""
+        return self.rows(np.array(times, float), np.array(q_xyzw, float).reshape(-1, 4).T)
 
     def rows(self, times: np.ndarray, q: np.ndarray, reading=None) -> list[SensorSample]:
         """Run the instrument for ``(N,)`` times and ``(4, N)`` attitudes (or take its ``reading`` of them):
-        N samples."""
+        N samples, made from the reading's rows (:attr:`~pmv_ros.physics.instrument.sensor.SensorReading.table`)."""
         if reading is None:
             reading = self.model.sense(times, q)
-        position, velocity = self.orbit.state_eci(times)
-        status, blinding = reading.chord_status, reading.blinding_body
-        line_of_sight = reading.line_of_sight_sensor.transpose(2, 1, 0)  # (N, 4, 3)
+        table = reading.table
+        sights = None
         if self._check is not None:
-            line_of_sight = self._check(line_of_sight, (status == ChordStatus.VALID).T)
-        columns = (times, q.T, line_of_sight, reading.sensed_roll_rad, reading.sensed_pitch_rad,
-                   reading.sensed_roll_uncorrected_rad, reading.sensed_pitch_uncorrected_rad, status.T,
-                   (np.full_like(status, -1) if blinding is None else blinding).T, position.T, velocity.T)
-        return list(map(SensorSample._make, zip(*(np.asarray(column).tolist() for column in columns))))
+            sights = self._check(table[:, LINE_OF_SIGHT].reshape(-1, 4, 3), table[:, STATUS] == ChordStatus.VALID)
+            sights = [tuple(map(tuple, sight)) for sight in sights.tolist()]
+        samples = []
+        for n, (t_s, q_xyzw, row) in enumerate(zip(reading.t_s.tolist(), reading.q_orbital_to_body.T.tolist(),
+                                                   table.tolist())):
+            sight = sights[n] if sights is not None else ((row[_S0], row[_S1], row[_S2]), (row[_S3], row[_S4], row[_S5]),
+                                                           (row[_S6], row[_S7], row[_S8]), (row[_S9], row[_S10], row[_S11]))
+            samples.append(SensorSample(t_s, tuple(q_xyzw), sight, row[ROLL], row[PITCH], row[ROLL_UNCORRECTED],
+                                        row[PITCH_UNCORRECTED], (int(row[_C0]), int(row[_C1]), int(row[_C2]), int(row[_C3])),
+                                        (int(row[_B0]), int(row[_B1]), int(row[_B2]), int(row[_B3])),
+                                        (row[_P0], row[_P1], row[_P2]), (row[_V0], row[_V1], row[_V2])))
+        return samples
