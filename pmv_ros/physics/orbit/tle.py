@@ -22,9 +22,10 @@
    the true equator (Vallado et al. 2006, AIAA 2006-6753, §"TEME"). Error
    bound of the conversion: the 1994 equation of the equinoxes carries two
    terms (≤ 0.0027″) that the 1982 one of the TEME definition does not,
-   0.1 m at 7000 km; the nutation is evaluated at UTC + 69.184 s for TT
-   (≤ 37 s off before 2017: < 1e-5″); the celestial-pole offsets (dψ, dε,
-   ≈ 0.05″ = 2 m) are left out, as TEME leaves them out. Velocities are
+   0.1 m at 7000 km; the nutation is evaluated in TT (TT − UTC from the
+   leap-second table: :func:`pmv_ros.physics.orbit.ephemeris.tt_minus_utc_s`);
+   the celestial-pole offsets (dψ, dε, ≈ 0.05″ = 2 m) are left out, as TEME
+   leaves them out. Velocities are
    rotated by the same matrix (its own rate, ≈ 1e-11 rad/s, is neglected:
    < 1e-7 m/s). The Earth-fixed frame of the project then follows from the
    GMST rotation of :func:`pmv_ros.physics.orbit.two_body.eci_to_ecef`, which leaves
@@ -45,7 +46,7 @@ from datetime import datetime, timedelta, timezone
 import numpy as np
 
 from ..constants import EARTH_MEAN_RADIUS_M, SECONDS_PER_DAY
-from .ephemeris import JD_J2000, TT_MINUS_UTC_S, Epoch
+from .ephemeris import JD_J2000, Epoch, tt_minus_utc_s
 from .two_body import MAX_ALTITUDE_M, MIN_ALTITUDE_M, StateOrbit, orbit_angles_from_state
 
 #: Columns a line of an element set has (the checksum is the last).
@@ -215,11 +216,12 @@ def teme_to_mod_matrix(julian_date_utc):
     """Rotation from TEME to the mean equator and equinox of date at UTC Julian date(s): ``(3, 3[, N])``.
 
     Nᵀ · R_z(Eq) (module docstring): ``erfa.nutm80`` and ``erfa.eqeq94`` at
-    TT ≈ UTC + 69.184 s.
+    TT (:func:`~pmv_ros.physics.orbit.ephemeris.tt_minus_utc_s`).
     """
     import erfa
 
-    mjd_tt = np.asarray(julian_date_utc, float) - _JD_MJD_ZERO + TT_MINUS_UTC_S / SECONDS_PER_DAY
+    julian_date_utc = np.asarray(julian_date_utc, float)
+    mjd_tt = julian_date_utc - _JD_MJD_ZERO + tt_minus_utc_s(julian_date_utc) / SECONDS_PER_DAY
     nutation = erfa.nutm80(_JD_MJD_ZERO, mjd_tt)  # (..., 3, 3), mean → true of date
     eq = erfa.eqeq94(_JD_MJD_ZERO, mjd_tt)
     c, s = np.cos(eq), np.sin(eq)
