@@ -186,7 +186,7 @@ def make_element_set(epoch_utc: datetime, inclination_deg: float, raan_deg: floa
     returned. Angles are written to 1e-4°, the mean motion to 1e-8 rev/day,
     the eccentricity to 1e-7 and the epoch to 1e-8 day (≈ 1 ms).
     """
-    from sgp4.api import WGS72, Satrec
+    WGS72, Satrec = _sgp4_api()
     from sgp4.exporter import export_tle
 
     epoch = epoch_utc.astimezone(timezone.utc)
@@ -205,8 +205,7 @@ def make_element_set(epoch_utc: datetime, inclination_deg: float, raan_deg: floa
 
 def element_set_altitude_m(line1, line2) -> float:
     """The nominal altitude of an element set: SGP4's mean semi-major axis less the 6371 km mean radius, m."""
-    from sgp4.api import WGS72, Satrec
-
+    WGS72, Satrec = _sgp4_api()
     elements = parse_element_set(line1, line2)
     satrec = Satrec.twoline2rv(elements.line1, elements.line2, WGS72)
     return float(satrec.a * satrec.radiusearthkm * 1e3 - EARTH_MEAN_RADIUS_M)
@@ -262,8 +261,7 @@ class TleOrbit(StateOrbit):
 
     def __init__(self, line1: str, line2: str, utc_at_epoch: Epoch, epoch_s: float = 0.0,
                  check_span_s: float = SECONDS_PER_DAY):
-        from sgp4.api import WGS72, Satrec
-
+        WGS72, Satrec = _sgp4_api()
         self.elements = parse_element_set(line1, line2)
         self._last = None  # (times, state) of the last state_eci call
         self.epoch_s = float(epoch_s)
@@ -385,6 +383,19 @@ class TleOrbit(StateOrbit):
         return (f"SGP4 error {code} at t = {t_s:.1f} s ({when:%Y-%m-%dT%H:%M:%S}Z, "
                 f"{float(self.minutes_since_elements(t_s)) / 1440.0:+.3f} days from the element set's epoch): "
                 f"{_sgp4_message(code)}")
+
+
+#: The refusal of an element set where python-sgp4 is not installed (it has no rosdep key: package.xml).
+NO_SGP4 = "orbit.source tle needs python-sgp4, which cannot be imported: pip install sgp4"
+
+
+def _sgp4_api():
+    """python-sgp4's ``(WGS72, Satrec)``; ValueError (:data:`NO_SGP4`) where it is not installed."""
+    try:
+        from sgp4.api import WGS72, Satrec
+    except ImportError:
+        raise ValueError(NO_SGP4) from None
+    return WGS72, Satrec
 
 
 def _sgp4_message(code: int) -> str:
