@@ -53,13 +53,9 @@ test: $(STAMP) bytecode
 test-long: $(STAMP)
 	$(BIN)/python -m pytest -q -m long --run-long
 
+# Every benchmarks/bench_*.py, each with its own printout, then one table of their headlines (benchmarks/README.md).
 bench: $(STAMP)
-	$(BIN)/python benchmarks/bench_chain.py
-	$(BIN)/python benchmarks/bench_pipeline.py
-	$(BIN)/python benchmarks/bench_environment.py
-	$(BIN)/python benchmarks/bench_campaign.py
-	$(BIN)/python benchmarks/bench_tick_outputs.py
-	$(BIN)/python benchmarks/bench_basilisk.py
+	$(BIN)/python benchmarks/run.py
 
 clean:
 	rm -rf $(VENV) build install log .ros_log report *.egg-info

@@ -310,6 +310,11 @@ def main() -> None:
           + f" µs/tick, {alone_s / ticks * 1e6:.0f} in all: the main job as built cannot go below the floor plus "
           f"that, {(floor_s + alone_s) / floor_s:.2f}x the floor")
     print(f"main job / floor ratio: {job_s / floor_s:.2f}x")
+    from headline import headline
+    headline("main_job", "pmv simulate's pipeline, Kondor 10 Hz, per tick", job_s / ticks * 1e6, "µs/tick", "lower",
+             floor_s / sum(published.values()) * 1e6, "µs/message",
+             "bare rclpy publishing and taking one of its messages",
+             ratio=job_s / ticks / (floor_s / sum(published.values())))
 
 
 if __name__ == "__main__":
