@@ -196,6 +196,9 @@ def pytest_runtest_teardown(item, nextitem):
 
 #: Where the early work runs (set by the process that hands out the tests; the xdist workers inherit it).
 EARLY_ENV = "PMV_ROS_TEST_EARLY_DIR"
+#: The run that started a piece of early work: a folder kept across runs, or a pytest run inside a test, must not
+#: stop or remove work another run started.
+RUN_ENV = "PMV_ROS_TEST_RUN"
 #: ``nice`` increment of the early work, and ``ionice`` idle class where there is one (the tool install copies the
 #: venv): the tests running meanwhile keep their share of the cores and the disk.
 EARLY_NICE = 10
@@ -266,6 +269,8 @@ def _start_early(items) -> None:
             shutil.rmtree(draft)
             continue
         (draft / "repo_before").write_text("\n".join(sorted(path.name for path in REPO.iterdir())))
+        (draft / "run").write_text(os.environ.get(RUN_ENV, ""))
+        (draft / "maker").write_text(str(os.getpid()))
         try:
             draft.rename(work)
         except OSError:  # another process was first
@@ -314,8 +319,26 @@ def _run_session_command(name: str, tmp_path_factory) -> tuple[Path, subprocess.
 
 
 def _unfinished_early_work(directory: Path):
-    """The folders of early work in ``directory`` whose command has not ended."""
+    """The folders of early work in ``directory`` whose command has not ended (drafts included)."""
     return [work for work in directory.iterdir() if work.is_dir() and not (work / "status").exists()]
+
+
+def _alive(pid_text: str) -> bool:
+    """Whether the process of a pid (text) is alive."""
+    try:
+        os.kill(int(pid_text), 0)
+    except (ValueError, ProcessLookupError):
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def _abandoned(work: Path) -> bool:
+    """Early work that no live process will finish: its runner and the process that made it have gone."""
+    if work.name.startswith("."):  # a draft: .NAME.PID
+        return not _alive(work.name.rsplit(".", 1)[-1])
+    return not any(path.exists() and _alive(path.read_text()) for path in (work / "pid", work / "maker"))
 
 
 @pytest.hookimpl(trylast=True)  # after the tmp_path plugin's
@@ -325,10 +348,13 @@ def pytest_configure(config):
     outside (tools/flake_hunt.py) is kept across runs: its finished work is reused, the rest started again."""
     if hasattr(config, "workerinput"):
         return
+    config._pmv_run = f"{os.getpid()}-{time.time_ns()}"
+    os.environ[RUN_ENV] = config._pmv_run
     if os.environ.get(EARLY_ENV):
         config._pmv_early_dir, config._pmv_early_kept = Path(os.environ[EARLY_ENV]), True
         for work in _unfinished_early_work(config._pmv_early_dir):
-            shutil.rmtree(work, ignore_errors=True)
+            if _abandoned(work):
+                shutil.rmtree(work, ignore_errors=True)
         return
     directory = config._tmp_path_factory.getbasetemp() / "early"
     directory.mkdir()
@@ -337,14 +363,15 @@ def pytest_configure(config):
 
 
 def pytest_unconfigure(config):
-    """The process that handed out the tests stops early work still running when the run ends (its tests
-    deselected or failed), whichever process started it."""
+    """The process that handed out the tests stops the early work of its run still running when the run ends (its
+    tests deselected or failed), whichever of its processes started it."""
     directory = getattr(config, "_pmv_early_dir", None)
     if directory is None:
         return
     for work in _unfinished_early_work(directory) if directory.is_dir() else ():
         try:
-            os.killpg(int((work / "pid").read_text()), signal.SIGKILL)
+            if (work / "run").read_text() == config._pmv_run:
+                os.killpg(int((work / "pid").read_text()), signal.SIGKILL)
         except (OSError, ValueError):  # ended meanwhile, or never started
             pass
     if not config._pmv_early_kept:

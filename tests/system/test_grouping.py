@@ -9,6 +9,7 @@ the mark to add) and once with it.
 
 from __future__ import annotations
 
+import os
 import shutil
 import subprocess
 import sys
@@ -41,9 +42,10 @@ def run_suite(tmp_path: Path, name: str, text: str, *arguments) -> subprocess.Co
     (tmp_path / "tests").mkdir(exist_ok=True)
     shutil.copy(TESTS / "conftest.py", tmp_path / "tests" / "conftest.py")
     (tmp_path / "tests" / name).write_text(text)
+    env = {key: value for key, value in os.environ.items() if not key.startswith("PMV_ROS_TEST_")}  # a run of its own
     return subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-p", "no:xdist",
                            *arguments, f"tests/{name}"],
-                          cwd=tmp_path, capture_output=True, text=True, timeout=120)
+                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=120)
 
 
 def test_a_session_fixture_user_outside_its_group_fails_the_collection(tmp_path):
