@@ -57,8 +57,8 @@ REPO = Path(__file__).resolve().parents[1]
 #: The vendored ROS tools and the colcon build share one: the launch tests use both.
 SESSION_RUNS = {"ros_tools": "ros_workspace", "colcon_install": "ros_workspace", "kondor_orbit_run": "kondor_orbit_run"}
 
-#: The ``multi_process`` and ``serial`` marks (pyproject.toml declares them).
-MULTI_PROCESS, SERIAL = "multi_process", "serial"
+#: The mark of a module whose tests start processes (pyproject.toml declares the marks).
+MULTI_PROCESS = "multi_process"
 
 #: pytest-timeout's limit (pyproject.toml has the default, 600 s: ≈ 4× the slowest test on a loaded machine) for a
 #: test that uses a SESSION_RUNS fixture (it may wait for its command: the colcon build, the vendored tools, the
