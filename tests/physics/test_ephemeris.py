@@ -156,6 +156,8 @@ def test_tt_minus_utc_outside_the_table_takes_its_ends():
     epoch = Epoch.from_utc("2016-12-31T23:59:58Z")
     steps = (epoch.julian_date_tt(np.array([0.0, 1.0, 2.0, 3.0])) - epoch.julian_date(np.array([0.0, 1.0, 2.0, 3.0])))
     np.testing.assert_allclose(steps * 86400.0, [68.184, 68.184, 69.184, 69.184], atol=1e-3, rtol=0)
+    # A bad sample's time stays bad (NaN), as everywhere in the array code.
+    assert np.isnan(tt_minus_utc_s(np.array([np.nan, np.inf]))).all() and np.isnan(epoch.julian_date_tt(np.nan))
 
 
 @pytest.mark.parametrize("bad", [float("nan"), float("inf"), 2378496.5, 2500000.0, "soon"])

@@ -116,19 +116,21 @@ def tt_minus_utc_s(julian_date_utc):
 
     TAI − UTC is ``erfa.dat`` (the IERS leap seconds since 1972, and the
     drifting offsets of 1960–1971). Dates outside the table are clamped to
-    it: before 1960, when UTC did not exist, the 1960 value (1.42 s); after
-    the table's last leap second, that leap second's value — a leap second
-    announced later (IERS Bulletin C) is not in the installed table, and the
-    next one lands no earlier than six months after its announcement.
+    it: before 1960, when UTC did not exist, the value of 1960-01-01
+    (0.94 s); after the table's last leap second, that leap second's value
+    (a leap second IERS Bulletin C announces later is not in the installed
+    table). A non-finite date gives NaN.
 
     Args:
         julian_date_utc: Julian date in the UTC scale (every day 86400 s), days, scalar or array.
     """
     import erfa
 
-    jd = np.clip(np.asarray(julian_date_utc, float), *_leap_table_span_jd())
-    year, month, day, fraction = erfa.jd2cal(jd, 0.0)
-    return (TT_MINUS_TAI_S + erfa.dat(year, month, day, fraction))[()]
+    jd = np.asarray(julian_date_utc, float)
+    finite = np.isfinite(jd)
+    clamped = np.clip(np.where(finite, jd, JD_J2000), *_leap_table_span_jd())
+    year, month, day, fraction = erfa.jd2cal(clamped, 0.0)
+    return np.where(finite, TT_MINUS_TAI_S + erfa.dat(year, month, day, fraction), np.nan)[()]
 
 
 @functools.lru_cache(maxsize=1)
