@@ -119,8 +119,8 @@ def pytest_collection_modifyitems(config, items):
                 f"({', '.join(sorted(name for name in item.fixturenames if name in SESSION_RUNS))}) but is "
                 f"{'in group ' + repr(group) if group else 'in no group'}: add pytest.mark.xdist_group({needed!r}) "
                 "to its pytestmark, so that its tests share the worker that runs the fixture's command")
-        if group is None:
-            item.add_marker(pytest.mark.xdist_group(_module(item)))
+        if group is None:  # a group of its own, named by its path without tests/ and .py
+            item.add_marker(pytest.mark.xdist_group(_module(item).removeprefix("tests/").removesuffix(".py")))
         if item.get_closest_marker("timeout") is None:
             if run_long and item.get_closest_marker("long") is not None:
                 item.add_marker(pytest.mark.timeout(LONG_RUN_TIMEOUT_S))
@@ -150,6 +150,16 @@ def _marks_selected_alone(expression: str) -> tuple[str, ...]:
     if not words or len(words) % 2 == 0 or any(word != "or" for word in operators):
         return ()
     return tuple(names) if all(name.isidentifier() and name not in ("or", "and", "not") for name in names) else ()
+
+
+@pytest.hookimpl(optionalhook=True)  # an xdist hook: unknown when the suite runs without it (-p no:xdist)
+def pytest_xdist_node_collection_finished(node, ids):
+    """Under ``--dist loadgroup`` every test's id carries its group; an id without one means this pytest-xdist
+    cannot group with this pytest (pytest-dev/pytest-xdist#1386: pytest 9.2's ids): stop rather than run the
+    groups' tests apart (the pins in requirements.txt go together)."""
+    if node.config.getvalue("dist") == "loadgroup" and ids and not all("@" in nodeid for nodeid in ids):
+        pytest.exit("--dist loadgroup: pytest-xdist left tests without their group (pytest "
+                    f"{pytest.__version__}; see requirements.txt)", returncode=pytest.ExitCode.USAGE_ERROR)
 
 
 # ------------------------------------------------------------------------------------------- processes
