@@ -41,24 +41,21 @@ test test-long: export OMP_NUM_THREADS = 1
 test test-long: export MKL_NUM_THREADS = 1
 
 # Two workers: half the suite waits on child processes and simulated time, so two share the two cores well.
-# A test module runs whole on one worker (its module fixtures once); modules that share a session fixture
-# share a worker (tests/conftest.py, pytest_xdist_make_scheduler). Tests whose figures are rates of wall time
+# xdist hands out groups (--dist loadgroup): a test module is a group (its module fixtures run once), and the
+# modules that share a session fixture declare one group in their pytestmark; the groups go out in the order
+# tests/conftest.py sorts them (--no-loadscope-reorder keeps it). Tests whose figures are rates of wall time
 # (marked serial) run afterwards, alone.
 test: $(STAMP) bytecode
-	$(BIN)/python -m pytest -q -n 2 -m "not serial"
+	$(BIN)/python -m pytest -q -n 2 --dist loadgroup --no-loadscope-reorder -m "not serial"
 	$(BIN)/python -m pytest -q -m serial
 
 # Tests marked `long` at full length: the 24 h soak (≈ 20 min) and 60 s of 50 Hz load; figures printed.
 test-long: $(STAMP)
 	$(BIN)/python -m pytest -q -m long --run-long
 
+# Every benchmarks/bench_*.py, each with its own printout, then one table of their headlines (benchmarks/README.md).
 bench: $(STAMP)
-	$(BIN)/python benchmarks/bench_chain.py
-	$(BIN)/python benchmarks/bench_pipeline.py
-	$(BIN)/python benchmarks/bench_environment.py
-	$(BIN)/python benchmarks/bench_campaign.py
-	$(BIN)/python benchmarks/bench_tick_outputs.py
-	$(BIN)/python benchmarks/bench_basilisk.py
+	$(BIN)/python benchmarks/run.py
 
 # The documentation (docs/, the Sphinx project rosdoc2 builds too) into docs/_build/html: warnings are errors,
 # every reference must resolve (-n), and every page is read afresh (-E) so the parameter reference is current.

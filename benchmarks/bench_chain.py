@@ -190,6 +190,9 @@ def main(argv=None) -> int:
         print(f"instrument (geometry + chain), flight environment: {environment_rate:9,.0f} chords/s  "
               f"(cost factor {result['environment_cost_factor']:.2f} per chord; the environment's target is per "
               f"sensor sample: bench_environment.py)")
+        from headline import headline
+        headline("chain", "the signal chain, chords/s", fast_rate, "chords/s", "higher", reference_rate, "chords/s",
+                 "the reference transcription (tests/reference_chain.py)", ratio=result["ratio"])
     return 0
 
 

@@ -166,6 +166,9 @@ def main() -> None:
           f"queue; before any monitor work) {taking:.1f} µs, best of the rounds"
           + (" — this tree hands each message to the monitor at once: its taking includes the monitor" if at_once
              else ""))
+    from headline import headline
+    headline("monitor_node", "error_monitor_node, one sensor or odometry message", sample, "µs", "lower", reference,
+             "µs", "a Vector3Stamped written and read back through the shim, 100 times", ratio=sample / reference)
 
 
 if __name__ == "__main__":

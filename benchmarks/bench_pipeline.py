@@ -326,6 +326,11 @@ def main() -> None:
         orbit = result["kondor_orbit_1hz"]
         print(f"one Kondor orbit at 1 Hz output: {orbit['wall_s']:.1f} s wall for {orbit['ticks']} samples "
               f"({orbit['samples_used']} used by the monitor)  (target < 60 s)")
+    from headline import headline
+    headline("pipeline", "the three nodes in fast time, Kondor 10 Hz, per tick",
+             pipeline["wall_s"] / pipeline["ticks"] * 1e6, "µs/tick", "lower", 1e6 / bare["messages_per_s"],
+             "µs/message", f"bare rclpy, lean nodes, bursts of {burst}",
+             ratio=pipeline["wall_s"] / pipeline["ticks"] * bare["messages_per_s"])
 
 
 if __name__ == "__main__":

@@ -67,6 +67,10 @@ def main() -> None:
           f"{result['with_tf_ms_per_tick']:.3f} ms/tick: +{result['tf_cost_ms_per_tick']:.3f} ms/tick "
           f"(×{result['ratio']:.3f}), ≈ {result['orbit_added_s']:+.1f} s on one orbit ({ORBIT_TICKS} ticks)")
     print(f"  per round (ms/tick): {result['per_round_ms']}")
+    from headline import headline
+    headline("tf", "what /tf and /tf_static add to a pipeline tick, Kondor 10 Hz", result["tf_cost_ms_per_tick"] * 1e3,
+             "µs/tick", "lower", result["without_tf_ms_per_tick"] * 1e3, "µs/tick",
+             "the pipeline's tick without transforms")
 
 
 if __name__ == "__main__":

@@ -39,11 +39,18 @@ Arguments (``ros2 launch pmv_ros pmv.launch.py --show-args`` lists them):
 ``rate_hz`` and ``seed`` reach the nodes in a params file of node sections
 passed after the preset's: a node section beats a ``-p``, so a plain override
 would lose to the preset. A value that cannot be used ends the launch with
-one line naming the argument and a non-zero exit, before any node starts.
+one line naming the argument and a non-zero exit, before any node starts;
+so does an argument this file does not declare (``bogus:=1``, a misspelt
+``namspace:=sat1``), named with the known ones — when ``ros2 launch`` was
+asked for this file itself: included by another launch file, this file sees
+the includer's own launch configurations too, which cannot be told from a
+misspelt argument, and leaves them alone.
 """
 
 from __future__ import annotations
 
+import difflib
+import sys
 import tempfile
 from pathlib import Path
 
@@ -104,6 +111,30 @@ def _checked(context, name: str, spec):
     if problem:
         raise LaunchArgumentError(f"{name}:={text}: {problem}")
     return value
+
+
+def _launched_directly() -> bool:
+    """True when this process is the ``ros2 launch`` of this very file (``ros2 launch pmv_ros pmv.launch.py …`` or
+    ``ros2 launch path/to/pmv.launch.py …``), not of a launch file that includes it."""
+    words = sys.argv[1:]
+    if "launch" not in words:
+        return False
+    named = [word for word in words[words.index("launch") + 1:] if not word.startswith("-") and ":=" not in word]
+    return any(Path(word).name == Path(__file__).name for word in named[:2])
+
+
+def _refuse_unknown_arguments(context):
+    """End the launch with one line naming each argument given that this file does not declare, and the known ones
+    (only when launched directly: module docstring)."""
+    known = [name for name, _, _ in ARGUMENTS]
+    unknown = sorted(set(context.launch_configurations) - set(known))
+    if unknown and _launched_directly():
+        guesses = {name: difflib.get_close_matches(name, known, n=1) for name in unknown}
+        given = ", ".join(f"{name}:={context.launch_configurations[name]}"
+                          + (f" (did you mean {guesses[name][0]}?)" if guesses[name] else "") for name in unknown)
+        raise LaunchArgumentError(f"unknown launch argument{'s' if len(unknown) > 1 else ''} {given}; "
+                                  f"the arguments are {', '.join(known)}")
+    return []
 
 
 def _node_sections(values: dict, namespace: str, made: list) -> str:
@@ -254,4 +285,5 @@ def _managed(*, name: str, namespace: str, parameters: list, log_level: str, res
 def generate_launch_description() -> LaunchDescription:
     """Declare the arguments; the nodes are made once their values are known."""
     return LaunchDescription([DeclareLaunchArgument(name, default_value=default, description=description)
-                              for name, default, description in ARGUMENTS] + [OpaqueFunction(function=_nodes)])
+                              for name, default, description in ARGUMENTS]
+                             + [OpaqueFunction(function=_refuse_unknown_arguments), OpaqueFunction(function=_nodes)])

@@ -66,7 +66,7 @@ from nav_msgs.msg import Odometry
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu
 
-from pmv_ros.analysis.statistics import CHANNELS, ChannelStatistics
+from pmv_ros.analysis.statistics import CHANNELS, PENDING, ChannelStatistics, statistic_text
 from pmv_ros.physics.constants import ARCMIN_RAD
 from pmv_ros.physics.orbit.two_body import orbital_axes_of_state
 
@@ -376,15 +376,9 @@ def _number(value: float) -> str:
     return repr(float(value))
 
 
-#: What /pmv/error_statistics says for a statistic that is not defined yet (a harmonic before a whole
-#: orbit, σ before two samples): a word a plotter skips and a person reads, never "nan".
-PENDING = "pending"
-
-
 def _statistic(value: float) -> str:
     """A statistic for /pmv/error_statistics: ``repr`` of the float, :data:`PENDING` while it is not defined."""
-    value = float(value)
-    return repr(value) if math.isfinite(value) else PENDING
+    return statistic_text(float(value))
 
 
 def _read_statistic(text: str) -> float:

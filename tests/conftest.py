@@ -1,4 +1,4 @@
-"""Test configuration: ROS isolation, the --run-long switch, shared fixtures.
+"""Test configuration: ROS isolation, how tests group themselves, the --run-long switch, shared fixtures.
 
 The tests mirror the package's layers: ``physics/``, ``analysis/``,
 ``runtime/``, ``nodes/``, ``apps/`` (CLI and applications, in-process through
@@ -42,151 +42,173 @@ if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
 REPO = Path(__file__).resolve().parents[1]
 
 
-#: Test modules that share a session fixture (its expensive run happens once per worker): one worker each.
-SHARED_FIXTURE_GROUPS = {
-    "tests/apps/test_recording.py": "kondor_orbit_run",   # and the main job: one Kondor orbit, recorded
-    "tests/system/test_main_job.py": "kondor_orbit_run",
-    "tests/system/test_colcon.py": "colcon_install",      # and the launch tests: one colcon build,
-    "tests/system/test_launch.py": "colcon_install",      # one install of the vendored ROS tools
-    "tests/system/test_tf_vendored.py": "colcon_install",
-}
+# ------------------------------------------------------------------------------------------- grouping
+# Every test module says what it is in its own ``pytestmark``: ``serial`` (its figures are rates of wall time:
+# ``make test`` runs it after the parallel part, alone), ``multi_process`` (its tests start child processes:
+# nodes on a DDS domain, ros2 launch, a Dask cluster, pmv in a child — tools/flake_hunt.py repeats these under
+# load) and ``xdist_group(NAME)`` when it uses a session fixture that runs a long command once per run
+# (SESSION_RUNS): under ``pytest -n 2 --dist loadgroup`` every test of a group runs on one worker, so the command
+# runs once. A test module without an explicit group is a group of its own (its module fixtures run once).
+# Two checks keep the marks true when files are renamed or tests added: a test that uses a SESSION_RUNS fixture
+# outside its group fails the collection, and a test that starts a process in a module not marked
+# ``multi_process`` fails (the audit hook below sees every subprocess, fork and exec of the test process).
 
-#: Test modules whose figures are rates of wall time (ticks a second, residuals a second, callback time):
-#: marked ``serial``, and ``make test`` runs them after the two workers, alone on the machine.
-SERIAL_MODULES = (
-    "tests/nodes/test_load.py",
-    "tests/system/test_adversarial.py",
-    "tests/system/test_hostile_clock.py",
-    "tests/system/test_soak.py",
-)
+#: Session fixtures that run one long command a run (started early, below), and the xdist group of their users.
+#: The vendored ROS tools and the colcon build share one: the launch tests use both.
+SESSION_RUNS = {"ros_tools": "ros_workspace", "colcon_install": "ros_workspace", "kondor_orbit_run": "kondor_orbit_run"}
 
+#: The mark of a module whose tests start processes (pyproject.toml declares the marks).
+MULTI_PROCESS = "multi_process"
 
-#: Test modules whose tests run processes that talk to each other or to the test (a DDS domain, ros2 launch, a
-#: Dask cluster, signals to a recording child): where a wait on the wrong condition is a race.
-#: ``tools/flake_hunt.py`` repeats these and the serial modules under load.
-MULTI_PROCESS_MODULES = (
-    "tests/system/test_adversarial.py",
-    "tests/system/test_hostile_clock.py",
-    "tests/system/test_hostile_inputs.py",
-    "tests/system/test_hostile_lifecycle.py",
-    "tests/system/test_parameter_storm.py",
-    "tests/system/test_fleet.py",
-    "tests/system/test_shutdown.py",
-    "tests/system/test_recording_survives.py",
-    "tests/system/test_colcon.py",
-    "tests/system/test_launch.py",
-    "tests/system/test_tf_vendored.py",
-    "tests/system/test_campaign_dask.py",
-)
-
-
-#: pytest-timeout's limit (pyproject.toml has the default, 600 s: ≈ 4× the slowest test on a loaded machine) for a test of a module that uses a session
-#: fixture built early (it may wait for the build: the colcon build, the vendored tools, the Kondor orbit), and for
-#: the full-length runs of tests marked ``long`` (--run-long: the 24 h soak takes ≈ 20 min).
+#: pytest-timeout's limit (pyproject.toml has the default, 600 s: ≈ 4× the slowest test on a loaded machine) for a
+#: test that uses a SESSION_RUNS fixture (it may wait for its command: the colcon build, the vendored tools, the
+#: Kondor orbit), and for the full-length runs of tests marked ``long`` (--run-long: the 24 h soak takes ≈ 20 min).
 EARLY_USER_TIMEOUT_S, LONG_RUN_TIMEOUT_S = 900, 3600
 
 
+def _module(item) -> str:
+    return Path(str(item.path)).resolve().relative_to(REPO).as_posix()
+
+
+def _group(item) -> str | None:
+    mark = item.get_closest_marker("xdist_group")
+    if mark is None:
+        return None
+    return str(mark.args[0] if mark.args else mark.kwargs.get("name", "default"))
+
+
+def _session_group(item) -> str | None:
+    """The xdist group a test must be in for the SESSION_RUNS fixtures it uses; UsageError for two of them."""
+    groups = {SESSION_RUNS[name] for name in item.fixturenames if name in SESSION_RUNS}
+    if len(groups) > 1:
+        raise pytest.UsageError(f"{item.nodeid} uses session fixtures of groups {sorted(groups)}: one test can "
+                                "share a worker with one group only (tests/conftest.py, SESSION_RUNS)")
+    return groups.pop() if groups else None
+
+
+def _order(items) -> list:
+    """The tests in the order ``--dist loadgroup --no-loadscope-reorder`` hands their groups out, each group's tests
+    together and in collection order: first the groups that start processes (much of their time is waiting on
+    children, and the longest tests are among them), then the users of SESSION_RUNS fixtures (their commands run
+    in the background meanwhile), then the rest, whose many short modules let the two workers finish together."""
+    first, session_users, multi_process = {}, set(), set()
+    for index, item in enumerate(items):
+        group = _group(item)
+        first.setdefault(group, index)
+        if any(name in SESSION_RUNS for name in item.fixturenames):
+            session_users.add(group)
+        if item.get_closest_marker(MULTI_PROCESS) is not None:
+            multi_process.add(group)
+
+    def rank(group):
+        return 1 if group in session_users else 0 if group in multi_process else 2
+
+    return sorted(items, key=lambda item: (rank(_group(item)), first[_group(item)]))
+
+
+@pytest.hookimpl(tryfirst=True)  # before xdist's own, which reads the groups
 def pytest_collection_modifyitems(config, items):
-    """Mark the tests of the serial modules ``serial``; give longer timeouts where the wait is known to be long."""
-    early_users = {module for users in EARLY_USERS.values() for module in users}
+    """Check the groups of the SESSION_RUNS users, give every other module a group of its own, order the groups
+    (:func:`_order`), and give longer timeouts where the wait is known to be long."""
     run_long = config.getoption("--run-long")
     for item in items:
-        module = Path(str(item.path)).resolve().relative_to(REPO).as_posix()
-        if module in SERIAL_MODULES:
-            item.add_marker(pytest.mark.serial)
+        needed, group = _session_group(item), _group(item)
+        if needed is not None and group != needed:
+            raise pytest.UsageError(
+                f"{_module(item)} uses a session fixture of group {needed!r} "
+                f"({', '.join(sorted(name for name in item.fixturenames if name in SESSION_RUNS))}) but is "
+                f"{'in group ' + repr(group) if group else 'in no group'}: add pytest.mark.xdist_group({needed!r}) "
+                "to its pytestmark, so that its tests share the worker that runs the fixture's command")
+        if group is None:  # a group of its own, named by its path without tests/ and .py
+            item.add_marker(pytest.mark.xdist_group(_module(item).removeprefix("tests/").removesuffix(".py")))
         if item.get_closest_marker("timeout") is None:
             if run_long and item.get_closest_marker("long") is not None:
                 item.add_marker(pytest.mark.timeout(LONG_RUN_TIMEOUT_S))
-            elif module in early_users:
+            elif needed is not None:
                 item.add_marker(pytest.mark.timeout(EARLY_USER_TIMEOUT_S))
+    items[:] = _order(items)
 
 
 def pytest_ignore_collect(collection_path, config):
-    """``-m serial`` (the second half of ``make test``) collects only the serial modules: importing and collecting
-    the other thousand tests to deselect them took ≈ 20 s of a loaded 2-core machine."""
-    if config.getoption("markexpr", "") != "serial" or collection_path.suffix != ".py":
-        return None
-    if not collection_path.name.startswith("test_"):
+    """``-m serial`` (the second half of ``make test``) and ``-m "serial or multi_process"`` (tools/flake_hunt.py)
+    import only the test modules whose text carries one of the marks: importing and collecting the other thousand
+    tests to deselect them took ≈ 20 s of a loaded 2-core machine. Any other expression collects everything."""
+    names = _marks_selected_alone(config.getoption("markexpr", ""))
+    if not names or collection_path.suffix != ".py" or not collection_path.name.startswith("test_"):
         return None
     try:
-        module = collection_path.resolve().relative_to(REPO).as_posix()
-    except ValueError:
+        text = collection_path.read_text(errors="replace")
+    except OSError:
         return None
-    return True if module not in SERIAL_MODULES else None
+    return None if any(f"mark.{name}" in text for name in names) else True
 
 
-#: What a group costs on one worker of ``make test`` (2 cores, the rest of the suite beside it), s, measured
-#: with ``--durations``; the longest groups start first, so that the two workers finish together. A group not
-#: listed counts a quarter second a test. The early work below is not in these figures.
-GROUP_COST_S = {
-    "colcon_install": 100.0,  # the colcon test, ros2 launch (seven launches), tf with the vendored tf2_msgs
-    "tests/system/test_campaign_dask.py": 45.0,
-    "tests/apps/test_campaign_trust.py": 35.0,
-    "tests/system/test_recording_survives.py": 65.0,
-    "kondor_orbit_run": 45.0,  # the recording and main-job tests beside the shared orbit
-    "tests/nodes/test_faults.py": 28.0,
-    "tests/system/test_shutdown.py": 35.0,
-    "tests/system/test_golden.py": 32.0,
-    "tests/runtime/test_flight_environment.py": 31.0,
-    "tests/physics/test_environment.py": 28.0,
-    "tests/hosts/test_basilisk.py": 25.0,
-    "tests/physics/test_flight_records.py": 24.0,
-    "tests/runtime/test_validation.py": 24.0,
-    "tests/runtime/test_parameters.py": 23.0,
-    "tests/system/test_hostile_files.py": 22.0,
-    "tests/nodes/test_follow_hiccups.py": 21.0,
-    "tests/nodes/test_statistics_topics.py": 19.0,
-    "tests/apps/test_simulate_flight.py": 17.0,
-    "tests/apps/test_campaign.py": 10.0,
-    "tests/nodes/test_input_guards.py": 15.0,
-    "tests/nodes/test_sim_clock.py": 12.0,
-    "tests/system/test_tle_flight.py": 12.0,
-    "tests/nodes/test_follow_orbit.py": 11.0,
-    "tests/system/test_hostile_inputs.py": 45.0,    # round three (issue 29): child processes on a domain
-    "tests/system/test_hostile_lifecycle.py": 40.0,
-    "tests/system/test_fleet.py": 35.0,
-    "tests/system/test_hostile_tle.py": 30.0,
-    "tests/system/test_parameter_storm.py": 28.0,
-}
+def _marks_selected_alone(expression: str) -> tuple[str, ...]:
+    """The mark names of an expression ``a``, ``a or b`` … (nothing else), or () for any other expression."""
+    words = expression.split()
+    names, operators = words[::2], words[1::2]
+    if not words or len(words) % 2 == 0 or any(word != "or" for word in operators):
+        return ()
+    return tuple(names) if all(name.isidentifier() and name not in ("or", "and", "not") for name in names) else ()
 
 
 @pytest.hookimpl(optionalhook=True)  # an xdist hook: unknown when the suite runs without it (-p no:xdist)
-def pytest_xdist_make_scheduler(config, log):
-    """Under ``pytest -n 2`` (``make test``): a test module runs whole on one worker (its module fixtures
-    once), and modules that share a session fixture on the same one. The longest groups go first; a group
-    whose session fixture is still being prepared early (below) waits while other groups are left."""
-    from xdist.scheduler import LoadScopeScheduling
+def pytest_xdist_node_collection_finished(node, ids):
+    """Under ``--dist loadgroup`` every test's id carries its group; an id without one means this pytest-xdist
+    cannot group with this pytest (pytest-dev/pytest-xdist#1386: pytest 9.2's ids): stop rather than run the
+    groups' tests apart (the pins in requirements.txt go together)."""
+    if node.config.getvalue("dist") == "loadgroup" and ids and not all("@" in nodeid for nodeid in ids):
+        pytest.exit("--dist loadgroup: pytest-xdist left tests without their group (pytest "
+                    f"{pytest.__version__}; see requirements.txt)", returncode=pytest.ExitCode.USAGE_ERROR)
 
-    class ModuleGroups(LoadScopeScheduling):
-        def _split_scope(self, nodeid: str) -> str:
-            module = nodeid.split("::", 1)[0]
-            return SHARED_FIXTURE_GROUPS.get(module, module)
 
-        def _assign_work_unit(self, node) -> None:
-            units = sorted(self.workqueue.items(), key=lambda unit: (
-                not _early_ready(config, unit[0]), -GROUP_COST_S.get(unit[0], 0.25 * len(unit[1]))))
-            self.workqueue.clear()
-            self.workqueue.update(units)
-            super()._assign_work_unit(node)
+# ------------------------------------------------------------------------------------------- processes
+#: Audit events of a process being started (the stdlib raises them; multiprocessing's spawn and forkserver start
+#: methods raise none, and no test starts processes that way).
+PROCESS_EVENTS = frozenset({"subprocess.Popen", "os.fork", "os.forkpty", "os.posix_spawn", "os.spawn", "os.system",
+                            "os.exec"})
+_running = {"item": None, "started": None}
 
-    return ModuleGroups(config, log)
+
+def _audit(event, arguments):
+    if event in PROCESS_EVENTS and _running["item"] is not None and _running["started"] is None:
+        _running["started"] = f"{event} {str(arguments[0])[:80]}"
+
+
+sys.addaudithook(_audit)
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_protocol(item, nextitem):
+    _running["item"], _running["started"] = item, None
+    try:
+        return (yield)
+    finally:
+        _running["item"] = _running["started"] = None
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_runtest_teardown(item, nextitem):
+    """A test that started a process (in its set-up, call or tear-down) must be in a module marked multi_process."""
+    result = yield
+    if _running["started"] is not None and item.get_closest_marker(MULTI_PROCESS) is None:
+        pytest.fail(f"{item.nodeid} started a process ({_running['started']}) but {_module(item)} is not marked "
+                    f"{MULTI_PROCESS}: add pytest.mark.{MULTI_PROCESS} to its pytestmark", pytrace=False)
+    return result
 
 
 # ------------------------------------------------------------------------------------------- early work
-# Three session fixtures are a child process each (the vendored ROS tools' install, the colcon build, the
-# Kondor orbit of the main job). The process that hands out the tests (the xdist controller, or the only
-# process without xdist) starts them in the background, at a lower priority, as soon as the collection
-# shows a test that needs them; the fixture then waits for the result instead of starting the same command
-# itself. The commands, their environments and every check on their output are the fixtures' own.
+# The SESSION_RUNS fixtures are a child process each (the vendored ROS tools' install, the colcon build, the
+# Kondor orbit of the main job). The first process of a run to collect a test that uses one (an xdist worker, or
+# the only process without xdist) starts it in the background, at a lower priority; the fixture then waits for
+# the result instead of starting the same command itself. The commands, their environments and every check on
+# their output are the fixtures' own.
 
-#: Each early fixture: the test modules that use it.
-EARLY_USERS = {
-    "ros_tools": ("tests/system/test_launch.py", "tests/system/test_tf_vendored.py"),
-    "colcon_install": ("tests/system/test_colcon.py", "tests/system/test_launch.py"),
-    "kondor_orbit_run": ("tests/apps/test_recording.py", "tests/system/test_main_job.py"),
-}
-#: Where the early work runs (set by the process that starts it; the xdist workers inherit it).
+#: Where the early work runs (set by the process that hands out the tests; the xdist workers inherit it).
 EARLY_ENV = "PMV_ROS_TEST_EARLY_DIR"
+#: The run that started a piece of early work: a folder kept across runs, or a pytest run inside a test, must not
+#: stop or remove work another run started.
+RUN_ENV = "PMV_ROS_TEST_RUN"
 #: ``nice`` increment of the early work, and ``ionice`` idle class where there is one (the tool install copies the
 #: venv): the tests running meanwhile keep their share of the cores and the disk.
 EARLY_NICE = 10
@@ -221,58 +243,55 @@ def _early_commands(name: str, work: Path) -> tuple[list, dict, Path, int] | Non
     raise KeyError(name)
 
 
-def _early_dir(config) -> Path | None:
-    directory = getattr(config, "_pmv_early_dir", None) or os.environ.get(EARLY_ENV)
-    return Path(directory) if directory else None
+#: The early work's runner: the command, its output in files, and a status file that appears, whole, when the
+#: command has ended (its exit status, or "timeout").
+_RUNNER = ("import subprocess, sys, os\n"
+           "work, timeout, command = sys.argv[1], float(sys.argv[2]), sys.argv[3:]\n"
+           "with open(os.path.join(work, 'stdout'), 'w') as out, open(os.path.join(work, 'stderr'), 'w') as err:\n"
+           "    try:\n"
+           "        status = str(subprocess.run(command, stdout=out, stderr=err, timeout=timeout).returncode)\n"
+           "    except subprocess.TimeoutExpired:\n"
+           "        status = 'timeout'\n"
+           "with open(os.path.join(work, 'status.part'), 'w') as done:\n"
+           "    done.write(status)\n"
+           "os.replace(os.path.join(work, 'status.part'), os.path.join(work, 'status'))\n")
 
 
-def _early_ready(config, scope: str) -> bool:
-    """False while early work that the tests of group ``scope`` need is still running (the controller's view)."""
-    directory = _early_dir(config)
-    if directory is None:
-        return True
-    modules = [module for module, group in SHARED_FIXTURE_GROUPS.items() if group == scope] or [scope]
-    return all((directory / name / "status").exists() or not (directory / name).exists()
-               for name, users in EARLY_USERS.items() if set(users) & set(modules))
+def _start_early(items) -> None:
+    """Start the early work of the SESSION_RUNS fixtures that ``items`` use, unless another process of the run has.
 
-
-def _start_early(config, nodeids) -> None:
-    """Start the early fixtures that the collected tests ``nodeids`` use (once a run)."""
-    directory = _early_dir(config)
-    if directory is None or getattr(config, "_pmv_early_started", False):
+    The work's folder is prepared under a name of this process's own and renamed into place: a rename onto a
+    folder that is there fails, so one process starts each command, and a fixture sees the folder whole or not
+    at all.
+    """
+    directory = os.environ.get(EARLY_ENV)
+    if not directory:
         return
-    config._pmv_early_started = True
-    modules = {nodeid.split("::", 1)[0] for nodeid in nodeids}
-    for name, users in EARLY_USERS.items():
-        if not modules & set(users):
+    wanted = {name for item in items for name in item.fixturenames if name in SESSION_RUNS}
+    for name in sorted(wanted):
+        work = Path(directory) / name
+        if work.exists():  # started by another process of this run, or done in an earlier run of a kept folder
             continue
-        work = directory / name
-        if (work / "status").exists():  # a folder kept across runs (tools/flake_hunt.py): done, reused
-            continue
-        shutil.rmtree(work, ignore_errors=True)  # a kept folder's work that never ended: started again
-        (work / "out").mkdir(parents=True)
+        draft = Path(directory) / f".{name}.{os.getpid()}"
+        (draft / "out").mkdir(parents=True)
         planned = _early_commands(name, work / "out")
-        if planned is None:
-            (work / "out").rmdir()  # the fixture skips, as without early work
+        if planned is None:  # the fixture skips, as without early work
+            shutil.rmtree(draft)
+            continue
+        (draft / "repo_before").write_text("\n".join(sorted(path.name for path in REPO.iterdir())))
+        (draft / "run").write_text(os.environ.get(RUN_ENV, ""))
+        (draft / "maker").write_text(str(os.getpid()))
+        try:
+            draft.rename(work)
+        except OSError:  # another process was first
+            shutil.rmtree(draft, ignore_errors=True)
             continue
         command, env, cwd, timeout = planned
-        (work / "repo_before").write_text("\n".join(sorted(path.name for path in REPO.iterdir())))
-        # The status file appears, whole, when the command has ended: its exit status, or "timeout".
-        runner = ("import subprocess, sys, os\n"
-                  "work, timeout, command = sys.argv[1], float(sys.argv[2]), sys.argv[3:]\n"
-                  "with open(os.path.join(work, 'stdout'), 'w') as out, open(os.path.join(work, 'stderr'), 'w') as err:\n"
-                  "    try:\n"
-                  "        status = str(subprocess.run(command, stdout=out, stderr=err, timeout=timeout).returncode)\n"
-                  "    except subprocess.TimeoutExpired:\n"
-                  "        status = 'timeout'\n"
-                  "with open(os.path.join(work, 'status.part'), 'w') as done:\n"
-                  "    done.write(status)\n"
-                  "os.replace(os.path.join(work, 'status.part'), os.path.join(work, 'status'))\n")
-        process = subprocess.Popen([*EARLY_PRIORITY, sys.executable, "-c", runner, str(work), str(timeout),
+        process = subprocess.Popen([*EARLY_PRIORITY, sys.executable, "-c", _RUNNER, str(work), str(timeout),
                                     *map(str, command)],
                                    env=env, cwd=cwd, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                                    stderr=subprocess.DEVNULL, start_new_session=True)
-        config._pmv_early_processes.append(process)
+        (work / "pid").write_text(str(process.pid))
 
 
 def _early_result(name: str, timeout_s: float) -> tuple[Path, subprocess.CompletedProcess, set] | None:
@@ -309,42 +328,71 @@ def _run_session_command(name: str, tmp_path_factory) -> tuple[Path, subprocess.
     return work, result, before
 
 
+def _unfinished_early_work(directory: Path):
+    """The folders of early work in ``directory`` whose command has not ended (drafts included)."""
+    return [work for work in directory.iterdir() if work.is_dir() and not (work / "status").exists()]
+
+
+def _alive(pid_text: str) -> bool:
+    """Whether the process of a pid (text) is alive."""
+    try:
+        os.kill(int(pid_text), 0)
+    except (ValueError, ProcessLookupError):
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def _abandoned(work: Path) -> bool:
+    """Early work that no live process will finish: its runner and the process that made it have gone."""
+    if work.name.startswith("."):  # a draft: .NAME.PID
+        return not _alive(work.name.rsplit(".", 1)[-1])
+    return not any(path.exists() and _alive(path.read_text()) for path in (work / "pid", work / "maker"))
+
+
 @pytest.hookimpl(trylast=True)  # after the tmp_path plugin's
 def pytest_configure(config):
     """The process that hands out the tests gets a folder for early work in the run's base temporary folder
-    (kept and cleaned up as ``tmp_path_factory`` keeps its own); xdist workers inherit it."""
-    config._pmv_early_processes = []
+    (kept and cleaned up as ``tmp_path_factory`` keeps its own); xdist workers inherit it. A folder given from
+    outside (tools/flake_hunt.py) is kept across runs: its finished work is reused, the rest started again."""
     if hasattr(config, "workerinput"):
         return
-    if os.environ.get(EARLY_ENV):  # given from outside (tools/flake_hunt.py): kept across runs
-        config._pmv_early_dir, config._pmv_early_kept = os.environ[EARLY_ENV], True
+    config._pmv_run = f"{os.getpid()}-{time.time_ns()}"
+    os.environ[RUN_ENV] = config._pmv_run
+    if os.environ.get(EARLY_ENV):
+        config._pmv_early_dir, config._pmv_early_kept = Path(os.environ[EARLY_ENV]), True
+        for work in _unfinished_early_work(config._pmv_early_dir):
+            if _abandoned(work):
+                shutil.rmtree(work, ignore_errors=True)
         return
     directory = config._tmp_path_factory.getbasetemp() / "early"
     directory.mkdir()
-    config._pmv_early_dir = str(directory)
-    os.environ[EARLY_ENV] = config._pmv_early_dir
+    config._pmv_early_dir, config._pmv_early_kept = directory, False
+    os.environ[EARLY_ENV] = str(directory)
 
 
 def pytest_unconfigure(config):
-    """Early work still running when the run ends (its tests deselected or failed) is stopped."""
-    for process in getattr(config, "_pmv_early_processes", ()):
-        if process.poll() is None:
-            os.killpg(process.pid, signal.SIGKILL)
-            process.wait()
-    if getattr(config, "_pmv_early_dir", None) and not getattr(config, "_pmv_early_kept", False):
+    """The process that handed out the tests stops the early work of its run still running when the run ends (its
+    tests deselected or failed), whichever of its processes started it."""
+    directory = getattr(config, "_pmv_early_dir", None)
+    if directory is None:
+        return
+    for work in _unfinished_early_work(directory) if directory.is_dir() else ():
+        try:
+            if (work / "run").read_text() == config._pmv_run:
+                os.killpg(int((work / "pid").read_text()), signal.SIGKILL)
+        except (OSError, ValueError):  # ended meanwhile, or never started
+            pass
+    if not config._pmv_early_kept:
         os.environ.pop(EARLY_ENV, None)
 
 
-@pytest.hookimpl(optionalhook=True)
-def pytest_xdist_node_collection_finished(node, ids):
-    """The xdist controller: a worker has collected; start what its tests need early."""
-    _start_early(node.config, ids)
-
-
+@pytest.hookimpl(tryfirst=True)
 def pytest_collection_finish(session):
-    """Without xdist: start the early work once the tests are known (the first ones run meanwhile)."""
-    if not hasattr(session.config, "workerinput") and getattr(session.config, "_pmv_early_dir", None):
-        _start_early(session.config, [item.nodeid for item in session.items])
+    """Start the early work once the tests are known (the first ones run meanwhile); not for ``--collect-only``."""
+    if not session.config.option.collectonly:
+        _start_early(session.items)
 
 
 def pytest_addoption(parser):

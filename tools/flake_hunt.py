@@ -1,15 +1,16 @@
-"""Run the suite's multi-process and serial test modules N times in a row and count each test's passes.
+"""Run the suite's multi-process and serial tests N times in a row and count each test's passes.
 
 A test that waits on the wrong thing passes alone on a quiet machine and fails on a busy one. This tool
-repeats the modules where such races live — those marked ``serial`` (rates of wall time) and those whose
-tests run processes that talk to each other or to the test (``MULTI_PROCESS_MODULES`` in
-``tests/conftest.py``) — optionally beside a CPU hog, one busy process per core, and prints one line per test:
+repeats the tests where such races live — those marked ``serial`` (rates of wall time) and ``multi_process``
+(they start child processes: nodes on a DDS domain, ros2 launch, a Dask cluster, pmv in a child), selected by
+their marks (``-m``) — optionally beside a CPU hog, one busy process per core, and prints one line per test:
 how many runs it passed, failed (with the first line of the first failure) and was skipped.
 
-    python tools/flake_hunt.py --runs 10 --hog                 # every such module, 10 runs, cores busy
+    python tools/flake_hunt.py --runs 10 --hog                 # every such test, 10 runs, cores busy
     python tools/flake_hunt.py --runs 3 tests/system/test_adversarial.py
+    python tools/flake_hunt.py --runs 5 --marks serial          # another mark expression
 
-Each run is one ``pytest`` process over the chosen modules, in order, without xdist: the hog is the load.
+Each run is one ``pytest`` process over the chosen tests, in order, without xdist: the hog is the load.
 The session fixtures' early work (the colcon build, the vendored ROS tools, the Kondor orbit: see
 ``tests/conftest.py``) is done in the first run and reused by the later ones, so the runs repeat the tests,
 not the builds. Exit status 1 if any test failed in any run.
@@ -31,14 +32,17 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 
+#: The marks of the tests repeated by default.
+MARKS = "serial or multi_process"
 
-def _conftest():
-    """tests/conftest.py, where the module lists live (one home)."""
+
+def _early_env() -> str:
+    """The variable through which tests/conftest.py keeps the early work's folder across runs (its home)."""
     sys.path.insert(0, str(ROOT / "tests"))
     spec = importlib.util.spec_from_file_location("pmv_ros_tests_conftest", ROOT / "tests" / "conftest.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
-    return module
+    return module.EARLY_ENV
 
 
 def _hog() -> None:
@@ -69,7 +73,8 @@ def _outcomes(report: Path) -> dict:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("modules", nargs="*", help="test modules (default: the serial and multi-process ones)")
+    parser.add_argument("modules", nargs="*", help="test modules or ids (default: the whole suite, by --marks)")
+    parser.add_argument("--marks", default=MARKS, help=f"mark expression of the tests repeated (default {MARKS!r})")
     parser.add_argument("--runs", type=int, default=10, help="runs in a row (default 10)")
     parser.add_argument("--hog", action="store_true", help="a busy process on every core for the whole hunt")
     parser.add_argument("--hogs", type=int, default=None, help="how many busy processes (default: one per core)")
@@ -77,13 +82,12 @@ def main(argv=None) -> int:
     parser.add_argument("--keep", default=None, help="folder for the reports and logs (default: a temporary one)")
     args = parser.parse_args(argv)
 
-    conftest = _conftest()
-    modules = args.modules or list(dict.fromkeys([*conftest.SERIAL_MODULES, *conftest.MULTI_PROCESS_MODULES]))
+    modules = args.modules or ["tests"]
     work = Path(args.keep or tempfile.mkdtemp(prefix="flake_hunt_"))
     work.mkdir(parents=True, exist_ok=True)
     early = work / "early"
     early.mkdir(exist_ok=True)
-    env = dict(os.environ, **{conftest.EARLY_ENV: str(early)})
+    env = dict(os.environ, **{_early_env(): str(early)})
     env.setdefault("ROS_LOG_DIR", str(work / "ros_log"))
 
     hogs = []
@@ -92,15 +96,15 @@ def main(argv=None) -> int:
             process = multiprocessing.Process(target=_hog, daemon=True)
             process.start()
             hogs.append(process)
-    print(f"flake hunt: {len(modules)} modules, {args.runs} runs, {len(hogs)} CPU hogs; reports in {work}",
-          flush=True)
+    print(f"flake hunt: {' '.join(modules)} -m {args.marks!r}, {args.runs} runs, {len(hogs)} CPU hogs; "
+          f"reports in {work}", flush=True)
     results = collections.defaultdict(list)  # test id → [(outcome, detail)] in run order
     started = time.monotonic()
     try:
         for run in range(1, args.runs + 1):
             report = work / f"run_{run:02d}.xml"
             command = [sys.executable, "-m", "pytest", "-q", "-p", "no:xdist", "-p", "no:cacheprovider",
-                       f"--junitxml={report}", *args.pytest_args.split(), *modules]
+                       f"--junitxml={report}", "-m", args.marks, *args.pytest_args.split(), *modules]
             run_started = time.monotonic()
             with open(work / f"run_{run:02d}.log", "w") as log:
                 status = subprocess.run(command, cwd=ROOT, env=env, stdout=log, stderr=subprocess.STDOUT,

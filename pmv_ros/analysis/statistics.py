@@ -439,6 +439,18 @@ class OrbitRing:
 
 CHANNELS = ("roll", "pitch", "meridional")
 
+#: How a statistic reads where people and plotters read it while it is not defined yet (a harmonic before a whole
+#: orbit, σ before two samples): this word, never "nan" — on /pmv/error_statistics and in pmv's tables alike.
+PENDING = "pending"
+
+
+def statistic_text(value, format_spec: str = "") -> str:
+    """A statistic as text: ``format(value, format_spec)`` (``repr`` of the float without a spec), or
+    :data:`PENDING` while it is not defined (NaN, ±inf or None)."""
+    if value is None or not math.isfinite(value):
+        return PENDING
+    return format(value, format_spec) if format_spec else repr(float(value))
+
 
 @dataclass(frozen=True)
 class ChannelStatistics:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import os
 import time
 from pathlib import Path
@@ -106,8 +107,17 @@ def _rows(components: dict) -> list[dict]:
     return rows
 
 
+#: What a campaign imports beyond the rest of pmv_ros: none has a rosdep key (package.xml), so a ROS workspace
+#: may lack them; the pip names are the import names.
+CAMPAIGN_MODULES = ("dask", "distributed", "pyarrow", "threadpoolctl")
+
+
 def run(args) -> int:
     """Plan the tasks, run those not done on Dask, aggregate and report."""
+    missing = [name for name in CAMPAIGN_MODULES if importlib.util.find_spec(name) is None]
+    if missing:
+        raise ValueError(f"pmv campaign needs {', '.join(missing)}, which cannot be imported: "
+                         f"pip install {' '.join(missing)}")
     from ..apps import campaign
     from ..runtime.common.assembly import SENSOR_PARAMS, parse_epoch
     from ..runtime.common.parameters import ParameterError, preset_values

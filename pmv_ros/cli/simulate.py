@@ -8,20 +8,23 @@ import sys
 import time
 from pathlib import Path
 
+from ..analysis.statistics import PENDING, statistic_text
 from ..physics.constants import ARCMIN_RAD
 from .common import add_json_flag, format_table, print_json, ranged_float
 
+#: The table's columns: (key, heading, format of a defined statistic); :func:`_rows` writes each cell's text.
 COLUMNS = [
     ("channel", "channel", ""),
     ("count", "N", "d"),
     ("mean_arcmin", "mean, ′", "+.2f"),
     ("sigma_arcmin", "σ, ′", ".2f"),
-    ("limit", "mean ± 3σ, ′", ""),
+    ("limit", "mean ± 3σ, ′", "+.2f"),
     ("max_abs_arcmin", "max |e|, ′", ".2f"),
     ("k1", "k=1, ′", ".2f"),
     ("k2", "k=2, ′", ".2f"),
     ("hump", "k=15…25 peak, ′", ".2f"),
 ]
+_SPECS = {key: spec for key, _, spec in COLUMNS}
 
 
 def add_parser(subparsers) -> None:
@@ -61,19 +64,28 @@ def _seed(text: str) -> int:
 
 
 def _rows(statistics_dict: dict) -> list[dict]:
+    """The table's rows, each statistic as its text (:func:`~pmv_ros.analysis.statistics.statistic_text`:
+    "pending" while it is not defined, as /pmv/error_statistics says it)."""
     rows = []
     for name, channel in statistics_dict["channels"].items():
         harmonics = {int(k): v for k, v in channel["harmonics_arcmin"].items()}
         hump = [v for k, v in harmonics.items() if 15 <= k <= 25 and v is not None and math.isfinite(v)]
-        rows.append({
-            "channel": name, "count": channel["count"], "mean_arcmin": channel["mean_arcmin"],
-            "sigma_arcmin": channel["sigma_arcmin"],
-            "limit": f"{channel['limit_low_arcmin']:+.2f} … {channel['limit_high_arcmin']:+.2f}",
-            "max_abs_arcmin": channel["max_abs_arcmin"],
-            "k1": harmonics.get(1, math.nan), "k2": harmonics.get(2, math.nan),
-            "hump": max(hump) if hump else math.nan,
-        })
+        low, high = channel["limit_low_arcmin"], channel["limit_high_arcmin"]
+        figures = {"mean_arcmin": channel["mean_arcmin"], "sigma_arcmin": channel["sigma_arcmin"],
+                   "max_abs_arcmin": channel["max_abs_arcmin"], "k1": harmonics.get(1), "k2": harmonics.get(2),
+                   "hump": max(hump) if hump else None}
+        row = {key: statistic_text(value, _SPECS[key]) for key, value in figures.items()}
+        limit = [statistic_text(value, _SPECS["limit"]) for value in (low, high)]
+        row.update(channel=name, count=format(channel["count"], _SPECS["count"]),
+                   limit=PENDING if PENDING in limit else " … ".join(limit))
+        rows.append(row)
     return rows
+
+
+def _arcmin_text(value_rad: float) -> str:
+    """A statistic in rad as people read it on the progress line: arcmin to 0.01′, or "pending"."""
+    text = statistic_text(value_rad / ARCMIN_RAD, ".2f")
+    return text if text == PENDING else f"{text}′"
 
 
 def _stopped(args, pipeline, number: int, done: int, ticks: int) -> int:
@@ -172,8 +184,8 @@ def _fly(args, overrides: dict, stop: _StopOnSignal) -> int:
                 statistics = pipeline.monitor.latest_statistics
                 if statistics is not None:
                     roll, pitch = statistics.channel("roll"), statistics.channel("pitch")
-                    bar.set_postfix_str(f"σ roll {roll.sigma_rad / ARCMIN_RAD:.2f}′ "
-                                        f"σ pitch {pitch.sigma_rad / ARCMIN_RAD:.2f}′ N={roll.count}")
+                    bar.set_postfix_str(f"σ roll {_arcmin_text(roll.sigma_rad)} "
+                                        f"σ pitch {_arcmin_text(pitch.sigma_rad)} N={roll.count}")
         bar.update(done - bar.n)
         bar.close()
         if stop.number is not None:
@@ -205,7 +217,7 @@ def _fly(args, overrides: dict, stop: _StopOnSignal) -> int:
     print(f"{result['config']}: {result['simulated_s']:.0f} s simulated in {wall_s:.1f} s wall "
           f"({result['simulated_s'] / wall_s:.0f}× real time); residual statistics, "
           f"oblateness {'removed' if result['oblateness_removed'] else 'kept'}:")
-    print(format_table(_rows(result), COLUMNS))
+    print(format_table(_rows(result), [(key, heading, "") for key, heading, _ in COLUMNS]))
     counters = result["counters"]
     skipped = {k: v for k, v in counters.items() if (k.startswith("skipped_") or k.startswith("rejected_")) and v}
     print(f"samples used {counters.get('used', 0)}, not used: "

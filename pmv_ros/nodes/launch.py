@@ -6,13 +6,18 @@ import signal
 import sys
 
 import rclpy
+import rclpy.logging
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.impl.implementation_singleton import rclpy_implementation
 from rclpy.signals import SignalHandlerOptions
-from threadpoolctl import ThreadpoolController
 
 from .managed import managed_requested
 from .params import ParameterError, check_params_files
+
+try:  # no rosdep key (package.xml): a ROS workspace may not have it
+    from threadpoolctl import ThreadpoolController
+except ImportError:
+    ThreadpoolController = None
 
 #: Longest wait of the executor between checks for a stop request, s.
 STOP_CHECK_S = 0.1
@@ -20,6 +25,10 @@ STOP_CHECK_S = 0.1
 _STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 _blas = {"holders": 0, "limiter": None}
+
+#: What a process logs once when it cannot hold BLAS to one thread.
+NO_THREADPOOLCTL = ("threadpoolctl cannot be imported (pip install threadpoolctl): BLAS keeps its own threads, which "
+                    "on a machine of few cores contend with the executor and DDS")
 
 
 def hold_single_threaded_blas() -> None:
@@ -30,7 +39,11 @@ def hold_single_threaded_blas() -> None:
     counted: overlapping pipelines restore the original setting only when the last is released.
     """
     if _blas["holders"] == 0:
-        _blas["limiter"] = ThreadpoolController().limit(limits=1, user_api="blas")
+        if ThreadpoolController is not None:
+            _blas["limiter"] = ThreadpoolController().limit(limits=1, user_api="blas")
+        elif not _blas.get("warned"):
+            rclpy.logging.get_logger("pmv_ros").warning(NO_THREADPOOLCTL)
+            _blas["warned"] = True
     _blas["holders"] += 1
 
 
@@ -38,7 +51,7 @@ def release_single_threaded_blas() -> None:
     """Undo one :func:`hold_single_threaded_blas`; the last release restores the original BLAS threads."""
     if _blas["holders"]:
         _blas["holders"] -= 1
-        if _blas["holders"] == 0:
+        if _blas["holders"] == 0 and _blas["limiter"] is not None:
             _blas["limiter"].restore_original_limits()
 
 

@@ -21,6 +21,8 @@ from pmv_ros.runtime.common.assembly import build_models
 from pmv_ros.runtime.monitor.runtime import build_monitor
 from pmv_ros.runtime.flight import OUTCOME_CODES, PENDING_CODE, flight_values, fly, sense_block
 
+pytestmark = [pytest.mark.multi_process]
+
 REPO = Path(__file__).resolve().parents[2]
 METEOR = REPO / "config" / "meteor_m2.yaml"
 

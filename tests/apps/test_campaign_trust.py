@@ -33,7 +33,7 @@ from pmv_ros.runtime.flight import OUTCOME_CODES
 from pmv_ros.runtime.monitor.records import Status
 from pmv_ros.physics.constants import ARCMIN_RAD
 
-pytestmark = pytest.mark.adversarial
+pytestmark = [pytest.mark.adversarial, pytest.mark.multi_process]
 
 REPO = Path(__file__).resolve().parents[2]
 METEOR = REPO / "config" / "meteor_m2.yaml"

@@ -25,6 +25,8 @@ from pmv_ros.cli import main
 from pmv_ros.physics.orbit.two_body import CircularOrbit
 from pmv_ros.storage.recording import McapRecording
 
+pytestmark = [pytest.mark.xdist_group("kondor_orbit_run")]
+
 REPO = Path(__file__).resolve().parents[2]
 PMV = Path(sys.executable).parent / "pmv"
 KONDOR = REPO / "config/kondor.yaml"

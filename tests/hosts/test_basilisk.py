@@ -29,6 +29,8 @@ from pmv_ros.physics.constants import ARCMIN_RAD  # noqa: E402
 from pmv_ros.physics.instrument.oblateness import closed_form_oblateness  # noqa: E402
 from pmv_ros.physics.orbit.two_body import orbit_angles_from_state, orbital_frame_from_state  # noqa: E402
 
+pytestmark = [pytest.mark.multi_process]
+
 KONDOR = str(REPO / "config" / "kondor.yaml")
 #: The geometric instrument: the ideal detector sees the 40 km layer's horizon on GRS80, so its whole error is
 #: the oblateness of the ray geometry; no Sun or Moon check (half the cost of a sample, which is per step here).

@@ -32,6 +32,8 @@ from pmv_ros.physics.constants import ARCMIN_RAD
 from pmv_ros.physics.instrument.correction import CorrectionTable
 from pmv_ros.runtime.common.assembly import MAX_OUTAGES
 
+pytestmark = [pytest.mark.multi_process]
+
 VENV_BIN = Path(sys.executable).parent
 
 

@@ -32,6 +32,8 @@ from pmv_ros.nodes.pipeline import drain
 from pmv_ros.nodes.sensor_node import SensorNode
 from pmv_ros.nodes.star_tracker_node import StarTrackerNode
 
+pytestmark = [pytest.mark.serial]
+
 REPO = Path(__file__).resolve().parents[2]
 RATE_HZ = 50.0
 SHORT_S, FULL_S = 4.0, 60.0

@@ -31,6 +31,8 @@ from pmv_ros.nodes.star_tracker_node import StarTrackerNode
 from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw, roll_pitch_yaw_from_quaternion
 from pmv_ros.physics.constants import ARCMIN_RAD, ARCSEC_RAD, EARTH_MEAN_RADIUS_M
 
+pytestmark = [pytest.mark.multi_process]
+
 #: A star tracker that tells the exact truth: no noise, no random failures.
 PERFECT_TRACKER = {"ideal": True}
 #: Spherical Earth, uniform horizon: no methodical error at all.

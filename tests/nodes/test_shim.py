@@ -49,6 +49,8 @@ from pmv_msgs_shim import (
     write_stamp,
 )
 
+pytestmark = [pytest.mark.multi_process]
+
 
 def test_frame_ids_are_the_documented_names():
     from pmv_msgs_shim import BODY_FRAME, ECI_FRAME, ORBITAL_FRAME, SENSOR_FRAME

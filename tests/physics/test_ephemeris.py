@@ -33,7 +33,6 @@ from pmv_ros.physics.instrument.bright_body import (
 from pmv_ros.physics.constants import EARTH_MEAN_RADIUS_M, EARTH_ROTATION_RATE_RAD_S, SPHERE
 from pmv_ros.physics.orbit.ephemeris import (
     ASTRONOMICAL_UNIT_M,
-    TT_MINUS_UTC_S,
     Epoch,
     greenwich_mean_sidereal_angle,
     julian_date_from_utc,
@@ -44,6 +43,7 @@ from pmv_ros.physics.orbit.ephemeris import (
     sun_direction_eci,
     sun_direction_from,
     sun_position_eci_m,
+    tt_minus_utc_s,
 )
 from pmv_ros.physics.geometry import (
     CHORD_AZIMUTHS_RAD,
@@ -119,12 +119,45 @@ def test_epoch_clock_and_day_of_year():
     epoch = Epoch.from_utc("2024-01-15T00:00:00Z")
     assert epoch.julian_date(0.0) == pytest.approx(2460324.5, abs=1e-9)
     assert epoch.julian_date(86400.0) - epoch.julian_date(0.0) == pytest.approx(1.0, abs=1e-9)
-    tt_minus_utc_s = (epoch.julian_date_tt(0.0) - epoch.julian_date(0.0)) * 86400.0
-    assert tt_minus_utc_s == pytest.approx(TT_MINUS_UTC_S, abs=1e-3)
+    offset_s = (epoch.julian_date_tt(0.0) - epoch.julian_date(0.0)) * 86400.0
+    assert offset_s == pytest.approx(69.184, abs=1e-3)  # 32.184 s + 37 leap seconds (since 2017-01-01)
     # Day of year, 1.0 = 1 January 00:00 (the climatology's convention); 2024 is a leap year.
     days = epoch.day_of_year(np.array([0.0, 0.5 * 86400.0, 351.5 * 86400.0, 366 * 86400.0, -15 * 86400.0]))
     np.testing.assert_allclose(days, [15.0, 15.5, 366.5, 15.0, 365.0], atol=1e-6, rtol=0)
     assert np.isnan(epoch.day_of_year(np.array([np.nan]))[0])  # bad samples become NaN, not an error
+
+
+# TT − UTC = 32.184 s (TT − TAI, IAU 1991) + TAI − UTC, the leap seconds of IERS Bulletin C: 32 s from
+# 1999-01-01 to 2006-01-01, 35 s from 2012-07-01 to 2015-07-01, 36 s from 2015-07-01 to 2017-01-01, 37 s since
+# (Bulletin C 52, 2016 July: the leap second at the end of 2016-12-31). The values are exact: 1 µs of slack for
+# the float64 Julian date.
+@pytest.mark.parametrize("utc, expected_s", [
+    ("2000-01-01T12:00:00Z", 64.184),
+    ("2013-09-10T00:00:00Z", 67.184),   # Kondor's epoch (config/kondor.yaml)
+    ("2016-06-01T00:00:00Z", 68.184),
+    ("2016-12-31T23:59:59Z", 68.184),   # the last second before the leap second ...
+    ("2017-01-01T00:00:00Z", 69.184),   # ... and the first after it
+    ("2019-07-21T00:00:00Z", 69.184),   # Meteor-M No.2-2's epoch
+])
+def test_tt_minus_utc_follows_the_leap_seconds(utc, expected_s):
+    epoch = Epoch.from_utc(utc)
+    assert tt_minus_utc_s(epoch.julian_date_utc) == pytest.approx(expected_s, abs=1e-6)
+    assert (epoch.julian_date_tt(0.0) - epoch.julian_date(0.0)) * 86400.0 == pytest.approx(expected_s, abs=1e-3)
+
+
+def test_tt_minus_utc_outside_the_table_takes_its_ends():
+    # Before 1960 UTC did not exist: the table's first value, on 1960-01-01 (MJD 36934; USNO tai-utc.dat:
+    # TAI − UTC = 1.4178180 s + (MJD − 37300) × 0.001296 s); after the last leap second in the table: its value.
+    # Arrays are taken element by element, across the step.
+    first = 32.184 + 1.4178180 + (36934 - 37300) * 0.001296
+    dates = np.array([julian_date_from_utc(text) for text in
+                      ("1900-01-01T00:00:00Z", "1960-01-01T00:00:00Z", "2016-12-31T12:00:00Z", "2099-12-31T00:00:00Z")])
+    np.testing.assert_allclose(tt_minus_utc_s(dates), [first, first, 68.184, 69.184], atol=1e-6, rtol=0)
+    epoch = Epoch.from_utc("2016-12-31T23:59:58Z")
+    steps = (epoch.julian_date_tt(np.array([0.0, 1.0, 2.0, 3.0])) - epoch.julian_date(np.array([0.0, 1.0, 2.0, 3.0])))
+    np.testing.assert_allclose(steps * 86400.0, [68.184, 68.184, 69.184, 69.184], atol=1e-3, rtol=0)
+    # A bad sample's time stays bad (NaN), as everywhere in the array code.
+    assert np.isnan(tt_minus_utc_s(np.array([np.nan, np.inf]))).all() and np.isnan(epoch.julian_date_tt(np.nan))
 
 
 @pytest.mark.parametrize("bad", [float("nan"), float("inf"), 2378496.5, 2500000.0, "soon"])

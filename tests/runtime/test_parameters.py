@@ -31,6 +31,8 @@ from pmv_ros.nodes import error_monitor_node, sensor_node, star_tracker_node
 from pmv_ros.nodes.params import ParameterError, ParamSpec
 from pmv_ros.nodes.pipeline import Pipeline, drain
 
+pytestmark = [pytest.mark.multi_process]
+
 NODES = {
     "sensor_node": (sensor_node.SensorNode, sensor_node.PARAMS),
     "star_tracker_node": (star_tracker_node.StarTrackerNode, star_tracker_node.PARAMS),

@@ -41,7 +41,7 @@ import pmv_msgs_shim as shim
 from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
 from pmv_ros.physics.constants import ARCMIN_RAD
 
-pytestmark = pytest.mark.adversarial
+pytestmark = [pytest.mark.adversarial, pytest.mark.serial, pytest.mark.multi_process]
 
 @pytest.fixture
 def stack(tmp_path):

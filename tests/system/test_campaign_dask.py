@@ -21,6 +21,8 @@ import pytest
 
 from pmv_ros.apps import campaign
 
+pytestmark = [pytest.mark.multi_process]
+
 REPO = Path(__file__).resolve().parents[2]
 METEOR = REPO / "config" / "meteor_m2.yaml"
 

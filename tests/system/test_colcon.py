@@ -32,6 +32,8 @@ from rclpy.executors import SingleThreadedExecutor
 
 from pmv_ros import LAYERS
 
+pytestmark = [pytest.mark.multi_process, pytest.mark.xdist_group("ros_workspace")]
+
 REPO = Path(__file__).resolve().parents[2]
 VENV_BIN = Path(sys.executable).parent
 

@@ -6,6 +6,10 @@ import subprocess
 import sys
 import textwrap
 
+import pytest
+
+pytestmark = [pytest.mark.multi_process]
+
 
 def test_core_imports_without_ros():
     script = textwrap.dedent("""

@@ -26,7 +26,7 @@ from rclpy.qos import QoSProfile
 
 import pmv_msgs_shim as shim
 
-pytestmark = pytest.mark.adversarial
+pytestmark = [pytest.mark.adversarial, pytest.mark.multi_process]
 
 NODES = ("sensor_node", "star_tracker_node", "error_monitor_node")
 SHORT, FULL = (2, 5.0), (8, 60.0)

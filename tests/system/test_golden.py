@@ -16,6 +16,10 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
+pytestmark = [pytest.mark.multi_process]
+
 REPO = Path(__file__).resolve().parents[2]
 
 

@@ -30,7 +30,7 @@ import pmv_msgs_shim as shim
 from pmv_ros.physics.constants import ARCMIN_RAD
 from neighbour import Neighbour, monitor_status, node_statuses, running_stack
 
-pytestmark = pytest.mark.adversarial
+pytestmark = [pytest.mark.adversarial, pytest.mark.serial, pytest.mark.multi_process]
 
 
 @pytest.fixture

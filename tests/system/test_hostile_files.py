@@ -29,7 +29,7 @@ import pytest
 
 from bounded_run import node, run_measured
 
-pytestmark = pytest.mark.adversarial
+pytestmark = [pytest.mark.adversarial, pytest.mark.multi_process]
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parents[1]

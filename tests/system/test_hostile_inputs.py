@@ -32,7 +32,7 @@ import pmv_msgs_shim as shim
 from pmv_ros.physics.constants import ARCMIN_RAD, EARTH_MEAN_RADIUS_M
 from pmv_ros.physics.orbit.two_body import CircularOrbit
 
-pytestmark = pytest.mark.adversarial
+pytestmark = [pytest.mark.adversarial, pytest.mark.multi_process]
 
 PARAMS = """\
 /**:

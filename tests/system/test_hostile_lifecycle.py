@@ -28,7 +28,7 @@ from neighbour import WALL_CLOCK_PARAMS, Neighbour, output_of, proc_status, runn
 
 from pmv_ros.nodes.managed import PARKED_S
 
-pytestmark = pytest.mark.adversarial
+pytestmark = [pytest.mark.adversarial, pytest.mark.multi_process]
 
 NODES = ("error_monitor_node", "star_tracker_node", "sensor_node")
 PARAMS = WALL_CLOCK_PARAMS

@@ -26,7 +26,7 @@ import yaml
 from bounded_run import node, run_measured
 from pmv_ros.physics.orbit.tle import make_element_set, tle_checksum
 
-pytestmark = pytest.mark.adversarial
+pytestmark = [pytest.mark.adversarial, pytest.mark.multi_process]
 
 HERE = Path(__file__).resolve().parent
 PRESET = HERE.parents[1] / "config" / "meteor_m2_tle.yaml"

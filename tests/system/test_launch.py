@@ -41,6 +41,8 @@ pytestmark = [
     pytest.mark.launch,
     pytest.mark.skipif(not VENDOR_INSTALLER.is_file(),
                        reason=f"no {VENDOR} (vendored ros2 launch snapshots): not tested"),
+    pytest.mark.multi_process,
+    pytest.mark.xdist_group("ros_workspace"),
 ]
 
 #: First messages after a cold start of four Python processes on a busy 2-core machine.

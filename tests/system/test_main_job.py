@@ -15,6 +15,8 @@ from pathlib import Path
 
 import pytest
 
+pytestmark = [pytest.mark.multi_process, pytest.mark.xdist_group("kondor_orbit_run")]
+
 REPO = Path(__file__).resolve().parents[2]
 
 

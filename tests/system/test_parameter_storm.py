@@ -34,7 +34,7 @@ from rosgraph_msgs.msg import Clock
 
 import pmv_msgs_shim as shim
 
-pytestmark = pytest.mark.adversarial
+pytestmark = [pytest.mark.adversarial, pytest.mark.multi_process]
 
 PARAMS = WALL_CLOCK_PARAMS
 #: Per node: (a parameter it has, a value of the wrong type, one out of range); every node has input.max_rate_hz

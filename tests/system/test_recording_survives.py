@@ -35,7 +35,7 @@ import pytest
 
 from pmv_ros.storage.recording import iter_recording, scan_mcap
 
-pytestmark = pytest.mark.adversarial
+pytestmark = [pytest.mark.adversarial, pytest.mark.multi_process]
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parents[1]

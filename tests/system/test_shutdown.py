@@ -24,6 +24,8 @@ import time
 import pytest
 from children import child_env, domain_id
 
+pytestmark = [pytest.mark.multi_process]
+
 #: A ROS domain of this test's own, apart from the colcon and launch tests.
 DOMAIN_ID = domain_id(1)
 #: Longest a stop may take, s (issue 12).

@@ -40,6 +40,8 @@ from rclpy.node import Node
 from pmv_ros.nodes.pipeline import Pipeline
 from pmv_ros.runtime.sensor.sample_stream import FAST_TIME_BLOCK
 
+pytestmark = [pytest.mark.serial]
+
 REPO = Path(__file__).resolve().parents[2]
 RATE_HZ = 1.0
 #: (simulated run, warm-up) in seconds: short (default) and full (--run-long). The short run stays within the

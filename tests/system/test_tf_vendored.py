@@ -16,8 +16,12 @@ import json
 import subprocess
 from pathlib import Path
 
+import pytest
+
 from children import child_env, domain_id
 from tf_scenario import TICKS, run
+
+pytestmark = [pytest.mark.multi_process, pytest.mark.xdist_group("ros_workspace")]
 
 HERE = Path(__file__).resolve().parent
 

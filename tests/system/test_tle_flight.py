@@ -31,6 +31,8 @@ from pmv_ros.nodes.sensor_node import SensorNode
 from pmv_ros.physics.orbit.tle import make_element_set, tle_checksum
 from pmv_ros.runtime.common import assembly
 
+pytestmark = [pytest.mark.multi_process]
+
 REPO = Path(__file__).resolve().parents[2]
 PRESET = REPO / "config" / "meteor_m2_tle.yaml"
 VENV_BIN = Path(sys.executable).parent

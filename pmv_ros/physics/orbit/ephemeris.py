@@ -18,9 +18,11 @@ Frame: "ECI" here is the mean equator and mean equinox of date (precession
 applied, nutation ≤ 0.005° left out, as the low-precision series are).
 Vectors are ``(3,)`` or ``(3, N)``.
 
-Time scales: the ephemerides take a Julian date in TT; a UTC date is within
-70 s of it, which moves the Moon by < 0.01°, below the series' accuracy, so
-either may be passed. The sidereal angle takes UT1, for which UTC
+Time scales: the ephemerides take a Julian date in TT; :meth:`Epoch.julian_date_tt`
+gives it from the run's UTC clock with TT − UTC from the leap-second table
+(:func:`tt_minus_utc_s`). A UTC date is within 70 s of TT, which moves the
+Moon by < 0.01°, below the series' accuracy, so either may be passed where
+the caller has only UTC. The sidereal angle takes UT1, for which UTC
 (|UT1 − UTC| < 0.9 s, 0.004°) is used.
 
 Sources: the Sun — the Astronomical Almanac's low-precision formulas for the
@@ -34,6 +36,7 @@ al. 1977), linear term.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from datetime import datetime, timezone
@@ -61,10 +64,8 @@ DAYS_PER_JULIAN_CENTURY = 36525.0
 #: Julian date of the Unix epoch 1970-01-01T00:00, days.
 JD_UNIX_EPOCH = 2440587.5
 
-#: TT − UTC, s: 32.184 s + 37 leap seconds, in force since 2017-01-01. Used
-#: for every date: before 2017 it is off by at most 37 s, which moves the
-#: Moon by 0.005°.
-TT_MINUS_UTC_S = 69.184
+#: TT − TAI, s: exact by definition (IAU 1991 Resolution A4, TT = TAI + 32.184 s).
+TT_MINUS_TAI_S = 32.184
 
 #: Range of epochs accepted, Julian dates (1900-01-01 … 2100-01-01): the
 #: series are fitted around J2000 and degrade slowly outside 1950–2050.
@@ -108,6 +109,38 @@ def julian_date_from_utc(iso_string: str) -> float:
     if moment.tzinfo is None:
         moment = moment.replace(tzinfo=timezone.utc)
     return JD_J2000 + (moment - _J2000_UTC).total_seconds() / SECONDS_PER_DAY
+
+
+def tt_minus_utc_s(julian_date_utc):
+    """TT − UTC, s, at UTC Julian date(s): 32.184 s + TAI − UTC from ERFA's leap-second table.
+
+    TAI − UTC is ``erfa.dat`` (the IERS leap seconds since 1972, and the
+    drifting offsets of 1960–1971). Dates outside the table are clamped to
+    it: before 1960, when UTC did not exist, the value of 1960-01-01
+    (0.94 s); after the table's last leap second, that leap second's value
+    (a leap second IERS Bulletin C announces later is not in the installed
+    table). A non-finite date gives NaN.
+
+    Args:
+        julian_date_utc: Julian date in the UTC scale (every day 86400 s), days, scalar or array.
+    """
+    import erfa
+
+    jd = np.asarray(julian_date_utc, float)
+    finite = np.isfinite(jd)
+    clamped = np.clip(np.where(finite, jd, JD_J2000), *_leap_table_span_jd())
+    year, month, day, fraction = erfa.jd2cal(clamped, 0.0)
+    return np.where(finite, TT_MINUS_TAI_S + erfa.dat(year, month, day, fraction), np.nan)[()]
+
+
+@functools.lru_cache(maxsize=1)
+def _leap_table_span_jd() -> tuple[float, float]:
+    """Julian dates (UTC) of the first and the last entry of ERFA's leap-second table."""
+    import erfa
+
+    table = erfa.leap_seconds.get()
+    first, last = (erfa.cal2jd(int(row["year"]), int(row["month"]), 1) for row in (table[0], table[-1]))
+    return float(sum(first)), float(sum(last))
 
 
 def greenwich_mean_sidereal_angle(jd_ut1):
@@ -168,8 +201,9 @@ class Epoch:
         return round((self.julian_date_utc - JD_J2000) * SECONDS_PER_DAY, 3) + np.asarray(t_s, float)
 
     def julian_date_tt(self, t_s):
-        """Julian date in Terrestrial Time at simulation time ``t_s`` (s), days (TT − UTC = 69.184 s)."""
-        return self.julian_date_utc + (np.asarray(t_s, float) + TT_MINUS_UTC_S) / SECONDS_PER_DAY
+        """Julian date in Terrestrial Time at simulation time ``t_s`` (s), days (TT − UTC: :func:`tt_minus_utc_s`)."""
+        jd_utc = self.julian_date(t_s)
+        return jd_utc + tt_minus_utc_s(jd_utc) / SECONDS_PER_DAY
 
     def day_of_year(self, t_s):
         """Fractional day of the UTC calendar year at ``t_s`` (s): 1.0 = 1 January 00:00.

@@ -22,9 +22,10 @@
    the true equator (Vallado et al. 2006, AIAA 2006-6753, §"TEME"). Error
    bound of the conversion: the 1994 equation of the equinoxes carries two
    terms (≤ 0.0027″) that the 1982 one of the TEME definition does not,
-   0.1 m at 7000 km; the nutation is evaluated at UTC + 69.184 s for TT
-   (≤ 37 s off before 2017: < 1e-5″); the celestial-pole offsets (dψ, dε,
-   ≈ 0.05″ = 2 m) are left out, as TEME leaves them out. Velocities are
+   0.1 m at 7000 km; the nutation is evaluated in TT (TT − UTC from the
+   leap-second table: :func:`pmv_ros.physics.orbit.ephemeris.tt_minus_utc_s`);
+   the celestial-pole offsets (dψ, dε, ≈ 0.05″ = 2 m) are left out, as TEME
+   leaves them out. Velocities are
    rotated by the same matrix (its own rate, ≈ 1e-11 rad/s, is neglected:
    < 1e-7 m/s). The Earth-fixed frame of the project then follows from the
    GMST rotation of :func:`pmv_ros.physics.orbit.two_body.eci_to_ecef`, which leaves
@@ -45,7 +46,7 @@ from datetime import datetime, timedelta, timezone
 import numpy as np
 
 from ..constants import EARTH_MEAN_RADIUS_M, SECONDS_PER_DAY
-from .ephemeris import JD_J2000, TT_MINUS_UTC_S, Epoch
+from .ephemeris import JD_J2000, Epoch, tt_minus_utc_s
 from .two_body import MAX_ALTITUDE_M, MIN_ALTITUDE_M, StateOrbit, orbit_angles_from_state
 
 #: Columns a line of an element set has (the checksum is the last).
@@ -185,7 +186,7 @@ def make_element_set(epoch_utc: datetime, inclination_deg: float, raan_deg: floa
     returned. Angles are written to 1e-4°, the mean motion to 1e-8 rev/day,
     the eccentricity to 1e-7 and the epoch to 1e-8 day (≈ 1 ms).
     """
-    from sgp4.api import WGS72, Satrec
+    WGS72, Satrec = _sgp4_api()
     from sgp4.exporter import export_tle
 
     epoch = epoch_utc.astimezone(timezone.utc)
@@ -204,8 +205,7 @@ def make_element_set(epoch_utc: datetime, inclination_deg: float, raan_deg: floa
 
 def element_set_altitude_m(line1, line2) -> float:
     """The nominal altitude of an element set: SGP4's mean semi-major axis less the 6371 km mean radius, m."""
-    from sgp4.api import WGS72, Satrec
-
+    WGS72, Satrec = _sgp4_api()
     elements = parse_element_set(line1, line2)
     satrec = Satrec.twoline2rv(elements.line1, elements.line2, WGS72)
     return float(satrec.a * satrec.radiusearthkm * 1e3 - EARTH_MEAN_RADIUS_M)
@@ -215,11 +215,12 @@ def teme_to_mod_matrix(julian_date_utc):
     """Rotation from TEME to the mean equator and equinox of date at UTC Julian date(s): ``(3, 3[, N])``.
 
     Nᵀ · R_z(Eq) (module docstring): ``erfa.nutm80`` and ``erfa.eqeq94`` at
-    TT ≈ UTC + 69.184 s.
+    TT (:func:`~pmv_ros.physics.orbit.ephemeris.tt_minus_utc_s`).
     """
     import erfa
 
-    mjd_tt = np.asarray(julian_date_utc, float) - _JD_MJD_ZERO + TT_MINUS_UTC_S / SECONDS_PER_DAY
+    julian_date_utc = np.asarray(julian_date_utc, float)
+    mjd_tt = julian_date_utc - _JD_MJD_ZERO + tt_minus_utc_s(julian_date_utc) / SECONDS_PER_DAY
     nutation = erfa.nutm80(_JD_MJD_ZERO, mjd_tt)  # (..., 3, 3), mean → true of date
     eq = erfa.eqeq94(_JD_MJD_ZERO, mjd_tt)
     c, s = np.cos(eq), np.sin(eq)
@@ -260,8 +261,7 @@ class TleOrbit(StateOrbit):
 
     def __init__(self, line1: str, line2: str, utc_at_epoch: Epoch, epoch_s: float = 0.0,
                  check_span_s: float = SECONDS_PER_DAY):
-        from sgp4.api import WGS72, Satrec
-
+        WGS72, Satrec = _sgp4_api()
         self.elements = parse_element_set(line1, line2)
         self._last = None  # (times, state) of the last state_eci call
         self.epoch_s = float(epoch_s)
@@ -383,6 +383,19 @@ class TleOrbit(StateOrbit):
         return (f"SGP4 error {code} at t = {t_s:.1f} s ({when:%Y-%m-%dT%H:%M:%S}Z, "
                 f"{float(self.minutes_since_elements(t_s)) / 1440.0:+.3f} days from the element set's epoch): "
                 f"{_sgp4_message(code)}")
+
+
+#: The refusal of an element set where python-sgp4 is not installed (it has no rosdep key: package.xml).
+NO_SGP4 = "orbit.source tle needs python-sgp4, which cannot be imported: pip install sgp4"
+
+
+def _sgp4_api():
+    """python-sgp4's ``(WGS72, Satrec)``; ValueError (:data:`NO_SGP4`) where it is not installed."""
+    try:
+        from sgp4.api import WGS72, Satrec
+    except ImportError:
+        raise ValueError(NO_SGP4) from None
+    return WGS72, Satrec
 
 
 def _sgp4_message(code: int) -> str:
