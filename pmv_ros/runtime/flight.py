@@ -14,7 +14,7 @@ What each node does, and what runs it here:
   a time (:meth:`~pmv_ros.runtime.sensor.runtime.SensorRuntime.step_block`:
   its clock summed step by step from ``sim.start_time_s``, the block its
   stream computes ahead at the block's first step), whole blocks to the last.
-  A sample reads the same in any grouping (tests/physics/test_grouping.py).
+  A sample reads the same in any grouping (tests/physics/test_sample_grouping.py).
 * star_tracker_node: the node's own runtime,
   :class:`~pmv_ros.runtime.tracker.runtime.TrackerRuntime`, fed the whole truth stream
   as one batch (:func:`tracker_frames`; the node feeds it one message at a

@@ -6,7 +6,7 @@ random fields on a (time, azimuth) grid along the horizon and interpolates
 (pmv_ros/physics/instrument/horizon_fields.py). These tests check the
 interpolation against exact forms and the grid against one at every sample
 (that a reading does not depend on how samples are grouped:
-tests/physics/test_grouping.py).
+tests/physics/test_sample_grouping.py).
 """
 
 from __future__ import annotations
