@@ -19,6 +19,8 @@ import pytest
 from pmv_ros.cli import MAX_LINE_CHARS, main
 from pmv_ros.cli import oblateness
 
+pytestmark = pytest.mark.multi_process  # its child-process cases start `pmv`
+
 OBLATENESS = ["oblateness", "--altitude-km", "500", "--inclination-deg", "74.5"]
 REPO = Path(__file__).resolve().parents[2]
 

@@ -29,7 +29,7 @@ import pytest
 
 from bounded_run import pmv, run_measured
 
-pytestmark = pytest.mark.adversarial
+pytestmark = [pytest.mark.adversarial, pytest.mark.multi_process]
 
 REPO = Path(__file__).resolve().parents[2]
 METEOR = REPO / "config" / "meteor_m2.yaml"

@@ -36,7 +36,7 @@ import pytest
 
 from bounded_run import pmv, run_measured
 
-pytestmark = pytest.mark.adversarial
+pytestmark = [pytest.mark.adversarial, pytest.mark.multi_process]
 
 #: What a refusal may cost: the bound of the other hostile-file tests (tests/system/test_hostile_files.py).
 REFUSAL_CPU_S, REFUSAL_PEAK_MB = 10.0, 300.0

@@ -21,7 +21,7 @@ import pytest
 
 from bounded_run import pmv, run_measured
 
-pytestmark = pytest.mark.adversarial
+pytestmark = [pytest.mark.adversarial, pytest.mark.multi_process]
 
 #: The stated cost of the CSV at its row bound, one orbit a row: ≈ 2–5 s of CPU and ≈ 0.5 GB (the series of
 #: 500,000 distinct orbital angles is the largest part); the test allows a loaded machine twice that.

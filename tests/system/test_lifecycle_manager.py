@@ -29,6 +29,8 @@ DOMAIN_ID = domain_id(0)
 
 pytestmark = [
     pytest.mark.launch,
+    pytest.mark.multi_process,
+    pytest.mark.xdist_group("ros_workspace"),
     pytest.mark.skipif(not VENDOR_INSTALLER.is_file(),
                        reason=f"no {VENDOR} (vendored ros2 launch snapshots): not tested"),
 ]
