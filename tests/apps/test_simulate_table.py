@@ -45,7 +45,8 @@ def _table(stdout: str) -> dict:
 
 
 @pytest.mark.parametrize("orbits, pending", [
-    (0.0002, ("σ, ′", "mean ± 3σ, ′", "k=1, ′", "k=2, ′", "k=15…25 peak, ′")),  # one sample: no σ, no harmonic
+    # 0.0004 orbit: samples before the first star-tracker frame have no truth, one after it has: no σ, no harmonic
+    (0.0004, ("σ, ′", "mean ± 3σ, ′", "k=1, ′", "k=2, ′", "k=15…25 peak, ′")),
     (0.01, ("k=1, ′", "k=2, ′", "k=15…25 peak, ′")),  # under one orbit: no harmonic
 ])
 def test_pmv_simulate_prints_pending_where_a_figure_is_not_defined_yet(orbits, pending):

@@ -136,7 +136,7 @@ def test_without_sgp4_an_element_set_is_refused_in_one_line(monkeypatch):
     from pmv_ros.physics.orbit.ephemeris import Epoch
     from pmv_ros.physics.orbit.tle import NO_SGP4, TleOrbit
 
-    preset = yaml.safe_load((REPO / "config" / "meteor_m2_tle.yaml").read_text())["sensor_node"]["ros__parameters"]
+    preset = yaml.safe_load((REPO / "config" / "meteor_m2_tle.yaml").read_text())["/**"]["ros__parameters"]
     monkeypatch.setitem(sys.modules, "sgp4.api", None)  # import sgp4.api raises ImportError
     with pytest.raises(ValueError) as refused:
         TleOrbit(preset["orbit"]["tle_line1"], preset["orbit"]["tle_line2"], Epoch.from_utc("2016-11-11T00:00:00Z"))
