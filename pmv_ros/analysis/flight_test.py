@@ -10,8 +10,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..physics.instrument.oblateness import closed_form_oblateness
-from .statistics import (DEFAULT_MAX_CONDITION, DEFAULT_MAX_GAP_FRACTION, ORBIT_HARMONICS, TWO_PI, ChannelStatistics,
-                         RunningStatistics, harmonic_amplitudes)
+from .statistics import (MAX_NOISE_GAIN, ORBIT_HARMONICS, TWO_PI, ChannelStatistics, RunningStatistics,
+                         harmonic_amplitudes)
 
 
 def correct_reference_drift(values_rad, elapsed_s, drift_rate_rad_s: float):
@@ -131,8 +131,7 @@ class FlightTestResult:
 
 def flight_test_statistics(u_rad, roll_rad, pitch_rad, altitude_m: float, inclination_rad: float, *,
                            orbit_index=None, remove_oblateness: bool = True, u_bin_rad: float | None = None,
-                           harmonics=ORBIT_HARMONICS, max_gap_fraction: float = DEFAULT_MAX_GAP_FRACTION,
-                           max_condition: float = DEFAULT_MAX_CONDITION) -> FlightTestResult:
+                           harmonics=ORBIT_HARMONICS, max_noise_gain: float = MAX_NOISE_GAIN) -> FlightTestResult:
     """The published flight-test statistics of the sensor error (physics.md §5, steps 2–5, and §5.1).
 
     Step 1 (reference drift) is the caller's: see :func:`correct_reference_drift`.
@@ -164,7 +163,7 @@ def flight_test_statistics(u_rad, roll_rad, pitch_rad, altitude_m: float, inclin
         orbit_index: ``(N,)`` orbit number of each sample, or None.
         remove_oblateness: apply step 4.
         u_bin_rad: width of the u bins of step 2, rad; None for exact u.
-        harmonics, max_gap_fraction, max_condition: see :func:`harmonic_amplitudes`.
+        harmonics, max_noise_gain: see :func:`~pmv_ros.analysis.statistics.fit_harmonics`.
     """
     u = np.asarray(u_rad, float).ravel()
     roll = np.asarray(roll_rad, float).ravel()
@@ -198,8 +197,7 @@ def flight_test_statistics(u_rad, roll_rad, pitch_rad, altitude_m: float, inclin
     per_orbit = []
     for orbit in np.unique(orbits):
         in_orbit = orbits == orbit
-        amplitudes = harmonic_amplitudes(u[in_orbit], per_sample[in_orbit], harmonics,
-                                         max_gap_fraction=max_gap_fraction, max_condition=max_condition)
+        amplitudes = harmonic_amplitudes(u[in_orbit], per_sample[in_orbit], harmonics, max_noise_gain=max_noise_gain)
         if np.isfinite(amplitudes[0]).any():
             per_orbit.append(amplitudes)
     if per_orbit:

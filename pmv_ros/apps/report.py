@@ -21,28 +21,24 @@ from pathlib import Path
 
 import numpy as np
 
+from ..analysis.statistics import HarmonicFit, fit_harmonics
 from ..physics.constants import ARCMIN_RAD
 from ..storage.json_output import finite_json
 from ..physics.instrument.oblateness import closed_form_oblateness
 
 
-def harmonic_spectrum(t_s, values, period_s: float, max_k: int = 40):
-    """Amplitudes (units of ``values``) of harmonics k = 1 … max_k of 1/period, by least squares.
-
-    Works on uneven or gappy samples; the mean is fitted and dropped.
-    Returns ``(k, amplitude)``; NaN amplitudes if there are too few samples.
-    """
+def spectrum_fit(t_s, values, period_s: float, max_k: int = 40) -> HarmonicFit:
+    """Harmonics k = 1 … max_k of 1/period over the whole record (:func:`~pmv_ros.analysis.statistics.fit_harmonics`:
+    least squares on the samples there are, the §5.1 harmonics fitted together and every other k with them;
+    a k the record's gaps leave undetermined is pending, NaN, with the reason)."""
     t = np.asarray(t_s, float)
-    y = np.asarray(values, float)
-    keep = np.isfinite(t) & np.isfinite(y)
-    t, y = t[keep], y[keep]
-    k = np.arange(1, max_k + 1)
-    if t.size < 2 * max_k + 1:
-        return k, np.full(k.size, np.nan)
-    phase = 2.0 * np.pi * np.outer(t, k) / period_s
-    design = np.hstack([np.ones((t.size, 1)), np.cos(phase), np.sin(phase)])
-    coefficients, *_ = np.linalg.lstsq(design, y, rcond=None)
-    return k, np.hypot(coefficients[1:max_k + 1], coefficients[max_k + 1:])
+    return fit_harmonics(2.0 * np.pi * t / period_s, np.asarray(values, float), np.arange(1, max_k + 1))
+
+
+def harmonic_spectrum(t_s, values, period_s: float, max_k: int = 40):
+    """``(k, amplitude)`` of :func:`spectrum_fit` (units of ``values``; NaN where pending)."""
+    fit = spectrum_fit(t_s, values, period_s, max_k)
+    return np.arange(1, max_k + 1), fit.amplitude
 
 
 def flight_record(name: str) -> dict | None:
@@ -106,10 +102,14 @@ def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_ha
     out.mkdir(parents=True, exist_ok=True)
     paths = [out / "statistics.json", out / "residuals.png", out / "spectrum.png"]
     t, roll, pitch = residuals
-    spectra = {name: harmonic_spectrum(t, values, orbit.period_s) for name, values in (("roll", roll), ("pitch", pitch))}
+    fits = {name: spectrum_fit(t, values, orbit.period_s) for name, values in (("roll", roll), ("pitch", pitch))}
+    spectra = {name: (np.arange(1, fit.amplitude.size + 1), fit.amplitude) for name, fit in fits.items()}
     summary = dict(summary, residual_spectrum_arcmin={
-        "note": "sensor − star tracker over the whole record, oblateness kept; amplitude at k = 1 … 40",
-        **{name: {int(k): float(a / ARCMIN_RAD) for k, a in zip(*spectrum)} for name, spectrum in spectra.items()}},
+        "note": "sensor − star tracker over the whole record, oblateness kept; amplitude at k = 1 … 40 "
+                "(null: pending, see pending)",
+        **{name: {int(k): float(a / ARCMIN_RAD) for k, a in zip(*spectrum)} for name, spectrum in spectra.items()},
+        "pending": {name: fit.pending_note for name, fit in fits.items()},
+        "largest_hole_deg": {name: math.degrees(fit.largest_hole_rad) for name, fit in fits.items()}},
         report_files=[str(p) for p in paths])
     # Strict JSON: NaN (e.g. harmonics before a full orbit) becomes null, as in `--json` output.
     paths[0].write_text(json.dumps(finite_json(summary), indent=2, default=_json_default, allow_nan=False) + "\n")

@@ -38,9 +38,6 @@ def test_residual_sigma_is_a_few_arcmin(kondor_orbit):
     assert summary["oblateness_removed"] is True
 
 
-@pytest.mark.xfail(strict=True, reason="the report's whole-record harmonic fit has no guard for the star tracker's "
-                   "gaps (the Sun near its boresight once an orbit: ≈ 16 % of this orbit without truth): amplitudes "
-                   "of ≈ 1.7e7′ come out; the monitor's ring refuses such a fit (max_gap_fraction, max_condition)")
 def test_oblateness_shows_at_roll_k1_and_pitch_k2(kondor_orbit):
     summary, _ = kondor_orbit
     spectrum = summary["residual_spectrum_arcmin"]

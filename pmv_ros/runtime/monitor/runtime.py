@@ -277,12 +277,13 @@ class MonitorRuntime:
         return self.add_inputs([("add_sensor", (frame_id, stamp_s, roll_rad, pitch_rad), now_s)])
 
     def add_stream(self, t_s, roll_rad, pitch_rad, truth_t_s, q_truth, truth_arrival, position_eci_m,
-                   velocity_eci_m_s) -> BatchOutcome:
+                   velocity_eci_m_s, now_s=None) -> BatchOutcome:
         """A whole clean stream at once (a campaign's flight): what the three inputs would do message by message
         — truth j arriving just before sensor sample ``truth_arrival[j]``, then the odometry at the sample's
-        stamp, then the sample, the node clock at the sample's stamp. Arrays as
+        stamp, then the sample, the node clock ``now_s`` ``(N,)`` at each (default: the sample's stamp). Arrays as
         :meth:`~pmv_ros.runtime.monitor.core.ErrorMonitor.add_batch` takes them; the statistics schedule is not run."""
-        return self.monitor.add_batch(t_s, roll_rad, pitch_rad, truth_t_s, q_truth, truth_arrival, now_s=t_s,
+        return self.monitor.add_batch(t_s, roll_rad, pitch_rad, truth_t_s, q_truth, truth_arrival,
+                                      now_s=t_s if now_s is None else now_s,
                                       odometry=(position_eci_m, velocity_eci_m_s), **self._sample_orbit())
 
     def _sample_orbit(self) -> dict:
