@@ -64,6 +64,26 @@ def test_checked_truth_gives_the_frames_of_the_frame_loop_and_bad_truth_changes_
     assert sum(v for k, v in counters.items() if k.startswith("frames_")) == reference.frame_s.size
 
 
+def test_truth_in_another_frame_is_refused_said_once_and_named_on_diagnostics():
+    """#51 item 9: expected sat1/orbital, got orbital — one log line, the refusal named while it lasts."""
+    values = {**values_of().star_tracker, "frames.prefix": "sat1"}
+    runtime = TrackerRuntime(values, 0.0)
+    assert runtime.frames.orbital == "sat1/orbital"
+    lines = []
+    for k in range(5):
+        output = runtime.receive_truth("orbital", 10.0 + k, (0.0, 0.0, 0.0, 1.0), 10.0 + k)
+        lines += [line.text for line in output.log]
+    assert lines == ["true attitude refused: expected sat1/orbital, got orbital: each such message is dropped "
+                     "(counted on /diagnostics); this is said once"]
+    health = runtime.health([])
+    assert health.level is Level.WARN and "true attitude refused: expected sat1/orbital, got orbital (5 refused)" \
+        in health.message
+    assert runtime.counters["rejected_truth_wrong_frame"] == 5
+    # A message in the right frame ends the refusal: /diagnostics stops naming it; the log stays quiet.
+    output = runtime.receive_truth("sat1/orbital", 20.0, (0.0, 0.0, 0.0, 1.0), 20.0)
+    assert not output.log and "refused: expected" not in runtime.health([]).message
+
+
 def test_a_confirmed_jump_back_is_a_new_timeline_and_silence_is_a_stale_input():
     values = values_of().star_tracker
     problems = []

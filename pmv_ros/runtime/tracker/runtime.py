@@ -51,8 +51,8 @@ import numpy as np
 from ...physics.star_tracker import FrameGrid, LatencyQueue, Outcome, read_only
 from .build import build_tracker
 from ..common.frames import Frames
-from ..common.records import HealthAt, HealthSummary, Level
-from ..common.validation import TRUTH_REJECTIONS, Rejection, StampCheck, check_frame, check_quaternion_sample
+from ..common.records import HealthAt, HealthSummary, Level, LogLine
+from ..common.validation import TRUTH_REJECTIONS, FrameCheck, Rejection, StampCheck, check_quaternion_sample
 
 #: Why a truth message is dropped: the checks of the stream, and a frame other than the orbital one.
 REJECTIONS = TRUTH_REJECTIONS + (Rejection.WRONG_FRAME,)
@@ -68,9 +68,11 @@ class ReleasedFrame(NamedTuple):
 @dataclass
 class TrackerOutput:
     """What truth messages make the star tracker publish, in order: :class:`ReleasedFrame` items and
-    :class:`~pmv_ros.runtime.common.records.HealthAt` statuses (stamped with the truth sample's time)."""
+    :class:`~pmv_ros.runtime.common.records.HealthAt` statuses (stamped with the truth sample's time); and ``log``
+    lines for the node's log."""
 
     published: list = field(default_factory=list)
+    log: list = field(default_factory=list)  #: :class:`~pmv_ros.runtime.common.records.LogLine` items
 
     @property
     def released(self) -> list[ReleasedFrame]:
@@ -126,6 +128,8 @@ class TrackerRuntime:
                  source_counters: Callable[[], dict] = dict) -> None:
         self.start_s = float(start_s)
         self.frames = Frames.from_values(values)
+        # /attitude/truth in another frame than the orbital one (an inertial quaternion, say): refused, said once.
+        self.frame_check = FrameCheck("true attitude", self.frames.orbital)
         self._source_problems, self._source_counters = source_problems, source_counters
         self.stamps = StampCheck(1.0, 1.0)
         self.grid = FrameGrid(values["frame_period_s"], values["max_truth_gap_s"])
@@ -242,8 +246,12 @@ class TrackerRuntime:
             quaternions.clear()
 
         for _, (frame_id, stamp_s, q_xyzw), now_s in events:
-            rejection = check_frame(frame_id, self.frames.orbital)  # an inertial quaternion, say
-            if rejection is None and stamp_s is None:  # a negative or non-finite stamp
+            rejection = self.frame_check.check(frame_id)  # an inertial quaternion, say
+            if rejection is not None:
+                line = self.frame_check.take_log_line()
+                if line is not None:
+                    output.log.append(LogLine("error", line))
+            elif stamp_s is None:  # a negative or non-finite stamp
                 rejection = Rejection.ZERO_STAMP
             if rejection is not None:
                 counts[f"rejected_truth_{rejection.value}"] += 1
@@ -291,6 +299,8 @@ class TrackerRuntime:
         if rejected > self._rejected_reported:
             problems = problems + ["rejected /attitude/truth messages"]
         self._rejected_reported = rejected
+        if self.frame_check.problem is not None:  # what was expected, what came, while the refusals last
+            problems = problems + [self.frame_check.problem]
         source_errors = self._source_problems()
         problems = source_errors + problems
         level = Level.ERROR if source_errors else Level.WARN if problems else Level.OK
