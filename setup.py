@@ -15,7 +15,7 @@ setup(
         (f"share/{PACKAGE}/config", glob("config/*.yaml")),
         (f"share/{PACKAGE}/launch", glob("launch/*.launch.py")),
     ],
-    install_requires=["setuptools"],
+    install_requires=["setuptools", "numba==0.68.1"],
     # The Basilisk host (pmv_ros.hosts.basilisk); `make venv` pins it in requirements-basilisk.txt.
     extras_require={"basilisk": ["bsk==2.12.1"]},
     zip_safe=True,

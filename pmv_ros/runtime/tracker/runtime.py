@@ -56,6 +56,11 @@ from ..common.validation import TRUTH_REJECTIONS, FrameCheck, Rejection, StampCh
 
 #: Why a truth message is dropped: the checks of the stream, and a frame other than the orbital one.
 REJECTIONS = TRUTH_REJECTIONS + (Rejection.WRONG_FRAME,)
+#: The outcomes by code.
+_OUTCOMES = tuple(Outcome)
+#: The /diagnostics keys of the frame outcomes (in Outcome order) and of the refusals.
+_FRAME_KEYS = tuple(f"frames_{outcome.reason}" for outcome in Outcome)
+_REJECTED_KEYS = tuple(f"rejected_truth_{reason.value}" for reason in REJECTIONS)
 
 
 class ReleasedFrame(NamedTuple):
@@ -183,10 +188,14 @@ class TrackerRuntime:
             return _NO_MEASURED_FRAMES
         frames = self.tracker.measure(grid.frame_s, grid.attitude, grid.turn_rate_rad_s)
         outcome = frames.outcome
-        for code, count in enumerate(np.bincount(outcome).tolist()):
-            if count:
-                self.outcomes[Outcome(code)] += count
-        self.last_outcome = Outcome(int(outcome[-1]))
+        codes = outcome.tolist()
+        if len(codes) == 1:  # a node's frame
+            self.outcomes[_OUTCOMES[codes[0]]] += 1
+        else:
+            for code, count in enumerate(np.bincount(outcome).tolist()):
+                if count:
+                    self.outcomes[_OUTCOMES[code]] += count
+        self.last_outcome = _OUTCOMES[codes[-1]]
         self.last_stars, self.last_hits = int(frames.stars[-1]), int(frames.hits[-1])
         ok = outcome == Outcome.OK.value  # a plain int: numpy compares with an IntEnum member slowly
         self.queue.push_many(grid.frame_s[ok], frames.q_measured[:, ok], grid.truth_index[ok])
@@ -216,7 +225,7 @@ class TrackerRuntime:
     @property
     def counters(self) -> dict:
         """Frame outcomes and input counters (a copy), as on /diagnostics."""
-        values = {f"frames_{o.reason}": n for o, n in self.outcomes.items()}
+        values = dict(zip(_FRAME_KEYS, self.outcomes.values()))
         values.update(self.input_counts)
         return values
 
@@ -238,10 +247,14 @@ class TrackerRuntime:
 
         def measure() -> None:  # the good messages so far: their frames, then the releases at each stamp
             if stamps:
-                self.add_truth_batch(np.array(stamps), np.array(quaternions).T)
-                frame_s, q_measured, _ = self.release_batch(np.array(stamps))
-                output.published += [ReleasedFrame(t, tuple(q))
-                                     for t, q in zip(frame_s.tolist(), q_measured.T.tolist())]
+                # One message (most wake-ups): a float and a tuple, which the grid and the queue take as they are.
+                one = len(stamps) == 1
+                self.add_truth_batch(stamps[0] if one else np.array(stamps),
+                                     quaternions[0] if one else np.array(quaternions).T)
+                frame_s, q_measured, _ = self.release_batch(stamps[0] if one else np.array(stamps))
+                if frame_s.size:
+                    output.published += [ReleasedFrame(t, tuple(q))
+                                          for t, q in zip(frame_s.tolist(), q_measured.T.tolist())]
             stamps.clear()
             quaternions.clear()
 
@@ -295,7 +308,8 @@ class TrackerRuntime:
         values = self.counters
         values.update(self._source_counters())
         values.update(stars_in_field=self.last_stars, proton_hits=self.last_hits, release_queue=len(self.queue))
-        rejected = sum(self.input_counts[f"rejected_truth_{reason.value}"] for reason in REJECTIONS)
+        counts = self.input_counts
+        rejected = sum(counts[key] for key in _REJECTED_KEYS)
         if rejected > self._rejected_reported:
             problems = problems + ["rejected /attitude/truth messages"]
         self._rejected_reported = rejected
