@@ -9,7 +9,11 @@ Plots (PNG, matplotlib's Agg backend, no display needed):
   orbital frequency (least squares over the whole record), with the monitor's
   live k = 1, 2, 15–25 values marked (physics.md §5.1), and — when the preset
   names a flight record (``sim.flight_record``) — the record's published
-  points beside it (:func:`flight_record`, pmv_ros/data/flight_records.json).
+  points beside it (:func:`flight_record`, pmv_ros/data/flight_records.json);
+* ``tracker.png`` (when the run's star-tracker frames are given) — the ground
+  track, with the frames that gave no attitude marked by the tracker's reason
+  (where the South Atlantic Anomaly, the star-poor sky and the Sun near the
+  boresight are), and what each reason cost the run (``truth_lost``).
 """
 
 from __future__ import annotations
@@ -78,8 +82,15 @@ def statistics_to_dict(statistics) -> dict:
             "counters": dict(statistics.counters)}
 
 
+def truth_lost_summary(truth_lost: dict, samples: int) -> dict:
+    """What each star-tracker reason cost a run: ``{reason: {"samples": n, "share": n / samples}}`` for the reasons
+    that cost any (``truth_lost`` the monitor's ``truth_lost_<reason>`` counters; ``samples`` the sensor samples)."""
+    return {key[len("truth_lost_"):]: {"samples": int(count), "share": count / samples if samples else math.nan}
+            for key, count in truth_lost.items() if count}
+
+
 def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_harmonics: dict | None = None,
-                 record: dict | None = None) -> dict:
+                 record: dict | None = None, tracker: dict | None = None) -> dict:
     """Write ``statistics.json``, ``residuals.png`` and ``spectrum.png`` into ``directory``.
 
     Returns the summary as written: the input plus ``residual_spectrum_arcmin``
@@ -92,6 +103,9 @@ def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_ha
         orbit: the :class:`~pmv_ros.physics.orbit.two_body.CircularOrbit` flown (for u and the model).
         live_harmonics: {channel: {k: amplitude_arcmin}} from the monitor, marked on the spectrum.
         record: a flight record (:func:`flight_record`) whose published points are drawn on the spectrum.
+        tracker: the star tracker's frames along the ground track, for ``tracker.png``: ``track_deg`` (latitude,
+            longitude ``(N,)`` deg of the run), ``frames_deg`` (latitude, longitude ``(K,)`` of the frames without
+            attitude), ``reasons`` ``(K,)`` their reasons, and the run's ``truth_lost`` (:func:`truth_lost_summary`).
     """
     import matplotlib
 
@@ -101,6 +115,8 @@ def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_ha
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
     paths = [out / "statistics.json", out / "residuals.png", out / "spectrum.png"]
+    if tracker is not None:
+        paths.append(out / "tracker.png")
     t, roll, pitch = residuals
     fits = {name: spectrum_fit(t, values, orbit.period_s) for name, values in (("roll", roll), ("pitch", pitch))}
     spectra = {name: (np.arange(1, fit.amplitude.size + 1), fit.amplitude) for name, fit in fits.items()}
@@ -157,7 +173,36 @@ def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_ha
     figure.tight_layout()
     figure.savefig(paths[2], dpi=110)
     plt.close(figure)
+    if tracker is not None:
+        _plot_tracker(plt, paths[3], tracker)
     return summary
+
+
+def _plot_tracker(plt, path: Path, tracker: dict) -> None:
+    """The ground track with the star tracker's frames without attitude by reason, and what each reason cost."""
+    figure, axis = plt.subplots(figsize=(10, 5.2))
+    latitude, longitude = tracker["track_deg"]
+    wrapped = np.where(np.abs(np.diff(longitude)) > 180.0)[0] + 1  # no line across the date line
+    for lat, lon in zip(np.split(latitude, wrapped), np.split(longitude, wrapped)):
+        axis.plot(lon, lat, "-", color="0.75", linewidth=0.8)
+    lost = tracker.get("truth_lost", {})
+    reasons = np.asarray(tracker["reasons"])
+    frame_latitude, frame_longitude = tracker["frames_deg"]
+    for reason in sorted(set(reasons.tolist())):
+        mine = reasons == reason
+        cost = lost.get(reason)
+        label = reason.replace("_", " ") + (f": {100.0 * cost['share']:.1f} % of the samples" if cost else "")
+        axis.plot(np.asarray(frame_longitude)[mine], np.asarray(frame_latitude)[mine], ".", markersize=3, label=label)
+    axis.set_xlim(-180, 180)
+    axis.set_ylim(-90, 90)
+    axis.set_xlabel("longitude, deg")
+    axis.set_ylabel("geodetic latitude, deg")
+    axis.grid(True, alpha=0.3)
+    axis.legend(fontsize=8, loc="lower left", framealpha=0.9)
+    axis.set_title("Star-tracker frames without attitude along the ground track (physics.md §6)", fontsize=10)
+    figure.tight_layout()
+    figure.savefig(path, dpi=110)
+    plt.close(figure)
 
 
 def _json_default(value):

@@ -26,7 +26,9 @@ What each node does, and what runs it here:
   monitor's one path: validation, alignment and statistics), the released frames
   arriving just before the sensor sample of their tick, the node clock at
   each tick the sample's stamp, and the orbit's state at each stamp as the
-  odometry the node validates and takes its oblateness model from.
+  odometry the node validates and takes its oblateness model from; every
+  frame's outcome (``/star_tracker/frame_status``) counts the samples without
+  truth by the tracker's reason (:mod:`pmv_ros.runtime.monitor.lost_truth`).
 
 Message stamps in the pipeline are whole nanoseconds; here they are the
 float times. The difference moves the statistics by ≈ 1e-9 arcmin.
@@ -152,6 +154,7 @@ class Flight:
     meridional_rad: np.ndarray
     summary: MonitorSummary
     frames: TrackerFrames
+    truth_lost: dict  #: samples skipped for want of truth, by the star tracker's reason (``truth_lost_<reason>``)
     values: FlightValues = field(repr=False)
 
 
@@ -182,10 +185,12 @@ def fly(values: FlightValues, samples: int) -> Flight:
     published = np.flatnonzero(frames.released_at >= 0)  # in release order = frame order
     position, velocity = orbit.state_eci(t)  # what /orbit/odometry carries
     monitor = MonitorRuntime(values.monitor)  # as error_monitor_node takes the stream, all at once
+    # /star_tracker/frame_status: every frame's outcome, heard before any sample it explains settles.
+    monitor.lost_truth.add_frames(wire_stamps(frames.frame_s), frames.outcome)
     batch = monitor.add_stream(stamps, roll, pitch, wire_stamps(frames.frame_s[published]),
                                frames.q_measured[:, published], frames.released_at[published], position, velocity,
                                now_s=wire_clock(t))
     u = orbit.argument_of_latitude(t)
     latitude, _ = geocentric_latitude_longitude(position)
     return Flight(t, u, latitude, roll, pitch, batch.status, batch.roll_rad, batch.pitch_rad, batch.meridional_rad,
-                  summary=monitor.monitor.summary(), frames=frames, values=values)
+                  summary=monitor.monitor.summary(), frames=frames, truth_lost=monitor.truth_lost, values=values)

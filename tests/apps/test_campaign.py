@@ -53,7 +53,11 @@ def test_campaign_task_equals_the_pipeline_for_the_same_epoch_and_seed(tmp_path)
     with Pipeline(METEOR, overrides) as pipeline:
         pipeline.step(description["samples"])
         live = pipeline.monitor.monitor.summary()
+        lost = {k: v for k, v in pipeline.monitor.truth_lost.items() if v}
     flown = description["summary"]
+    # The samples without truth by the tracker's reason: from /star_tracker/frame_status in the graph, from the
+    # tracker's frames in the flight.
+    assert lost == description["truth_lost"] and sum(lost.values()) > 100, lost
     assert live.counters["used"] > 800  # the star tracker has no attitude for a star-poor minute of this stretch
     assert {k: v for k, v in live.counters.items() if v} == flown["counters"]
     for channel in live.channels:
@@ -219,6 +223,13 @@ def test_components_budget_puts_each_component_beside_the_total_and_their_rss(tm
     assert rss["rss_sigma_arcmin"] == pytest.approx(math.sqrt(sum(meridional[p] ** 2 for p in parts)))
     assert rss["total_sigma_arcmin"] == meridional["total"]
     assert set(result["by_day"]) == set(campaign.COMPONENTS) and "latitude_day" in result
+    # What the star tracker's reasons cost the total's samples: its task's own counts over its samples.
+    total = next(task for task in tasks if task.component == "total")
+    _, description = campaign.read_result(campaign.task_path(tmp_path, total))
+    assert {reason: cost["samples"] for reason, cost in result["truth_lost"].items()} == \
+        {key[len("truth_lost_"):]: count for key, count in description["truth_lost"].items()}
+    for cost in result["truth_lost"].values():
+        assert cost["share"] == pytest.approx(cost["samples"] / description["samples"])
     files = campaign.write_budget(tmp_path, result)
     assert all((tmp_path / name).stat().st_size > 0 for name in files)
 

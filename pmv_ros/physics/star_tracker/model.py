@@ -64,6 +64,7 @@ class Outcome(enum.IntEnum):
     BUFFER_OVERFLOW = 5  #: proton hits (and the stars) filled the video buffer before the frame was read
     EXCLUSION = 6  #: the Sun, the Moon or the Earth's limb is too close to the boresight
     INVALID_TRUTH = 7  #: the true attitude given to the model was not a finite quaternion
+    NO_ORBIT = 8  #: orbit.source follow: no orbit state at the frame time (the attitude cannot be turned into orbital)
 
     @property
     def reason(self) -> str:
@@ -308,11 +309,14 @@ class StarTracker:
             the sky and of a solar event).
         seed: seed of the draws.
         sky, radiation: already loaded tables (default: the shipped ones, loaded here).
+        orbit_known_ahead: whether the orbit can be asked for times ahead of the frames (a node's frames then take
+            the orbit from a block computed ahead; False: an orbit followed from odometry, asked frame by frame).
     """
 
     def __init__(self, parameters: TrackerParameters, orbit, clock_epoch: Epoch, seed: int = 0, *,
-                 sky: Sky | None = None, radiation: RadiationGrid | None = None):
+                 sky: Sky | None = None, radiation: RadiationGrid | None = None, orbit_known_ahead: bool = True):
         self.parameters = p = parameters
+        self.orbit_known_ahead = orbit_known_ahead
         self.orbit, self.clock_epoch = orbit, clock_epoch
         self.seed = np.array([seed_hash(seed)], np.uint64)
         self.tracker_axes = _frame_about(p.boresight_body)
@@ -366,7 +370,7 @@ class StarTracker:
         come one or two at a time (a node's) take theirs from a block computed ahead on the frame grid (the same
         arithmetic on the same times, so the same numbers: a frame time off the block — a frame grid restarted or
         carried past several frames at once — computes a new block)."""
-        if t_s.size > 2:
+        if t_s.size > 2 or not self.orbit_known_ahead:
             return self.orbit_environment(t_s).arrays, np.arange(t_s.size)
         found = [self._ahead.get(t) for t in t_s.tolist()]
         if None in found:
@@ -434,6 +438,15 @@ class StarTracker:
             reached = (shell >= p.access_min_l) | (height >= FULL_ACCESS_ALTITUDE_M)
             side = side + np.where(reached, scale * math.pi * intensity * open_side, 0.0)
         return side, lens
+
+    def ground_track_deg(self, t_s) -> tuple[np.ndarray, np.ndarray]:
+        """Geodetic latitude and longitude (deg, ``(N,)`` each) under the spacecraft at ``t_s`` ``(N,)`` s, on the
+        orbit and clock the frames are measured on (where reports draw the frames)."""
+        t = np.atleast_1d(np.asarray(t_s, float))
+        position, _ = self.orbit.state_eci(t)
+        latitude, longitude, _ = geodetic_from_ecef(_eci_to_ecef(np.reshape(position, (3, -1)),
+                                                                 self.clock_epoch.earth_rotation_angle(t)))
+        return np.degrees(latitude), np.degrees(longitude)
 
     # -- the frame ----------------------------------------------------------------------------
 
