@@ -70,6 +70,7 @@ def channel_to_dict(channel) -> dict:
         "limit_high_arcmin": channel.limit_high_rad / ARCMIN_RAD,
         "max_abs_arcmin": channel.max_abs_rad / ARCMIN_RAD,
         "harmonics_arcmin": {str(k): v / ARCMIN_RAD for k, v in sorted(channel.harmonics_rad.items())},
+        "harmonics_pending": channel.harmonics_pending,
         "ground_sigma_m": channel.ground_sigma_m,
         "ground_max_abs_m": channel.ground_max_abs_m,
     }

@@ -39,8 +39,8 @@ SHARED = {"/clock", "/diagnostics", "/tf", "/tf_static"}
 ROS_OWN = {"/parameter_events", "/rosout"}
 #: A spacecraft's own topics, relative to its namespace.
 OWN = {"pmv/horizon_crossings", "pmv/attitude", "pmv/attitude_uncorrected", "pmv/attitude_imu", "orbit/odometry",
-       "attitude/truth", "star_tracker/attitude", "pmv/residual", "pmv/error_statistics", "pmv/residual_mean",
-       "pmv/residual_sigma", "pmv/residual_limit"}
+       "attitude/truth", "star_tracker/attitude", "star_tracker/frame_status", "pmv/residual", "pmv/error_statistics",
+       "pmv/residual_mean", "pmv/residual_sigma", "pmv/residual_limit"}
 
 #: Quick sensors: the geometric horizon, one radiance everywhere.
 QUICK = {"sensor.detector": "ideal", "radiance.source": "uniform", "sensor.bright_body_exclusion_deg": 0.0}
