@@ -104,7 +104,8 @@ def main(argv=None) -> int:
     print("known signal, largest error by noise gain (half-unit bins):")
     for gain in sorted(by_gain):
         errors = np.array(by_gain[gain])
-        print(f"  gain {gain:.1f}–{gain + 0.5:.1f}: {errors.size:5d} amplitudes, RMS error {np.sqrt(np.mean(errors ** 2)):.2f}′, "
+        rms = np.sqrt(np.mean(errors ** 2))
+        print(f"  gain {gain:.1f}–{gain + 0.5:.1f}: {errors.size:5d} amplitudes, RMS error {rms:.2f}′, "
               f"largest {errors.max():.2f}′")
     for name, errors in model_errors.items():
         if errors:

@@ -160,7 +160,8 @@ class HarmonicFit:
     """Harmonic amplitudes of a series over one orbit, and what the orbit's coverage made of each (physics.md §5.1).
 
     ``harmonics`` the k asked for; ``coefficients`` ``(K,)`` or ``(K, C)`` complex a_k − i·b_k of
-    a_k cos kφ + b_k sin kφ, in the unit of the values (linear in them), NaN where pending; ``noise_gain`` ``(K,)`` each amplitude's standard error over that of an evenly covered orbit of as
+    a_k cos kφ + b_k sin kφ, in the unit of the values (linear in them), NaN where pending; ``noise_gain`` ``(K,)``
+    each amplitude's standard error over that of an evenly covered orbit of as
     many samples (inf: not fitted); ``pending`` ``(K,)`` why each NaN is one ("" where reported);
     ``largest_hole_rad`` the longest stretch of orbital angle without samples; ``covered`` the share of the
     orbit's angle within half a median sample spacing of a sample.

@@ -88,7 +88,8 @@ def _tracker_frames(pipeline, truth_lost: dict) -> dict | None:
     if not stamps.size or runtime.tracker.parameters.ideal:
         return None
     track = np.linspace(pipeline.sensor.orbit.epoch_s, pipeline.sensor.sim_time_s, 2000)
-    return {"track_deg": runtime.tracker.ground_track_deg(track), "frames_deg": runtime.tracker.ground_track_deg(stamps),
+    return {"track_deg": runtime.tracker.ground_track_deg(track),
+            "frames_deg": runtime.tracker.ground_track_deg(stamps),
             "reasons": [Outcome(int(code)).reason for code in codes], "truth_lost": truth_lost}
 
 

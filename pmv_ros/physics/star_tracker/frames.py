@@ -99,10 +99,12 @@ class FrameGrid:
             if not times:  # the first sample, or one after a gap: the grid starts again
                 return _NO_FRAMES
             count = len(times)
+            q0 = np.array(previous[1], float).reshape(4, 1)
+            q1 = np.array(q_xyzw, float).reshape(4, 1)
+            if count > 1:
+                q0, q1 = np.repeat(q0, count, axis=1), np.repeat(q1, count, axis=1)
             frame_s = np.array(times)
-            q0 = np.repeat(np.reshape(np.asarray(previous[1], float), (4, 1)), count, axis=1)
-            q1 = np.repeat(np.reshape(np.asarray(q_xyzw, float), (4, 1)), count, axis=1)
-            attitude, rate = slerp_frames(np.full(count, previous[0]), q0, np.full(count, t_s), q1, frame_s)
+            attitude, rate = slerp_frames(np.array([previous[0]] * count), q0, np.array([t_s] * count), q1, frame_s)
             return GridFrames(frame_s, attitude, rate, np.zeros(count, np.int64))
         t = np.atleast_1d(np.asarray(t_s, float)).ravel()
         if not t.size:

@@ -208,14 +208,16 @@ CONFIG = ("exposure_s", "half_width_rad", "catalogue_stars", "sky_stars", "detec
 
 
 @njit(cache=True)
-def measure_frames(keys, q_in, in_outage, rate_in, column, orbital_axes, frame_rate, position, sun, moon,
+def measure_frames(frame_s, q_in, in_outage, rate_in, column, orbital_axes, frame_rate, position, sun, moon,
                    side_mean, lens_mean, tracker_axes, config, seeds,
                    star_direction, star_hp, star_hip, bias_u, bias_v, cell_start, cell_stars, cells_per_edge,
                    q_measured, outcome, stars_out, hits_out, used_out):
     """Measure frames ``(N,)``; the outputs are written into ``q_measured`` (4, N), ``outcome``, ``stars_out``,
     ``hits_out``, ``used_out`` (N,).
 
-    ``q_in`` (4, N) the true attitude (normalised here; not a finite quaternion near unit norm: INVALID_TRUTH),
+    ``frame_s`` (N,) the frames' times, s (each frame's draws are keyed by its time in whole nanoseconds,
+    :func:`~pmv_ros.physics.star_tracker.draws.frame_key`); ``q_in`` (4, N) the true attitude (normalised here;
+    not a finite quaternion near unit norm: INVALID_TRUTH),
     ``rate_in`` (3, N) the body rate relative to the orbital frame (a non-finite component counts as 0), rad/s;
     frame n sees the orbit of column ``column[n]`` of the orbit's arrays (orbital axes (3, 3, M), frame rate,
     position, Sun, Moon (3, M), mean hits through the side window and the lens (M,)).
@@ -236,14 +238,14 @@ def measure_frames(keys, q_in, in_outage, rate_in, column, orbital_axes, frame_r
     limit_tan = math.tan(half_width)
     fresh, kept = math.sqrt(1.0 - bias_fraction), math.sqrt(bias_fraction)
     in_orbital, axes = np.empty((3, 3)), np.empty((3, 3))
-    q_true, relative_rate = np.empty((4, keys.size)), np.empty((3, keys.size))
+    q_true, relative_rate = np.empty((4, frame_s.size)), np.empty((3, frame_s.size))
     # Per frame, the objects that may go to recognition (stars, then hits), grown when a frame holds more.
     capacity = 256
     object_mag, object_catalogue, object_sent = np.empty(capacity), np.empty(capacity, np.bool_), \
         np.empty(capacity, np.bool_)
     object_star, object_u, object_v = np.empty(capacity, np.int64), np.empty(capacity), np.empty(capacity)
-    for n in range(keys.size):
-        key = keys[n]
+    for n in range(frame_s.size):
+        key = np.int64(np.rint(frame_s[n] * 1e9))  # as draws.frame_key
         stars_out[n], hits_out[n], used_out[n] = 0, 0, 0
         for c in range(4):
             q_measured[c, n] = np.nan

@@ -46,7 +46,7 @@ import numpy as np
 from ..constants import ARCSEC_RAD, GRS80
 from ..orbit.ephemeris import Epoch, moon_position_eci_m, sun_position_eci_m
 from ..orbit.two_body import orbital_frame_from_state
-from .draws import frame_key, seed_hash
+from .draws import seed_hash
 from .kernel import (ABOUT_BORESIGHT_LEVER, CONFIG, SPOT_RAD, measure_frames, pointing_batch, recognition_failure,
                      smear_loss_mag, star_biases, trail_rate)
 from .radiation import RadiationGrid, SolarEvent
@@ -481,9 +481,10 @@ class StarTracker:
             return FrameMeasurement(q, outcome, *(np.zeros(n_frames, np.int64) for _ in range(3)))
         environment, column = self._environment(t)
         cell_start, cell_stars = self._cells
-        q_measured, outcome = np.empty((4, n_frames)), np.empty(n_frames, np.int8)
-        stars, hits, used = np.empty(n_frames, np.int64), np.empty(n_frames, np.int64), np.empty(n_frames, np.int64)
-        measure_frames(frame_key(t), np.ascontiguousarray(q_true), outage,
+        q_measured, outcome, counts = np.empty((4, n_frames)), np.empty(n_frames, np.int8), \
+            np.empty((3, n_frames), np.int64)
+        stars, hits, used = counts
+        measure_frames(t, np.ascontiguousarray(q_true), outage,
                        np.ascontiguousarray(np.reshape(relative_rate_rad_s, (3, n_frames)), float), column,
                        *environment, self.tracker_axes, self._config, self.seed, self.sky.direction_eci,
                        self.sky.hp_mag, self.hip, self._bias[0], self._bias[1], cell_start, cell_stars,

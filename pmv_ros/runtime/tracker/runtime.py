@@ -322,17 +322,9 @@ class TrackerRuntime:
                 one = len(stamps) == 1
                 frames = self.add_truth_batch(stamps[0] if one else np.array(stamps),
                                               quaternions[0] if one else np.array(quaternions).T)
-                frame_s, q_measured, released_at = self.release_batch(stamps[0] if one else np.array(stamps))
-                # As one message at a time: at each truth sample, the statuses of the frames it completes, then the
-                # frames it releases.
-                items = [(i, 0, FrameStatus(t, _REASONS[code], stars, hits)) for i, t, code, stars, hits in zip(
-                    frames.truth_index.tolist(), frames.frame_s.tolist(), frames.outcome.tolist(),
-                    frames.stars.tolist(), frames.hits.tolist())]
-                items += [(i, 1, ReleasedFrame(t, tuple(q)))
-                          for i, t, q in zip(released_at.tolist(), frame_s.tolist(), q_measured.T.tolist())]
-                if items:
-                    items.sort(key=lambda item: item[:2])  # stable: frames stay in their order
-                    output.published += [item for _, _, item in items]
+                released = self.release_batch(stamps[0] if one else np.array(stamps))
+                if frames.frame_s.size or released[0].size:  # most messages fall between two frames
+                    output.published += _in_order(frames, *released)
             stamps.clear()
             quaternions.clear()
 
@@ -401,6 +393,18 @@ class TrackerRuntime:
         problems = source_errors + problems
         level = Level.ERROR if source_errors else Level.WARN if problems else Level.OK
         return HealthSummary(level, "; ".join(problems) or "attitude available", values)
+
+
+def _in_order(frames: MeasuredFrames, frame_s, q_measured, released_at) -> list:
+    """What a batch publishes, as one message at a time does: at each truth sample, the statuses of the frames it
+    completes, then the frames it releases."""
+    items = [(i, 0, FrameStatus(t, _REASONS[code], stars, hits)) for i, t, code, stars, hits in zip(
+        frames.truth_index.tolist(), frames.frame_s.tolist(), frames.outcome.tolist(), frames.stars.tolist(),
+        frames.hits.tolist())]
+    items += [(i, 1, ReleasedFrame(t, tuple(q)))
+              for i, t, q in zip(released_at.tolist(), frame_s.tolist(), q_measured.T.tolist())]
+    items.sort(key=lambda item: item[:2])  # stable: frames stay in their order
+    return [item for _, _, item in items]
 
 
 @dataclass(frozen=True)
