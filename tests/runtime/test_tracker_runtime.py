@@ -200,6 +200,7 @@ def test_a_followed_orbit_is_the_users_odometry():
     # 10 frames before the first state; 20 states, each with a wrong-frame and an implausible one beside it.
     assert counters["frames_no_orbit"] == 10 and counters["rejected_odometry_wrong_frame"] == 20
     assert counters["rejected_odometry_implausible_orbit"] == 20 and counters["frames_ok"] > 10
+    runtime.reconfigure({**values, "processing_s": 0.3})  # a parameter change keeps the odometry heard
     followed = runtime.tracker.orbit.state_eci(25.0)[0]
     np.testing.assert_allclose(followed, user.state_eci(25.0)[0], rtol=0, atol=1e-3)
     # Measured on the user's orbit: another sky than the preset's circular one gives.

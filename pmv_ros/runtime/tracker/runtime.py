@@ -164,7 +164,8 @@ class TrackerRuntime:
                                  frames_dropped_at_clock_jump=0)
         if values["orbit.source"] == "follow":  # the user's orbit/odometry: the orbit the frames are measured on
             self.input_counts.update({f"rejected_odometry_{reason.value}": 0 for reason in ODOMETRY_REJECTIONS})
-            self.odometry_stamps = StampCheck(1.0, 1.0)
+        self.odometry_stamps = StampCheck(1.0, 1.0)
+        self.tracker = None
         self._rejected_reported = 0
         self._last_health_s = -math.inf
         # Stale input: measured by arrival on the node clock, so a source whose stamps are on another
@@ -180,16 +181,14 @@ class TrackerRuntime:
         """
         stamps = self.stamps.reconfigured(values["clock_jump_s"], values["future_tolerance_s"],
                                           1.0 / values["input.max_rate_hz"])
-        followed = getattr(self, "tracker", None)
+        odometry_stamps = self.odometry_stamps.reconfigured(values["clock_jump_s"], values["future_tolerance_s"],
+                                                            1.0 / values["input.max_rate_hz"])
+        previous, heard = self.tracker, self.orbit_buffer
         self.tracker, self.tables = build_tracker(values, self.start_s, self.tables)
-        if followed is not None and hasattr(followed.orbit, "buffer"):  # the states heard so far stay
-            self.tracker.orbit.buffer.take_states(followed.orbit.buffer)
+        if previous is not None and heard is not None:  # orbit.source follow: the odometry heard so far stays
+            self.orbit_buffer.take_states(heard)
         self._orbit_bounds = orbit_bounds(values)
-        if hasattr(self, "odometry_stamps"):
-            self.odometry_stamps = self.odometry_stamps.reconfigured(values["clock_jump_s"],
-                                                                     values["future_tolerance_s"],
-                                                                     1.0 / values["input.max_rate_hz"])
-        self.stamps, self.values = stamps, values
+        self.stamps, self.odometry_stamps, self.values = stamps, odometry_stamps, values
         self.grid.period_s, self.grid.max_gap_s = values["frame_period_s"], values["max_truth_gap_s"]
         self.queue.latency_s = self.delay_s
 
@@ -228,10 +227,15 @@ class TrackerRuntime:
         self.queue.push_many(grid.frame_s[ok], frames.q_measured[:, ok], grid.truth_index[ok])
         return MeasuredFrames(grid.frame_s, frames.q_measured, outcome, frames.stars, frames.hits, grid.truth_index)
 
+    @property
+    def orbit_buffer(self):
+        """The odometry states the frames are measured on (orbit.source follow), else None."""
+        return None if self.tracker is None else getattr(self.tracker.orbit, "buffer", None)
+
     def _measure(self, grid):
         """The grid's frames measured; with a followed orbit, the frames whose time no odometry covers are
         NO_ORBIT (the attitude cannot be turned into the orbital frame without one)."""
-        buffer = getattr(self.tracker.orbit, "buffer", None)
+        buffer = self.orbit_buffer
         if buffer is None:
             return self.tracker.measure(grid.frame_s, grid.attitude, grid.turn_rate_rad_s)
         known = np.array([buffer.where(t).usable for t in grid.frame_s.tolist()], bool)
@@ -253,7 +257,7 @@ class TrackerRuntime:
         return self.add_inputs([("add_odometry", (frame_id, child_frame_id, state), now_s)])
 
     def _take_odometry(self, frame_id: str, child_frame_id: str, state, now_s) -> None:
-        buffer = getattr(self.tracker.orbit, "buffer", None)
+        buffer = self.orbit_buffer
         if buffer is None:
             return
         rejection = check_frame(frame_id, self.frames.eci) or check_frame(child_frame_id, self.frames.orbital)
