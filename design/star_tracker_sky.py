@@ -67,7 +67,7 @@ def main(argv=None) -> int:
             registered = catalogue & (stars.hp_mag <= limit)
             n = np.bincount(stars.field[registered], minlength=args.pointings)
             used = np.minimum(n, 10)  # no false objects: the K = 10 brightest are catalogue stars or brighter
-            expected_failure = np.where(used < 3, 1.0, recognition_failure(used, 0, 0.3, 1.5, 0.01))
+            expected_failure = np.where(used < 3, 1.0, np.vectorize(recognition_failure)(used, 0, 0.3, 1.5, 0.01))
             row.append(f"{rate:.0f}″/s: < 3 stars {100 * np.mean(n < 3):.1f} %, "
                        f"no attitude {100 * expected_failure.mean():.1f} %")
         print(f"exposure {label}: " + "; ".join(row))

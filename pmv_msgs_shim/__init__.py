@@ -14,6 +14,10 @@ from .conversions import (
     attitude_quaternion_from_msg,
     clock_from_msg,
     error_statistics_from_msg,
+    FRAME_REASONS,
+    FRAME_STATUS_NAME,
+    frame_status_input,
+    write_frame_status,
     health_from_msg,
     horizon_crossings_from_msg,
     odometry_input,
@@ -65,6 +69,7 @@ from .records import (
 )
 
 __all__ = [
+    "FRAME_REASONS", "FRAME_STATUS_NAME", "frame_status_input", "write_frame_status",
     "SAMPLES_STATUS_NAME", "STATISTICS_STATUS_PREFIX",
     "BODY_FRAME", "ECI_FRAME", "ORBITAL_FRAME", "SENSOR_FRAME",
     "AttitudeAngles", "AttitudeQuaternion", "ErrorStatistics", "HealthReport",

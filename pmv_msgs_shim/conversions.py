@@ -69,6 +69,7 @@ from sensor_msgs.msg import Imu
 from pmv_ros.analysis.statistics import CHANNELS, PENDING, ChannelStatistics, statistic_text
 from pmv_ros.physics.constants import ARCMIN_RAD
 from pmv_ros.physics.orbit.two_body import orbital_axes_of_state
+from pmv_ros.physics.star_tracker.model import Outcome
 
 from .records import (
     AttitudeAngles,
@@ -500,6 +501,43 @@ def health_from_msg(msg: DiagnosticArray) -> HealthReport:
     statuses = tuple(HealthStatus(s.name, _level_from_msg(s.level), s.message, s.hardware_id,
                                   tuple((kv.key, kv.value) for kv in s.values)) for s in msg.status)
     return HealthReport(time_from_msg(msg.header.stamp), statuses)
+
+
+# --------------------------------------------------------------- star-tracker frames
+
+#: Name of the status a /star_tracker/frame_status message carries.
+FRAME_STATUS_NAME = "star_tracker: frame"
+#: The reasons a frame status may give, its ``reason`` value: the star tracker's outcome codes (physics.md §6) by
+#: name, "ok" for a frame that gave an attitude.
+FRAME_REASONS = tuple(outcome.reason for outcome in Outcome)
+
+
+def write_frame_status(msg: DiagnosticArray, stamp_s: float, reason: str, stars: int, hits: int,
+                       hardware_id: str = "star_tracker") -> DiagnosticArray:
+    """Fill a /star_tracker/frame_status DiagnosticArray in place: one status for one frame stamped with its time
+    (the middle of the exposure): level OK with an attitude, WARN without; ``reason`` one of
+    :data:`FRAME_REASONS`, the catalogue stars in the field and the proton hits as values. Returns it."""
+    if reason not in FRAME_REASONS:
+        raise ValueError(f"frame reason {reason!r} is not one of {FRAME_REASONS}")
+    return _write_statuses(msg, stamp_s, [(FRAME_STATUS_NAME, Level.OK if reason == "ok" else Level.WARN,
+                                           reason, hardware_id, (("reason", reason), ("stars_in_field", int(stars)),
+                                                                 ("proton_hits", int(hits))))])
+
+
+def frame_status_input(msg: DiagnosticArray) -> tuple:
+    """(stamp s, reason) of a /star_tracker/frame_status message; (None, None) when it is not one (no status of
+    that name, an unknown reason, a bad stamp)."""
+    try:
+        stamp = check_stamp(time_from_msg(msg.header.stamp))
+    except ValueError:
+        return None, None
+    for status in msg.status:
+        if status.name == FRAME_STATUS_NAME:
+            for pair in status.values:
+                if pair.key == "reason" and pair.value in FRAME_REASONS:
+                    return stamp, pair.value
+            break
+    return None, None
 
 
 # ------------------------------------------------------------------ node inputs

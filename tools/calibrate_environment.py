@@ -94,6 +94,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from pmv_ros.apps.report import spectrum_fit
 from pmv_ros.runtime.common import parameters
 from pmv_ros.runtime.common.assembly import SENSOR_PARAMS, build_models
 from pmv_ros.physics.constants import ARCMIN_RAD
@@ -152,24 +153,14 @@ def values_for(preset: str, seed: int, environment: dict, correction: str = "cal
     return parameters.preset_values(document, "sensor_node", SENSOR_PARAMS, given)
 
 
-_PROJECTORS: dict = {}
-
-
 def _harmonics(t, period_s, values):
-    """Complex harmonic coefficients k = 1 … 40 (cos − i·sin), least squares as report.harmonic_spectrum, (40,).
+    """Complex harmonic coefficients k = 1 … 40 (a_k − i·b_k), the fit of report.harmonic_spectrum, (40,).
 
-    The design matrix is the same for every run of a grid, so its pseudo-inverse is kept (cached orbit
-    geometry); samples a lost chord leaves NaN are left out of the fit (the gappy least squares of the
-    report), and the coefficients stay complex, so that runs combine linearly (:func:`spectra`).
+    Samples a lost chord leaves NaN are left out of the fit (the least squares on the samples there are,
+    :func:`pmv_ros.analysis.statistics.fit_harmonics`; NaN where the gaps leave a harmonic undetermined), and the
+    coefficients stay complex, so that runs combine linearly (:func:`spectra`).
     """
-    keep = np.isfinite(values)
-    key = (t.size, float(t[0]), float(t[-1]), float(period_s), keep.tobytes() if not keep.all() else b"")
-    if key not in _PROJECTORS:
-        k = np.arange(1, 41)
-        phase = 2.0 * np.pi * np.outer(t[keep], k) / period_s
-        _PROJECTORS[key] = np.linalg.pinv(np.hstack([np.ones((phase.shape[0], 1)), np.cos(phase), np.sin(phase)]))
-    c = _PROJECTORS[key] @ values[keep]
-    return c[1:41] - 1j * c[41:81]
+    return spectrum_fit(t, values, period_s, 40).coefficients
 
 
 def fly(preset: str, seed: int, environment: dict) -> dict:

@@ -10,8 +10,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..physics.instrument.oblateness import closed_form_oblateness
-from .statistics import (DEFAULT_MAX_CONDITION, DEFAULT_MAX_GAP_FRACTION, ORBIT_HARMONICS, TWO_PI, ChannelStatistics,
-                         RunningStatistics, harmonic_amplitudes)
+from .statistics import (MAX_NOISE_GAIN, ORBIT_HARMONICS, TWO_PI, ChannelStatistics, RunningStatistics,
+                         harmonic_amplitudes)
 
 
 def correct_reference_drift(values_rad, elapsed_s, drift_rate_rad_s: float):
@@ -135,15 +135,14 @@ class FlightTestResult:
         raise KeyError(name)
 
 
-def fewest_samples(max_gap_fraction: float = DEFAULT_MAX_GAP_FRACTION) -> int:
+def fewest_samples() -> int:
     """Fewest samples an orbit needs for :func:`harmonic_amplitudes` to resolve anything.
 
-    n distinct orbital angles leave a hole of at least 2π/n, and the fit
-    needs 3 or more angles and no hole wider than ``max_gap_fraction`` of a
-    turn: so an orbit with fewer than max(3, ⌈1/max_gap_fraction⌉) samples
-    gives only NaN (10 with the default 0.1), and is not fitted at all.
+    n distinct orbital angles resolve harmonics up to k = (n − 1)//2 (the
+    Nyquist limit of :func:`~pmv_ros.analysis.statistics.fit_harmonics`), so an
+    orbit with fewer than 3 samples gives only NaN, and is not fitted at all.
     """
-    return max(3, math.ceil(1.0 / max_gap_fraction - 1e-9))
+    return 3
 
 
 def _orbit_members(orbits: np.ndarray, fewest: int):
@@ -161,8 +160,7 @@ def _orbit_members(orbits: np.ndarray, fewest: int):
 
 def flight_test_statistics(u_rad, roll_rad, pitch_rad, altitude_m: float, inclination_rad: float, *,
                            orbit_index=None, remove_oblateness: bool = True, u_bin_rad: float | None = None,
-                           harmonics=ORBIT_HARMONICS, max_gap_fraction: float = DEFAULT_MAX_GAP_FRACTION,
-                           max_condition: float = DEFAULT_MAX_CONDITION) -> FlightTestResult:
+                           harmonics=ORBIT_HARMONICS, max_noise_gain: float = MAX_NOISE_GAIN) -> FlightTestResult:
     """The published flight-test statistics of the sensor error (physics.md §5, steps 2–5, and §5.1).
 
     Step 1 (reference drift) is the caller's: see :func:`correct_reference_drift`.
@@ -189,7 +187,7 @@ def flight_test_statistics(u_rad, roll_rad, pitch_rad, altitude_m: float, inclin
     orbital angles of step 2 and the orbit numbers of §5.1) and O(N) memory
     (≈ 0.2 kB a sample at the peak). An orbit with fewer samples than
     :func:`fewest_samples` cannot resolve a harmonic and is not fitted, so at
-    most N/10 least-squares fits run, each linear in its samples: telemetry
+    most N/3 least-squares fits run, each linear in its samples: telemetry
     of one orbit per row costs what any other layout of the same N does.
 
     Args:
@@ -201,7 +199,7 @@ def flight_test_statistics(u_rad, roll_rad, pitch_rad, altitude_m: float, inclin
         orbit_index: ``(N,)`` orbit number of each sample, or None.
         remove_oblateness: apply step 4.
         u_bin_rad: width of the u bins of step 2, rad; None for exact u.
-        harmonics, max_gap_fraction, max_condition: see :func:`harmonic_amplitudes`.
+        harmonics, max_noise_gain: see :func:`~pmv_ros.analysis.statistics.fit_harmonics`.
     """
     u = np.asarray(u_rad, float).ravel()
     roll = np.asarray(roll_rad, float).ravel()
@@ -233,9 +231,8 @@ def flight_test_statistics(u_rad, roll_rad, pitch_rad, altitude_m: float, inclin
                                   roll - roll_offset, pitch - pitch_offset,
                                   np.hypot(roll - roll_offset, pitch - pitch_offset)])
     per_orbit = []
-    for members in _orbit_members(orbits, fewest_samples(max_gap_fraction)):
-        amplitudes = harmonic_amplitudes(u[members], per_sample[members], harmonics,
-                                         max_gap_fraction=max_gap_fraction, max_condition=max_condition)
+    for members in _orbit_members(orbits, fewest_samples()):
+        amplitudes = harmonic_amplitudes(u[members], per_sample[members], harmonics, max_noise_gain=max_noise_gain)
         if np.isfinite(amplitudes[0]).any():
             per_orbit.append(amplitudes)
     if per_orbit:

@@ -28,15 +28,11 @@ import numpy as np
 #: k = 1 (roll oblateness), k = 2 (pitch oblateness), 15…25 (radiance zones).
 ORBIT_HARMONICS = (1, 2) + tuple(range(15, 26))
 
-#: Largest hole in the orbit (fraction of a period) for which amplitudes are still reported.
-#: Measured on a synthetic residual (k = 1, 2 at 5′, 9′; 1′ at k = 15…25; 0.2–0.3′
-#: elsewhere; 0.5′ noise, 4 s sampling; worst of 20 trials): amplitude error 0.05′ with no gap,
-#: 0.15′ at a 5 % gap, 0.35′ at 10 %, 2′ at 20 %.
-DEFAULT_MAX_GAP_FRACTION = 0.1
-
-#: Largest condition number of the least-squares design matrix that is trusted
-#: (≈ 1.4 for full uneven coverage, ≈ 3.4 with a 10 % gap in the case above).
-DEFAULT_MAX_CONDITION = 10.0
+#: Largest noise gain of a harmonic's amplitude for which it is reported: the standard error the orbit's coverage
+#: gives it over the one an evenly covered orbit of as many samples gives (1 without gaps). Above it the gaps leave
+#: the harmonic undetermined — reported pending, not a number. design/harmonic_gaps.py measures, on the star
+#: tracker's real gap patterns, the gain against the amplitude error of a known signal.
+MAX_NOISE_GAIN = 3.0
 
 TWO_PI = 2.0 * math.pi
 
@@ -159,83 +155,157 @@ def update_rows(statistics, values) -> None:
             stats.merge(count, mean, m2, magnitude)
 
 
-def harmonic_amplitudes(phase_rad, values, harmonics=ORBIT_HARMONICS, *,
-                        max_gap_fraction: float = DEFAULT_MAX_GAP_FRACTION,
-                        max_condition: float = DEFAULT_MAX_CONDITION):
-    """Amplitudes of harmonics k of the orbital frequency in a series over one orbit (physics.md §5.1).
+@dataclass(frozen=True)
+class HarmonicFit:
+    """Harmonic amplitudes of a series over one orbit, and what the orbit's coverage made of each (physics.md §5.1).
 
-    The series is fitted, by least squares, with a constant plus
-    a_k cos kφ + b_k sin kφ for each requested k that the data resolve; the
-    amplitude of harmonic k is √(a_k² + b_k²) — the half peak-to-peak of that
-    sinusoid, in the unit of ``values``. For evenly spaced samples over a whole
-    orbit this is exactly the DFT amplitude (the harmonics are orthogonal, so
-    power elsewhere in the spectrum does not leak in); unevenly spaced samples
-    and gaps need no resampling.
+    ``harmonics`` the k asked for; ``coefficients`` ``(K,)`` or ``(K, C)`` complex a_k − i·b_k of
+    a_k cos kφ + b_k sin kφ, in the unit of the values (linear in them), NaN where pending; ``noise_gain`` ``(K,)``
+    each amplitude's standard error over that of an evenly covered orbit of as
+    many samples (inf: not fitted); ``pending`` ``(K,)`` why each NaN is one ("" where reported);
+    ``largest_hole_rad`` the longest stretch of orbital angle without samples; ``covered`` the share of the
+    orbit's angle within half a median sample spacing of a sample.
+    """
 
-    Only the requested harmonics are fitted, on purpose: with a gap, adding
-    more of them (say every k ≤ 30, to absorb their power) makes the design
-    nearly singular — sinusoids can then cancel over the data and swing
-    freely in the gap — and the amplitudes blow up (by 100× at a 10 % gap in
-    our trials). With the requested set alone, power at other harmonics leaks
-    in by roughly the gap fraction. A harmonic is NaN when the data cannot
-    give it:
+    harmonics: tuple
+    coefficients: np.ndarray
+    noise_gain: np.ndarray
+    pending: tuple
+    largest_hole_rad: float
+    covered: float
 
-    * k > (n − 1)//2, n the number of distinct orbital angles (the Nyquist
-      limit; e.g. 16 samples an orbit resolve k ≤ 7 — and a harmonic above it
-      aliases onto a lower one, which no fit can undo);
-    * the largest hole in the orbit exceeds ``max_gap_fraction`` of a period,
-      or the condition number of the fit exceeds ``max_condition`` (all NaN).
+    @property
+    def amplitude(self) -> np.ndarray:
+        """√(a_k² + b_k²): the half peak-to-peak of each harmonic, ``(K,)`` or ``(K, C)``, NaN where pending."""
+        return np.abs(self.coefficients)
+
+    @property
+    def pending_note(self) -> str:
+        """The pending harmonics and why, in one phrase ("" if none)."""
+        groups = {}
+        for k, why in zip(self.harmonics, self.pending):
+            if why:
+                groups.setdefault(why, []).append(int(k))
+        return "; ".join(f"k = {_ranges(ks)}: {why}" for why, ks in groups.items())
+
+
+def _ranges(ks) -> str:
+    """1, 2, 15, 16, 17 → "1, 2, 15–17"."""
+    parts, start = [], None
+    for i, k in enumerate(ks):
+        if start is None:
+            start = k
+        if i + 1 == len(ks) or ks[i + 1] != k + 1:
+            parts.append(str(start) if start == k else f"{start}–{k}")
+            start = None
+    return ", ".join(parts)
+
+
+def _fit(reduced: np.ndarray, data: np.ndarray, orders: list) -> tuple[np.ndarray, np.ndarray]:
+    """Least squares of a constant and cos/sin of ``orders``: (a_k − i·b_k ``(len(orders), C)``, noise gains)."""
+    o = np.asarray(orders, float)
+    design = np.concatenate([np.ones((reduced.size, 1)), np.cos(np.outer(reduced, o)), np.sin(np.outer(reduced, o))],
+                            axis=1)
+    u, singular, vt = np.linalg.svd(design, full_matrices=False)
+    count = len(orders)
+    if singular[-1] <= singular[0] * 1e-12:  # singular: nothing is determined
+        return np.full((count, data.shape[1]), np.nan + 0j), np.full(count, np.inf)
+    coefficients = vt.T @ ((u.T @ data) / singular[:, None])
+    # (XᵀX)⁻¹'s diagonal; an evenly covered orbit of n samples gives 2/n for each cosine and sine coefficient.
+    variance = np.sum((vt / singular[:, None]) ** 2, axis=0)
+    gain = np.sqrt((variance[1:1 + count] + variance[1 + count:]) / 2.0 * reduced.size / 2.0)
+    return coefficients[1:1 + count] - 1j * coefficients[1 + count:], gain
+
+
+def fit_harmonics(phase_rad, values, harmonics=ORBIT_HARMONICS, *, jointly=ORBIT_HARMONICS,
+                  max_noise_gain: float = MAX_NOISE_GAIN) -> HarmonicFit:
+    """Amplitudes of harmonics k of the orbital frequency in a series over one orbit, on the samples there are
+    (physics.md §5.1).
+
+    Least squares of a constant plus a_k cos kφ + b_k sin kφ: the amplitude of harmonic k is √(a_k² + b_k²) — the
+    half peak-to-peak of that sinusoid, in the unit of ``values``. For evenly spaced samples over a whole orbit
+    this is exactly the DFT amplitude (the harmonics are orthogonal, so power elsewhere does not leak in); uneven
+    samples and gaps need no resampling.
+
+    What is fitted together: the harmonics of ``jointly`` (by default those of §5.1 — the oblateness at k = 1, 2
+    and the radiance zones at 15…25, where the power is) in one fit; any other k asked for in a fit of its own
+    with them. Not every k at once, on purpose: with a gap, a fit of many neighbouring harmonics is nearly
+    singular — sinusoids can cancel over the samples and swing freely in the gap (every k ≤ 40 at a 16 % gap:
+    amplitudes of 10⁷′). Power at harmonics not fitted leaks in through a gap instead, by up to their amplitude
+    at a gap of a sixth of the orbit (design/harmonic_gaps.py).
+
+    A harmonic is reported when the orbit determines it, else NaN with the reason in ``pending``:
+
+    * the samples reach it: k ≤ (n − 1)//2, n the number of distinct orbital angles (the Nyquist limit; e.g.
+      16 samples an orbit resolve k ≤ 7 — and a harmonic above it aliases onto a lower one);
+    * the gaps leave it determined: its noise gain — the standard error of its amplitude over that of an evenly
+      covered orbit of as many samples, a property of the coverage alone — is at most ``max_noise_gain``.
 
     Args:
-        phase_rad: ``(N,)`` orbital angle of each sample, rad — Ω·t or u; any
-            origin, may span several orbits (it is the angle that matters).
+        phase_rad: ``(N,)`` orbital angle of each sample, rad — Ω·t or u; any origin, may span several orbits
+            (it is the angle that matters).
         values: ``(N,)`` or ``(N, C)`` samples (C channels fitted together).
         harmonics: the k to report (positive integers).
-        max_gap_fraction: largest hole in the orbital-angle coverage, fraction of 2π.
-        max_condition: largest accepted condition number of the design matrix.
-
-    Returns:
-        ``(len(harmonics),)`` or ``(len(harmonics), C)`` amplitudes.
+        jointly: the k fitted together with each other (and with every other k asked for).
+        max_noise_gain: the largest noise gain reported (≥ 1).
     """
-    ks = np.asarray(harmonics, dtype=int).ravel()
-    if ks.size == 0 or np.any(ks < 1):
-        raise ValueError(f"harmonics must be positive integers, got {list(ks)}")
-    if not 0.0 < max_gap_fraction <= 1.0:
-        raise ValueError(f"max_gap_fraction = {max_gap_fraction} is outside the allowed range (0, 1]")
-    if not max_condition >= 1.0:
-        raise ValueError(f"max_condition = {max_condition} must be ≥ 1")
+    ks = [int(k) for k in np.asarray(harmonics, dtype=int).ravel()]
+    base = sorted({int(k) for k in np.asarray(jointly, dtype=int).ravel()})
+    if not ks or min(ks) < 1 or (base and min(base) < 1):
+        raise ValueError(f"harmonics must be positive integers, got {ks} (jointly {base})")
+    if not max_noise_gain >= 1.0:
+        raise ValueError(f"max_noise_gain = {max_noise_gain} must be ≥ 1")
     phase = np.asarray(phase_rad, float).ravel()
     data = np.asarray(values, float)
     single = data.ndim == 1
     data = data[:, None] if single else data.reshape(phase.size, -1)
     if data.shape[0] != phase.size:
         raise ValueError(f"values have {data.shape[0]} samples for {phase.size} phases")
-    result = np.full((ks.size, data.shape[1]), np.nan)
+    coefficients = np.full((len(ks), data.shape[1]), np.nan + 0j)
+    gain = np.full(len(ks), np.inf)
     finite = np.isfinite(phase) & np.all(np.isfinite(data), axis=1)
     # Phases reduced modulo 2π keep cos/sin of large arguments accurate.
     reduced = np.mod(phase[finite], TWO_PI)
     data = data[finite]
-
     angles = np.unique(np.round(reduced, 12))
     if angles.size < 3:
-        return result[:, 0] if single else result
+        why = "fewer than 3 distinct orbital angles"
+        return HarmonicFit(tuple(ks), coefficients[:, 0] if single else coefficients, gain, (why,) * len(ks), TWO_PI,
+                           0.0)
     holes = np.diff(np.append(angles, angles[0] + TWO_PI))
+    spacing = float(np.median(holes))
+    covered = float(np.minimum(holes, spacing).sum() / TWO_PI)
     nyquist = (angles.size - 1) // 2
-    fitted = sorted({int(k) for k in ks if k <= nyquist})
-    if holes.max() > max_gap_fraction * TWO_PI or not fitted:
-        return result[:, 0] if single else result
-    orders = np.asarray(fitted, float)
-    design = np.concatenate([np.ones((reduced.size, 1)), np.cos(np.outer(reduced, orders)),
-                             np.sin(np.outer(reduced, orders))], axis=1)
-    coefficients, _, rank, singular = np.linalg.lstsq(design, data, rcond=None)
-    if rank == design.shape[1] and singular[0] <= max_condition * singular[-1]:
-        count = len(fitted)
-        amplitude = np.hypot(coefficients[1:1 + count], coefficients[1 + count:])
-        row_of = {k: i for i, k in enumerate(fitted)}
-        for i, k in enumerate(ks):
-            if int(k) in row_of:
-                result[i] = amplitude[row_of[int(k)]]
-    return result[:, 0] if single else result
+    together = [k for k in base if k <= nyquist]
+    found = {}
+    if together:
+        fitted, gains = _fit(reduced, data, together)
+        found.update((k, (fitted[row], gains[row])) for row, k in enumerate(together))
+    for k in dict.fromkeys(ks):
+        if k <= nyquist and k not in found:
+            fitted, gains = _fit(reduced, data, together + [k])
+            found[k] = (fitted[-1], gains[-1])
+    pending = []
+    for i, k in enumerate(ks):
+        if k > nyquist:
+            pending.append(f"above the Nyquist limit of {angles.size} orbital angles")
+            continue
+        fitted, gain[i] = found[k]
+        if gain[i] <= max_noise_gain:
+            coefficients[i] = fitted
+            pending.append("")
+        else:
+            pending.append(f"the gaps leave it undetermined (noise gain above {max_noise_gain:g}; largest hole "
+                           f"{math.degrees(holes.max()):.0f}°)")
+    return HarmonicFit(tuple(ks), coefficients[:, 0] if single else coefficients, gain, tuple(pending),
+                       float(holes.max()), covered)
+
+
+def harmonic_amplitudes(phase_rad, values, harmonics=ORBIT_HARMONICS, *, jointly=ORBIT_HARMONICS,
+                        max_noise_gain: float = MAX_NOISE_GAIN):
+    """The amplitudes of :func:`fit_harmonics`: ``(len(harmonics),)`` or ``(len(harmonics), C)``, NaN where
+    pending."""
+    return fit_harmonics(phase_rad, values, harmonics, jointly=jointly, max_noise_gain=max_noise_gain).amplitude
 
 
 class OrbitRing:
@@ -392,35 +462,50 @@ class OrbitRing:
         """True once the ring has spanned a whole period since it was (re)started."""
         return self._first_bin is not None and self._latest_bin - self._first_bin >= self.n_bins - 1
 
-    def amplitudes(self, harmonics=ORBIT_HARMONICS, *, max_gap_fraction: float = DEFAULT_MAX_GAP_FRACTION,
-                   max_condition: float = DEFAULT_MAX_CONDITION) -> np.ndarray:
-        """Harmonic amplitudes over the last orbit, ``(len(harmonics), n_channels)``; NaN until a full orbit."""
-        return self.amplitudes_later(harmonics, max_gap_fraction=max_gap_fraction, max_condition=max_condition)()
+    def amplitudes(self, harmonics=ORBIT_HARMONICS, *, max_noise_gain: float = MAX_NOISE_GAIN) -> np.ndarray:
+        """Harmonic amplitudes over the last orbit, ``(len(harmonics), n_channels)``; NaN until a full orbit and
+        where pending (:func:`fit_harmonics`)."""
+        return self.amplitudes_later(harmonics, max_noise_gain=max_noise_gain)()
 
-    def amplitudes_later(self, harmonics=ORBIT_HARMONICS, *, max_gap_fraction: float = DEFAULT_MAX_GAP_FRACTION,
-                         max_condition: float = DEFAULT_MAX_CONDITION) -> Callable[[], np.ndarray]:
-        """:meth:`amplitudes` of the orbit the ring holds now, fitted when the returned function is called: the
-        bins are copied now (≈ 150 kB with 1024 bins and 6 channels), the least-squares fit (≈ 1 ms) is left to
-        the call, for a reader that may never come. The same numbers, bit for bit, whatever the ring takes
-        meanwhile."""
+    def amplitudes_later(self, harmonics=ORBIT_HARMONICS, *,
+                         max_noise_gain: float = MAX_NOISE_GAIN) -> Callable[[], np.ndarray]:
+        """:meth:`amplitudes` of the orbit the ring holds now, fitted when the returned function is called."""
+        fits = self.fits_later(harmonics, max_noise_gain=max_noise_gain)
+        shape = (len(tuple(harmonics)), self.n_channels)
+
+        def amplitudes() -> np.ndarray:
+            result = np.full(shape, np.nan)
+            for c, fit in enumerate(fits()):
+                if fit is not None:
+                    result[:, c] = fit.amplitude
+            return result
+
+        return amplitudes
+
+    def fits_later(self, harmonics=ORBIT_HARMONICS, *,
+                   max_noise_gain: float = MAX_NOISE_GAIN) -> Callable[[], list]:
+        """Per channel, the :class:`HarmonicFit` of the orbit the ring holds now (None: no full orbit yet, or no
+        sample of that channel), fitted when the returned function is called: the bins are copied now (≈ 150 kB
+        with 1024 bins and 6 channels), the least-squares fit (≈ 1 ms) is left to the call, for a reader that may
+        never come. The same numbers, bit for bit, whatever the ring takes meanwhile."""
         harmonics = tuple(harmonics)
-        shape = (len(harmonics), self.n_channels)
+        channels = self.n_channels
         if not self.full_orbit:
-            return lambda: np.full(shape, np.nan)
+            return lambda: [None] * channels
         self._flush()
         omega, oldest = TWO_PI / self.period_s, self._latest_bin - self.n_bins
         bin_index, count, time_sum, value_sum = (a.copy() for a in (self._bin_index, self._count, self._time_sum,
                                                                     self._value_sum))
 
-        def fit() -> np.ndarray:
-            result = np.full(shape, np.nan)
+        def fit() -> list:
+            result = [None] * channels
             in_orbit = bin_index > oldest
             done = set()
-            for c in range(shape[1]):
+            for c in range(channels):
                 if c in done:
                     continue
                 # Channels with the same samples in every bin are fitted together (one factorisation).
-                group = [d for d in range(c, shape[1]) if d not in done
+                group = [d for d in range(c, channels) if d not in done
                          and np.array_equal(count[in_orbit, d], count[in_orbit, c])
                          and np.array_equal(time_sum[in_orbit, d], time_sum[in_orbit, c])]
                 done.update(group)
@@ -430,8 +515,10 @@ class OrbitRing:
                 counts = count[mask][:, group]
                 mean_time = time_sum[mask][:, group[0]] / counts[:, 0]
                 means = value_sum[mask][:, group] / counts
-                result[:, group] = harmonic_amplitudes(omega * mean_time, means, harmonics,
-                                                       max_gap_fraction=max_gap_fraction, max_condition=max_condition)
+                together = fit_harmonics(omega * mean_time, means, harmonics, max_noise_gain=max_noise_gain)
+                for column, d in enumerate(group):
+                    result[d] = HarmonicFit(together.harmonics, together.coefficients[:, column], together.noise_gain,
+                                            together.pending, together.largest_hole_rad, together.covered)
             return result
 
         return fit
@@ -459,7 +546,8 @@ class ChannelStatistics:
     (:class:`pmv_ros.analysis.flight_test.ChannelResult`).
 
     ``harmonics_rad`` maps k (multiple of the orbital frequency) to an amplitude, rad
-    (NaN until there is a whole orbit). ``ground_*`` is the residual as the ground
+    (NaN until there is a whole orbit, and where the orbit does not determine it: ``harmonics_pending`` says
+    which and why, :attr:`HarmonicFit.pending_note`). ``ground_*`` is the residual as the ground
     error of a nadir imager, m (physics.md §7): cross-track for roll, along-track
     for pitch, circular for meridional; NaN where it is not computed.
     """
@@ -473,6 +561,7 @@ class ChannelStatistics:
     ground_mean_m: float = math.nan
     ground_sigma_m: float = math.nan
     ground_max_abs_m: float = math.nan
+    harmonics_pending: str = ""
 
     def __post_init__(self) -> None:
         if self.channel not in CHANNELS:

@@ -9,7 +9,11 @@ Plots (PNG, matplotlib's Agg backend, no display needed):
   orbital frequency (least squares over the whole record), with the monitor's
   live k = 1, 2, 15–25 values marked (physics.md §5.1), and — when the preset
   names a flight record (``sim.flight_record``) — the record's published
-  points beside it (:func:`flight_record`, pmv_ros/data/flight_records.json).
+  points beside it (:func:`flight_record`, pmv_ros/data/flight_records.json);
+* ``tracker.png`` (when the run's star-tracker frames are given) — the ground
+  track, with the frames that gave no attitude marked by the tracker's reason
+  (where the South Atlantic Anomaly, the star-poor sky and the Sun near the
+  boresight are), and what each reason cost the run (``truth_lost``).
 """
 
 from __future__ import annotations
@@ -21,28 +25,24 @@ from pathlib import Path
 
 import numpy as np
 
+from ..analysis.statistics import HarmonicFit, fit_harmonics
 from ..physics.constants import ARCMIN_RAD
 from ..storage.json_output import finite_json
 from ..physics.instrument.oblateness import closed_form_oblateness
 
 
-def harmonic_spectrum(t_s, values, period_s: float, max_k: int = 40):
-    """Amplitudes (units of ``values``) of harmonics k = 1 … max_k of 1/period, by least squares.
-
-    Works on uneven or gappy samples; the mean is fitted and dropped.
-    Returns ``(k, amplitude)``; NaN amplitudes if there are too few samples.
-    """
+def spectrum_fit(t_s, values, period_s: float, max_k: int = 40) -> HarmonicFit:
+    """Harmonics k = 1 … max_k of 1/period over the whole record (:func:`~pmv_ros.analysis.statistics.fit_harmonics`:
+    least squares on the samples there are, the §5.1 harmonics fitted together and every other k with them;
+    a k the record's gaps leave undetermined is pending, NaN, with the reason)."""
     t = np.asarray(t_s, float)
-    y = np.asarray(values, float)
-    keep = np.isfinite(t) & np.isfinite(y)
-    t, y = t[keep], y[keep]
-    k = np.arange(1, max_k + 1)
-    if t.size < 2 * max_k + 1:
-        return k, np.full(k.size, np.nan)
-    phase = 2.0 * np.pi * np.outer(t, k) / period_s
-    design = np.hstack([np.ones((t.size, 1)), np.cos(phase), np.sin(phase)])
-    coefficients, *_ = np.linalg.lstsq(design, y, rcond=None)
-    return k, np.hypot(coefficients[1:max_k + 1], coefficients[max_k + 1:])
+    return fit_harmonics(2.0 * np.pi * t / period_s, np.asarray(values, float), np.arange(1, max_k + 1))
+
+
+def harmonic_spectrum(t_s, values, period_s: float, max_k: int = 40):
+    """``(k, amplitude)`` of :func:`spectrum_fit` (units of ``values``; NaN where pending)."""
+    fit = spectrum_fit(t_s, values, period_s, max_k)
+    return np.arange(1, max_k + 1), fit.amplitude
 
 
 def flight_record(name: str) -> dict | None:
@@ -70,6 +70,7 @@ def channel_to_dict(channel) -> dict:
         "limit_high_arcmin": channel.limit_high_rad / ARCMIN_RAD,
         "max_abs_arcmin": channel.max_abs_rad / ARCMIN_RAD,
         "harmonics_arcmin": {str(k): v / ARCMIN_RAD for k, v in sorted(channel.harmonics_rad.items())},
+        "harmonics_pending": channel.harmonics_pending,
         "ground_sigma_m": channel.ground_sigma_m,
         "ground_max_abs_m": channel.ground_max_abs_m,
     }
@@ -82,8 +83,15 @@ def statistics_to_dict(statistics) -> dict:
             "counters": dict(statistics.counters)}
 
 
+def truth_lost_summary(truth_lost: dict, samples: int) -> dict:
+    """What each star-tracker reason cost a run: ``{reason: {"samples": n, "share": n / samples}}`` for the reasons
+    that cost any (``truth_lost`` the monitor's ``truth_lost_<reason>`` counters; ``samples`` the sensor samples)."""
+    return {key[len("truth_lost_"):]: {"samples": int(count), "share": count / samples if samples else math.nan}
+            for key, count in truth_lost.items() if count}
+
+
 def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_harmonics: dict | None = None,
-                 record: dict | None = None) -> dict:
+                 record: dict | None = None, tracker: dict | None = None) -> dict:
     """Write ``statistics.json``, ``residuals.png`` and ``spectrum.png`` into ``directory``.
 
     Returns the summary as written: the input plus ``residual_spectrum_arcmin``
@@ -96,6 +104,9 @@ def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_ha
         orbit: the :class:`~pmv_ros.physics.orbit.two_body.CircularOrbit` flown (for u and the model).
         live_harmonics: {channel: {k: amplitude_arcmin}} from the monitor, marked on the spectrum.
         record: a flight record (:func:`flight_record`) whose published points are drawn on the spectrum.
+        tracker: the star tracker's frames along the ground track, for ``tracker.png``: ``track_deg`` (latitude,
+            longitude ``(N,)`` deg of the run), ``frames_deg`` (latitude, longitude ``(K,)`` of the frames without
+            attitude), ``reasons`` ``(K,)`` their reasons, and the run's ``truth_lost`` (:func:`truth_lost_summary`).
     """
     import matplotlib
 
@@ -105,11 +116,17 @@ def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_ha
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
     paths = [out / "statistics.json", out / "residuals.png", out / "spectrum.png"]
+    if tracker is not None:
+        paths.append(out / "tracker.png")
     t, roll, pitch = residuals
-    spectra = {name: harmonic_spectrum(t, values, orbit.period_s) for name, values in (("roll", roll), ("pitch", pitch))}
+    fits = {name: spectrum_fit(t, values, orbit.period_s) for name, values in (("roll", roll), ("pitch", pitch))}
+    spectra = {name: (np.arange(1, fit.amplitude.size + 1), fit.amplitude) for name, fit in fits.items()}
     summary = dict(summary, residual_spectrum_arcmin={
-        "note": "sensor − star tracker over the whole record, oblateness kept; amplitude at k = 1 … 40",
-        **{name: {int(k): float(a / ARCMIN_RAD) for k, a in zip(*spectrum)} for name, spectrum in spectra.items()}},
+        "note": "sensor − star tracker over the whole record, oblateness kept; amplitude at k = 1 … 40 "
+                "(null: pending, see pending)",
+        **{name: {int(k): float(a / ARCMIN_RAD) for k, a in zip(*spectrum)} for name, spectrum in spectra.items()},
+        "pending": {name: fit.pending_note for name, fit in fits.items()},
+        "largest_hole_deg": {name: math.degrees(fit.largest_hole_rad) for name, fit in fits.items()}},
         report_files=[str(p) for p in paths])
     # Strict JSON: NaN (e.g. harmonics before a full orbit) becomes null, as in `--json` output.
     paths[0].write_text(json.dumps(finite_json(summary), indent=2, default=_json_default, allow_nan=False) + "\n")
@@ -157,7 +174,36 @@ def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_ha
     figure.tight_layout()
     figure.savefig(paths[2], dpi=110)
     plt.close(figure)
+    if tracker is not None:
+        _plot_tracker(plt, paths[3], tracker)
     return summary
+
+
+def _plot_tracker(plt, path: Path, tracker: dict) -> None:
+    """The ground track with the star tracker's frames without attitude by reason, and what each reason cost."""
+    figure, axis = plt.subplots(figsize=(10, 5.2))
+    latitude, longitude = tracker["track_deg"]
+    wrapped = np.where(np.abs(np.diff(longitude)) > 180.0)[0] + 1  # no line across the date line
+    for lat, lon in zip(np.split(latitude, wrapped), np.split(longitude, wrapped)):
+        axis.plot(lon, lat, "-", color="0.75", linewidth=0.8)
+    lost = tracker.get("truth_lost", {})
+    reasons = np.asarray(tracker["reasons"])
+    frame_latitude, frame_longitude = tracker["frames_deg"]
+    for reason in sorted(set(reasons.tolist())):
+        mine = reasons == reason
+        cost = lost.get(reason)
+        label = reason.replace("_", " ") + (f": {100.0 * cost['share']:.1f} % of the samples" if cost else "")
+        axis.plot(np.asarray(frame_longitude)[mine], np.asarray(frame_latitude)[mine], ".", markersize=3, label=label)
+    axis.set_xlim(-180, 180)
+    axis.set_ylim(-90, 90)
+    axis.set_xlabel("longitude, deg")
+    axis.set_ylabel("geodetic latitude, deg")
+    axis.grid(True, alpha=0.3)
+    axis.legend(fontsize=8, loc="lower left", framealpha=0.9)
+    axis.set_title("Star-tracker frames without attitude along the ground track (physics.md §6)", fontsize=10)
+    figure.tight_layout()
+    figure.savefig(path, dpi=110)
+    plt.close(figure)
 
 
 def _json_default(value):

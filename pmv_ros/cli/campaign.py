@@ -161,7 +161,7 @@ def run(args) -> int:
         "task_compute_s": ran["compute_s"], "samples_run": ran["samples"],
         "samples_per_s_per_worker": ran["samples"] / ran["compute_s"] if ran["compute_s"] else None,
         "files": files,
-        "budget": {key: result[key] for key in ("components", "rss") if key in result},
+        "budget": {key: result[key] for key in ("components", "rss", "truth_lost") if key in result},
         "tasks_statistics": result["tasks"],
     }
     if ran["recomputed"]:  # task files that were there but not this campaign's results: name → why
@@ -182,5 +182,10 @@ def run(args) -> int:
                 for group, channels in result["rss"].items() for channel, values in channels.items()]
         print("components alone and their root sum of squares (limit = |mean| + 3σ):")
         print(format_table(rows, RSS_COLUMNS))
+    lost = result.get("truth_lost") or {}
+    if lost:
+        print("samples without star-tracker truth, by its reason: " + ", ".join(
+            f"{reason.replace('_', ' ')} {100.0 * cost['share']:.1f} %"
+            for reason, cost in sorted(lost.items(), key=lambda item: -item[1]["samples"])) + " of the samples flown")
     print(f"results: {out}/ (one Parquet file per task), " + ", ".join(files))
     return 0

@@ -88,6 +88,23 @@ def _arcmin_text(value_rad: float) -> str:
     return text if text == PENDING else f"{text}′"
 
 
+def _tracker_frames(pipeline, truth_lost: dict) -> dict | None:
+    """The star tracker's frames without attitude the monitor heard of, on the ground track (None: an ideal or
+    silent tracker, no frame to draw)."""
+    import numpy as np
+
+    from ..physics.star_tracker import Outcome
+
+    stamps, codes = pipeline.monitor.truth_lost_frames
+    runtime = pipeline.star_tracker.runtime
+    if not stamps.size or runtime.tracker.parameters.ideal:
+        return None
+    track = np.linspace(pipeline.sensor.orbit.epoch_s, pipeline.sensor.sim_time_s, 2000)
+    return {"track_deg": runtime.tracker.ground_track_deg(track),
+            "frames_deg": runtime.tracker.ground_track_deg(stamps),
+            "reasons": [Outcome(int(code)).reason for code in codes], "truth_lost": truth_lost}
+
+
 def _stopped(args, pipeline, number: int, done: int, ticks: int) -> int:
     """A run stopped by a signal: close the recording whole, say so in one line; status 128 + the signal."""
     name = signal.Signals(number).name
@@ -153,7 +170,7 @@ def _fly(args, overrides: dict, stop: _StopOnSignal) -> int:
 
     from ..nodes.params import ParameterError
     from ..nodes.pipeline import Pipeline
-    from ..apps.report import flight_record, statistics_to_dict, write_report
+    from ..apps.report import flight_record, statistics_to_dict, truth_lost_summary, write_report
 
     try:
         pipeline = Pipeline(args.config, overrides, record=args.record)
@@ -206,11 +223,14 @@ def _fly(args, overrides: dict, stop: _StopOnSignal) -> int:
             if stop.number is not None:  # a signal while the recording was being finalised: it was closed whole
                 return _stopped(args, pipeline, stop.number, done, ticks)
             result["recording"] = {"file": str(pipeline.recording.path), "messages": dict(pipeline.recording.counts)}
+        result["truth_lost"] = truth_lost_summary(pipeline.monitor.truth_lost, result["counters"].get(
+            "sensor_received", 0))
         if args.report:
             live = {name: {int(k): v for k, v in c["harmonics_arcmin"].items()}
                     for name, c in result["channels"].items()}
             record = flight_record(pipeline.sensor.get_parameter("sim.flight_record").value)
-            result = write_report(args.report, result, pipeline.collector.residual_array(), orbit, live, record)
+            result = write_report(args.report, result, pipeline.collector.residual_array(), orbit, live, record,
+                                  _tracker_frames(pipeline, result["truth_lost"]))
     if args.json:
         print_json(result)
         return 0
@@ -222,6 +242,11 @@ def _fly(args, overrides: dict, stop: _StopOnSignal) -> int:
     skipped = {k: v for k, v in counters.items() if (k.startswith("skipped_") or k.startswith("rejected_")) and v}
     print(f"samples used {counters.get('used', 0)}, not used: "
           + (", ".join(f"{k} {v}" for k, v in skipped.items()) or "none"))
+    lost = result["truth_lost"]
+    if lost:
+        print("samples without star-tracker truth, by its reason: " + ", ".join(
+            f"{reason.replace('_', ' ')} {cost['samples']} ({100.0 * cost['share']:.1f} % of the run)"
+            for reason, cost in sorted(lost.items(), key=lambda item: -item[1]["samples"])))
     if args.report:
         print("report: " + ", ".join(result["report_files"]))
     if "recording" in result:

@@ -1,7 +1,10 @@
 """``error_monitor_node``: live methodical-error statistics of the sensor against star-tracker truth.
 
-Subscribes to ``/pmv/attitude`` (sensor), ``/star_tracker/attitude`` (truth)
-and ``/orbit/odometry`` (where the spacecraft is, for the oblateness model);
+Subscribes to ``/pmv/attitude`` (sensor), ``/star_tracker/attitude`` (truth),
+``/orbit/odometry`` (where the spacecraft is, for the oblateness model) and
+``/star_tracker/frame_status`` (why a frame has no attitude: the samples
+without truth are counted by that reason, ``truth_lost_<reason>`` on
+``/diagnostics``);
 publishes ``/pmv/residual`` (sensed − true, REP-103) for every aligned sample,
 ``/pmv/error_statistics`` every ``1/statistics_rate_hz`` seconds of sample
 time with the same numbers on ``/pmv/residual_mean``, ``_sigma`` and
@@ -67,6 +70,7 @@ TOPICS = (
     Sub("pmv/attitude", Vector3Stamped, shim.angles_input, "add_sensor"),
     Sub("star_tracker/attitude", QuaternionStamped, shim.quaternion_input, "add_truth"),
     Sub("orbit/odometry", Odometry, shim.odometry_input, "add_odometry"),
+    Sub("star_tracker/frame_status", DiagnosticArray, shim.frame_status_input, "add_frame_status"),
 )
 
 
@@ -114,6 +118,18 @@ class ErrorMonitorNode(PmvNode):
         line)."""
         latest = self._runtime.latest_statistics
         return None if latest is None else shim.ErrorStatistics.from_summary(latest.summary, latest.stamp_s)
+
+    @property
+    def truth_lost(self) -> dict:
+        """Samples skipped for want of truth, by the star tracker's reason (``truth_lost_<reason>``; a copy)."""
+        self.flush_inputs()
+        return self._runtime.truth_lost
+
+    @property
+    def truth_lost_frames(self) -> tuple:
+        """The star tracker's recent frames without attitude the monitor heard of: stamps (s) and Outcome codes."""
+        self.flush_inputs()
+        return self._runtime.lost_truth.frames
 
     @property
     def latest_orbit_stamp_s(self) -> float | None:

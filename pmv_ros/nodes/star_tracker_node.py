@@ -7,7 +7,10 @@ each frame time, the middle of the exposure), measured by
 orbit the preset flies (smear, recognition, accuracy from the stars in the
 field, proton hits, Sun/Moon/Earth exclusion, outage windows), stamped with
 the frame time and published ``exposure_s/2 + processing_s`` later. Nothing
-is published for a frame without attitude; ``/diagnostics`` says why
+is published on it for a frame without attitude; ``/star_tracker/frame_status``
+says for every frame, when it is measured, whether it has one and why not
+(its reason, stars in the field, proton hits: the error monitor counts its
+samples without truth by that reason), and ``/diagnostics`` counts them
 (``frames_<reason>`` counters, the last frame's ``stars_in_field`` and
 ``proton_hits``).
 
@@ -29,12 +32,13 @@ import sys
 
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import QuaternionStamped
+from nav_msgs.msg import Odometry
 
 import pmv_msgs_shim as shim
 from .base import PmvNode, Pub, Sub
 from ..runtime.common.assembly import STAR_TRACKER_PARAMS as PARAMS
 from ..runtime.common.records import HealthAt
-from ..runtime.tracker.runtime import ReleasedFrame, TrackerRuntime
+from ..runtime.tracker.runtime import FrameStatus, ReleasedFrame, TrackerRuntime
 from .launch import node_main
 from .managed import ManagedNode
 from .params import ParameterError, declare, install_validation
@@ -44,9 +48,13 @@ from .params import ParameterError, declare, install_validation
 TOPICS = (
     Pub("star_tracker/attitude", QuaternionStamped, ReleasedFrame, lambda m, frame, n: shim.write_attitude_quaternion(
         m, frame.frame_s, n.frames.orbital, frame.q_measured)),
+    Pub("star_tracker/frame_status", DiagnosticArray, FrameStatus, lambda m, f, n: shim.write_frame_status(
+        m, f.frame_s, f.reason, f.stars, f.hits, n.hardware_id("star_tracker"))),
     Pub("/diagnostics", DiagnosticArray, HealthAt, lambda m, h, n: shim.write_health(
         m, n.health_report(h.stamp_s, h.health, device="star_tracker"))),
     Sub("attitude/truth", QuaternionStamped, shim.quaternion_input, "receive_truth"),
+    # orbit.source follow: the user's orbit, the one the frames are measured on (the sensor's, followed alike).
+    Sub("orbit/odometry", Odometry, shim.odometry_input, "add_odometry", when=lambda n: n.follows_orbit),
 )
 
 
@@ -85,6 +93,11 @@ class StarTrackerNode(PmvNode):
         health = self._runtime.stale_health(now)
         if health is not None:
             self.emit(HealthAt, HealthAt(now, health))
+
+    @property
+    def follows_orbit(self) -> bool:
+        """Whether the frames are measured on the user's orbit/odometry (``orbit.source: follow``)."""
+        return self._values["orbit.source"] == "follow"
 
     @property
     def release_queue_length(self) -> int:

@@ -177,7 +177,8 @@ def slerp(t0_s: float, q0, t1_s: float, q1, times_s):
     The turn is taken in the orbital frame (q(t) = exp(ω (t − t0)) ⊗ q0), which
     is spherical linear interpolation. Plain floats: ``q0``, ``q1`` are
     (x, y, z, w) tuples of unit quaternions, ``times_s`` a list of floats
-    (:func:`slerp_each` does the same on arrays, one turn per time).
+    (the star tracker's frame grid does the same on arrays, one turn per time:
+    :func:`pmv_ros.physics.star_tracker.kernel.slerp_frames`).
 
     Returns:
         (list of (x, y, z, w) tuples, rate (3-tuple, rad/s, orbital components)).
@@ -188,13 +189,3 @@ def slerp(t0_s: float, q0, t1_s: float, q1, times_s):
     frames = [quaternion_product(quaternion_from_rotation_vector(tuple((t - t0_s) * w for w in rate)), q0)
               for t in times_s]
     return frames, rate
-
-
-def slerp_each(t0_s, q0, t1_s, q1, times_s):
-    """:func:`slerp` on arrays, one turn per time: ``t0_s``, ``t1_s``, ``times_s`` ``(N,)``, ``q0``, ``q1``
-    ``(4, N)``; the same operations, element by element. Returns (attitudes ``(4, N)``, rates ``(3, N)``)."""
-    t0 = np.asarray(t0_s, float)
-    q0 = np.asarray(q0, float)
-    turn = rotation_vector_from_quaternion(quaternion_product(np.asarray(q1, float), quaternion_conjugate(q0)))
-    rate = turn / (np.asarray(t1_s, float) - t0)
-    return quaternion_product(quaternion_from_rotation_vector((np.asarray(times_s, float) - t0) * rate), q0), rate

@@ -25,7 +25,9 @@ What each node does, and what runs it here:
   monitor's one path: validation, alignment and statistics), the released frames
   arriving just before the sensor sample of their tick, the node clock at
   each tick the sample's stamp, and the orbit's state at each stamp as the
-  odometry the node validates and takes its oblateness model from.
+  odometry the node validates and takes its oblateness model from; every
+  frame's outcome (``/star_tracker/frame_status``) counts the samples without
+  truth by the tracker's reason (:mod:`pmv_ros.runtime.monitor.lost_truth`).
 
 Message stamps in the pipeline are whole nanoseconds; here they are the
 float times. The difference moves the statistics by ≈ 1e-9 arcmin.
@@ -50,7 +52,7 @@ from .tracker.runtime import TrackerFrames, TrackerRuntime, track_stream
 OUTCOME_CODES = BATCH_STATUSES
 
 __all__ = ["OUTCOME_CODES", "PENDING_CODE", "Flight", "FlightValues", "TrackerFrames", "flight_values", "fly",
-           "sense_block", "tracker_frames"]
+           "sense_block", "tracker_frames", "wire_clock", "wire_stamps"]
 
 
 @dataclass(frozen=True)
@@ -88,6 +90,29 @@ def flight_values(document: dict, overrides: dict | None = None) -> FlightValues
     return FlightValues(sensor=node("sensor_node", SENSOR_PARAMS),
                         star_tracker=node("star_tracker_node", STAR_TRACKER_PARAMS),
                         monitor=node("error_monitor_node", MONITOR_PARAMS))
+
+
+def _split(t_s) -> tuple[np.ndarray, np.ndarray]:
+    """Whole seconds and nanoseconds of float times, as pmv_msgs_shim.conversions.write_stamp writes a stamp."""
+    t = np.asarray(t_s, float)
+    seconds = np.floor(t)
+    nanoseconds = np.round((t - seconds) * 1e9)
+    carry = nanoseconds >= 1e9
+    return np.where(carry, seconds + 1.0, seconds), np.where(carry, nanoseconds - 1e9, nanoseconds)
+
+
+def wire_stamps(t_s) -> np.ndarray:
+    """Float times ``(N,)`` s as a node reads them back from a message stamp: ``sec + nanosec·1e-9``
+    (pmv_msgs_shim.conversions.time_from_msg)."""
+    seconds, nanoseconds = _split(t_s)
+    return seconds + nanoseconds * 1e-9
+
+
+def wire_clock(t_s) -> np.ndarray:
+    """Float times ``(N,)`` s as a node's clock reads them when /clock carries them: its nanoseconds × 1e-9
+    (pmv_ros.nodes.rclpy_internals.clock_now_s) — not always :func:`wire_stamps`' float."""
+    seconds, nanoseconds = _split(t_s)
+    return (seconds.astype(np.int64) * 1_000_000_000 + nanoseconds.astype(np.int64)) * 1e-9
 
 
 def sense_block(sensor_values: dict) -> int:
@@ -128,6 +153,7 @@ class Flight:
     meridional_rad: np.ndarray
     summary: MonitorSummary
     frames: TrackerFrames
+    truth_lost: dict  #: samples skipped for want of truth, by the star tracker's reason (``truth_lost_<reason>``)
     values: FlightValues = field(repr=False)
 
 
@@ -153,13 +179,17 @@ def fly(values: FlightValues, samples: int) -> Flight:
     t, roll, pitch = (np.concatenate([block[k] for block in blocks])[:samples] for k in (0, 2, 3))
     q = np.concatenate([block[1] for block in blocks], axis=1)[:, :samples]
     orbit = runtime.orbit
-    frames = tracker_frames(t, q, values.star_tracker, start_s=0.0)
+    stamps = wire_stamps(t)  # /attitude/truth, /pmv/attitude and /orbit/odometry as the other nodes read them
+    frames = tracker_frames(stamps, q, values.star_tracker, start_s=0.0)
     published = np.flatnonzero(frames.released_at >= 0)  # in release order = frame order
     position, velocity = orbit.state_eci(t)  # what /orbit/odometry carries
     monitor = MonitorRuntime(values.monitor)  # as error_monitor_node takes the stream, all at once
-    batch = monitor.add_stream(t, roll, pitch, frames.frame_s[published], frames.q_measured[:, published],
-                               frames.released_at[published], position, velocity)
+    # /star_tracker/frame_status: every frame's outcome, heard before any sample it explains settles.
+    monitor.lost_truth.add_frames(wire_stamps(frames.frame_s), frames.outcome)
+    batch = monitor.add_stream(stamps, roll, pitch, wire_stamps(frames.frame_s[published]),
+                               frames.q_measured[:, published], frames.released_at[published], position, velocity,
+                               now_s=wire_clock(t))
     u = orbit.argument_of_latitude(t)
     latitude, _ = geocentric_latitude_longitude(position)
     return Flight(t, u, latitude, roll, pitch, batch.status, batch.roll_rad, batch.pitch_rad, batch.meridional_rad,
-                  summary=monitor.monitor.summary(), frames=frames, values=values)
+                  summary=monitor.monitor.summary(), frames=frames, truth_lost=monitor.truth_lost, values=values)

@@ -35,19 +35,20 @@ def test_seed_and_epoch_reach_the_run(meteor_orbit):
     assert summary["seed"] == 3 and summary["epoch_utc"] == "2016-11-11T00:00:00Z"
 
 
-@pytest.mark.xfail(strict=True, reason="the report's whole-record harmonic fit has no guard for the star tracker's "
-                   "gaps (an SAA pass and star-poor fields leave > 10 % of this orbit without truth): pitch k = 2 "
-                   "comes out ≈ 37600′; the monitor's ring refuses such a fit (max_gap_fraction, max_condition)")
 def test_the_whole_record_spectrum_is_the_cores(meteor_orbit):
-    # The pipeline (attitude profile, star tracker with 3″ noise, monitor) and the bare core at zero
-    # attitude see the same environment for the same seed and epoch: the residual spectrum, oblateness
-    # kept, agrees to ≈ 0.1′ (the attitude profile moves the chords by a few arcmin, the tracker adds 3″).
+    # The pipeline (attitude profile, star tracker, monitor) and the bare core at zero attitude see the same
+    # environment for the same seed and epoch: the residual spectrum, oblateness kept, agrees to ≈ 0.1′ over a whole
+    # orbit (the attitude profile moves the chords by a few arcmin, the tracker adds arcseconds). The tracker leaves
+    # ≈ 15 % of this orbit without truth (the SAA, star-poor fields), and through such gaps the model's own residual
+    # moves k = 2 by up to 0.45′ and k = 15…25 by up to 0.5′ (design/harmonic_gaps.py, No.2): 0.6′.
     summary, _ = meteor_orbit
     pitch = {int(k): v for k, v in summary["residual_spectrum_arcmin"]["pitch"].items()}
+    assert summary["residual_spectrum_arcmin"]["pending"]["pitch"] == ""
     t, reading, orbit = fly_one_orbit(preset_values("meteor_m2", seed=3, sim__epoch_utc="2016-11-11T00:00:00Z"))
     _, core = harmonic_spectrum(t, reading.sensed_pitch_rad, orbit.period_s, 40)
     for k in (2, 20):
-        assert pitch[k] == pytest.approx(core[k - 1] / ARCMIN_RAD, abs=0.15)
+        assert pitch[k] == pytest.approx(core[k - 1] / ARCMIN_RAD, abs=0.6)
+    assert pitch[2] > 8.0  # the oblateness alone is 8.64′ (physics.md §3.2)
 
 
 def test_the_spectrum_png_carries_the_flight_record(meteor_orbit):

@@ -597,6 +597,15 @@ def test_star_tracker_node_alone(harness):
             "frames_exclusion", "frames_rate_too_high", "frames_outage", "stars_in_field", "proton_hits"} <= set(values)
 
 
+def _drain_until(h, condition, timeout_s: float = 10.0) -> None:
+    """Drain until ``condition()`` holds (or ``timeout_s`` passes: the assertions after it then say what is missing)."""
+    deadline = time.monotonic() + timeout_s
+    h.drain()
+    while not condition() and time.monotonic() < deadline:
+        time.sleep(0.01)
+        h.drain()
+
+
 def test_star_tracker_frames_between_sparse_truth_are_the_frame_loops(harness):
     # Truth at 1 Hz, frames at 2 Hz: two or three frames fall due per truth sample; the node publishes the
     # frames its runtime's frame loop makes of the stream (the campaign's path), with the same draws.
@@ -614,13 +623,50 @@ def test_star_tracker_frames_between_sparse_truth_are_the_frame_loops(harness):
         h.drain()
     values = {**flight_values({}).star_tracker, **options, "sim.fast_time": False}  # the node: on its own clock
     t = np.arange(1.0, 21.0)
-    frames = track_stream(TrackerRuntime(values, h.node._runtime.start_s), t, np.tile(np.array(q)[:, None], 20))
+    frames = track_stream(TrackerRuntime(values, h.node.runtime.start_s), t, np.tile(np.array(q)[:, None], 20))
     published = np.flatnonzero(frames.released_at >= 0)
+    # A drain ends when the graph looks idle; a message still on its way between two nodes of the process (a
+    # loaded machine) is not in any queue yet. So wait for what must come: the node has measured every frame of
+    # the 20 truth messages, and the tester has received what it published.
+    _drain_until(h, lambda: sum(v for k, v in h.node.counters.items() if k.startswith("frames_"))
+                 >= frames.frame_s.size and len(h.received["/star_tracker/attitude"]) >= published.size)
     got = [shim.attitude_quaternion_from_msg(m) for m in h.received["/star_tracker/attitude"]]
     assert 10 < len(got) == published.size < 38  # some frames failed, and the same ones
     for record, k in zip(got, published):
         assert record.stamp_s == frames.frame_s[k]
         np.testing.assert_allclose(record.q_xyzw, frames.q_measured[:, k], atol=1e-14)
+
+
+def test_star_tracker_follows_the_users_orbit_and_says_why_each_frame_has_no_attitude(harness):
+    """orbit.source follow: the node takes orbit/odometry and measures its frames on that orbit; before the first
+    state a frame has no orbit. Every frame's status goes out on /star_tracker/frame_status (its reason)."""
+    from pmv_ros.physics.orbit.two_body import CircularOrbit
+
+    h = harness(StarTrackerNode, {"frame_period_s": 0.5, "exposure_s": 0.02, "processing_s": 0.0,
+                                  "orbit.source": "follow"})
+    h.record(DiagnosticArray, "/star_tracker/frame_status")
+    truth = h.publisher(QuaternionStamped, "/attitude/truth")
+    odometry = h.publisher(Odometry, "/orbit/odometry")
+    orbit = CircularOrbit(600e3, math.radians(60.0))
+    q = quaternion_from_roll_pitch_yaw(0.0, 0.0, 0.0)
+    for k in range(1, 41):
+        stamp = 0.25 * k
+        if stamp >= 5.0:  # the user's orbit from 5 s on
+            position, velocity = orbit.state_eci(stamp)
+            odometry.publish(shim.write_orbit_state(Odometry(), stamp, shim.ECI_FRAME, shim.ORBITAL_FRAME, position,
+                                                    velocity))
+            h.drain()
+        truth.publish(shim.write_attitude_quaternion(QuaternionStamped(), stamp, shim.ORBITAL_FRAME, q))
+        h.drain()
+    _drain_until(h, lambda: len(h.received["/star_tracker/frame_status"]) >= 18)
+    statuses = [shim.frame_status_input(m) for m in h.received["/star_tracker/frame_status"]]
+    assert [t for t, _ in statuses] == [0.5 * k for k in range(1, len(statuses) + 1)]
+    reasons = dict(statuses)
+    assert {reasons[t] for t in reasons if t < 5.0} == {"no_orbit"}
+    assert all(reasons[t] != "no_orbit" for t in reasons if t >= 5.0)
+    counters = h.node.counters
+    assert counters["frames_no_orbit"] == 9 and sum(v for k, v in counters.items() if k.startswith("frames_")) \
+        == len(statuses)
 
 
 def test_star_tracker_gives_nothing_above_its_rate_limit(harness):

@@ -39,8 +39,8 @@ SHARED = {"/clock", "/diagnostics", "/tf", "/tf_static"}
 ROS_OWN = {"/parameter_events", "/rosout"}
 #: A spacecraft's own topics, relative to its namespace.
 OWN = {"pmv/horizon_crossings", "pmv/attitude", "pmv/attitude_uncorrected", "pmv/attitude_imu", "orbit/odometry",
-       "attitude/truth", "star_tracker/attitude", "pmv/residual", "pmv/error_statistics", "pmv/residual_mean",
-       "pmv/residual_sigma", "pmv/residual_limit"}
+       "attitude/truth", "star_tracker/attitude", "star_tracker/frame_status", "pmv/residual", "pmv/error_statistics",
+       "pmv/residual_mean", "pmv/residual_sigma", "pmv/residual_limit"}
 
 #: Quick sensors: the geometric horizon, one radiance everywhere.
 QUICK = {"sensor.detector": "ideal", "radiance.source": "uniform", "sensor.bright_body_exclusion_deg": 0.0}
@@ -143,7 +143,7 @@ def _statuses(messages, name):
     return [s for m in messages for s in shim.health_from_msg(m).statuses if s.name == name]
 
 
-def test_an_inertial_quaternion_on_attitude_truth_is_refused_and_counted_by_the_star_tracker(harness):
+def test_an_inertial_quaternion_on_attitude_truth_is_refused_and_counted_by_the_star_tracker(harness, capfd):
     outputs = []
     for mistaken in (False, True):
         h = harness(StarTrackerNode, {"frame_period_s": 0.5, "processing_s": 0.25, "ideal": True})
@@ -168,6 +168,9 @@ def test_an_inertial_quaternion_on_attitude_truth_is_refused_and_counted_by_the_
     # /diagnostics goes out once per second of truth time: its last report has all but the very last refusal.
     assert report and int(dict(report[-1].values)["rejected_truth_wrong_frame"]) >= 19
     assert any("rejected /attitude/truth messages" in s.message for s in report)
+    # Said once on the log (/diagnostics names it while every message is refused: tests/runtime).
+    log = capfd.readouterr().err
+    assert log.count("true attitude refused: expected orbital, got eci") == 1, log
 
 
 def test_a_following_sensor_refuses_truth_in_another_frame(harness):

@@ -97,13 +97,16 @@ def _hostile_messages(runtime, seconds: float = 120.0):
             stamp = clock - 0.25
             q = quaternion_from_roll_pitch_yaw(1e-3 * math.sin(stamp / 30.0), -5e-4, 0.01)
             events.insert(len(events) - int(rng.integers(0, 3)), ("add_truth", (frames.orbital, stamp, q), now))
+        if k % 5 == 2 and 300 <= k < 450:  # the tracker says why it has no attitude in the outage
+            events.append(("add_frame_status", (clock - 0.25, "exclusion" if k < 380 else "no_stars"), now))
         if k % 53 == 11:
             events += [("add_sensor", ("eci", clock, 0.0, 0.0), now),
                        ("add_sensor", (frames.sensor, None, None, None), now),
                        ("add_truth", (frames.orbital, None, None), now),
                        ("add_truth", ("eci", clock, (0, 0, 0, 1)), now),
                        ("add_odometry", (frames.eci, "body", None), now),
-                       ("add_odometry", (frames.eci, frames.orbital, None), now)]
+                       ("add_odometry", (frames.eci, frames.orbital, None), now),
+                       ("add_frame_status", (None, None), now)]
     return events
 
 
@@ -117,7 +120,8 @@ def test_messages_cut_into_wake_up_batches_publish_what_one_at_a_time_does():
     values = values_of({"statistics_rate_hz": 1.0}).monitor
     one, cut = MonitorRuntime(values), MonitorRuntime(values)
     events = _hostile_messages(one)
-    methods = {"add_sensor": one.add_sensor, "add_truth": one.add_truth, "add_odometry": one.add_odometry}
+    methods = {"add_sensor": one.add_sensor, "add_truth": one.add_truth, "add_odometry": one.add_odometry,
+               "add_frame_status": one.add_frame_status}
     expected = [item for to, arguments, now in events for item in methods[to](*arguments, now).published]
     rng = np.random.default_rng(9)
     published, lo = [], 0
@@ -143,6 +147,11 @@ def test_messages_cut_into_wake_up_batches_publish_what_one_at_a_time_does():
     assert counters["clock_jumps"] == 1 and counters["skipped_stale_truth"]
     assert counters["rejected_sensor_implausible_angle"] and counters["used_one_angle"]
     assert all(one.rejected_messages.values())
+    # The samples the outage left without truth, by the tracker's reason, whichever way the messages were cut.
+    lost = one.truth_lost
+    assert lost == cut.truth_lost and lost["truth_lost_exclusion"] > 50 and lost["truth_lost_no_stars"] > 50
+    assert sum(lost.values()) == sum(counters[f"skipped_{s}"] for s in ("no_truth", "truth_gap", "stale_truth"))
+    assert "truth_lost_exclusion" in one.health(None).values
 
 
 def test_statistics_read_long_after_their_stamp_are_those_of_their_stamp():

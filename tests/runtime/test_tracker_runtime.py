@@ -64,6 +64,26 @@ def test_checked_truth_gives_the_frames_of_the_frame_loop_and_bad_truth_changes_
     assert sum(v for k, v in counters.items() if k.startswith("frames_")) == reference.frame_s.size
 
 
+def test_truth_in_another_frame_is_refused_said_once_and_named_on_diagnostics():
+    """#51 item 9: expected sat1/orbital, got orbital — one log line, the refusal named while it lasts."""
+    values = {**values_of().star_tracker, "frames.prefix": "sat1"}
+    runtime = TrackerRuntime(values, 0.0)
+    assert runtime.frames.orbital == "sat1/orbital"
+    lines = []
+    for k in range(5):
+        output = runtime.receive_truth("orbital", 10.0 + k, (0.0, 0.0, 0.0, 1.0), 10.0 + k)
+        lines += [line.text for line in output.log]
+    assert lines == ["true attitude refused: expected sat1/orbital, got orbital: each such message is dropped "
+                     "(counted on /diagnostics); this is said once"]
+    health = runtime.health([])
+    assert health.level is Level.WARN and "true attitude refused: expected sat1/orbital, got orbital (5 refused)" \
+        in health.message
+    assert runtime.counters["rejected_truth_wrong_frame"] == 5
+    # A message in the right frame ends the refusal: /diagnostics stops naming it; the log stays quiet.
+    output = runtime.receive_truth("sat1/orbital", 20.0, (0.0, 0.0, 0.0, 1.0), 20.0)
+    assert not output.log and "refused: expected" not in runtime.health([]).message
+
+
 def test_a_confirmed_jump_back_is_a_new_timeline_and_silence_is_a_stale_input():
     values = values_of().star_tracker
     problems = []
@@ -139,3 +159,51 @@ def test_truth_cut_into_wake_up_batches_publishes_what_one_message_at_a_time_doe
     counters = one.counters
     assert counters == cut.counters and counters["clock_jumps"] == 1 and counters["clock_outliers"] == 1
     assert counters["frames_recognition_failure"] and counters["rejected_truth_duplicate"]
+
+
+def test_the_tracker_flies_the_element_sets_orbit():
+    """orbit.source tle: the tracker's orbit is the sensor's SGP4 propagation (the SAA, the Sun and the L-shell all
+    depend on where it is), not the circular orbit of the orbit.* elements."""
+    from pmv_ros.runtime.common.assembly import build_models
+
+    document = yaml.safe_load((REPO / "config" / "meteor_m2_tle.yaml").read_text())
+    values = flight_values(document)
+    runtime = TrackerRuntime(values.star_tracker, 0.0)
+    sensor_orbit, _, _ = build_models(values.sensor)
+    t = np.linspace(0.0, 6000.0, 7)
+    np.testing.assert_allclose(runtime.tracker.orbit.state_eci(t)[0], sensor_orbit.state_eci(t)[0], rtol=0, atol=1e-6)
+    circular = TrackerRuntime({**values.star_tracker, "orbit.source": "circular"}, 0.0).tracker.orbit
+    # The preset's orbit.* elements approximate the element set: still 10–25 km off along the orbit.
+    assert np.max(np.abs(circular.state_eci(t)[0] - sensor_orbit.state_eci(t)[0])) > 1e4
+
+
+def test_a_followed_orbit_is_the_users_odometry():
+    """orbit.source follow: the frames are measured where orbit/odometry puts the spacecraft, those no odometry
+    covers are no_orbit, and bad odometry is refused and counted, as the sensor refuses it."""
+    from pmv_ros.physics.orbit.two_body import CircularOrbit
+
+    values = {**values_of().star_tracker, "orbit.source": "follow"}
+    user = CircularOrbit(700e3, math.radians(51.6), raan_rad=1.0)  # not the preset's orbit
+    runtime, reference = TrackerRuntime(values, 0.0), TrackerRuntime({**values, "orbit.source": "circular"}, 0.0)
+    orbital = runtime.frames.orbital
+    t, q = truth_stream(10.0, 30.0)
+    for k, (stamp, q_k) in enumerate(zip(t.tolist(), q.T)):
+        if stamp >= 20.0:  # odometry from 20 s on, at 1 Hz: the frames before have no orbit
+            if k % 10 == 0:
+                position, velocity = user.state_eci(stamp)
+                runtime.add_odometry(runtime.frames.eci, orbital, (stamp, position, velocity), stamp)
+                runtime.add_odometry("orbital", orbital, (stamp, position, velocity), stamp)  # wrong frame
+                runtime.add_odometry(runtime.frames.eci, orbital, (stamp + 0.05, position * 10.0, velocity), stamp)
+        runtime.receive_truth(orbital, stamp, q_k, stamp)
+        reference.receive_truth(orbital, stamp, q_k, stamp)
+    counters = runtime.counters
+    # 10 frames before the first state; 20 states, each with a wrong-frame and an implausible one beside it.
+    assert counters["frames_no_orbit"] == 10 and counters["rejected_odometry_wrong_frame"] == 20
+    assert counters["rejected_odometry_implausible_orbit"] == 20 and counters["frames_ok"] > 10
+    runtime.reconfigure({**values, "processing_s": 0.3})  # a parameter change keeps the odometry heard
+    followed = runtime.tracker.orbit.state_eci(25.0)[0]
+    np.testing.assert_allclose(followed, user.state_eci(25.0)[0], rtol=0, atol=1e-3)
+    # Measured on the user's orbit: another sky than the preset's circular one gives.
+    stars = [runtime.tracker.measure(np.array([s]), q[:, :1], np.zeros((3, 1))).stars[0] for s in (25.0, 29.0)]
+    others = [reference.tracker.measure(np.array([s]), q[:, :1], np.zeros((3, 1))).stars[0] for s in (25.0, 29.0)]
+    assert stars != others

@@ -72,13 +72,13 @@ def test_the_check_names_a_missing_and_a_stale_doc_line():
     already = set(extension.note_problems(notes, params))  # the test above reports those
     params["error_monitor_node"] += (ParamSpec("brand_new_rate_hz", 1.0, "a new parameter", 0.1, 10.0, unit="Hz"),)
     notes.setdefault("star_tracker_node", {})["gone_parameter_s"] = "a line for a parameter nobody declares"
-    notes["/**"]["latency_s"] = "a shared line the star tracker's own line hides"
+    notes["/**"]["processing_s"] = "a shared line the star tracker's own line hides"
     problems = [problem for problem in extension.note_problems(notes, params) if problem not in already]
     assert sorted(problems) == sorted([
         "error_monitor_node: parameter brand_new_rate_hz has no doc line in docs/parameter_notes.yaml",
         "docs/parameter_notes.yaml: star_tracker_node: gone_parameter_s is no parameter of star_tracker_node "
         "(stale doc line)",
-        "docs/parameter_notes.yaml: /**: latency_s has a line of its own on every node that declares it "
+        "docs/parameter_notes.yaml: /**: processing_s has a line of its own on every node that declares it "
         "(this one is never shown)"])
 
 

@@ -17,6 +17,7 @@ from ...runtime.flight import OUTCOME_CODES
 from ...analysis.statistics import CHANNELS
 from ...runtime.monitor.records import Status
 from ...analysis.statistics import RunningStatistics
+from ..report import truth_lost_summary
 from .results import _write_atomically, check_result, read_result, task_path
 from .tasks import COMPONENTS, LATITUDE_BIN_DEG, SEASONS, Settings, Task
 
@@ -43,7 +44,10 @@ def budget(out: Path, tasks: list[Task], settings: Settings | None = None) -> di
     components' σ and limits beside the total's; ``by_day`` → component → day
     → channel → statistics pooled over seeds, with the seeds' σ range;
     ``latitude_day`` (total): mean roll, pitch and meridional residual per
-    latitude bin and day; ``tasks``: each task's own statistics (the monitor's).
+    latitude bin and day; ``tasks``: each task's own statistics (the monitor's);
+    ``truth_lost`` (total): the samples skipped for want of star-tracker truth
+    by the tracker's reason and their share of all the samples flown (of the
+    year, when the days sample it).
     """
     ok = OUTCOME_CODES.index(Status.OK)
     groups = {}  # component → group → channel → RunningStatistics
@@ -54,6 +58,7 @@ def budget(out: Path, tasks: list[Task], settings: Settings | None = None) -> di
     grid = {channel: (np.zeros((edges.size - 1, len(task_days))), np.zeros((edges.size - 1, len(task_days))))
             for channel in CHANNELS}  # sums, counts
     per_task = []
+    lost, samples = {}, 0  # the total's samples without truth by the tracker's reason, and all its samples
     for task in tasks:
         path = task_path(out, task)
         table, description = read_result(path) if settings is None else check_result(path, settings, task)
@@ -79,7 +84,12 @@ def budget(out: Path, tasks: list[Task], settings: Settings | None = None) -> di
                 np.add.at(counts[:, column], row[finite], 1.0)
         per_task.append({**asdict(task), "epoch_utc": description["epoch_utc"], "season": season,
                          "samples": description["samples"], **description["summary"]})
-    result = {"components": {}, "by_day": {}, "tasks": per_task}
+        if task.component == "total":
+            samples += description["samples"]
+            for key, count in description.get("truth_lost", {}).items():
+                lost[key] = lost.get(key, 0) + count
+    result = {"components": {}, "by_day": {}, "tasks": per_task,
+              "truth_lost": truth_lost_summary(lost, samples)}
     for name, by_group in groups.items():
         result["components"][name] = {group: {c: _statistics_dict(s) for c, s in channels.items()}
                                       for group, channels in by_group.items() if channels[CHANNELS[0]].count

@@ -79,7 +79,8 @@ def run_task(settings: Settings, task: Task):
                    "season": season_of(overrides["sim.epoch_utc"]),
                    "rate_hz": values.sensor["sensor.rate_hz"], "samples": int(flight.t_s.size),
                    "outcome_codes": [status.value for status in OUTCOME_CODES],
-                   "summary": summary_to_dict(flight.summary)}
+                   "summary": summary_to_dict(flight.summary),
+                   "truth_lost": {k: v for k, v in flight.truth_lost.items() if v}}
     table = table.replace_schema_metadata({METADATA_KEY: json.dumps(finite_json(description)).encode()})
     return table, time.perf_counter() - started
 

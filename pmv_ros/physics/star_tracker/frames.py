@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..attitude import slerp_each
+from .kernel import slerp_frames
 
 
 def _grid_times(start: float, stop: float, step: float) -> list:
@@ -91,6 +91,21 @@ class FrameGrid:
         """Take truth samples in arrival order (stamps ``(N,)`` s, unit quaternions ``(4, N)``; or one sample, a
         float stamp and its (x, y, z, w)): the frames they complete, each on the turn between the sample that
         completed it and the one before."""
+        if type(t_s) is float:  # one sample (a node's)
+            if self._completes_nothing(t_s):  # between two frames
+                self.previous = (t_s, q_xyzw)
+                return _NO_FRAMES
+            times, _, previous = self._grid([t_s], q_xyzw)
+            if not times:  # the first sample, or one after a gap: the grid starts again
+                return _NO_FRAMES
+            count = len(times)
+            q0 = np.array(previous[1], float).reshape(4, 1)
+            q1 = np.array(q_xyzw, float).reshape(4, 1)
+            if count > 1:
+                q0, q1 = np.repeat(q0, count, axis=1), np.repeat(q1, count, axis=1)
+            frame_s = np.array(times)
+            attitude, rate = slerp_frames(np.array([previous[0]] * count), q0, np.array([t_s] * count), q1, frame_s)
+            return GridFrames(frame_s, attitude, rate, np.zeros(count, np.int64))
         t = np.atleast_1d(np.asarray(t_s, float)).ravel()
         if not t.size:
             return _NO_FRAMES
@@ -102,8 +117,15 @@ class FrameGrid:
         earlier_q = np.concatenate([np.full((4, 1), np.nan) if previous is None else np.reshape(previous[1], (4, 1)),
                                     q[:, :-1]], axis=1)
         frame_s, index = np.array(times), np.array(completed_by, np.int64)
-        attitude, rate = slerp_each(earlier_t[index], earlier_q[:, index], t[index], q[:, index], frame_s)
+        attitude, rate = slerp_frames(earlier_t[index], np.ascontiguousarray(earlier_q[:, index]), t[index],
+                                      np.ascontiguousarray(q[:, index]), frame_s)
         return GridFrames(frame_s, attitude, rate, index)
+
+    def _completes_nothing(self, stamp: float) -> bool:
+        """Whether one sample at ``stamp`` neither completes a frame nor restarts the grid (:meth:`_grid`'s tests)."""
+        previous, next_frame = self.previous, self._next_frame_s
+        return (previous is not None and next_frame is not None and not stamp - previous[0] > self.max_gap_s
+                and next_frame > stamp + 1e-12)
 
     def _grid(self, stamps: list, last_q) -> tuple[list, list, tuple | None]:
         """Advance the grid over ``stamps`` (floats, in order; ``last_q`` the last one's attitude): (the frame
@@ -175,6 +197,8 @@ class LatencyQueue:
         it. Returns (frame times ``(R,)``, quaternions ``(4, R)``, the index of the
         stamp each is released at ``(R,)``); the frames not due stay queued.
         """
+        if type(stamps_s) is float and stamps_s + RELEASE_TOLERANCE_S < self._first_release_s and not self._held_back:
+            return _NONE_RELEASED  # one stamp (a node's), before the frame ahead is due
         stamps = np.atleast_1d(np.asarray(stamps_s, float)).ravel()
         if not stamps.size or (stamps[-1] + RELEASE_TOLERANCE_S < self._first_release_s and not self._held_back):
             return _NONE_RELEASED  # nothing due yet (most truth stamps of a node)

@@ -42,16 +42,15 @@ from dataclasses import dataclass, field
 from functools import lru_cache
 
 import numpy as np
-from scipy.special import ndtri
 
-from ..attitude import quaternion_from_rotation_vector, quaternion_product
 from ..constants import ARCSEC_RAD, GRS80
-from ..orbit.ephemeris import Epoch
+from ..orbit.ephemeris import Epoch, moon_position_eci_m, sun_position_eci_m
 from ..orbit.two_body import orbital_frame_from_state
-from ..orbit.ephemeris import moon_position_eci_m, sun_position_eci_m
-from .draws import Draws, frame_key, poisson_quantile
+from .draws import seed_hash
+from .kernel import (ABOUT_BORESIGHT_LEVER, CONFIG, SPOT_RAD, measure_frames, pointing_batch, recognition_failure,
+                     smear_loss_mag, star_biases, trail_rate)
 from .radiation import RadiationGrid, SolarEvent
-from .sky import Sky
+from .sky import CELLS_PER_EDGE, Sky
 
 
 class Outcome(enum.IntEnum):
@@ -65,6 +64,7 @@ class Outcome(enum.IntEnum):
     BUFFER_OVERFLOW = 5  #: proton hits (and the stars) filled the video buffer before the frame was read
     EXCLUSION = 6  #: the Sun, the Moon or the Earth's limb is too close to the boresight
     INVALID_TRUTH = 7  #: the true attitude given to the model was not a finite quaternion
+    NO_ORBIT = 8  #: orbit.source follow: no orbit state at the frame time (the attitude cannot be turned into orbital)
 
     @property
     def reason(self) -> str:
@@ -82,10 +82,6 @@ class Outcome(enum.IntEnum):
 REASON_ORDER = (Outcome.INVALID_TRUTH, Outcome.OUTAGE, Outcome.RATE_TOO_HIGH, Outcome.EXCLUSION,
                 Outcome.BUFFER_OVERFLOW, Outcome.NO_STARS, Outcome.RECOGNITION_FAILURE)
 
-#: d·ρ/f: the star spot's 90 %-energy diameter on the sky, 50 µm at 60 mm focal length (thesis l. 396–398) [D].
-SPOT_RAD = 171.9 * ARCSEC_RAD
-#: Lever arm of a rotation about the boresight: the RMS star distance from the centre of a 7.81° square [D].
-ABOUT_BORESIGHT_LEVER = 0.055
 #: Area of the CCD's sensitive surface (512 × 16 µm square), cm² [D from the format A].
 CCD_AREA_CM2 = 0.671
 #: Protons from 35° to 90° off the CCD normal pass the side shielding (thesis l. 944) [T].
@@ -106,13 +102,9 @@ MAX_RANKED_HITS = 50
 #: shielding that the L-shell cut-off describes is a low-orbit one) [A].
 FULL_ACCESS_ALTITUDE_M = 20000e3
 
-# Streams of the keyed draws (one per quantity; keys: the frame time, then the star or hit), drawn together: a
-# frame's own (recognition dice, side and lens hit counts, footprint), a star's in a frame (rank scatter, centroid
-# noise u, v), a star's for good (its bias u, v), and the hits' brightness ranks.
-_FRAME_STREAMS = np.array([5, 6, 7, 8])
-_STAR_STREAMS = np.array([0, 1, 2])
-_BIAS_STREAMS = np.array([3, 4])
-_HIT_RANK = 9
+# Streams of the keyed draws (kernel.measure_frames; keys: the frame time, then the star or hit): a star's rank
+# scatter and centroid noise u, v in a frame 0–2, a star's bias u, v for good 3–4, a frame's recognition dice, side
+# and lens hit counts and hit footprint 5–8, the hits' brightness ranks 9.
 #: The Sun and the Moon are computed once a minute of the clock (keyed by the minute: the same for any frame of it):
 #: in a minute the Moon moves ≈ 33″ and the Sun ≈ 2.5″ across the sky, against exclusion angles of degrees.
 BODY_STEP_S = 60.0
@@ -205,27 +197,6 @@ def optimal_exposure_s(rate_rad_s: float) -> float:
     return SPOT_RAD / rate_rad_s
 
 
-def smear_loss_mag(trail_rate_rad_s, exposure_s: float):
-    """ΔM_rate = 2.5·lg(max(1, ω·t_exp/(d·ρ/f))): what the trail costs the detection limit, mag (§6 item 3)."""
-    return 2.5 * np.log10(np.maximum(1.0, np.asarray(trail_rate_rad_s, float) * exposure_s / SPOT_RAD))
-
-
-def trail_rate(cross_rad_s, about_rad_s):
-    """ω_eff = √(ω⊥² + (0.055·ω∥)²): the rate at which star images trail across the CCD, rad/s."""
-    return np.hypot(cross_rad_s, ABOUT_BORESIGHT_LEVER * np.asarray(about_rad_s, float))
-
-
-def geometry_failure(catalogue_stars, p3: float, scale: float):
-    """p_geom(n) = p3·e^−(n−3)/n_s: a recognition failure with n catalogue stars among the K (physics.md §6 item 4)."""
-    return p3 * np.exp(-(np.asarray(catalogue_stars, float) - 3.0) / scale)
-
-
-def recognition_failure(catalogue_stars, other_objects, p3: float, scale: float, p_conf: float):
-    """p = 1 − (1 − p_geom(n))·(1 − p_conf)^(others among the K)."""
-    geometry = geometry_failure(catalogue_stars, p3, scale)
-    return 1.0 - (1.0 - geometry) * (1.0 - p_conf) ** np.asarray(other_objects, float)
-
-
 @lru_cache(maxsize=1)
 def hit_footprint_moments() -> tuple[tuple[float, float], tuple[float, float]]:
     """Mean and variance of a hit's pixels through the side window and through the lens, px.
@@ -301,15 +272,19 @@ class OrbitEnvironment:
     sun_eci_m: np.ndarray
     moon_eci_m: np.ndarray
 
-    def columns(self, index) -> "OrbitEnvironment":
-        """The frames ``index`` (an array of column indices) of a block."""
-        return OrbitEnvironment(self.position_eci_m[:, index], self.orbital_axes_eci[:, :, index],
-                                self.frame_rate_rad_s[index], self.side_hits_mean[index], self.lens_hits_mean[index],
-                                self.sun_eci_m[:, index], self.moon_eci_m[:, index])
+    @property
+    def arrays(self) -> tuple:
+        """The arrays in the order the frame kernel takes them (orbital axes, frame rate, position, Sun, Moon, mean
+        hits through the side window and the lens), C-contiguous."""
+        return tuple(np.ascontiguousarray(a, float) for a in (
+            self.orbital_axes_eci, self.frame_rate_rad_s, self.position_eci_m, self.sun_eci_m, self.moon_eci_m,
+            self.side_hits_mean, self.lens_hits_mean))
 
 
-#: Frames of orbit computed ahead at a time for frames that come one by one (a node's), on the frame grid.
-ORBIT_BLOCK_FRAMES = 64
+#: Frames of orbit computed ahead at a time for frames that come one by one (a node's), on the frame grid: ten
+#: minutes at a frame a second, ≈ 1 ms once (the orbit, the flux grid, the Sun and the Moon on arrays: ≈ 1.4 µs a
+#: frame, against ≈ 8 µs a frame for blocks of 64; benchmarks/bench_tracker.py).
+ORBIT_BLOCK_FRAMES = 600
 
 
 @dataclass(frozen=True)
@@ -334,16 +309,20 @@ class StarTracker:
             the sky and of a solar event).
         seed: seed of the draws.
         sky, radiation: already loaded tables (default: the shipped ones, loaded here).
+        orbit_known_ahead: whether the orbit can be asked for times ahead of the frames (a node's frames then take
+            the orbit from a block computed ahead; False: an orbit followed from odometry, asked frame by frame).
     """
 
     def __init__(self, parameters: TrackerParameters, orbit, clock_epoch: Epoch, seed: int = 0, *,
-                 sky: Sky | None = None, radiation: RadiationGrid | None = None):
+                 sky: Sky | None = None, radiation: RadiationGrid | None = None, orbit_known_ahead: bool = True):
         self.parameters = p = parameters
+        self.orbit_known_ahead = orbit_known_ahead
         self.orbit, self.clock_epoch = orbit, clock_epoch
-        self.draws = Draws(seed)
+        self.seed = np.array([seed_hash(seed)], np.uint64)
         self.tracker_axes = _frame_about(p.boresight_body)
         self._bodies = {}  # minute of the clock → (Sun, Moon) geocentric positions, m (a few kept)
-        self._ahead = {}  # frame time → (block of OrbitEnvironment, column): the orbit computed ahead
+        self._ahead = {}  # frame time → its column in the block of the orbit computed ahead (_ahead_block)
+        self._ahead_block = None
         if not p.ideal:
             self.sky = sky if sky is not None else Sky(float(clock_epoch.julian_date_tt(0.0)))
             need_grid = p.trapped != "off" or p.solar_event is not None
@@ -353,7 +332,24 @@ class StarTracker:
                 raise ValueError(f"sky_stars = {p.sky_stars} is more than the {len(self.sky)} stars of the sky table")
             self.catalogue_limit_mag = float(hp[p.catalogue_stars - 1])
             self.hip = self.sky.hip
-            self.sky.stars_in_fields(np.eye(3)[:, :, None], p.field_width_rad / 2.0)  # its index, now: not at a frame
+            self._cells = self.sky.index(p.field_width_rad / 2.0)  # built now, not at the first frame
+            self._bias = star_biases(self.seed[0], self.hip)  # each star's centroid bias: keyed by the star alone
+            (side_px, side_var), (lens_px, lens_var) = hit_footprint_moments()
+            constants = dict(
+                exposure_s=p.exposure_s, half_width_rad=p.field_width_rad / 2.0, catalogue_stars=p.catalogue_stars,
+                sky_stars=p.sky_stars, detection_limit_at_rest_mag=self.catalogue_limit_mag + p.detection_margin_mag,
+                max_objects=p.max_objects, rank_scatter_mag=p.rank_scatter_mag,
+                geometry_failure_3=p.geometry_failure_3, geometry_failure_scale=p.geometry_failure_scale,
+                false_object_failure=p.false_object_failure, centroid_error_rad=p.centroid_error_rad,
+                bias_fraction=p.bias_fraction, max_rate_rad_s=p.max_rate_rad_s, buffer_bytes=p.buffer_bytes,
+                bytes_per_pixel=p.bytes_per_pixel, sun_exclusion_rad=p.sun_exclusion_rad,
+                moon_exclusion_rad=p.moon_exclusion_rad, earth_limb_exclusion_rad=p.earth_limb_exclusion_rad,
+                stray_light_at_edge=p.stray_light_at_edge, earth_radius_m=GRS80.a_m,
+                side_hit_pixels_mean=side_px, side_hit_pixels_variance=side_var, lens_hit_pixels_mean=lens_px,
+                lens_hit_pixels_variance=lens_var, hit_adc_low=HIT_ADC[0], hit_adc_high=HIT_ADC[1],
+                star_adc_scale=STAR_ADC * p.exposure_s / STAR_ADC_EXPOSURE_S, star_adc_hp=STAR_ADC_HP,
+                star_pixels=STAR_PX, max_ranked_hits=MAX_RANKED_HITS)
+            self._config = np.array([float(constants[name]) for name in CONFIG])
 
     # -- the stages ------------------------------------------------------------------------------
 
@@ -368,56 +364,36 @@ class StarTracker:
         sun, moon = self.sun_and_moon_eci_m(t_s)
         return OrbitEnvironment(position, orbital, frame_rate, side, lens, sun, moon)
 
-    def _environment(self, t_s: np.ndarray) -> OrbitEnvironment:
-        """:meth:`orbit_environment` at ``t_s``; frames that come one by one (a node's) take it from a block
-        computed ahead on the frame grid (the same arithmetic on the same times, so the same numbers: a frame time
-        off the block — a frame grid restarted or carried past several frames at once — computes a new block)."""
-        if t_s.size > 2:
-            return self.orbit_environment(t_s)
+    def _environment(self, t_s: np.ndarray) -> tuple[tuple, np.ndarray]:
+        """:meth:`orbit_environment` for the frames at ``t_s`` (its :attr:`~OrbitEnvironment.arrays`), and each
+        frame's column in it ``(N,)``: frames that
+        come one or two at a time (a node's) take theirs from a block computed ahead on the frame grid (the same
+        arithmetic on the same times, so the same numbers: a frame time off the block — a frame grid restarted or
+        carried past several frames at once — computes a new block)."""
+        if t_s.size > 2 or not self.orbit_known_ahead:
+            return self.orbit_environment(t_s).arrays, np.arange(t_s.size)
         found = [self._ahead.get(t) for t in t_s.tolist()]
-        if any(item is None for item in found):
+        if None in found:
             start, step = float(t_s[0]), self.parameters.frame_period_s
             times = [start]
             for _ in range(ORBIT_BLOCK_FRAMES - 1):
                 times.append(times[-1] + step)  # the grid's own steps: a frame's time is the last one's + period
-            block = self.orbit_environment(np.array(times))
-            self._ahead = {time: (block, k) for k, time in enumerate(times)}
+            self._ahead_block = self.orbit_environment(np.array(times)).arrays
+            self._ahead = {time: k for k, time in enumerate(times)}
             found = [self._ahead.get(t) for t in t_s.tolist()]
-            if any(item is None for item in found):
-                return self.orbit_environment(t_s)
-        block = found[0][0]
-        if any(item[0] is not block for item in found):
-            return self.orbit_environment(t_s)
-        return block.columns(np.array([item[1] for item in found]))
+            if None in found:
+                return self.orbit_environment(t_s).arrays, np.arange(t_s.size)
+        return self._ahead_block, np.array(found, np.int64)
 
     def pointing(self, q_true: np.ndarray, relative_rate_rad_s: np.ndarray, environment: OrbitEnvironment) -> Pointing:
         """Where the frames look (true attitude ``(4, N)``, body rate relative to the orbital frame ``(3, N)`` in
-        orbital components, rad/s) on the orbit of ``environment``."""
-        body = rotation_matrices(q_true)  # the body's axes in the orbital frame, (3, 3, N)
-        tracker_in_orbital = np.einsum("ijn,jk->ikn", body, self.tracker_axes)
-        axes = np.einsum("ijn,jkn->ikn", environment.orbital_axes_eci, tracker_in_orbital)
-        inertial = np.array(relative_rate_rad_s, float).reshape(3, -1).copy()
-        inertial[1] += environment.frame_rate_rad_s
-        in_tracker = np.einsum("jin,jn->in", tracker_in_orbital, inertial)
-        return Pointing(axes, environment.position_eci_m, np.hypot(in_tracker[0], in_tracker[1]),
-                        np.abs(in_tracker[2]))
-
-    def exclusion_and_stray_light(self, pointing: Pointing, environment: OrbitEnvironment):
-        """(excluded ``(N,)`` bool, ΔM_background ``(N,)`` mag) from the Sun, the Moon and the Earth's limb."""
-        p = self.parameters
-        boresight, position = pointing.axes_eci[:, 2, :], pointing.position_eci_m
-        # The directions to the Sun, the Moon and the Earth's centre, ``(3 bodies, 3, N)``, and their angles from
-        # the boresight; the Earth's limb is its centre's angle less the Earth's angular radius.
-        seen = np.stack([environment.sun_eci_m - position, environment.moon_eci_m - position, -position])
-        distance = np.linalg.norm(seen, axis=1)
-        angle = np.arccos(np.clip(np.einsum("bin,in->bn", seen, boresight) / distance, -1.0, 1.0))
-        angle[2] -= np.arcsin(np.minimum(GRS80.a_m / distance[2], 1.0))
-        edge = np.array([[p.sun_exclusion_rad], [p.moon_exclusion_rad], [p.earth_limb_exclusion_rad]])
-        excluded = np.any(angle < edge, axis=0)
-        # Stray light: (edge/θ)³ falling to nothing at twice the edge (scaled to 1 at the edge).
-        near = (angle >= edge) & (angle < 2.0 * edge) & (edge > 0.0)
-        stray = np.sum(np.where(near, (edge / np.maximum(angle, edge)) ** 3 - 0.125, 0.0), axis=0) / 0.875
-        return excluded, 2.5 * np.log10(1.0 + p.stray_light_at_edge * stray)
+        orbital components, rad/s) on the orbit of ``environment``: the frame kernel's first stage
+        (:func:`~pmv_ros.physics.star_tracker.kernel.pointing_batch`)."""
+        axes, cross, about = pointing_batch(np.ascontiguousarray(q_true, float), self.tracker_axes,
+                                            np.ascontiguousarray(environment.orbital_axes_eci),
+                                            np.ascontiguousarray(np.reshape(relative_rate_rad_s, (3, -1)), float),
+                                            np.ascontiguousarray(environment.frame_rate_rad_s, float))
+        return Pointing(axes, environment.position_eci_m, cross, about)
 
     def sun_and_moon_eci_m(self, t_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Geocentric Sun and Moon positions ``(3, N)`` m at the start of each frame's minute (:data:`BODY_STEP_S`)."""
@@ -463,6 +439,15 @@ class StarTracker:
             side = side + np.where(reached, scale * math.pi * intensity * open_side, 0.0)
         return side, lens
 
+    def ground_track_deg(self, t_s) -> tuple[np.ndarray, np.ndarray]:
+        """Geodetic latitude and longitude (deg, ``(N,)`` each) under the spacecraft at ``t_s`` ``(N,)`` s, on the
+        orbit and clock the frames are measured on (where reports draw the frames)."""
+        t = np.atleast_1d(np.asarray(t_s, float))
+        position, _ = self.orbit.state_eci(t)
+        latitude, longitude, _ = geodetic_from_ecef(_eci_to_ecef(np.reshape(position, (3, -1)),
+                                                                 self.clock_epoch.earth_rotation_angle(t)))
+        return np.degrees(latitude), np.degrees(longitude)
+
     # -- the frame ----------------------------------------------------------------------------
 
     def in_outage(self, t_s):
@@ -475,142 +460,36 @@ class StarTracker:
 
     def measure(self, t_s, q_orbital_to_body, relative_rate_rad_s) -> FrameMeasurement:
         """The frames at ``t_s`` ``(N,)`` s (mid-exposure), true attitude ``(4, N)`` (x, y, z, w), body rate
-        relative to the orbital frame ``(3, N)`` rad/s in orbital components: :class:`FrameMeasurement`."""
+        relative to the orbital frame ``(3, N)`` rad/s in orbital components: :class:`FrameMeasurement`.
+
+        What the frames see of the orbit comes from numpy (:meth:`_environment`: a node's frames from a block
+        computed ahead); the frames themselves from the compiled kernel
+        (:func:`~pmv_ros.physics.star_tracker.kernel.measure_frames`).
+        """
         p = self.parameters
         t = np.atleast_1d(np.asarray(t_s, float))
         n_frames = t.size
         q_true = np.asarray(q_orbital_to_body, float).reshape(4, n_frames)
-        norm = np.linalg.norm(q_true, axis=0)
-        finite = np.isfinite(q_true).all(axis=0) & (norm > 0.5)
-        q_safe = np.where(finite, q_true / np.where(finite, norm, 1.0), np.array([[0.0], [0.0], [0.0], [1.0]]))
-        zeros = np.zeros(n_frames, np.int64)
-        failed = {Outcome.INVALID_TRUTH: ~finite, Outcome.OUTAGE: self.in_outage(t)}
+        outage = self.in_outage(t)
         if p.ideal:
-            return self._result(q_safe, np.zeros((3, n_frames)), failed, zeros, zeros, zeros)
-        keys = frame_key(t)
-        rate = np.asarray(relative_rate_rad_s, float).reshape(3, n_frames)
-        rate = np.where(np.isfinite(rate), rate, 0.0)
-        environment = self._environment(t)
-        pointing = self.pointing(q_safe, rate, environment)
-        trail = trail_rate(pointing.cross_rate_rad_s, pointing.about_rate_rad_s)
-        failed[Outcome.RATE_TOO_HIGH] = trail > p.max_rate_rad_s
-        excluded, background_mag = self.exclusion_and_stray_light(pointing, environment)
-        failed[Outcome.EXCLUSION] = excluded
-        smear_mag = smear_loss_mag(trail, p.exposure_s)
-        detection_limit = self.catalogue_limit_mag + p.detection_margin_mag - smear_mag - background_mag
-
-        stars = self.sky.stars_in_fields(pointing.axes_eci, p.field_width_rad / 2.0, p.sky_stars)
-        registered = stars.hp_mag <= detection_limit[stars.field]
-        frame, star = stars.field[registered], stars.star[registered]
-        u, v = stars.u_rad[registered], stars.v_rad[registered]
-        catalogue = star < p.catalogue_stars
-        hip = self.hip[star]
-
-        # Proton hits: their count, their pixels in the buffer, and the brightest of them as objects.
-        side_mean, lens_mean = environment.side_hits_mean, environment.lens_hits_mean
-        dice, side_u, lens_u, footprint_u = self.draws.uniform(_FRAME_STREAMS[None, :], keys[:, None]).T
-        side_hits, lens_hits = poisson_quantile(side_mean, side_u), poisson_quantile(lens_mean, lens_u)
-        hits = side_hits + lens_hits
-        (side_px, side_var), (lens_px, lens_var) = hit_footprint_moments()
-        hit_pixels = side_hits * side_px + lens_hits * lens_px + np.sqrt(side_hits * side_var + lens_hits * lens_var) \
-            * ndtri(footprint_u)
-        pixels = STAR_PX * np.bincount(frame, minlength=n_frames) + np.maximum(hit_pixels, 0.0)
-        failed[Outcome.BUFFER_OVERFLOW] = pixels * p.bytes_per_pixel > p.buffer_bytes
-
-        # The K brightest objects: stars by Hp with the ranking scatter, hits by their ADC counts on the stars' scale.
-        rank_z, noise_u, noise_v = self.draws.normal(_STAR_STREAMS[None, :], keys[frame][:, None], hip[:, None]).T
-        rank_mag = stars.hp_mag[registered] + p.rank_scatter_mag * rank_z
-        hit_frame, hit_mag = self._brightest_hits(keys, hits, p.exposure_s)
-        objects_frame = np.concatenate([frame, hit_frame])
-        objects_mag = np.concatenate([rank_mag, hit_mag])
-        objects_catalogue = np.concatenate([catalogue, np.zeros(hit_frame.size, bool)])
-        order = np.lexsort((objects_mag, objects_frame))
-        first = np.searchsorted(objects_frame[order], np.arange(n_frames))
-        rank = np.empty(order.size, np.int64)
-        rank[order] = np.arange(order.size) - np.repeat(first, np.bincount(objects_frame, minlength=n_frames))
-        sent = rank < p.max_objects
-        used_star = sent[:frame.size] & catalogue
-        used = np.bincount(frame[used_star], minlength=n_frames)
-        others = np.bincount(objects_frame[sent & ~objects_catalogue], minlength=n_frames)
-        failed[Outcome.NO_STARS] = used < 3
-        p_fail = recognition_failure(used, others, p.geometry_failure_3, p.geometry_failure_scale,
-                                     p.false_object_failure)
-        failed[Outcome.RECOGNITION_FAILURE] = dice < p_fail
-
-        error = self._attitude_error(frame[used_star], hip[used_star], u[used_star], v[used_star],
-                                     noise_u[used_star], noise_v[used_star], 10.0 ** (0.4 * smear_mag), used)
-        return self._result(q_safe, error, failed, np.bincount(frame[catalogue], minlength=n_frames), hits, used)
-
-    def _brightest_hits(self, keys: np.ndarray, hits: np.ndarray, exposure_s: float):
-        """(frame index, magnitude on the stars' scale) of the brightest hits of each frame, at most
-        :data:`MAX_RANKED_HITS` (the order statistics of a log-uniform brightness: no draw per hit)."""
-        ranked = np.minimum(hits, MAX_RANKED_HITS)
-        if not ranked.any():
-            return np.empty(0, np.int64), np.empty(0)
-        frames = np.flatnonzero(ranked)
-        j = np.arange(MAX_RANKED_HITS)
-        count = hits[frames][:, None].astype(float)
-        # The largest of n uniforms is V^(1/n); each next one is the last times V^(1/(n − j)).
-        draws = self.draws.uniform(_HIT_RANK, keys[frames][:, None], j[None, :])
-        remaining = np.maximum(count - j[None, :], 1.0)
-        fraction = np.exp(np.cumsum(np.log(draws) / remaining, axis=1))
-        take = j[None, :] < ranked[frames][:, None]
-        low, high = math.log(HIT_ADC[0]), math.log(HIT_ADC[1])
-        adc = np.exp(low + fraction * (high - low))
-        star_scale = STAR_ADC * exposure_s / STAR_ADC_EXPOSURE_S
-        magnitude = STAR_ADC_HP - 2.5 * np.log10(adc / star_scale)
-        return np.repeat(frames, ranked[frames]), magnitude[take]
-
-    def _attitude_error(self, frame, hip, u, v, noise_u, noise_v, smear_factor, used) -> np.ndarray:
-        """The fitted small rotation (tracker frame, rad, ``(3, N)``) from the centroid errors of the stars used.
-
-        Per star and focal-plane axis, σ·smear·(√(1 − f)·z_frame + √f·z_star): z_star keyed by the star alone
-        (its bias, the same while it stays in the field), z_frame (``noise_u``, ``noise_v``) by the frame and the
-        star. A star at (u, v)
-        moves by (−θy + θz·v, θx − θz·u) under a rotation θ; the least-squares θ of the n stars gives σ/√n
-        across and σ/(r_rms·√n) about the boresight.
-        """
-        p = self.parameters
-        n_frames = used.size
-        error = np.zeros((3, n_frames))
-        if not frame.size or p.centroid_error_rad == 0.0:
-            return error
-        sigma = p.centroid_error_rad * smear_factor[frame]
-        fresh, kept = math.sqrt(1.0 - p.bias_fraction), math.sqrt(p.bias_fraction)
-        bias_u, bias_v = self.draws.normal(_BIAS_STREAMS[None, :], 0, hip[:, None]).T
-        e_u = sigma * (fresh * noise_u + kept * bias_u)
-        e_v = sigma * (fresh * noise_v + kept * bias_v)
-
-        def total(values):
-            return np.bincount(frame, values, minlength=n_frames)
-
-        count = used.astype(float)
-        su, sv, suu = total(u), total(v), total(u * u + v * v)
-        normal = np.zeros((n_frames, 3, 3))
-        normal[:, 0, 0] = normal[:, 1, 1] = count
-        normal[:, 0, 2] = normal[:, 2, 0] = -su
-        normal[:, 1, 2] = normal[:, 2, 1] = -sv
-        normal[:, 2, 2] = suu
-        rhs = np.stack([total(e_v), -total(e_u), total(v * e_u - u * e_v)], axis=1)
-        solvable = used >= 3
-        normal[~solvable] = np.eye(3)
-        rhs[~solvable] = 0.0
-        return np.linalg.solve(normal, rhs[:, :, None])[:, :, 0].T
-
-    def _result(self, q_safe, error_tracker, failed: dict, stars, hits, used) -> FrameMeasurement:
-        """The measured quaternions and the outcome of each frame (the first reason of :data:`REASON_ORDER`)."""
-        outcome = np.zeros(q_safe.shape[1], np.int8)
-        for reason in reversed(REASON_ORDER):
-            mask = failed.get(reason)
-            if mask is not None:
-                outcome[mask] = reason.value
-        axes = self.tracker_axes
-        error_body = axes @ error_tracker
-        measured = quaternion_product(q_safe, quaternion_from_rotation_vector(error_body))
-        measured *= np.where((measured * q_safe).sum(axis=0) < 0.0, -1.0, 1.0)  # keep the true quaternion's sign
-        measured[:, outcome != Outcome.OK.value] = np.nan
-        return FrameMeasurement(measured, outcome, np.asarray(stars, np.int64), np.asarray(hits, np.int64),
-                             np.asarray(used, np.int64))
+            norm = np.sqrt((q_true * q_true).sum(axis=0))
+            finite = np.isfinite(norm) & (norm > 0.5)
+            q = np.where(finite, q_true / np.where(finite, norm, 1.0), np.nan)
+            outcome = np.where(finite, np.where(outage, Outcome.OUTAGE.value, Outcome.OK.value),
+                               Outcome.INVALID_TRUTH.value).astype(np.int8)
+            q[:, outcome != Outcome.OK.value] = np.nan
+            return FrameMeasurement(q, outcome, *(np.zeros(n_frames, np.int64) for _ in range(3)))
+        environment, column = self._environment(t)
+        cell_start, cell_stars = self._cells
+        q_measured, outcome, counts = np.empty((4, n_frames)), np.empty(n_frames, np.int8), \
+            np.empty((3, n_frames), np.int64)
+        stars, hits, used = counts
+        measure_frames(t, np.ascontiguousarray(q_true), outage,
+                       np.ascontiguousarray(np.reshape(relative_rate_rad_s, (3, n_frames)), float), column,
+                       *environment, self.tracker_axes, self._config, self.seed, self.sky.direction_eci,
+                       self.sky.hp_mag, self.hip, self._bias[0], self._bias[1], cell_start, cell_stars,
+                       CELLS_PER_EDGE, q_measured, outcome, stars, hits, used)
+        return FrameMeasurement(q_measured, outcome, stars, hits, used)
 
 
 def rotation_matrices(q_xyzw: np.ndarray) -> np.ndarray:

@@ -20,6 +20,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from ..constants import ARCSEC_RAD
+from .kernel import field_stars_batch
 from .tables import data_path, read_table
 
 SKY_FILE = "star_sky.bin"
@@ -71,20 +72,6 @@ CELLS_PER_EDGE = 32
 MAX_HALF_WIDTH_RAD = math.radians(20.0)
 
 
-def _cube_cell(directions: np.ndarray) -> np.ndarray:
-    """The sky-index cell of unit vectors ``(3, N)``: the cube face they pierce and the square of the face, ``(N,)``."""
-    face_axis = np.argmax(np.abs(directions), axis=0)
-    n = directions.shape[1]
-    major = directions[face_axis, np.arange(n)]
-    others = np.array([[1, 2], [2, 0], [0, 1]])[face_axis]  # the face's two other axes, (N, 2)
-    a = directions[others[:, 0], np.arange(n)] / np.abs(major)
-    b = directions[others[:, 1], np.arange(n)] / np.abs(major)
-    i = np.minimum(((a + 1.0) * 0.5 * CELLS_PER_EDGE).astype(np.int64), CELLS_PER_EDGE - 1)
-    j = np.minimum(((b + 1.0) * 0.5 * CELLS_PER_EDGE).astype(np.int64), CELLS_PER_EDGE - 1)
-    face = 2 * face_axis + (major < 0.0)
-    return (face * CELLS_PER_EDGE + i) * CELLS_PER_EDGE + j
-
-
 def _cell_centres() -> np.ndarray:
     """Unit vectors of the centres of every sky-index cell, ``(3, 6·CELLS_PER_EDGE²)``, in cell order."""
     centre = (np.arange(CELLS_PER_EDGE) + 0.5) / CELLS_PER_EDGE * 2.0 - 1.0
@@ -133,10 +120,10 @@ class Sky:
         moved = position + years * (pm_ra * east + pm_dec * north)
         moved /= np.linalg.norm(moved, axis=0)
         #: Unit vectors of the stars, ECI of date, ``(3, S)``.
-        self.direction_eci = precession_matrix(julian_date_tt) @ moved
+        self.direction_eci = np.ascontiguousarray(precession_matrix(julian_date_tt) @ moved)
         self._indexes = {}  # field half-width → (each cell's start, the cells' stars)
 
-    def _index(self, half_width_rad: float) -> tuple[np.ndarray, np.ndarray]:
+    def index(self, half_width_rad: float) -> tuple[np.ndarray, np.ndarray]:
         """For each sky cell, the stars (in brightness order) a field of this half-width centred anywhere in the
         cell can hold, as one flat array and each cell's start (built once per field size)."""
         index = self._indexes.get(half_width_rad)
@@ -145,7 +132,7 @@ class Sky:
             found = cKDTree(self.direction_eci.T).query_ball_point(_cell_centres().T, 2.0 * math.sin(reach / 2.0),
                                                                    return_sorted=True)
             counts = np.fromiter(map(len, found), np.int64, len(found))
-            stars = np.concatenate([np.asarray(hits, np.int32) for hits in found])
+            stars = np.concatenate([np.asarray(hits, np.int64) for hits in found])
             index = self._indexes[half_width_rad] = (np.concatenate([[0], np.cumsum(counts)]), stars)
         return index
 
@@ -164,21 +151,8 @@ class Sky:
         if half_width_rad > MAX_HALF_WIDTH_RAD:
             raise ValueError(f"field half-width {math.degrees(half_width_rad):.2f}° is more than the sky index's "
                              f"{math.degrees(MAX_HALF_WIDTH_RAD):g}°")
-        boresight = axes_eci[:, 2, :]
-        # Candidates: the stars the boresight's cell lists (all within reach of any field centred in it).
-        cell_start, cell_stars = self._index(half_width_rad)
-        cell = _cube_cell(boresight)
-        first, counts = cell_start[cell], cell_start[cell + 1] - cell_start[cell]
-        field = np.repeat(np.arange(cell.size), counts)
-        offsets = np.arange(field.size) - np.repeat(np.cumsum(counts) - counts, counts)
-        star = cell_stars[np.repeat(first, counts) + offsets].astype(np.int64)
-        if stars is not None and stars < len(self):
-            keep = star < stars
-            star, field = star[keep], field[keep]
-        direction = self.direction_eci[:, star]
-        along = np.einsum("ij,ij->j", direction, boresight[:, field])
-        u = np.einsum("ij,ij->j", direction, axes_eci[:, 0, field]) / along
-        v = np.einsum("ij,ij->j", direction, axes_eci[:, 1, field]) / along
-        limit = math.tan(half_width_rad)
-        pick = np.flatnonzero((along > 0.0) & (np.abs(u) <= limit) & (np.abs(v) <= limit))  # still by field
-        return FieldStars(field[pick], star[pick], np.arctan(u[pick]), np.arctan(v[pick]), self.hp_mag[star[pick]])
+        cell_start, cell_stars = self.index(half_width_rad)
+        field, star, u_rad, v_rad = field_stars_batch(np.ascontiguousarray(axes_eci, float), half_width_rad,
+                                                      len(self) if stars is None else min(stars, len(self)),
+                                                      cell_start, cell_stars, CELLS_PER_EDGE, self.direction_eci)
+        return FieldStars(field, star, u_rad, v_rad, self.hp_mag[star])

@@ -194,8 +194,8 @@ MAX_OUTAGES = 64
 
 #: The sensor's orbit and epoch parameters the tracker takes too (one spec each; a preset shares them in ``/**``).
 SHARED_WITH_SENSOR = ("orbit.inclination_deg", "orbit.raan_deg", "orbit.u0_deg", "orbit.j2_node_drift",
-                      "orbit.ltan_h", "orbit.source", "orbit.tle_line1", "orbit.tle_line2", "sim.epoch_utc",
-                      "sim.fast_time", "sim.start_time_s")
+                      "orbit.ltan_h", "orbit.source", "orbit.tle_line1", "orbit.tle_line2", "orbit.extrapolation_s",
+                      "orbit.follow_timeout_s", "sim.epoch_utc", "sim.fast_time", "sim.start_time_s")
 
 #: Named solar proton events (:data:`pmv_ros.physics.star_tracker.SOLAR_EVENTS`), "custom" or none.
 SOLAR_EVENT_CHOICES = ("",) + tuple(SOLAR_EVENTS) + ("custom",)
@@ -203,7 +203,7 @@ SOLAR_EVENT_CHOICES = ("",) + tuple(SOLAR_EVENTS) + ("custom",)
 _UTC = "an ISO 8601 date-time such as 2000-11-09T15:55:00Z, 1900 … 2100"
 
 #: Parameters of star_tracker_node.
-STAR_TRACKER_PARAMS = INPUT_PARAMS + FRAME_PARAMS + (
+STAR_TRACKER_PARAMS = INPUT_PARAMS + ORBIT_BOUND_PARAMS + FRAME_PARAMS + (
     replace(ORBIT_ALTITUDE, description="orbit altitude (the orbit the tracker flies; see orbit.source)"),
 ) + tuple(spec for spec in SENSOR_PARAMS if spec.name in SHARED_WITH_SENSOR) + (
     # Timing (physics.md §6 item 2).

@@ -78,7 +78,7 @@ from typing import Callable
 
 import numpy as np
 
-from ...analysis.statistics import CHANNELS, DEFAULT_MAX_CONDITION, ChannelStatistics, OrbitRing, update_rows
+from ...analysis.statistics import CHANNELS, ChannelStatistics, OrbitRing, update_rows
 from .alignment import Alignment, Segment, Settled
 from .records import (
     BATCH_STATUSES,
@@ -549,9 +549,7 @@ class ErrorMonitor(EventScan):
         (:meth:`~pmv_ros.analysis.statistics.OrbitRing.amplitudes_later`). The same summary, bit for bit."""
         self._account_statistics()
         removed = self.config.remove_oblateness if oblateness_removed is None else bool(oblateness_removed)
-        amplitudes = self._ring.amplitudes_later(self.config.harmonics,
-                                                 max_gap_fraction=self.config.max_harmonic_gap_fraction,
-                                                 max_condition=DEFAULT_MAX_CONDITION)
+        fits = self._ring.fits_later(self.config.harmonics, max_noise_gain=self.config.max_harmonic_noise_gain)
         first_column = 0 if removed else len(CHANNELS)
         sets = self._sets[removed]
         channels = [ChannelStatistics(name, angle.count, angle.mean, angle.sigma, angle.max_abs, {}, ground.mean,
@@ -560,10 +558,14 @@ class ErrorMonitor(EventScan):
         counters, full_orbit, harmonics = self.counters, self._ring.full_orbit, tuple(self.config.harmonics)
 
         def summary() -> MonitorSummary:
-            fitted = amplitudes()[:, first_column:first_column + len(CHANNELS)]
+            fitted = fits()[first_column:first_column + len(CHANNELS)]
             return MonitorSummary(removed, tuple(
-                replace(channel, harmonics_rad={int(k): float(a) for k, a in zip(harmonics, column)})
-                for channel, column in zip(channels, fitted.T)), counters, full_orbit)
+                replace(channel, harmonics_rad={k: math.nan if fit is None else float(a) for k, a in
+                                                zip(harmonics, np.full(len(harmonics), np.nan) if fit is None
+                                                    else fit.amplitude)},
+                        harmonics_pending=("no full orbit of samples yet" if not full_orbit else
+                                           "no sample in the last orbit") if fit is None else fit.pending_note)
+                for channel, fit in zip(channels, fitted)), counters, full_orbit)
 
         return summary
 

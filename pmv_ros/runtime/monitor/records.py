@@ -24,7 +24,7 @@ from ..common.validation import (
 from ...analysis.statistics import (
     CHANNELS,
     ChannelStatistics,
-    DEFAULT_MAX_GAP_FRACTION,
+    MAX_NOISE_GAIN,
     ORBIT_HARMONICS,
     RunningStatistics,
 )
@@ -108,7 +108,8 @@ class MonitorConfig:
         bounds: plausibility bounds of sensor angles and orbit states.
         harmonic_bins: bins of the one-orbit ring.
         harmonics: harmonics of the orbital frequency to report (physics.md §5.1).
-        max_harmonic_gap_fraction: largest hole in the last orbit for which harmonics are reported.
+        max_harmonic_noise_gain: the largest noise gain the last orbit's gaps may give a harmonic that is reported
+            (:func:`~pmv_ros.analysis.statistics.fit_harmonics`; above it the harmonic is pending).
         roll_offset_rad, pitch_offset_rad: known constant offsets (mounting) removed before the statistics.
     """
 
@@ -127,7 +128,7 @@ class MonitorConfig:
     bounds: InputBounds = InputBounds()
     harmonic_bins: int = 1024
     harmonics: tuple = ORBIT_HARMONICS
-    max_harmonic_gap_fraction: float = DEFAULT_MAX_GAP_FRACTION
+    max_harmonic_noise_gain: float = MAX_NOISE_GAIN
     roll_offset_rad: float = 0.0
     pitch_offset_rad: float = 0.0
 
@@ -145,7 +146,7 @@ class MonitorConfig:
         if not (math.isfinite(self.min_interval_s) and 0.0 <= self.min_interval_s < self.clock_jump_s):
             raise ValueError(f"min_interval_s = {self.min_interval_s} is outside the allowed range "
                              f"[0, clock_jump_s = {self.clock_jump_s})")
-        _positive("max_harmonic_gap_fraction", self.max_harmonic_gap_fraction, 0.0, 1.0)
+        _positive("max_harmonic_noise_gain", self.max_harmonic_noise_gain, 1.0 - 1e-12, 1e6)
         for name in ("truth_capacity", "max_pending"):
             value = getattr(self, name)
             if int(value) != value or not 2 <= value <= 10_000_000:

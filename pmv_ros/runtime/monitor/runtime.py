@@ -44,13 +44,16 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Callable
 
+import numpy as np
+
 from ...analysis.statistics import CHANNELS
 from ...physics.constants import ARCMIN_RAD
 from ..common.assembly import orbit_bounds
 from ..common.frames import Frames
 from .core import ErrorMonitor
-from .records import (ODOMETRY_EVENT, SENSOR_EVENT, TRUTH_EVENT, BatchOutcome, Feed, MonitorConfig, MonitorSummary,
-                      Outcome, Status)
+from .lost_truth import WANT_OF_TRUTH, LostTruth
+from .records import (BATCH_STATUSES, ODOMETRY_EVENT, SENSOR_EVENT, TRUTH_EVENT, BatchOutcome, Feed, MonitorConfig,
+                      MonitorSummary, Outcome, Status)
 from ..common.records import HealthSummary, Level, LogLine
 from ..common.validation import FrameCheck, Rejection
 
@@ -61,6 +64,9 @@ STATISTICS_VECTORS = {"mean": "mean_rad", "sigma": "sigma_rad", "limit": "three_
 #: Relative difference between the orbital period of /orbit/odometry and the configured one
 #: above which /diagnostics warns: the harmonics are fitted on the configured period.
 PERIOD_MISMATCH = 0.01
+
+#: The batch status codes of a sample that had no truth around it.
+_WANT_OF_TRUTH_CODES = np.array([BATCH_STATUSES.index(status) for status in WANT_OF_TRUTH])
 
 #: Counters the health status shows when not zero, besides the skipped and rejected ones.
 _SHOWN_COUNTERS = ("truth_quaternions_normalised", "clock_jumps", "clock_outliers", "alignment_resets")
@@ -175,11 +181,13 @@ class MonitorRuntime:
                  source_counters: Callable[[], dict] = dict) -> None:
         self.frames = Frames.from_values(values)
         self.monitor = build_monitor(values)
+        self.lost_truth = LostTruth(values["max_truth_gap_s"])  # samples without truth, by the tracker's reason
         self.values = values
         self._source_problems, self._source_counters = source_problems, source_counters
         # What is refused before the monitor sees it (fixed keys: memory stays bounded).
         self.rejected_messages = {f"rejected_{stream}_{reason}": 0 for stream in ("sensor", "truth", "odometry")
                                   for reason in ("unreadable", Rejection.WRONG_FRAME.value)}
+        self.rejected_messages["rejected_frame_status_unreadable"] = 0
         # Each input's frame checks, with their words (odometry: the pose's frame and the twist's child frame).
         frames = self.frames
         self._frame_checks = {"sensor": (FrameCheck("sensor angles", frames.sensor),),
@@ -193,6 +201,7 @@ class MonitorRuntime:
     def reconfigure(self, values: dict) -> None:
         """New parameter values: new statistics (mixing two configurations would mean nothing)."""
         self.monitor = build_monitor(values)
+        self.lost_truth = LostTruth(values["max_truth_gap_s"])
         self._next_statistics_s = None
         self.values = values
 
@@ -246,6 +255,10 @@ class MonitorRuntime:
                 # nav_msgs: the pose in ``frame_id`` (ECI), the twist in ``child_frame_id`` (orbital).
                 if self._in_frame("odometry", output, frame_id, child_frame_id) and self._readable("odometry", state):
                     batch.add(ODOMETRY_EVENT, batch.odometry, (*state, now_s))
+            elif to == "add_frame_status":  # the tracker's frame: why it has no attitude, if it has none
+                stamp_s, reason = arguments
+                if self._readable("frame_status", stamp_s):
+                    self.lost_truth.add_status(stamp_s, reason)
             else:
                 raise ValueError(f"error monitor: no input {to!r}")
         self._give(batch, output)
@@ -258,7 +271,7 @@ class MonitorRuntime:
             return
         outcomes, refused = self.monitor.add_inputs(batch.feed(self.values),
                                                     None if due_s is None else len(batch.sensor[0]) - 1)
-        output.published += [outcome for outcome in outcomes if outcome.status is Status.OK]
+        output.published += self._used(outcomes)
         if due_s is not None and not refused:
             output.published.append(self._statistics_when_due(due_s))
 
@@ -266,6 +279,11 @@ class MonitorRuntime:
         """One /orbit/odometry message: ``state`` (stamp s, position m, velocity m/s in ECI), None if unreadable.
         Validated (a bound Earth orbit, sane stamps) and kept in the monitor; a confirmed clock jump resets there."""
         return self.add_inputs([("add_odometry", (frame_id, child_frame_id, state), now_s)])
+
+    def add_frame_status(self, stamp_s: float | None, reason: str | None, now_s: float | None) -> MonitorOutput:
+        """One /star_tracker/frame_status: a tracker frame's time and reason ("ok" or why it has no attitude; None:
+        unreadable), for the samples without truth (:attr:`truth_lost`)."""
+        return self.add_inputs([("add_frame_status", (stamp_s, reason), now_s)])
 
     def add_truth(self, frame_id: str, stamp_s: float | None, q_xyzw, now_s: float | None) -> MonitorOutput:
         """One star-tracker attitude (orbital → body, x, y, z, w) at ``stamp_s`` (None: unreadable)."""
@@ -277,13 +295,29 @@ class MonitorRuntime:
         return self.add_inputs([("add_sensor", (frame_id, stamp_s, roll_rad, pitch_rad), now_s)])
 
     def add_stream(self, t_s, roll_rad, pitch_rad, truth_t_s, q_truth, truth_arrival, position_eci_m,
-                   velocity_eci_m_s) -> BatchOutcome:
+                   velocity_eci_m_s, now_s=None) -> BatchOutcome:
         """A whole clean stream at once (a campaign's flight): what the three inputs would do message by message
         — truth j arriving just before sensor sample ``truth_arrival[j]``, then the odometry at the sample's
-        stamp, then the sample, the node clock at the sample's stamp. Arrays as
+        stamp, then the sample, the node clock ``now_s`` ``(N,)`` at each (default: the sample's stamp). Arrays as
         :meth:`~pmv_ros.runtime.monitor.core.ErrorMonitor.add_batch` takes them; the statistics schedule is not run."""
-        return self.monitor.add_batch(t_s, roll_rad, pitch_rad, truth_t_s, q_truth, truth_arrival, now_s=t_s,
-                                      odometry=(position_eci_m, velocity_eci_m_s), **self._sample_orbit())
+        batch = self.monitor.add_batch(t_s, roll_rad, pitch_rad, truth_t_s, q_truth, truth_arrival,
+                                       now_s=t_s if now_s is None else now_s,
+                                       odometry=(position_eci_m, velocity_eci_m_s), **self._sample_orbit())
+        self._used(batch.earlier)
+        self.lost_truth.count(np.asarray(t_s, float)[np.isin(batch.status, _WANT_OF_TRUTH_CODES)])
+        return batch
+
+    def _used(self, outcomes: list) -> list:
+        """The used samples of ``outcomes``; those without truth counted by the tracker's reason on the way."""
+        lost = [outcome.stamp_s for outcome in outcomes if outcome.status in WANT_OF_TRUTH]
+        if lost:
+            self.lost_truth.count(lost)
+        return [outcome for outcome in outcomes if outcome.status is Status.OK]
+
+    @property
+    def truth_lost(self) -> dict:
+        """Samples skipped for want of truth, by the star tracker's reason (``truth_lost_<reason>``; a copy)."""
+        return dict(self.lost_truth.counts)
 
     def _sample_orbit(self) -> dict:
         """How a sensor sample gets its oblateness model: from the odometry no older than odometry_timeout_s, or
@@ -292,7 +326,7 @@ class MonitorRuntime:
 
     def poll(self, now_s: float | None) -> MonitorOutput:
         """The node clock's tick: samples that waited too long for truth are settled."""
-        return MonitorOutput([outcome for outcome in self.monitor.poll(now_s) if outcome.status is Status.OK])
+        return MonitorOutput(self._used(self.monitor.poll(now_s)))
 
     # -- outputs -----------------------------------------------------------------------------------
 
@@ -352,7 +386,8 @@ class MonitorRuntime:
             problems.append("rejected input messages")
         self._rejected_reported = rejected_total
         level = Level.ERROR if source_error else Level.WARN if problems else Level.OK
-        values = {"used": counters["used"], **skipped, **rejected, **self._source_counters(),
+        lost = {k: v for k, v in self.lost_truth.counts.items() if v}
+        values = {"used": counters["used"], **skipped, **lost, **rejected, **self._source_counters(),
                   **{k: counters[k] for k in _SHOWN_COUNTERS if counters[k]},
                   "pending": self.monitor.pending_count, "truth_buffer": self.monitor.truth_buffer_length}
         return HealthSummary(level, "; ".join(problems) if problems else "aligned with truth", values)

@@ -3,7 +3,9 @@
 
 The orbit and the run's epoch are the sensor's own parameters (the same
 specs, shared in a preset's ``/**`` section), so the tracker flies the orbit
-the sensor flies.
+the sensor flies: its circular orbit, its element set's SGP4, or — with
+``orbit.source: follow`` — the user's ``orbit/odometry``, which the runtime
+takes as the sensor does.
 """
 
 from __future__ import annotations
@@ -25,9 +27,9 @@ def clock_epoch_s(values: dict, start_s: float) -> float:
 
 
 def tracker_orbit(values: dict, epoch_s: float, epoch: Epoch):
-    """The orbit the tracker flies: the sensor's circular or element-set orbit (orbit.source follow: the
-    circular orbit of the ``orbit.*`` elements, the tracker reads no odometry); ValueError in one line."""
-    if values["orbit.source"] == "tle":
+    """The orbit the tracker flies, the sensor's: circular from the ``orbit.*`` elements, the element set's SGP4
+    (orbit.source tle), or the user's orbit/odometry (follow: an orbit the runtime fills); ValueError in one line."""
+    if values["orbit.source"] != "circular":
         return build_source_orbit(values, epoch_s, epoch=epoch)
     return CircularOrbit(altitude_m=values["orbit.altitude_km"] * 1e3,
                          inclination_rad=math.radians(values["orbit.inclination_deg"]),
@@ -154,10 +156,11 @@ def build_tracker(values: dict, start_s: float,
     orbit = tracker_orbit(values, zero_s, epoch)
     clock_epoch = Epoch(epoch.julian_date_utc - zero_s / SECONDS_PER_DAY)
     parameters = tracker_parameters(values, start_s, orbit.mean_motion_rad_s)
+    ahead = values["orbit.source"] != "follow"
     if parameters.ideal:
-        return StarTracker(parameters, orbit, clock_epoch, values["seed"]), tables
+        return StarTracker(parameters, orbit, clock_epoch, values["seed"], orbit_known_ahead=ahead), tables
     if tables is None:
         tables = TrackerTables(float(epoch.julian_date_tt(0.0)))
     needs_grid = parameters.trapped != "off" or parameters.solar_event is not None
     return StarTracker(parameters, orbit, clock_epoch, values["seed"], sky=tables.sky,
-                       radiation=tables.radiation if needs_grid else None), tables
+                       radiation=tables.radiation if needs_grid else None, orbit_known_ahead=ahead), tables

@@ -48,14 +48,34 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-from ...physics.star_tracker import FrameGrid, LatencyQueue, Outcome, read_only
+from ...physics.star_tracker import FrameGrid, FrameMeasurement, LatencyQueue, Outcome, read_only
 from .build import build_tracker
+from ..common.assembly import orbit_bounds
 from ..common.frames import Frames
-from ..common.records import HealthAt, HealthSummary, Level
-from ..common.validation import TRUTH_REJECTIONS, Rejection, StampCheck, check_frame, check_quaternion_sample
+from ..common.records import HealthAt, HealthSummary, Level, LogLine
+from ..common.validation import (STAMP_REJECTIONS, TRUTH_REJECTIONS, FrameCheck, Rejection, StampCheck,
+                                 check_frame, check_orbit_state, check_quaternion_sample)
 
 #: Why a truth message is dropped: the checks of the stream, and a frame other than the orbital one.
 REJECTIONS = TRUTH_REJECTIONS + (Rejection.WRONG_FRAME,)
+#: Why an orbit/odometry message (orbit.source follow) is dropped.
+ODOMETRY_REJECTIONS = STAMP_REJECTIONS + (Rejection.IMPLAUSIBLE_ORBIT, Rejection.WRONG_FRAME)
+#: The outcomes by code, and their reasons.
+_OUTCOMES = tuple(Outcome)
+_REASONS = tuple(outcome.reason for outcome in Outcome)
+#: The /diagnostics keys of the frame outcomes (in Outcome order) and of the refusals.
+_FRAME_KEYS = tuple(f"frames_{outcome.reason}" for outcome in Outcome)
+_REJECTED_KEYS = tuple(f"rejected_truth_{reason.value}" for reason in REJECTIONS)
+
+
+class FrameStatus(NamedTuple):
+    """A frame as measured (``/star_tracker/frame_status``): its time (s), its outcome's reason (``"ok"``,
+    ``"no_stars"``, …), the catalogue stars in the field and the proton hits."""
+
+    frame_s: float
+    reason: str
+    stars: int
+    hits: int
 
 
 class ReleasedFrame(NamedTuple):
@@ -67,10 +87,13 @@ class ReleasedFrame(NamedTuple):
 
 @dataclass
 class TrackerOutput:
-    """What truth messages make the star tracker publish, in order: :class:`ReleasedFrame` items and
-    :class:`~pmv_ros.runtime.common.records.HealthAt` statuses (stamped with the truth sample's time)."""
+    """What truth messages make the star tracker publish, in order: :class:`FrameStatus` items (every frame, when it
+    is measured), :class:`ReleasedFrame` items (the frames with an attitude, when their delay has passed) and
+    :class:`~pmv_ros.runtime.common.records.HealthAt` statuses (stamped with the truth sample's time); and ``log``
+    lines for the node's log."""
 
     published: list = field(default_factory=list)
+    log: list = field(default_factory=list)  #: :class:`~pmv_ros.runtime.common.records.LogLine` items
 
     @property
     def released(self) -> list[ReleasedFrame]:
@@ -126,6 +149,8 @@ class TrackerRuntime:
                  source_counters: Callable[[], dict] = dict) -> None:
         self.start_s = float(start_s)
         self.frames = Frames.from_values(values)
+        # /attitude/truth in another frame than the orbital one (an inertial quaternion, say): refused, said once.
+        self.frame_check = FrameCheck("true attitude", self.frames.orbital)
         self._source_problems, self._source_counters = source_problems, source_counters
         self.stamps = StampCheck(1.0, 1.0)
         self.grid = FrameGrid(values["frame_period_s"], values["max_truth_gap_s"])
@@ -137,6 +162,10 @@ class TrackerRuntime:
         self.input_counts = {f"rejected_truth_{reason.value}": 0 for reason in REJECTIONS}
         self.input_counts.update(truth_quaternions_normalised=0, clock_jumps=0, clock_outliers=0,
                                  frames_dropped_at_clock_jump=0)
+        if values["orbit.source"] == "follow":  # the user's orbit/odometry: the orbit the frames are measured on
+            self.input_counts.update({f"rejected_odometry_{reason.value}": 0 for reason in ODOMETRY_REJECTIONS})
+        self.odometry_stamps = StampCheck(1.0, 1.0)
+        self.tracker = None
         self._rejected_reported = 0
         self._last_health_s = -math.inf
         # Stale input: measured by arrival on the node clock, so a source whose stamps are on another
@@ -152,8 +181,14 @@ class TrackerRuntime:
         """
         stamps = self.stamps.reconfigured(values["clock_jump_s"], values["future_tolerance_s"],
                                           1.0 / values["input.max_rate_hz"])
+        odometry_stamps = self.odometry_stamps.reconfigured(values["clock_jump_s"], values["future_tolerance_s"],
+                                                            1.0 / values["input.max_rate_hz"])
+        previous, heard = self.tracker, self.orbit_buffer
         self.tracker, self.tables = build_tracker(values, self.start_s, self.tables)
-        self.stamps, self.values = stamps, values
+        if previous is not None and heard is not None:  # orbit.source follow: the odometry heard so far stays
+            self.orbit_buffer.take_states(heard)
+        self._orbit_bounds = orbit_bounds(values)
+        self.stamps, self.odometry_stamps, self.values = stamps, odometry_stamps, values
         self.grid.period_s, self.grid.max_gap_s = values["frame_period_s"], values["max_truth_gap_s"]
         self.queue.latency_s = self.delay_s
 
@@ -177,16 +212,69 @@ class TrackerRuntime:
         grid = self.grid.add_many(t_s, q_xyzw)
         if not grid.frame_s.size:
             return _NO_MEASURED_FRAMES
-        frames = self.tracker.measure(grid.frame_s, grid.attitude, grid.turn_rate_rad_s)
+        frames = self._measure(grid)
         outcome = frames.outcome
-        for code, count in enumerate(np.bincount(outcome).tolist()):
-            if count:
-                self.outcomes[Outcome(code)] += count
-        self.last_outcome = Outcome(int(outcome[-1]))
+        codes = outcome.tolist()
+        if len(codes) == 1:  # a node's frame
+            self.outcomes[_OUTCOMES[codes[0]]] += 1
+        else:
+            for code, count in enumerate(np.bincount(outcome).tolist()):
+                if count:
+                    self.outcomes[_OUTCOMES[code]] += count
+        self.last_outcome = _OUTCOMES[codes[-1]]
         self.last_stars, self.last_hits = int(frames.stars[-1]), int(frames.hits[-1])
         ok = outcome == Outcome.OK.value  # a plain int: numpy compares with an IntEnum member slowly
         self.queue.push_many(grid.frame_s[ok], frames.q_measured[:, ok], grid.truth_index[ok])
         return MeasuredFrames(grid.frame_s, frames.q_measured, outcome, frames.stars, frames.hits, grid.truth_index)
+
+    @property
+    def orbit_buffer(self):
+        """The odometry states the frames are measured on (orbit.source follow), else None."""
+        return None if self.tracker is None else getattr(self.tracker.orbit, "buffer", None)
+
+    def _measure(self, grid):
+        """The grid's frames measured; with a followed orbit, the frames whose time no odometry covers are
+        NO_ORBIT (the attitude cannot be turned into the orbital frame without one)."""
+        buffer = self.orbit_buffer
+        if buffer is None:
+            return self.tracker.measure(grid.frame_s, grid.attitude, grid.turn_rate_rad_s)
+        known = np.array([buffer.where(t).usable for t in grid.frame_s.tolist()], bool)
+        count = grid.frame_s.size
+        if known.all():
+            return self.tracker.measure(grid.frame_s, grid.attitude, grid.turn_rate_rad_s)
+        q, outcome = np.full((4, count), np.nan), np.full(count, Outcome.NO_ORBIT.value, np.int8)
+        stars, hits, used = (np.zeros(count, np.int64) for _ in range(3))
+        if known.any():
+            some = self.tracker.measure(grid.frame_s[known], grid.attitude[:, known], grid.turn_rate_rad_s[:, known])
+            q[:, known], outcome[known], stars[known], hits[known], used[known] = (
+                some.q_measured, some.outcome, some.stars, some.hits, some.used)
+        return FrameMeasurement(q, outcome, stars, hits, used)
+
+    def add_odometry(self, frame_id: str, child_frame_id: str, state, now_s: float | None) -> TrackerOutput:
+        """orbit.source follow: one orbit/odometry message (pose in ECI, twist in the orbital frame; ``state``
+        (stamp s, position m, velocity m/s) or None when unreadable): a valid state is kept for the frames, a bad
+        one dropped and counted (``rejected_odometry_<reason>``). Without follow the tracker takes none."""
+        return self.add_inputs([("add_odometry", (frame_id, child_frame_id, state), now_s)])
+
+    def _take_odometry(self, frame_id: str, child_frame_id: str, state, now_s) -> None:
+        buffer = self.orbit_buffer
+        if buffer is None:
+            return
+        rejection = check_frame(frame_id, self.frames.eci) or check_frame(child_frame_id, self.frames.orbital)
+        if rejection is None:
+            if state is None:  # an orientation that is no rotation, or a bad stamp
+                rejection = Rejection.NON_FINITE
+            else:
+                stamp_s, position, velocity = state
+                rejection = check_orbit_state(position, velocity, self._orbit_bounds)
+        if rejection is None:
+            rejection, jumped = self.odometry_stamps.check(stamp_s, now_s)
+            if jumped:
+                buffer.clear()
+        if rejection is not None:
+            self.input_counts[f"rejected_odometry_{rejection.value}"] += 1
+            return
+        buffer.add(stamp_s, position, velocity)
 
     def add_truth(self, t_s: float, q_xyzw) -> list[tuple[float, np.ndarray, Outcome]]:
         """One truth sample (a batch of one): (frame time s, measured (x, y, z, w), outcome) per frame it completes.
@@ -212,7 +300,7 @@ class TrackerRuntime:
     @property
     def counters(self) -> dict:
         """Frame outcomes and input counters (a copy), as on /diagnostics."""
-        values = {f"frames_{o.reason}": n for o, n in self.outcomes.items()}
+        values = dict(zip(_FRAME_KEYS, self.outcomes.values()))
         values.update(self.input_counts)
         return values
 
@@ -234,16 +322,27 @@ class TrackerRuntime:
 
         def measure() -> None:  # the good messages so far: their frames, then the releases at each stamp
             if stamps:
-                self.add_truth_batch(np.array(stamps), np.array(quaternions).T)
-                frame_s, q_measured, _ = self.release_batch(np.array(stamps))
-                output.published += [ReleasedFrame(t, tuple(q))
-                                     for t, q in zip(frame_s.tolist(), q_measured.T.tolist())]
+                # One message (most wake-ups): a float and a tuple, which the grid and the queue take as they are.
+                one = len(stamps) == 1
+                frames = self.add_truth_batch(stamps[0] if one else np.array(stamps),
+                                              quaternions[0] if one else np.array(quaternions).T)
+                released = self.release_batch(stamps[0] if one else np.array(stamps))
+                if frames.frame_s.size or released[0].size:  # most messages fall between two frames
+                    output.published += _in_order(frames, *released)
             stamps.clear()
             quaternions.clear()
 
-        for _, (frame_id, stamp_s, q_xyzw), now_s in events:
-            rejection = check_frame(frame_id, self.frames.orbital)  # an inertial quaternion, say
-            if rejection is None and stamp_s is None:  # a negative or non-finite stamp
+        for to, arguments, now_s in events:
+            if to == "add_odometry":  # before the truth that follows it, as it arrived
+                self._take_odometry(*arguments, now_s)
+                continue
+            frame_id, stamp_s, q_xyzw = arguments
+            rejection = self.frame_check.check(frame_id)  # an inertial quaternion, say
+            if rejection is not None:
+                line = self.frame_check.take_log_line()
+                if line is not None:
+                    output.log.append(LogLine("error", line))
+            elif stamp_s is None:  # a negative or non-finite stamp
                 rejection = Rejection.ZERO_STAMP
             if rejection is not None:
                 counts[f"rejected_truth_{rejection.value}"] += 1
@@ -287,14 +386,29 @@ class TrackerRuntime:
         values = self.counters
         values.update(self._source_counters())
         values.update(stars_in_field=self.last_stars, proton_hits=self.last_hits, release_queue=len(self.queue))
-        rejected = sum(self.input_counts[f"rejected_truth_{reason.value}"] for reason in REJECTIONS)
+        counts = self.input_counts
+        rejected = sum(counts[key] for key in _REJECTED_KEYS)
         if rejected > self._rejected_reported:
             problems = problems + ["rejected /attitude/truth messages"]
         self._rejected_reported = rejected
+        if self.frame_check.problem is not None:  # what was expected, what came, while the refusals last
+            problems = problems + [self.frame_check.problem]
         source_errors = self._source_problems()
         problems = source_errors + problems
         level = Level.ERROR if source_errors else Level.WARN if problems else Level.OK
         return HealthSummary(level, "; ".join(problems) or "attitude available", values)
+
+
+def _in_order(frames: MeasuredFrames, frame_s, q_measured, released_at) -> list:
+    """What a batch publishes, as one message at a time does: at each truth sample, the statuses of the frames it
+    completes, then the frames it releases."""
+    items = [(i, 0, FrameStatus(t, _REASONS[code], stars, hits)) for i, t, code, stars, hits in zip(
+        frames.truth_index.tolist(), frames.frame_s.tolist(), frames.outcome.tolist(), frames.stars.tolist(),
+        frames.hits.tolist())]
+    items += [(i, 1, ReleasedFrame(t, tuple(q)))
+              for i, t, q in zip(released_at.tolist(), frame_s.tolist(), q_measured.T.tolist())]
+    items.sort(key=lambda item: item[:2])  # stable: frames stay in their order
+    return [item for _, _, item in items]
 
 
 @dataclass(frozen=True)
