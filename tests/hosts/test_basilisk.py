@@ -18,7 +18,7 @@ import pytest
 
 pytest.importorskip("Basilisk", reason="bsk (Basilisk) is not installed: pip install pmv_ros[basilisk]")
 
-from Basilisk.utilities import RigidBodyKinematics, macros  # noqa: E402
+from Basilisk.utilities import RigidBodyKinematics  # noqa: E402
 from scipy.signal import lsim  # noqa: E402
 
 from flights import REPO  # noqa: E402
@@ -95,7 +95,8 @@ def test_basilisk_frames_are_basilisks_own_and_the_hill_frame_reads_zero():
     many_sigma = rng.normal(scale=0.4, size=(6, 3))
     together = attitude_in_orbital(many_r, many_v, many_sigma, DCM_CB_HILL)
     for n in range(6):
-        assert np.array_equal(together[:, n], attitude_in_orbital(many_r[n], many_v[n], many_sigma[n], DCM_CB_HILL)[:, 0])
+        one = attitude_in_orbital(many_r[n], many_v[n], many_sigma[n], DCM_CB_HILL)[:, 0]
+        assert np.array_equal(together[:, n], one)
 
 
 def test_basilisk_frames_a_huge_mrp_is_its_shadow_set_and_an_undefined_frame_is_nan():
@@ -253,10 +254,10 @@ def _through_the_loop(axis: int, error, t):
 
 def test_basilisk_closed_loop_through_the_pmv_holds_minus_the_oblateness_and_compensation_removes_it():
     # mrpFeedback fed the PMV's roll and pitch (yaw and rate from simpleNav), 200 s at 5 Hz from the ascending
-    # node. Without on-board compensation the true attitude settles to minus the oblateness (physics.md §2.1) the
-    # way the loop passes a slow error, −H(s)·model: within 0.2′ — the ideal detector sees the ray geometry of the
-    # 40 km layer, which the closed form follows to ≈ 0.05′ (σ) along this arc, 0.15′ at most. With it, the
-    # body stays within the same 0.2′ of the local vertical while the oblateness grows past 2′.
+    # node. Without on-board compensation the true attitude settles to minus the oblateness (physics.md §2.1)
+    # the way the loop passes a slow error, −H(s)·model: within 0.2′ — the ideal detector sees the ray geometry
+    # of the 40 km layer, which the closed form follows to ≈ 0.05′ (σ) along this arc, 0.15′ at most. With it,
+    # the body stays within the same 0.2′ of the local vertical while the oblateness grows past 2′.
     true_pitch = {}
     for compensation in (False, True):
         scenario = kondor_scenario(KONDOR, {**GEOMETRIC, "sensor.rate_hz": 5.0,

@@ -54,10 +54,11 @@ class StateWriter(sysModel.SysModel):
 
 
 class Flight:
-    """A spacecraft on the Kondor preset's orbit turning with its Hill frame (``roll_rad`` off it), no control;
-    modules added by :meth:`add`; states recorded at every step of the dynamics task."""
+    """A spacecraft on the Kondor preset's orbit turning with its Hill frame (``roll_rad`` off it, and turning
+    about its B1 axis at ``roll_rate_rad_s`` too), no control; modules added by :meth:`add`; states recorded at
+    every step of the dynamics task."""
 
-    def __init__(self, dynamics_step_s: float = 0.1, roll_rad: float = 0.0):
+    def __init__(self, dynamics_step_s: float = 0.1, roll_rad: float = 0.0, roll_rate_rad_s: float = 0.0):
         self.sim = SimulationBaseClass.SimBaseClass()
         self.process = self.sim.CreateNewProcess("process")
         self.process.addTask(self.sim.CreateNewTask("dynamics", macros.sec2nano(dynamics_step_s)), 100)
@@ -68,7 +69,7 @@ class Flight:
         body.hub.IHubPntBc_B = [list(row) for row in INERTIA_KG_M2]
         body.hub.r_CN_NInit, body.hub.v_CN_NInit = r0.tolist(), v0.tolist()
         body.hub.sigma_BNInit = sigma_from_roll_pitch_yaw(roll_rad, 0.0, 0.0, r0, v0, DCM_CB_HILL)[0].tolist()
-        body.hub.omega_BN_BInit = [0.0, 0.0, orbit.mean_motion_rad_s]
+        body.hub.omega_BN_BInit = [roll_rate_rad_s, 0.0, orbit.mean_motion_rad_s]
         self.earth = earth_gravity(False)
         body.gravField.gravBodies = spacecraft.GravBodyVector([self.earth])
         self.sim.AddModelToTask("dynamics", body, 100)
@@ -195,8 +196,10 @@ def test_basilisk_guards_a_sensor_rate_off_the_tasks_period_samples_on_its_own_g
     # Basilisk cannot tell a Python module its task's period, so nothing is checked at Reset: the module samples
     # at k / rate s whatever its task, from the states around each sample time, and says so once. The
     # readings against the runtime fed every state the spacecraft wrote (the module sees only those of its
-    # calls, and feeds only those around a sample): within SAME_STATES_ARCMIN.
-    flight = Flight(dynamics_step_s=dynamics_s)
+    # calls, and feeds only those around a sample): within SAME_STATES_ARCMIN. The body turns about two axes
+    # (0.05 °/s about the roll axis, and with the orbit), so an attitude interpolated across a state the module
+    # did not see is not the state's (measured: 2e-5′ for 10 Hz in the 0.2 s task, 0′ where every state is read).
+    flight = Flight(dynamics_step_s=dynamics_s, roll_rate_rad_s=math.radians(0.05))
     task = "dynamics" if module_s == dynamics_s else flight.task("pmv", module_s)
     pmv = flight.add(pmv_on(flight.body.scStateOutMsg, {"sensor.rate_hz": rate_hz}), 80, task)
     readings = pmv.recorder()

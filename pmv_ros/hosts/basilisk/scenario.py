@@ -23,7 +23,6 @@ import math
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 
-import numpy as np
 from Basilisk.architecture import messaging
 from Basilisk.fswAlgorithms import attTrackingError, hillPoint, mrpFeedback
 from Basilisk.simulation import extForceTorque, gravityEffector, simpleNav, spacecraft
