@@ -1,4 +1,4 @@
-"""The figures of README "In Basilisk": the PMV module against pmv_ros's own sensing, in a closed loop, with J2.
+"""The figures of docs/basilisk.md: the PMV module against pmv_ros's own sensing, in a closed loop, with J2.
 
     .venv/bin/python examples/basilisk_figures.py [--config config/kondor.yaml] [--orbits 1] [--only same loop j2]
 

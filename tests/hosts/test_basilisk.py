@@ -202,6 +202,7 @@ def test_basilisk_parameters_are_the_presets_through_the_same_guards():
     ({"sensor_node": {"ros__parameters": 5}}, None, np.eye(3), r"sensor_node.ros__parameters is a int"),
     ([1, 2], None, np.eye(3), "preset must be a params file path or its parsed document, got list"),
     ({}, 5, np.eye(3), "overrides must be a mapping of parameter names to values, got int"),
+    ({}, {1: 2}, np.eye(3), "overrides: parameter name 1 is a int, not a dotted name"),
     ({}, None, "identity", "dcm_CB must be a 3 x 3 direction cosine matrix of numbers"),
     ({}, None, [[1, 0], [0, 1]], r"dcm_CB must be a finite 3 x 3 direction cosine matrix, got shape \(2, 2\)"),
 ])
@@ -240,7 +241,7 @@ def test_basilisk_recorder_keeps_a_reading_an_interval_within_its_capacity():
     assert newest.nbytes == 25 * RECORD.itemsize
     # What a simulated day costs: one reading a second at the record's size.
     assert RECORD.itemsize == 157 and 86400 * RECORD.itemsize < 14e6
-    for interval_s, capacity in ((-1.0, None), (float("nan"), None), (0.1, 0), (0.1, 2.5)):
+    for interval_s, capacity in ((-1.0, None), (float("nan"), None), (None, None), (0.1, 0), (0.1, 2.5), (0.1, True)):
         with pytest.raises(ValueError):
             PmvRecorder(interval_s, capacity)
 

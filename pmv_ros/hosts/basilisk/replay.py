@@ -8,7 +8,7 @@ tracker's and the monitor's, the way the campaign's flight does
 whole truth stream, then one
 :meth:`~pmv_ros.runtime.monitor.runtime.MonitorRuntime.add_stream`). For
 post-processing a run recorded without the module, and the reference the
-module is checked against (README "In Basilisk").
+module is checked against (docs/basilisk.md).
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """A spacecraft on a preset's orbit in Basilisk, pointed at nadir by Basilisk's own FSW, with the PMV on board.
 
 What the example (``examples/basilisk_kondor.py``), the tests and the
-figures of the README's "In Basilisk" section fly. One task at the step
+figures of docs/basilisk.md fly. One task at the step
 ``step_s`` runs, in this order: the spacecraft (Basilisk's integrator,
 Earth gravity: a point mass of pmv_ros's GM, or with pmv_ros's J2 on GRS80's
 equatorial radius — set from constants, no gravity file), ``simpleNav``

@@ -106,9 +106,11 @@ class PmvRecorder:
     """
 
     def __init__(self, interval_s: float = 0.0, capacity: int | None = None):
-        if not (isinstance(interval_s, (int, float)) and math.isfinite(interval_s) and 0.0 <= interval_s <= 86400.0):
-            raise ValueError(f"interval_s = {interval_s!r} is outside the allowed range 0 … 86400 s")
-        if capacity is not None and not (isinstance(capacity, int) and 1 <= capacity <= 10**9):
+        if not (isinstance(interval_s, (int, float)) and not isinstance(interval_s, bool)
+                and math.isfinite(interval_s) and 0.0 <= interval_s <= 86400.0):
+            raise ValueError(f"interval_s = {interval_s!r} must be a number of seconds in 0 … 86400")
+        if capacity is not None and not (isinstance(capacity, int) and not isinstance(capacity, bool)
+                                         and 1 <= capacity <= 10**9):
             raise ValueError(f"capacity = {capacity!r} must be None or a whole number in 1 … 1e9")
         self.interval_ns = round(interval_s * 1e9)
         self.capacity = capacity
@@ -208,6 +210,7 @@ class PmvHorizonSensor(sysModel.SysModel):
         self.scStateInMsg = messaging.SCStatesMsgReader()
         self.epochInMsg = messaging.EpochMsgReader()
         self.nadirOutMsg = messaging.BodyHeadingMsg()
+        self._nadir = messaging.BodyHeadingMsgPayload()  # filled and written at each sample
         self.dcm_CB = check_dcm(dcm_CB)
         self._cb = dcm_tuple(self.dcm_CB)
         self._document = read_preset(preset)
@@ -367,7 +370,7 @@ class PmvHorizonSensor(sysModel.SysModel):
             self.health = health[-1].health
         samples = output.samples
         by_time = {time_ns * 1e-9 + HOST_CLOCK_OFFSET_S: time_ns for time_ns in times_ns}
-        cb, payload = self._cb, None
+        cb, payload = self._cb, self._nadir
         for sample in samples:
             time_ns = by_time[sample.t_s]
             roll, pitch = sample.roll_rad, sample.pitch_rad
@@ -375,7 +378,6 @@ class PmvHorizonSensor(sysModel.SysModel):
             self.reading = PmvReading(time_ns * 1e-9, roll, pitch, sample.roll_uncorrected_rad,
                                       sample.pitch_uncorrected_rad, valid, sample.chord_status, sample.line_of_sight)
             if valid:
-                payload = payload or messaging.BodyHeadingMsgPayload()
                 payload.rHat_XB_B = nadir_in_body(roll, pitch, cb)
                 self.nadirOutMsg.write(payload, time_ns, self.moduleID)
             for recorder in self._recorders:

@@ -71,6 +71,10 @@ def host_values(preset, overrides: dict | None = None) -> FlightValues:
     ``overrides`` (dotted names, as ``-p``), checked by the nodes' specs, and :data:`HOST_SETTINGS`."""
     if overrides is not None and not isinstance(overrides, dict):
         raise ValueError(f"overrides must be a mapping of parameter names to values, got {type(overrides).__name__}")
+    for name in overrides or {}:
+        if not isinstance(name, str):
+            raise ValueError(f"overrides: parameter name {name!r} is a {type(name).__name__}, not a dotted name "
+                             "such as 'sensor.rate_hz'")
     overrides = dict(overrides or {})
     for name, value in HOST_SETTINGS.items():
         if name in overrides and overrides[name] != value:
