@@ -206,7 +206,7 @@ def test_basilisk_guards_a_sensor_rate_off_the_tasks_period_samples_on_its_own_g
     flight.run(duration_s)
     expected_ns = np.round(np.arange(count) / rate_hz * 1e9).astype(np.int64)
     assert np.array_equal(readings.times(), expected_ns)
-    assert said(capfd, "measured from both (interpolated), reported") == 1
+    assert said(capfd, "s: interpolated from both, reported") == 1
     states = flight.states
     samples = replay_states(pmv.values, states.timesWritten(), states.r_BN_N, states.v_BN_N, states.sigma_BN,
                             DCM_CB_HILL)

@@ -356,10 +356,10 @@ class PmvHorizonSensor(sysModel.SysModel):
         self._next_index = index
         if times_ns[0] != newest_ns:
             self._say_once("between", bskLogging.BSK_INFORMATION,
-                           f"sample at {times_ns[0] * 1e-9:.6f} s is between the states at "
-                           f"{max(previous_ns, 0) * 1e-9:.6f} and {newest_ns * 1e-9:.6f} s: measured from both "
-                           f"(interpolated), reported {(now_ns - times_ns[0]) * 1e-9:.3f} s late; sensor.rate_hz "
-                           f"{self.values.sensor['sensor.rate_hz']:g} Hz is off the grid of the states read")
+                           f"sample at {times_ns[0] * 1e-9:.6f} s lies between states at "
+                           f"{max(previous_ns, 0) * 1e-9:.6f} and {newest_ns * 1e-9:.6f} s: interpolated from both, "
+                           f"reported {(now_ns - times_ns[0]) * 1e-9:.3f} s late (off the states' times: a rate off "
+                           "their grid, a slower task or a dropped state)")
         output = self.runtime.step_to([time_ns * 1e-9 + HOST_CLOCK_OFFSET_S for time_ns in times_ns])
         for line in output.log:
             self._log(bskLogging.BSK_WARNING if line.level == "error" else bskLogging.BSK_INFORMATION, line.text)
