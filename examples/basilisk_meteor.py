@@ -46,11 +46,11 @@ PRESET = REPO / "config" / "meteor_m2.yaml"
 #: The spacecraft: mass, kg, and inertia about the centre of mass, kg·m² (illustrative for a 2.7 t platform).
 MASS_KG = 2700.0
 INERTIA_KG_M2 = [2500.0, 0.0, 0.0, 0.0, 2200.0, 0.0, 0.0, 0.0, 1500.0]
-#: mrpFeedback's gains: K (N·m per MRP) and P (N·m·s) for a loop of ≈ 0.025 rad/s bandwidth and damping ≈ 0.9
-#: on this inertia (ω² ≈ K / (4 I), 2ζω ≈ P / I); no integral term.
+#: mrpFeedback's gains: K (N·m per MRP) and P (N·m·s); for small angles ω² = K / (4 I) and 2ζω = P / I, so
+#: ω 0.025–0.032 rad/s and ζ 0.8–1.0 over the three axes of this inertia; no integral term.
 GAIN_K, GAIN_P = 6.0, 100.0
 STEP_S = 0.1
-#: Pointing statistics start after this long (the loop's time constant is ≈ 2/(ζω) ≈ 90 s).
+#: Pointing statistics start after this long (the loop settles in a few 1/(ζω) ≈ 50 s).
 SETTLE_S = 500.0
 
 

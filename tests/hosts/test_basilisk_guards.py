@@ -234,6 +234,17 @@ def test_basilisk_guards_an_unlinked_state_input_or_a_bad_epoch_ends_the_run_wit
         assert said(capfd, f"BasiliskError: pmvHorizonSensor: {reason}") == 1
 
 
+def test_basilisk_guards_a_bridge_with_an_input_not_linked_ends_the_run_with_one_bsk_error(capfd):
+    flight = Flight()
+    pmv = flight.add(pmv_on(flight.body.scStateOutMsg), 80)
+    bridge = PmvAttitudeNav(DCM_CB_HILL)
+    bridge.nadirInMsg.subscribeTo(pmv.nadirOutMsg)  # attInMsg and transInMsg left unlinked
+    flight.add(bridge, 70)
+    with pytest.raises(RuntimeError, match="_SysModel.Reset"):
+        flight.run(1.0)
+    assert said(capfd, "BasiliskError: pmvAttitudeNav: attInMsg is not linked") == 1
+
+
 def bridge_flight(roll_rad: float, navigation_source=None):
     """A flight with simpleNav and the bridge (its yaw and rate from ``navigation_source``, or simpleNav's)."""
     flight = Flight(roll_rad=roll_rad)
