@@ -170,19 +170,21 @@ def test_basilisk_guards_hostile_states_are_dropped_counted_and_said_once(capfd)
 
 
 def test_basilisk_guards_stamps_going_backwards_are_counted_and_said(capfd):
-    # The writer stamps steps 20 and 21 a second earlier than Basilisk's time. Before, the module stopped until
-    # Basilisk's time passed the newest stamp again, saying nothing. Now each is dropped and counted, said once;
-    # the states after them are read as before.
+    # The writer stamps steps 20 and 21 a second earlier than Basilisk's time, and step 30 a day later. Before,
+    # the module stopped until Basilisk's time passed the newest stamp again, saying nothing (after the day's
+    # stamp, for a day). Now each is dropped and counted, said once; the states after them are read as before.
     back = {step: (lambda payload, time_ns: time_ns - 1_000_000_000) for step in (20, 21)}
+    back[30] = lambda payload, time_ns: time_ns + 86_400_000_000_000
     flight = Flight()
     writer = flight.add(StateWriter(back), 90)
     writer.scStateInMsg.subscribeTo(flight.body.scStateOutMsg)
     pmv = flight.add(pmv_on(writer.scStateOutMsg), 80)
     readings = pmv.recorder()
     flight.run(4.0)
-    assert pmv.counters == {"rejected_state_backwards": 2}
+    assert pmv.counters == {"rejected_state_backwards": 2, "rejected_state_future_stamp": 1}
     assert said(capfd, "before the state read last (1.900000000 s): dropped (rejected_state_backwards") == 1
-    # The samples at 2.0 and 2.1 s come from the states around them; every one of the 4 s is there.
+    assert "after Basilisk's time (3.000000000 s): dropped (rejected_state_future_stamp counts them)" in said.last
+    # The samples at 2.0, 2.1 and 3.0 s come from the states around them; every one of the 4 s is there.
     assert np.array_equal(readings.times(), np.arange(41) * 100_000_000)
 
 

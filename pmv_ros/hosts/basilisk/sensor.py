@@ -42,8 +42,8 @@ Outputs:
 
 Bad states are not the simulation's end: a state that is not finite, not a
 bound Earth orbit (:func:`pmv_ros.runtime.common.validation.check_orbit_state`)
-or without an orbital frame, and one stamped before the last one read, is
-dropped, counted (:attr:`PmvHorizonSensor.counters`, ``rejected_state_<reason>``)
+or without an orbital frame, and one stamped before the last one read or
+after Basilisk's time, is dropped, counted (:attr:`PmvHorizonSensor.counters`, ``rejected_state_<reason>``)
 and said once through ``bskLogger`` (``BSK_WARNING``). Any finite MRP is a
 rotation (a set with |σ| > 1 is read as its shadow set). What the runtime
 says goes to ``bskLogger`` too (``BSK_WARNING`` for its errors, which do not
@@ -303,6 +303,12 @@ class PmvHorizonSensor(sysModel.SysModel):
         if not reader.isWritten():
             return
         time_ns = reader.timeWritten()
+        if time_ns > CurrentSimNanos:  # no writer in the simulation writes ahead of its clock
+            self._count("rejected_state_future_stamp")
+            self._say_once("future", bskLogging.BSK_WARNING,
+                           f"scStateInMsg written at {time_ns * 1e-9:.9f} s, after Basilisk's time "
+                           f"({CurrentSimNanos * 1e-9:.9f} s): dropped (rejected_state_future_stamp counts them)")
+            return
         if time_ns <= self._newest_ns:
             if time_ns < self._newest_ns:  # the same state again is no news; an older one is
                 self._count("rejected_state_backwards")
