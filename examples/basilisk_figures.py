@@ -1,18 +1,17 @@
-"""The figures of README "In Basilisk": the PMV module against pmv_ros's own sensing, in a closed loop, with J2.
+"""The figures of docs/basilisk.md: the PMV module against pmv_ros's own sensing, in a closed loop, with J2.
 
     .venv/bin/python examples/basilisk_figures.py [--config config/kondor.yaml] [--orbits 1] [--only same loop j2]
 
 * ``same`` — one orbit flown by Basilisk (two-body gravity, nadir pointing by Basilisk's FSW on truth), the
-  module sensing at each step and, separately, in batches: its readings and its monitor's statistics against
-  the recorded states replayed through pmv_ros (``replay_states``, ``flight_summary``).
-* ``loop`` — Basilisk's ``mrpFeedback`` fed the PMV's roll and pitch (yaw and rate from truth): the true
+  module sensing at each step: its readings and its monitor's statistics against the recorded states replayed
+  through pmv_ros (``replay_states``, ``flight_summary``).
+* ``loop`` — Basilisk's ``mrpFeedback`` fed the PMV's roll and pitch (yaw and rate from simpleNav): the true
   attitude against the oblateness model (physics.md §2.1), on-board compensation off and on, and the monitor's
   residual of the same run.
 * ``j2`` — Basilisk's propagation with J2 against pmv_ros's own orbit, and what the difference does to the
   sensed angles: the preset's instrument and the geometric one (ideal detector, uniform radiance).
 
-Each part prints its figures in arcminutes and metres; a full orbit of the module at each step costs minutes
-(the preset's environment is evaluated sample by sample).
+Each part prints its figures in arcminutes and metres.
 """
 
 from __future__ import annotations
@@ -24,7 +23,8 @@ import time
 import numpy as np
 
 from pmv_ros.analysis.statistics import harmonic_amplitudes
-from pmv_ros.hosts.basilisk import DCM_CB_HILL, attitude_in_orbital, kondor_scenario, sigma_from_roll_pitch_yaw
+from pmv_ros.hosts.basilisk import (DCM_CB_HILL, attitude_in_orbital, host_values, kondor_scenario,
+                                    sigma_from_roll_pitch_yaw)
 from pmv_ros.hosts.basilisk.replay import flight_summary, replay_states
 from pmv_ros.hosts.basilisk.scenario import GAINS, INERTIA_KG_M2, preset_orbit
 from pmv_ros.physics.attitude import roll_pitch_yaw_from_quaternion
@@ -32,7 +32,6 @@ from pmv_ros.physics.constants import ARCMIN_RAD
 from pmv_ros.physics.instrument.oblateness import closed_form_oblateness
 from pmv_ros.physics.orbit.two_body import orbit_angles_from_state, orbital_frame_from_state
 
-BATCH_S = 20.0
 #: The closed loop's figures start after this much time (the loop settles in ≈ 3 × 34 s).
 SETTLE_S = 300.0
 
@@ -65,38 +64,36 @@ def summary_difference(a, b) -> float:
 
 
 def same(config: str, orbits: float) -> None:
-    for mode in ("batch", "direct"):
-        started = time.perf_counter()
-        scenario = kondor_scenario(config, pmv=mode, pointing="truth", batch_s=BATCH_S)
-        period = preset_orbit(scenario.pmv.values).period_s
-        scenario.run(orbits * period)
-        flown = time.perf_counter() - started
-        times, r, v, sigma = recorded(scenario)
-        started = time.perf_counter()
-        samples = replay_states(scenario.pmv.values, times, r, v, sigma, DCM_CB_HILL,
-                                call_every_ns=round(BATCH_S * 1e9) if mode == "batch" else None)
-        replayed = time.perf_counter() - started
-        readings = scenario.readings
-        roll = np.array([s.roll_rad for s in samples])
-        pitch = np.array([s.pitch_rad for s in samples])
-        ok = len(samples) == len(readings)
-        print(f"same/{mode}: {len(readings)} readings (replay {len(samples)}), {flown:.0f} s flown, "
-              f"{replayed:.0f} s replayed")
-        if ok:
-            print(f"  max |module − replay|: roll {np.nanmax(abs(arcmin(roll - readings.roll_CO))):.3g}′, "
-                  f"pitch {np.nanmax(abs(arcmin(pitch - readings.pitch_CO))):.3g}′; "
-                  f"NaN alike: {np.array_equal(np.isnan(roll), np.isnan(readings.roll_CO))}")
-        module, reference = scenario.monitor.summary(), flight_summary(scenario.pmv.values, samples)
-        roll_stats, pitch_stats = module.channel("roll"), module.channel("pitch")
-        print(f"  statistics: max |module − flight's| over mean, σ, harmonics: "
-              f"{summary_difference(module, reference):.3g}′; roll mean {arcmin(roll_stats.mean_rad):.3f}′ "
-              f"σ {arcmin(roll_stats.sigma_rad):.3f}′, pitch mean {arcmin(pitch_stats.mean_rad):.3f}′ "
-              f"σ {arcmin(pitch_stats.sigma_rad):.3f}′, used {roll_stats.count}")
+    started = time.perf_counter()
+    scenario = kondor_scenario(config, pointing="truth")
+    period = preset_orbit(scenario.pmv.values).period_s
+    scenario.run(orbits * period)
+    flown = time.perf_counter() - started
+    times, r, v, sigma = recorded(scenario)
+    started = time.perf_counter()
+    samples = replay_states(scenario.pmv.values, times, r, v, sigma, DCM_CB_HILL)
+    replayed = time.perf_counter() - started
+    readings = scenario.readings
+    roll = np.array([s.roll_rad for s in samples])
+    pitch = np.array([s.pitch_rad for s in samples])
+    ok = len(samples) == len(readings)
+    print(f"same: {len(readings)} readings (replay {len(samples)}), {flown:.0f} s flown, {replayed:.0f} s replayed")
+    if ok:
+        print(f"  max |module − replay|: roll {np.nanmax(abs(arcmin(roll - readings.roll_CO))):.3g}′, "
+              f"pitch {np.nanmax(abs(arcmin(pitch - readings.pitch_CO))):.3g}′; "
+              f"NaN alike: {np.array_equal(np.isnan(roll), np.isnan(readings.roll_CO))}")
+    module, reference = scenario.monitor.summary(), flight_summary(scenario.pmv.values, samples)
+    roll_stats, pitch_stats = module.channel("roll"), module.channel("pitch")
+    print(f"  statistics: max |module − flight's| over mean, σ, harmonics: "
+          f"{summary_difference(module, reference):.3g}′; roll mean {arcmin(roll_stats.mean_rad):.3f}′ "
+          f"σ {arcmin(roll_stats.sigma_rad):.3f}′, pitch mean {arcmin(pitch_stats.mean_rad):.3f}′ "
+          f"σ {arcmin(pitch_stats.sigma_rad):.3f}′, used {roll_stats.count}")
 
 
 def loop_filter(axis: int, error, t):
     """What the loop makes of a sensor error series: the true angle about body axis ``axis`` that mrpFeedback
-    (K, P; gyro rates from truth) settles to, −H(s)·error with H = (K/4) / (I s² + P s + K/4) for small angles."""
+    (K, P; rates from simpleNav, the truth) settles to, −H(s)·error with H = (K/4) / (I s² + P s + K/4) for small
+    angles."""
     from scipy.signal import lsim
 
     inertia = INERTIA_KG_M2[axis][axis]
@@ -110,7 +107,7 @@ def loop(config: str, orbits: float, overrides: dict | None = None, label: str =
     for compensation in (False, True):
         started = time.perf_counter()
         scenario = kondor_scenario(config, {**(overrides or {}), "sensor.oblateness_compensation": compensation},
-                                   pmv="direct", pointing="pmv")
+                                   pointing="pmv")
         orbit = preset_orbit(scenario.pmv.values)
         scenario.run(SETTLE_S + orbits * orbit.period_s)
         readings = scenario.readings
@@ -122,9 +119,10 @@ def loop(config: str, orbits: float, overrides: dict | None = None, label: str =
         keep = t_all >= SETTLE_S
         t = t_all[keep]
         phase = 2 * np.pi * t / orbit.period_s
+        lost = int(np.count_nonzero(~readings.valid))
         print(f"loop/{label}/compensation {'on' if compensation else 'off'}: {len(readings)} readings, "
-              f"{time.perf_counter() - started:.0f} s; figures from {SETTLE_S:.0f} s; lost pairs held by the "
-              f"bridge: {scenario.nav.heldReadings}")
+              f"{time.perf_counter() - started:.0f} s; figures from {SETTLE_S:.0f} s; readings with a lost pair "
+              f"(the bridge keeps the one before): {lost}")
         for name, axis, k, true_all, model_all, sensed_all in (
                 ("roll", 1, 1, readings.trueRoll_CO, model_roll, readings.roll_CO),
                 ("pitch", 2, 2, readings.truePitch_CO, model_pitch, readings.pitch_CO)):
@@ -154,8 +152,8 @@ def j2(config: str, orbits: float) -> None:
     for label, overrides in (("preset", {}), ("climatology only", {"environment.weather": False,
                                                                    "environment.height_variation": False}),
                              ("geometric", {"sensor.detector": "ideal", "radiance.source": "uniform"})):
-        scenario = kondor_scenario(config, overrides, gravity="j2", pmv="batch", pointing="truth", batch_s=BATCH_S)
-        values = scenario.pmv.values
+        scenario = kondor_scenario(config, overrides, gravity="j2", pmv=False, pointing="truth")
+        values = host_values(config, overrides)
         own = preset_orbit(values, j2_node_drift=True)
         scenario.run(orbits * own.period_s)
         times, r, v, sigma = recorded(scenario)
@@ -173,9 +171,8 @@ def j2(config: str, orbits: float) -> None:
         q = attitude_in_orbital(r, v, sigma, DCM_CB_HILL)  # the same attitude in each orbit's own frame
         roll, pitch, yaw = roll_pitch_yaw_from_quaternion(q)
         sigma_own = sigma_from_roll_pitch_yaw(roll, pitch, yaw, position.T, velocity.T, DCM_CB_HILL)
-        call = round(BATCH_S * 1e9)
-        flown = replay_states(values, times, r, v, sigma, DCM_CB_HILL, call_every_ns=call)
-        ours = replay_states(values, times, position.T, velocity.T, sigma_own, DCM_CB_HILL, call_every_ns=call)
+        flown = replay_states(values, times, r, v, sigma, DCM_CB_HILL)
+        ours = replay_states(values, times, position.T, velocity.T, sigma_own, DCM_CB_HILL)
         d_roll = np.array([a.roll_rad - b.roll_rad for a, b in zip(flown, ours)])
         d_pitch = np.array([a.pitch_rad - b.pitch_rad for a, b in zip(flown, ours)])
         stamps = np.array([s.t_s for s in flown]) - 1.0

@@ -2,16 +2,15 @@
 
 The Kondor preset's orbit (500 km, 74.5°) flown by Basilisk with its Earth gravity including J2; nadir
 pointing by Basilisk's own FSW, ``hillPoint`` → ``attTrackingError`` → ``mrpFeedback`` → external torque,
-with the attitude error computed from the PMV's roll and pitch (yaw and body rate from truth). The PMV is
+with the attitude error computed from the PMV's roll and pitch (yaw and body rate from simpleNav). The PMV is
 pmv_ros's sensor module (``PmvHorizonSensor``) in the same 10 Hz task. The plot shows what the PMV measured
 and where the body truly was: with the oblateness not compensated on board (the preset, as flown) the loop
 holds the *measured* local vertical, so the true attitude follows minus the sensor's error.
 
     .venv/bin/python examples/basilisk_kondor.py [--orbits 1] [--compensation] [--out basilisk_kondor.png]
 
-An orbit takes a few minutes: the module senses one sample per step, and the preset's radiance environment
-is evaluated for each (``--pointing truth`` flies the FSW on truth instead; the README's "In Basilisk"
-section has the wiring without the scenario helper).
+An orbit takes some 20 s (``--pointing truth`` flies the FSW on simpleNav instead; examples/basilisk_meteor.py
+has the wiring written out without the scenario helper, on reaction wheels).
 """
 
 from __future__ import annotations
@@ -42,7 +41,7 @@ def main() -> None:
     args = parser.parse_args()
 
     scenario = kondor_scenario(args.config, {"sensor.oblateness_compensation": args.compensation}, gravity="j2",
-                               pmv="direct", pointing=args.pointing)
+                               pointing=args.pointing)
     period_s = preset_orbit(scenario.pmv.values).period_s
     started = time.perf_counter()
     scenario.run(args.orbits * period_s)

@@ -1,11 +1,13 @@
 """The PMV in Basilisk (``pip install pmv_ros[basilisk]``): a sensor module on the nodes' runtimes.
 
-* :class:`PmvHorizonSensor` — the sensor module: ``SCStatesMsg`` in, :class:`PmvReading` out;
-* :class:`PmvAttitudeNav` — its roll and pitch as a ``NavAttMsg`` for Basilisk's FSW;
+* :class:`PmvHorizonSensor` — the sensor module: ``SCStatesMsg`` in; the measured nadir out as a
+  ``BodyHeadingMsg``, the whole reading as a :class:`PmvReading` and in :class:`PmvRecorder` s;
+* :class:`PmvAttitudeNav` — its roll and pitch with another navigation's yaw and rate as a ``NavAttMsg`` for
+  Basilisk's FSW;
 * :class:`PmvErrorMonitor` — the residual statistics of a run (physics.md §5), from the sensor;
 * :func:`kondor_scenario` — a spacecraft on a preset's orbit, nadir-pointed by Basilisk's FSW, with the PMV.
 
-README "In Basilisk" shows them wired.
+docs/basilisk.md shows them wired; examples/basilisk_meteor.py is a scenario a user writes.
 """
 
 from .frames import DCM_CB_HILL, attitude_in_orbital, sigma_from_roll_pitch_yaw

@@ -45,7 +45,7 @@ class PmvErrorMonitor:
         self.tracker = TrackerRuntime(values.star_tracker, self.start_s)
         self.monitor = MonitorRuntime(values.monitor)
         self._pending = []
-        self._residuals = ([], [], [])  # stamp s, residual roll, residual pitch (rad) of the samples used
+        self._residuals = []  # (3, n) arrays: stamp s, residual roll, residual pitch (rad) of the samples used
 
     def add_samples(self, samples) -> None:
         """Take the sensor's samples (:class:`~pmv_ros.runtime.sensor.sample_stream.SensorSample`, in order)."""
@@ -65,16 +65,12 @@ class PmvErrorMonitor:
         batch = self.monitor.add_stream(t, np.array([s.roll_rad for s in rows]), np.array([s.pitch_rad for s in rows]),
                                         frame_s, q_measured, arrival, np.array([s.position_eci_m for s in rows]).T,
                                         np.array([s.velocity_eci_m_s for s in rows]).T)
-        stamps, roll, pitch = self._residuals
-        for outcome in batch.earlier:  # samples of earlier batches that waited for truth
-            if outcome.status is Status.OK:
-                stamps.append(outcome.stamp_s)
-                roll.append(outcome.residual_roll_rad)
-                pitch.append(outcome.residual_pitch_rad)
+        earlier = [(o.stamp_s, o.residual_roll_rad, o.residual_pitch_rad) for o in batch.earlier
+                   if o.status is Status.OK]  # samples of earlier batches that waited for truth
+        if earlier:
+            self._residuals.append(np.array(earlier).T)
         used = np.flatnonzero(batch.status == 0)  # code 0 is OK
-        stamps += t[used].tolist()
-        roll += batch.residual_roll_rad[used].tolist()
-        pitch += batch.residual_pitch_rad[used].tolist()
+        self._residuals.append(np.stack([t[used], batch.residual_roll_rad[used], batch.residual_pitch_rad[used]]))
 
     def summary(self, oblateness_removed: bool | None = None) -> MonitorSummary:
         """The statistics of every sample so far (``oblateness_removed``: which set; None: as configured)."""
@@ -85,6 +81,6 @@ class PmvErrorMonitor:
         """The samples used so far: (Basilisk times s, residual roll, residual pitch rad: sensed − true), in
         stamp order."""
         self.flush()
-        stamps, roll, pitch = (np.array(column) for column in self._residuals)
+        stamps, roll, pitch = np.concatenate([np.empty((3, 0))] + self._residuals, axis=1)
         order = np.argsort(stamps, kind="stable")
         return stamps[order] - self.start_s, roll[order], pitch[order]

@@ -8,7 +8,7 @@ tracker's and the monitor's, the way the campaign's flight does
 whole truth stream, then one
 :meth:`~pmv_ros.runtime.monitor.runtime.MonitorRuntime.add_stream`). For
 post-processing a run recorded without the module, and the reference the
-module is checked against (README "In Basilisk").
+module is checked against (docs/basilisk.md).
 """
 
 from __future__ import annotations
@@ -21,38 +21,36 @@ from ...runtime.monitor.records import MonitorSummary
 from ...runtime.monitor.runtime import MonitorRuntime
 from ...runtime.sensor.runtime import SensorRuntime
 from .frames import attitude_in_orbital
-from .sensor import BATCH_STATES
-from .values import HOST_CLOCK_OFFSET_S
+from .values import HOST_CLOCK_OFFSET_S, SampleClock
 
 
-def replay_states(values, times_ns, r_BN_N, v_BN_N, sigma_BN, dcm_CB, *, call_every_ns: int | None = None) -> list:
+def replay_states(values, times_ns, r_BN_N, v_BN_N, sigma_BN, dcm_CB) -> list:
     """The PMV's samples of recorded states (``(N,)`` ns, increasing; ``(N, 3)`` each), stamped on the runtime's
     clock (:data:`~pmv_ros.hosts.basilisk.values.HOST_CLOCK_OFFSET_S` after Basilisk's).
 
-    Every state is fed as the truth and the odometry of its time; the samples are taken at the states on the
-    sensor's grid. ``call_every_ns``: the period of the module's calls when it runs in a slower task and is
-    given the states since its last call (:meth:`PmvHorizonSensor.batchStates`): those are sensed as blocks
-    of up to :data:`BATCH_STATES`, as the module senses them (states after its last call are not); None: a
-    module called at every state.
+    Every state is fed, in order, as the truth and the odometry of its time; after each one the runtime
+    measures at the sample times (:class:`~pmv_ros.hosts.basilisk.values.SampleClock`) it reached, from the
+    first state on — what :class:`~pmv_ros.hosts.basilisk.sensor.PmvHorizonSensor` measures in a simulation
+    that wrote these states, by another way (the module feeds only the states around each sample).
     ``values``: every node's values (:func:`~pmv_ros.hosts.basilisk.values.host_values`).
     """
     sensor = values.sensor
     runtime = SensorRuntime(sensor, clock_epoch_s=HOST_CLOCK_OFFSET_S, correction=read_correction(sensor))
-    period_ns = round(1e9 / sensor["sensor.rate_hz"])
+    clock = SampleClock(sensor["sensor.rate_hz"])
     times_ns = np.asarray(times_ns, np.int64).tolist()
-    q = attitude_in_orbital(r_BN_N, v_BN_N, sigma_BN, dcm_CB)
-    samples, due, fed = [], [], 0
+    q = attitude_in_orbital(r_BN_N, v_BN_N, sigma_BN, dcm_CB).T.tolist()
+    r, v = np.asarray(r_BN_N, float).tolist(), np.asarray(v_BN_N, float).tolist()
+    samples, index = [], clock.first_index_at_or_after(times_ns[0]) if times_ns else 0
     for k, time_ns in enumerate(times_ns):
         t_s = time_ns * 1e-9 + HOST_CLOCK_OFFSET_S
-        runtime.add_truth(runtime.frames.orbital, t_s, q[:, k], t_s)
-        runtime.add_odometry(runtime.frames.eci, runtime.frames.orbital, (t_s, r_BN_N[k], v_BN_N[k]), t_s)
-        fed += 1
-        if time_ns % period_ns == 0:
-            due.append(t_s)
-        call = call_every_ns is None or time_ns % call_every_ns == 0  # the module runs after this state
-        if call or fed == BATCH_STATES:
+        runtime.add_odometry(runtime.frames.eci, runtime.frames.orbital, (t_s, r[k], v[k]), t_s)
+        runtime.add_truth(runtime.frames.orbital, t_s, q[k], t_s)
+        due = []
+        while clock.time_ns(index) <= time_ns:
+            due.append(clock.time_ns(index) * 1e-9 + HOST_CLOCK_OFFSET_S)
+            index += 1
+        if due:
             samples += runtime.step_to(due).samples
-            due, fed = [], 0
     return samples
 
 

@@ -1,14 +1,14 @@
 """A spacecraft on a preset's orbit in Basilisk, pointed at nadir by Basilisk's own FSW, with the PMV on board.
 
 What the example (``examples/basilisk_kondor.py``), the tests and the
-figures of the README's "In Basilisk" section fly. One task at the step
+figures of docs/basilisk.md fly. One task at the step
 ``step_s`` runs, in this order: the spacecraft (Basilisk's integrator,
 Earth gravity: a point mass of pmv_ros's GM, or with pmv_ros's J2 on GRS80's
 equatorial radius — set from constants, no gravity file), ``simpleNav``
-(truth), the PMV and its navigation bridge, ``hillPoint`` →
+(no noise: the truth), the PMV and its navigation bridge, ``hillPoint`` →
 ``attTrackingError`` → ``mrpFeedback`` → the external torque. ``pointing``
-says what the attitude error is computed from: Basilisk's truth
-(``"truth"``) or the PMV's roll and pitch with yaw and rate from truth
+says what the attitude error is computed from: ``simpleNav``'s attitude
+(``"truth"``) or the PMV's roll and pitch with ``simpleNav``'s yaw and rate
 (``"pmv"``, :class:`~pmv_ros.hosts.basilisk.nav.PmvAttitudeNav`).
 
 The spacecraft starts on the preset's circular orbit (its elements at the
@@ -23,7 +23,6 @@ import math
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 
-import numpy as np
 from Basilisk.architecture import messaging
 from Basilisk.fswAlgorithms import attTrackingError, hillPoint, mrpFeedback
 from Basilisk.simulation import extForceTorque, gravityEffector, simpleNav, spacecraft
@@ -95,7 +94,7 @@ class Scenario:
     spacecraft: spacecraft.Spacecraft
     states: object  #: recorder of the spacecraft's states at every step
     pmv: PmvHorizonSensor | None
-    readings: object | None  #: the PMV's recorder
+    readings: object | None  #: the PMV's recorder (every reading)
     monitor: object | None  #: the PMV's error monitor
     step_s: float
     nav: PmvAttitudeNav | None = None  #: the PMV's NavAttMsg bridge (pointing "pmv")
@@ -108,23 +107,21 @@ class Scenario:
 
 
 def kondor_scenario(preset, overrides: dict | None = None, *, gravity: str = "two_body", pointing: str = "truth",
-                    pmv: str | None = "direct", step_s: float = 0.1, batch_s: float = 20.0,
-                    extra: tuple = ()) -> Scenario:
+                    pmv: bool = True, step_s: float = 0.1, extra: tuple = ()) -> Scenario:
     """A spacecraft on the preset's orbit, nadir-pointed by Basilisk's FSW, with the PMV.
 
     Args:
         preset, overrides: the PMV's parameters (:class:`PmvHorizonSensor`); the orbit is the preset's too.
         gravity: ``"two_body"`` or ``"j2"``.
-        pointing: the attitude error from ``"truth"`` or from the ``"pmv"`` (needs ``pmv``).
-        pmv: ``"direct"`` (the module reads the newest state at each step), ``"batch"`` (the module runs every
-            ``batch_s`` and senses the states of every step since, as blocks), or None (no PMV).
-        step_s: the step of the task (dynamics, FSW, and the PMV in ``"direct"``), s.
+        pointing: the attitude error from ``simpleNav``'s ``"truth"`` or from the ``"pmv"`` (needs ``pmv``).
+        pmv: the PMV on board (False: the scenario without it, a baseline).
+        step_s: the step of the task (dynamics, FSW, the PMV), s.
         extra: further modules for the task, run where the PMV runs (each with ``scStateInMsg`` subscribed).
     """
-    if gravity not in ("two_body", "j2") or pointing not in ("truth", "pmv") or pmv not in ("direct", "batch", None):
-        raise ValueError(f"gravity, pointing, pmv = {gravity!r}, {pointing!r}, {pmv!r}: not one of the choices")
-    if pointing == "pmv" and pmv != "direct":
-        raise ValueError("pointing = 'pmv' closes the loop through the PMV at each step: pmv = 'direct'")
+    if gravity not in ("two_body", "j2") or pointing not in ("truth", "pmv"):
+        raise ValueError(f"gravity, pointing = {gravity!r}, {pointing!r}: not one of the choices")
+    if pointing == "pmv" and not pmv:
+        raise ValueError("pointing = 'pmv' closes the loop through the PMV: pmv = True")
     sim = SimulationBaseClass.SimBaseClass()
     process = sim.CreateNewProcess("process")
     process.addTask(sim.CreateNewTask("dynamics", macros.sec2nano(step_s)))
@@ -164,15 +161,12 @@ def kondor_scenario(preset, overrides: dict | None = None, *, gravity: str = "tw
         sensor.epochInMsg.subscribeTo(epoch)
         keep.append(epoch)
         readings, monitor = sensor.recorder(), sensor.errorMonitor()
-        if pmv == "direct":
-            sim.AddModelToTask("dynamics", sensor, priority["pmv"])
-        else:
-            process.addTask(sim.CreateNewTask("pmv", macros.sec2nano(batch_s)), -1)  # after the dynamics
-            sim.AddModelToTask("dynamics", sensor.batchStates(), priority["pmv"])
-            sim.AddModelToTask("pmv", sensor)
+        sim.AddModelToTask("dynamics", sensor, priority["pmv"])
         if pointing == "pmv":
-            bridge = PmvAttitudeNav(sensor)
-            bridge.scStateInMsg.subscribeTo(body.scStateOutMsg)
+            bridge = PmvAttitudeNav(DCM_CB_HILL)
+            bridge.nadirInMsg.subscribeTo(sensor.nadirOutMsg)
+            bridge.attInMsg.subscribeTo(navigation.attOutMsg)
+            bridge.transInMsg.subscribeTo(navigation.transOutMsg)
             sim.AddModelToTask("dynamics", bridge, priority["pmv_nav"])
             attitude_source = bridge.attNavOutMsg
 

@@ -223,6 +223,9 @@ class FieldGrid:
         #: Time node → (its orbit's radial unit vector, orbital X and Y (ECI), the horizon's central angle,
         #: whether that orbit is final), for the nodes evaluated so far.
         self.rings: dict[int, np.ndarray] = {}
+        #: The time nodes of :attr:`rings` placed from an extrapolated state (not final): what a followed orbit's
+        #: next state can make stale, kept apart so that each new state looks at these few, not at every ring.
+        self.provisional: set[int] = set()
         self.first_needed = -2**62  # the earliest time node the samples still need
 
     @property
@@ -242,6 +245,7 @@ class FieldGrid:
         nodes = set(int(k) for k in nodes)
         for k in nodes:
             self.rings.pop(k, None)
+        self.provisional.difference_update(nodes)
         self.table.drop(lambda keys: np.isin(np.floor_divide(keys, self.azimuths), list(nodes)))
 
 
@@ -278,7 +282,7 @@ class HorizonFields:
         reset = self.track.reset_version > self._version
         self._version = self.track.version
         for grid in self.grids:
-            stale = [k for k, ring in grid.rings.items() if reset or ring[10] == 0.0]
+            stale = list(grid.rings) if reset else list(grid.provisional)
             if stale:
                 grid.forget(stale)
 
@@ -339,6 +343,11 @@ class HorizonFields:
         angle = np.arccos(EARTH_MEAN_RADIUS_M / radius)
         for n, k in enumerate(nodes):
             grid.rings[k] = np.concatenate([frame[:, 2, n], frame[:, 0, n], frame[:, 1, n], [angle[n], final[n]]])
+            if final[n] == 0.0:
+                grid.provisional.add(k)
+            else:
+                grid.provisional.discard(k)
         if len(grid.rings) > RINGS_KEPT:  # the rings of time nodes the samples no longer reach
             for k in [k for k in grid.rings if k < grid.first_needed]:
                 del grid.rings[k]
+                grid.provisional.discard(k)
