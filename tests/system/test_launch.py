@@ -24,6 +24,7 @@ from pathlib import Path
 
 import pytest
 import rclpy
+import yaml
 from children import VENDOR, VENDOR_INSTALLER, domain_id, install_env, join_domain
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
@@ -302,6 +303,20 @@ LOCKSTEP_SAMPLES = 100
 DISCOVERY_SETTLE_S = 10.0
 #: The spacecraft of the two-spacecraft run: namespace → preset.
 FLEET = {"sat1": "kondor", "sat2": "meteor_m2"}
+
+
+def _fleet_presets(folder: Path) -> dict:
+    """The fleet's params files: kondor's as shipped; meteor_m2's with its star tracker flying no trapped protons —
+    its session starts over the South Atlantic Anomaly, where the proton hits crowd the stars out of the tracker's
+    field for its first ≈ 70 s (physics.md §6), so the run here would have no residual to compare."""
+    presets = {}
+    for name, preset in FLEET.items():
+        document = yaml.safe_load((REPO / "config" / f"{preset}.yaml").read_text())
+        if preset == "meteor_m2":
+            document["star_tracker_node"]["ros__parameters"]["protons.trapped"] = "off"
+        presets[name] = folder / f"{preset}.yaml"
+        presets[name].write_text(yaml.safe_dump(document))
+    return presets
 #: How far a monitor's residuals may trail its sensor's samples in the lockstep: the truth that aligns a sample
 #: comes with the next 1 Hz star-tracker frame, published ≈ 0.9 s after its time (≤ 19 samples at 10 Hz), and the
 #: samples before the first frame never get a residual (≤ 10), with room to spare.
@@ -357,7 +372,7 @@ def _lockstep(spin, clock_publisher, counts, ticks: int, timeout_s: float, runs=
             spin()
 
 
-def _one_spacecraft(preset: str, ticks: int, domain: int) -> dict:
+def _one_spacecraft(preset_path: Path, ticks: int, domain: int) -> dict:
     """The same preset and seeds alone, in this process on a domain of its own, stepped as the launched ones."""
     from pmv_ros.nodes.error_monitor_node import ErrorMonitorNode
     from pmv_ros.nodes.sensor_node import SensorNode
@@ -365,7 +380,6 @@ def _one_spacecraft(preset: str, ticks: int, domain: int) -> dict:
     from rclpy.parameter import Parameter
 
     context = rclpy.Context()
-    preset_path = REPO / "config" / f"{preset}.yaml"
     rclpy.init(args=["--ros-args", "--params-file", str(preset_path)], context=context, domain_id=domain)
     executor = SingleThreadedExecutor(context=context)
     nodes, got = [], {"residual": [], "statistics": [], "attitude": [], "truth": []}
@@ -426,7 +440,8 @@ def test_two_spacecraft_share_only_clock_diagnostics_and_tf_and_fly_as_alone(col
     node.create_subscription(DiagnosticArray, "/diagnostics", diagnostics.append, 1000)
     clock = node.create_publisher(Clock, "/clock", 10)
     launches = {}
-    for name, preset in FLEET.items():
+    presets = _fleet_presets(tmp_path)
+    for name, preset in presets.items():
         (tmp_path / name).mkdir()
         launches[name] = Launched(colcon_install, ros_tools, tmp_path / name, f"namespace:={name}",
                                   f"preset:={preset}", "use_sim_time:=true")
@@ -472,7 +487,7 @@ def test_two_spacecraft_share_only_clock_diagnostics_and_tf_and_fly_as_alone(col
         assert {f"pmv_ros/{name}/sensor_node: horizon", f"pmv_ros/{name}/star_tracker_node"} \
             <= {s.name for s in statuses}
     for offset, (name, preset) in enumerate(FLEET.items()):
-        alone = _one_spacecraft(preset, LOCKSTEP_SAMPLES, DOMAIN_ID + 120 + offset)
+        alone = _one_spacecraft(presets[name], LOCKSTEP_SAMPLES, DOMAIN_ID + 120 + offset)
         fleet, single = _residuals(got[name]["residual"]), _residuals(alone["residual"])
         common = min(len(fleet), len(single))
         assert common >= LOCKSTEP_SAMPLES - 20, (name, len(fleet), len(single))  # truth lags by the latency
