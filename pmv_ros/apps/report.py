@@ -9,7 +9,10 @@ Plots (PNG, matplotlib's Agg backend, no display needed):
   orbital frequency (least squares over the whole record), with the monitor's
   live k = 1, 2, 15–25 values marked (physics.md §5.1), and — when the preset
   names a flight record (``sim.flight_record``) — the record's published
-  points beside it (:func:`flight_record`, pmv_ros/data/flight_records.json).
+  points beside it (:func:`flight_record`, pmv_ros/data/flight_records.json);
+* ``pointing.png`` (a closed-loop run) — the true pointing error (the body's roll and pitch against nadir)
+  against the argument of latitude, with minus the closed-form oblateness drawn over it when the sensor
+  does not compensate it on board: the attitude the loop settles to (physics.md §2.1).
 """
 
 from __future__ import annotations
@@ -82,9 +85,23 @@ def statistics_to_dict(statistics) -> dict:
             "counters": dict(statistics.counters)}
 
 
+def pointing_to_dict(controller, oblateness_compensation: bool) -> dict:
+    """The true pointing error of a closed loop (a :class:`~pmv_ros.runtime.control.ControllerRuntime`) as
+    JSON-ready data: per axis the layout of :func:`channel_to_dict`, and what the figures depend on."""
+    roll, pitch = controller.pointing.channels()
+    gains = controller.settings.gains
+    return {"note": "true roll and pitch of the body against nadir (REP-103), after the loop's settling time",
+            "roll": channel_to_dict(roll), "pitch": channel_to_dict(pitch),
+            "settling_time_s": controller.settings.settling_time_s,
+            "transient_samples": controller.pointing.skipped,
+            "bandwidth_hz": gains.bandwidth_hz, "damping_ratio": gains.damping_ratio,
+            "oblateness_compensation": bool(oblateness_compensation)}
+
+
 def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_harmonics: dict | None = None,
-                 record: dict | None = None) -> dict:
-    """Write ``statistics.json``, ``residuals.png`` and ``spectrum.png`` into ``directory``.
+                 record: dict | None = None, pointing: np.ndarray | None = None) -> dict:
+    """Write ``statistics.json``, ``residuals.png`` and ``spectrum.png`` into ``directory`` (and ``pointing.png``
+    for a closed loop).
 
     Returns the summary as written: the input plus ``residual_spectrum_arcmin``
     (whole-record harmonics, oblateness kept) and ``report_files``.
@@ -96,6 +113,8 @@ def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_ha
         orbit: the :class:`~pmv_ros.physics.orbit.two_body.CircularOrbit` flown (for u and the model).
         live_harmonics: {channel: {k: amplitude_arcmin}} from the monitor, marked on the spectrum.
         record: a flight record (:func:`flight_record`) whose published points are drawn on the spectrum.
+        pointing: ``(3, N)`` stamp (s), true roll and pitch (rad) of a closed loop, with ``summary["pointing"]``
+            (:func:`pointing_to_dict`); None for an open loop.
     """
     import matplotlib
 
@@ -105,6 +124,8 @@ def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_ha
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
     paths = [out / "statistics.json", out / "residuals.png", out / "spectrum.png"]
+    if pointing is not None:
+        paths.append(out / "pointing.png")
     t, roll, pitch = residuals
     spectra = {name: harmonic_spectrum(t, values, orbit.period_s) for name, values in (("roll", roll), ("pitch", pitch))}
     summary = dict(summary, residual_spectrum_arcmin={
@@ -157,7 +178,37 @@ def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_ha
     figure.tight_layout()
     figure.savefig(paths[2], dpi=110)
     plt.close(figure)
+    if pointing is not None:
+        _plot_pointing(paths[3], pointing, orbit, summary["pointing"])
     return summary
+
+
+def _plot_pointing(path: Path, pointing: np.ndarray, orbit, figures: dict) -> None:
+    """``pointing.png``: the true roll and pitch against u, with −(oblateness model) when it is not compensated."""
+    import matplotlib.pyplot as plt
+
+    t, roll, pitch = pointing
+    u_deg = np.degrees(np.mod(orbit.argument_of_latitude(t), 2.0 * math.pi))
+    model_u = np.linspace(0.0, 2.0 * math.pi, 721)
+    _, model_roll, model_pitch = closed_form_oblateness(model_u, orbit.altitude_m, orbit.inclination_rad)
+    figure, axes = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True)
+    for axis, values, model, name in ((axes[0], roll, model_roll, "roll"), (axes[1], pitch, model_pitch, "pitch")):
+        stats = figures[name]
+        axis.plot(u_deg, values / ARCMIN_RAD, ".", markersize=1.5, alpha=0.5,
+                  label=f"true {name} (σ {stats['sigma_arcmin']:.2f}′, mean {stats['mean_arcmin']:+.2f}′)")
+        if not figures["oblateness_compensation"]:
+            axis.plot(np.degrees(model_u), -model / ARCMIN_RAD, "k-", linewidth=1.5,
+                      label="− oblateness model: where the loop settles (physics.md §2.1)")
+        axis.set_ylabel(f"{name}, arcmin")
+        axis.grid(True, alpha=0.3)
+        axis.legend(loc="best", fontsize=8, framealpha=0.9)
+    axes[1].set_xlabel("argument of latitude u, deg")
+    axes[1].set_xlim(0, 360)
+    figure.suptitle(f"True pointing error, PD loop at {figures['bandwidth_hz']:g} Hz (ζ = {figures['damping_ratio']:g}), "
+                    f"oblateness compensation {'on' if figures['oblateness_compensation'] else 'off'}")
+    figure.tight_layout()
+    figure.savefig(path, dpi=110)
+    plt.close(figure)
 
 
 def _json_default(value):

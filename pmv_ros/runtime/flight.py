@@ -30,16 +30,29 @@ What each node does, and what runs it here:
 
 Message stamps in the pipeline are whole nanoseconds; here they are the
 float times. The difference moves the statistics by ≈ 1e-9 arcmin.
+
+The closed loop (:func:`fly_closed_loop`, ``pmv campaign --closed-loop``) adds
+attitude_controller_node's runtime, :class:`~pmv_ros.runtime.control.ControllerRuntime`, and drives
+the four as the in-process pipeline does (``pmv simulate --closed-loop``): before each sensor sample the
+plant is stepped to the sample's time and its states go to the sensor in follow mode
+(:meth:`~pmv_ros.runtime.sensor.runtime.SensorRuntime.add_truth`, then
+:meth:`~pmv_ros.runtime.sensor.runtime.SensorRuntime.step`, one sample at a time), the sample's roll and
+pitch to the controller; the plant's states are the truth stream of the star tracker and the monitor as
+above. The true pointing error is taken at the sensor's sample times
+(:class:`~pmv_ros.runtime.control.PointingStatistics`, after the loop's settling time).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..physics.attitude import true_roll_pitch
 from ..physics.orbit.two_body import geocentric_latitude_longitude
-from .common.assembly import MONITOR_PARAMS, NODE_PARAMS, READ_CORRECTION, SENSOR_PARAMS, STAR_TRACKER_PARAMS
+from .common.assembly import (CONTROLLER_PARAMS, MONITOR_PARAMS, NODE_PARAMS, READ_CORRECTION, SENSOR_PARAMS,
+                              STAR_TRACKER_PARAMS)
+from .control import ControllerRuntime, PointingStatistics
 from .monitor.runtime import MonitorRuntime
 from .monitor.records import BATCH_STATUSES, PENDING_CODE, MonitorSummary
 from .common.parameters import ParameterError, preset_values, unknown_parameter_problem
@@ -51,7 +64,7 @@ from .tracker.runtime import TrackerFrames, TrackerRuntime, track_stream
 OUTCOME_CODES = BATCH_STATUSES
 
 __all__ = ["OUTCOME_CODES", "PENDING_CODE", "Flight", "FlightValues", "TrackerFrames", "flight_values", "fly",
-           "sense_block", "tracker_frames"]
+           "fly_closed_loop", "sense_block", "tracker_frames"]
 
 
 @dataclass(frozen=True)
@@ -61,6 +74,7 @@ class FlightValues:
     sensor: dict
     star_tracker: dict
     monitor: dict
+    controller: dict | None = None  #: attitude_controller_node's (the closed loop)
 
 
 def flight_values(document: dict, overrides: dict | None = None) -> FlightValues:
@@ -88,7 +102,8 @@ def flight_values(document: dict, overrides: dict | None = None) -> FlightValues
 
     return FlightValues(sensor=node("sensor_node", SENSOR_PARAMS),
                         star_tracker=node("star_tracker_node", STAR_TRACKER_PARAMS),
-                        monitor=node("error_monitor_node", MONITOR_PARAMS))
+                        monitor=node("error_monitor_node", MONITOR_PARAMS),
+                        controller=node("attitude_controller_node", CONTROLLER_PARAMS))
 
 
 def sense_block(sensor_values: dict) -> int:
@@ -130,6 +145,11 @@ class Flight:
     summary: MonitorSummary
     frames: TrackerFrames
     values: FlightValues = field(repr=False)
+    #: the closed loop's true pointing error (None for an open loop), and the true roll and pitch at each
+    #: sample, NaN during the loop's settling time (rad)
+    pointing: PointingStatistics | None = None
+    pointing_roll_rad: np.ndarray | None = None
+    pointing_pitch_rad: np.ndarray | None = None
 
 
 def fly(values: FlightValues, samples: int) -> Flight:
@@ -157,10 +177,64 @@ def fly(values: FlightValues, samples: int) -> Flight:
     frames = tracker_frames(t, q, values.star_tracker, start_s=0.0)
     published = np.flatnonzero(frames.released_at >= 0)  # in release order = frame order
     position, velocity = orbit.state_eci(t)  # what /orbit/odometry carries
+    return _monitored(values, orbit, t, roll, pitch, frames)
+
+
+def _monitored(values: FlightValues, orbit, t, roll, pitch, frames: TrackerFrames, **closed_loop) -> Flight:
+    """The flight of the sensor's samples ``t``, ``roll``, ``pitch`` and the star tracker's ``frames``: the monitor's
+    work on them (``closed_loop``: the :class:`Flight` fields of the pointing error)."""
+    published = np.flatnonzero(frames.released_at >= 0)  # in release order = frame order
+    position, velocity = orbit.state_eci(t)  # what /orbit/odometry carries
     monitor = MonitorRuntime(values.monitor)  # as error_monitor_node takes the stream, all at once
     batch = monitor.add_stream(t, roll, pitch, frames.frame_s[published], frames.q_measured[:, published],
                                frames.released_at[published], position, velocity)
     u = orbit.argument_of_latitude(t)
     latitude, _ = geocentric_latitude_longitude(position)
     return Flight(t, u, latitude, roll, pitch, batch.status, batch.roll_rad, batch.pitch_rad, batch.meridional_rad,
-                  summary=monitor.monitor.summary(), frames=frames, values=values)
+                  summary=monitor.monitor.summary(), frames=frames, values=values, **closed_loop)
+
+
+def fly_closed_loop(values: FlightValues, samples: int) -> Flight:
+    """Fly ``samples`` sensor samples with the loop closed: the four nodes' work, no ROS (module docstring).
+
+    Args:
+        values: every node's parameter values (:func:`flight_values`); the sensor follows the plant whatever
+            its ``attitude.source``.
+        samples: number of sensor samples (≥ 2).
+    """
+    if samples < 2:
+        raise ValueError(f"samples = {samples}: a flight needs at least 2")
+    if values.sensor["orbit.source"] == "follow":
+        raise ValueError("orbit.source = follow: a flight flies an orbit of its own")
+    sensor = SensorRuntime(dict(values.sensor, **{"attitude.source": "follow"}), clock_epoch_s=0.0,
+                           correction=READ_CORRECTION, stepped=True)
+    controller = ControllerRuntime(values.controller, start_s=sensor.sim_time_s)
+    period_s = 1.0 / values.sensor["sensor.rate_hz"]
+    orbital, sensor_frame = sensor.frames.orbital, controller.frames.sensor
+    truth_s, truth_q, kept = [], [], []
+    for _ in range(samples):
+        now_s = sensor.sim_time_s
+        for state in controller.step_to(now_s + period_s).truth:  # the plant up to the coming sample
+            sensor.add_truth(orbital, state.t_s, state.q_xyzw, now_s)
+            truth_s.append(state.t_s)
+            truth_q.append(state.q_xyzw)
+        for sample in sensor.step().samples:
+            controller.add_measurement(sensor_frame, sample.t_s, sample.roll_rad, sample.pitch_rad, sample.t_s)
+            kept.append((sample.t_s, sample.roll_rad, sample.pitch_rad, *sample.q_xyzw))
+    if len(kept) < samples:
+        raise ValueError(f"the sensor measured {len(kept)} of {samples} samples: the loop lost its truth")
+    table = np.array(kept, float).T
+    t, roll, pitch, q = table[0], table[1], table[2], table[3:7]
+    truth_s = np.array(truth_s)
+    frames = tracker_frames(truth_s, np.array(truth_q, float).T, values.star_tracker, start_s=0.0)
+    # A frame released at a truth sample reaches the monitor before the sensor sample at that sample's time.
+    released = frames.released_at >= 0
+    arrival = np.where(released, np.searchsorted(t, truth_s[np.where(released, frames.released_at, 0)] - 1e-9), -1)
+    frames = replace(frames, released_at=arrival)
+    pointing = PointingStatistics(controller.pointing.period_s, controller.pointing.skip_until_s)
+    pointing.add_many(t, q)
+    true_roll, true_pitch = true_roll_pitch(q)
+    transient = t < pointing.skip_until_s
+    return _monitored(values, sensor.orbit, t, roll, pitch, frames, pointing=pointing,
+                      pointing_roll_rad=np.where(transient, np.nan, true_roll),
+                      pointing_pitch_rad=np.where(transient, np.nan, true_pitch))

@@ -17,7 +17,8 @@ from ...runtime.flight import OUTCOME_CODES
 from ...analysis.statistics import CHANNELS
 from ...runtime.monitor.records import Status
 from ...analysis.statistics import RunningStatistics
-from .results import _write_atomically, check_result, read_result, task_path
+from ...runtime.control.pointing import AXES
+from .results import POINTING_COLUMNS, _write_atomically, check_result, read_result, task_path
 from .tasks import COMPONENTS, LATITUDE_BIN_DEG, SEASONS, Settings, Task
 
 
@@ -43,7 +44,9 @@ def budget(out: Path, tasks: list[Task], settings: Settings | None = None) -> di
     components' σ and limits beside the total's; ``by_day`` → component → day
     → channel → statistics pooled over seeds, with the seeds' σ range;
     ``latitude_day`` (total): mean roll, pitch and meridional residual per
-    latitude bin and day; ``tasks``: each task's own statistics (the monitor's).
+    latitude bin and day; ``tasks``: each task's own statistics (the monitor's). A closed-loop campaign adds
+    ``pointing`` (component → group → roll/pitch → statistics of the true pointing error, after each task's
+    settling time) and ``pointing_by_day``.
     """
     ok = OUTCOME_CODES.index(Status.OK)
     groups = {}  # component → group → channel → RunningStatistics
@@ -54,6 +57,8 @@ def budget(out: Path, tasks: list[Task], settings: Settings | None = None) -> di
     grid = {channel: (np.zeros((edges.size - 1, len(task_days))), np.zeros((edges.size - 1, len(task_days))))
             for channel in CHANNELS}  # sums, counts
     per_task = []
+    pointing = {}  # component → group → axis → RunningStatistics (closed-loop files)
+    pointing_days = {}  # component → day → axis → RunningStatistics
     for task in tasks:
         path = task_path(out, task)
         table, description = read_result(path) if settings is None else check_result(path, settings, task)
@@ -77,8 +82,11 @@ def budget(out: Path, tasks: list[Task], settings: Settings | None = None) -> di
                 sums, counts = grid[channel]
                 np.add.at(sums[:, column], row[finite], values[finite])
                 np.add.at(counts[:, column], row[finite], 1.0)
+        if POINTING_COLUMNS[0] in table.column_names:
+            _add_pointing(table, task, season, pointing, pointing_days)
         per_task.append({**asdict(task), "epoch_utc": description["epoch_utc"], "season": season,
-                         "samples": description["samples"], **description["summary"]})
+                         "samples": description["samples"], **description["summary"],
+                         **({"pointing": description["pointing"]} if "pointing" in description else {})})
     result = {"components": {}, "by_day": {}, "tasks": per_task}
     for name, by_group in groups.items():
         result["components"][name] = {group: {c: _statistics_dict(s) for c, s in channels.items()}
@@ -96,10 +104,32 @@ def budget(out: Path, tasks: list[Task], settings: Settings | None = None) -> di
                 "latitude_edges_deg": edges.tolist(), "days": task_days,
                 **{f"{c}_mean_arcmin": (grid[c][0] / grid[c][1] / ARCMIN_RAD).tolist() for c in CHANNELS},
                 "count": grid[CHANNELS[0]][1].astype(int).tolist()}
+    if pointing:
+        result["pointing"] = {name: {group: {axis: _statistics_dict(stats) for axis, stats in axes.items()}
+                                     for group, axes in by_group.items() if axes[AXES[0]].count}
+                              for name, by_group in pointing.items()}
+        result["pointing_by_day"] = {name: {str(day): {axis: _statistics_dict(stats) for axis, stats in axes.items()}
+                                            for day, axes in sorted(by_day.items())}
+                                     for name, by_day in pointing_days.items()}
     parts = [name for name in COMPONENTS if name != "total" and name in groups]
     if parts and "total" in groups:
         result["rss"] = _rss(result["components"], parts)
     return finite_json(result)
+
+
+def _add_pointing(table, task: Task, season: str, pointing: dict, pointing_days: dict) -> None:
+    """A closed-loop task's true pointing error (its samples after the loop's settling time) into the year's,
+    its season's and its day's statistics."""
+    groups = pointing.setdefault(task.component, {"year": _new_axes(), **{s: _new_axes() for s in SEASONS}})
+    day = pointing_days.setdefault(task.component, {}).setdefault(task.day, _new_axes())
+    for axis, column in zip(AXES, POINTING_COLUMNS):
+        values = table.column(column).to_numpy()
+        for target in (groups["year"], groups[season], day):
+            target[axis].update(values)
+
+
+def _new_axes() -> dict:
+    return {axis: RunningStatistics() for axis in AXES}
 
 
 def _rss(components: dict, parts: list[str]) -> dict:
@@ -160,6 +190,8 @@ def _plot(out: Path, result: dict) -> list[str]:
     plt.close(fig)
     files.append("sigma_limit.png")
 
+    if result.get("pointing_by_day"):
+        files.append(_plot_pointing(out, result["pointing_by_day"]))
     grid = result.get("latitude_day")
     if grid:
         fig, axes = plt.subplots(1, len(CHANNELS), figsize=(13, 4.5), sharey=True)
@@ -183,6 +215,29 @@ def _plot(out: Path, result: dict) -> list[str]:
         plt.close(fig)
         files.append("latitude_season.png")
     return files
+
+
+def _plot_pointing(out: Path, by_day: dict) -> str:
+    """``pointing.png``: σ and |mean| + 3σ of the true pointing error per day (closed loop)."""
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(len(AXES), 1, figsize=(9, 6), sharex=True)
+    for axis, name in zip(axes, AXES):
+        for component, series in by_day.items():
+            day = np.array([int(d) for d in series])
+            sigma = np.array([series[d][name]["sigma_arcmin"] for d in series], float)
+            limit = np.array([series[d][name]["limit_arcmin"] for d in series], float)
+            axis.plot(day, sigma, "o-", label=f"σ, {component}")
+            axis.plot(day, limit, "s--", label=f"|mean| + 3σ, {component}")
+        axis.set_ylabel(f"true {name}, ′")
+        axis.grid(alpha=0.3)
+    axes[0].legend(fontsize=7, ncol=2)
+    axes[-1].set_xlabel("day of year")
+    fig.suptitle("True pointing error over the year (closed loop, after each run's settling time)")
+    fig.tight_layout()
+    fig.savefig(out / "pointing.png", dpi=110)
+    plt.close(fig)
+    return "pointing.png"
 
 
 def _day_edges(days: list[int]) -> np.ndarray:
