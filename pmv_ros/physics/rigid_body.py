@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -118,19 +119,18 @@ class RigidBody:
         Args as :meth:`derivatives`; ``dt_s`` > 0. Returns tuples of components (floats or arrays, as given).
         """
         half = 0.5 * dt_s
-
-        def moved(base, slope, h):
-            return tuple(b + h * d for b, d in zip(base, slope))
-
         k1q, k1r = self.derivatives(q, rate, torque)
-        k2q, k2r = self.derivatives(moved(q, k1q, half), moved(rate, k1r, half), torque)
-        k3q, k3r = self.derivatives(moved(q, k2q, half), moved(rate, k2r, half), torque)
-        k4q, k4r = self.derivatives(moved(q, k3q, dt_s), moved(rate, k3r, dt_s), torque)
+        k2q, k2r = self.derivatives([b + half * d for b, d in zip(q, k1q)], [b + half * d for b, d in zip(rate, k1r)],
+                                    torque)
+        k3q, k3r = self.derivatives([b + half * d for b, d in zip(q, k2q)], [b + half * d for b, d in zip(rate, k2r)],
+                                    torque)
+        k4q, k4r = self.derivatives([b + dt_s * d for b, d in zip(q, k3q)], [b + dt_s * d for b, d in zip(rate, k3r)],
+                                    torque)
         sixth = dt_s / 6.0
-        q_end = tuple(b + sixth * (a + 2.0 * (c + d) + e) for b, a, c, d, e in zip(q, k1q, k2q, k3q, k4q))
-        rate_end = tuple(b + sixth * (a + 2.0 * (c + d) + e) for b, a, c, d, e in zip(rate, k1r, k2r, k3r, k4r))
+        q_end = [b + sixth * (a + 2.0 * (c + d) + e) for b, a, c, d, e in zip(q, k1q, k2q, k3q, k4q)]
+        rate_end = tuple([b + sixth * (a + 2.0 * (c + d) + e) for b, a, c, d, e in zip(rate, k1r, k2r, k3r, k4r)])
         norm = (q_end[0] * q_end[0] + q_end[1] * q_end[1] + q_end[2] * q_end[2] + q_end[3] * q_end[3]) ** 0.5
-        return tuple(c / norm for c in q_end), rate_end
+        return tuple([c / norm for c in q_end]), rate_end
 
 
 @dataclass(frozen=True)
@@ -157,13 +157,13 @@ class PdGains:
         """ω_n = 2π·bandwidth, rad/s."""
         return 2.0 * math.pi * self.bandwidth_hz
 
-    @property
+    @cached_property
     def proportional(self) -> tuple:
         """K_p per axis, N·m/rad."""
         wn2 = self.natural_frequency_rad_s ** 2
         return tuple(j * wn2 for j in self.inertia_kg_m2)
 
-    @property
+    @cached_property
     def derivative(self) -> tuple:
         """K_d per axis, N·m·s/rad."""
         gain = 2.0 * self.damping_ratio * self.natural_frequency_rad_s

@@ -145,11 +145,11 @@ class Flight:
     summary: MonitorSummary
     frames: TrackerFrames
     values: FlightValues = field(repr=False)
-    #: the closed loop's true pointing error (None for an open loop), and the true roll and pitch at each
-    #: sample, NaN during the loop's settling time (rad)
+    #: the closed loop's true pointing error after the loop's settling time (None for an open loop), and the
+    #: true roll and pitch at every sample (rad), the transient included
     pointing: PointingStatistics | None = None
-    pointing_roll_rad: np.ndarray | None = None
-    pointing_pitch_rad: np.ndarray | None = None
+    true_roll_rad: np.ndarray | None = None
+    true_pitch_rad: np.ndarray | None = None
 
 
 def fly(values: FlightValues, samples: int) -> Flight:
@@ -234,7 +234,5 @@ def fly_closed_loop(values: FlightValues, samples: int) -> Flight:
     pointing = PointingStatistics(controller.pointing.period_s, controller.pointing.skip_until_s)
     pointing.add_many(t, q)
     true_roll, true_pitch = true_roll_pitch(q)
-    transient = t < pointing.skip_until_s
-    return _monitored(values, sensor.orbit, t, roll, pitch, frames, pointing=pointing,
-                      pointing_roll_rad=np.where(transient, np.nan, true_roll),
-                      pointing_pitch_rad=np.where(transient, np.nan, true_pitch))
+    return _monitored(values, sensor.orbit, t, roll, pitch, frames, pointing=pointing, true_roll_rad=true_roll,
+                      true_pitch_rad=true_pitch)

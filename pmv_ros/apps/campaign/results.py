@@ -79,8 +79,10 @@ def run_task(settings: Settings, task: Task):
         "pitch_rad": flight.pitch_rad,
         "meridional_rad": flight.meridional_rad,
     }
-    if settings.closed_loop:
-        columns.update(pointing_roll_rad=flight.pointing_roll_rad, pointing_pitch_rad=flight.pointing_pitch_rad)
+    if settings.closed_loop:  # the pointing error after the loop's settling time, NaN before
+        transient = flight.t_s < flight.pointing.skip_until_s
+        columns.update(pointing_roll_rad=np.where(transient, np.nan, flight.true_roll_rad),
+                       pointing_pitch_rad=np.where(transient, np.nan, flight.true_pitch_rad))
     table = pa.table(columns)
     description = {"format": RESULT_FORMAT, "task": asdict(task), "task_key": task.name,
                    "settings_sha256": settings_digest(settings), "overrides": finite_json(overrides),
