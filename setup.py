@@ -51,6 +51,7 @@ setup(
             "sensor_node = pmv_ros.nodes.sensor_node:main",
             "star_tracker_node = pmv_ros.nodes.star_tracker_node:main",
             "error_monitor_node = pmv_ros.nodes.error_monitor_node:main",
+            "attitude_controller_node = pmv_ros.nodes.attitude_controller_node:main",
         ],
     },
 )

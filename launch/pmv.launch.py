@@ -26,6 +26,9 @@ Arguments (``ros2 launch pmv_ros pmv.launch.py --show-args`` lists them):
 * ``respawn`` — true: a node that dies is started again after 2 s;
 * ``star_tracker``, ``monitor`` — false: leave that node out (your stack has its
   own star tracker or monitor; they talk on the same topics);
+* ``controller`` — true: close the loop: start ``attitude_controller_node`` (a rigid
+  body held nadir-pointing by a PD loop on ``pmv/attitude``, publishing
+  ``attitude/truth``) and make the sensor follow it (as ``follow:=true``);
 * ``managed`` — true: the nodes start as managed (lifecycle) nodes (``--managed``,
   see the README);
 * ``autostart`` — with ``managed:=true`` (default true): the launch configures each
@@ -63,7 +66,7 @@ from launch_ros.actions import Node
 
 PACKAGE = "pmv_ros"
 PRESETS = ("kondor", "meteor_m2", "meteor_m2_2", "meteor_m2_tle")
-NODES = ("sensor_node", "star_tracker_node", "error_monitor_node")
+NODES = ("sensor_node", "star_tracker_node", "error_monitor_node", "attitude_controller_node")
 
 ARGUMENTS = (
     ("preset", "kondor", f"one of {', '.join(PRESETS)}, or the path of a ros__parameters file"),
@@ -79,6 +82,8 @@ ARGUMENTS = (
     ("respawn", "false", "true: a node that dies is started again after 2 s"),
     ("star_tracker", "true", "false: no star_tracker_node (your stack publishes star_tracker/attitude)"),
     ("monitor", "true", "false: no error_monitor_node"),
+    ("controller", "false", "true: close the loop: attitude_controller_node publishes attitude/truth from a PD loop "
+                            "on pmv/attitude, and the sensor follows it"),
     ("managed", "false", "true: lifecycle nodes (configured and activated at start-up: see autostart)"),
     ("autostart", "true", "with managed:=true: true: the launch configures and activates each node once, when its "
                           "process starts; false: the nodes wait unconfigured for your lifecycle manager"),
@@ -173,7 +178,8 @@ def _nodes(context):
     path = config / f"{preset}.yaml" if preset in PRESETS else Path(preset).expanduser()
     if not path.is_file():
         raise LaunchArgumentError(f"preset:={preset}: not one of {', '.join(PRESETS)} and no such file")
-    follow, fast_time = _flag(context, "follow"), _flag(context, "fast_time")
+    controller = _flag(context, "controller")
+    follow, fast_time = _flag(context, "follow") or controller, _flag(context, "fast_time")
     use_sim_time = _flag(context, "use_sim_time")
     namespace = LaunchConfiguration("namespace").perform(context).strip()
     if namespace:
@@ -189,7 +195,7 @@ def _nodes(context):
         raise LaunchArgumentError(f"log_level:={log_level}: expected one of {', '.join(LOG_LEVELS)}")
     respawn = _flag(context, "respawn")
     wanted = {"sensor_node": True, "star_tracker_node": _flag(context, "star_tracker"),
-              "error_monitor_node": _flag(context, "monitor")}
+              "error_monitor_node": _flag(context, "monitor"), "attitude_controller_node": controller}
     from pmv_ros.runtime.common.assembly import NODE_PARAMS  # here: --show-args needs no numerics
     from pmv_ros.runtime.common.frames import prefix_for_namespace
 

@@ -14,6 +14,9 @@ Plots (PNG, matplotlib's Agg backend, no display needed):
   track, with the frames that gave no attitude marked by the tracker's reason
   (where the South Atlantic Anomaly, the star-poor sky and the Sun near the
   boresight are), and what each reason cost the run (``truth_lost``).
+* ``pointing.png`` (a closed-loop run) — the true pointing error (the body's roll and pitch against nadir)
+  against the argument of latitude, with minus the closed-form oblateness drawn over it when the sensor
+  does not compensate it on board: the attitude the loop settles to (physics.md §2.1).
 """
 
 from __future__ import annotations
@@ -90,9 +93,23 @@ def truth_lost_summary(truth_lost: dict, samples: int) -> dict:
             for key, count in truth_lost.items() if count}
 
 
+def pointing_to_dict(controller, oblateness_compensation: bool) -> dict:
+    """The true pointing error of a closed loop (a :class:`~pmv_ros.runtime.control.ControllerRuntime`) as
+    JSON-ready data: per axis the layout of :func:`channel_to_dict`, and what the figures depend on."""
+    roll, pitch = controller.pointing.channels()
+    gains = controller.settings.gains
+    return {"note": "true roll and pitch of the body against nadir (REP-103), after the loop's settling time",
+            "roll": channel_to_dict(roll), "pitch": channel_to_dict(pitch),
+            "settling_time_s": controller.settings.settling_time_s,
+            "transient_samples": controller.pointing.skipped,
+            "bandwidth_hz": gains.bandwidth_hz, "damping_ratio": gains.damping_ratio,
+            "oblateness_compensation": bool(oblateness_compensation)}
+
+
 def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_harmonics: dict | None = None,
-                 record: dict | None = None, tracker: dict | None = None) -> dict:
-    """Write ``statistics.json``, ``residuals.png`` and ``spectrum.png`` into ``directory``.
+                 record: dict | None = None, tracker: dict | None = None, pointing: np.ndarray | None = None) -> dict:
+    """Write ``statistics.json``, ``residuals.png`` and ``spectrum.png`` into ``directory`` (``tracker.png`` when
+    the star tracker's frames are given, ``pointing.png`` for a closed loop).
 
     Returns the summary as written: the input plus ``residual_spectrum_arcmin``
     (whole-record harmonics, oblateness kept) and ``report_files``.
@@ -107,6 +124,8 @@ def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_ha
         tracker: the star tracker's frames along the ground track, for ``tracker.png``: ``track_deg`` (latitude,
             longitude ``(N,)`` deg of the run), ``frames_deg`` (latitude, longitude ``(K,)`` of the frames without
             attitude), ``reasons`` ``(K,)`` their reasons, and the run's ``truth_lost`` (:func:`truth_lost_summary`).
+        pointing: ``(3, N)`` stamp (s), true roll and pitch (rad) of a closed loop, with ``summary["pointing"]``
+            (:func:`pointing_to_dict`); None for an open loop.
     """
     import matplotlib
 
@@ -118,6 +137,8 @@ def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_ha
     paths = [out / "statistics.json", out / "residuals.png", out / "spectrum.png"]
     if tracker is not None:
         paths.append(out / "tracker.png")
+    if pointing is not None:
+        paths.append(out / "pointing.png")
     t, roll, pitch = residuals
     fits = {name: spectrum_fit(t, values, orbit.period_s) for name, values in (("roll", roll), ("pitch", pitch))}
     spectra = {name: (np.arange(1, fit.amplitude.size + 1), fit.amplitude) for name, fit in fits.items()}
@@ -175,7 +196,9 @@ def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_ha
     figure.savefig(paths[2], dpi=110)
     plt.close(figure)
     if tracker is not None:
-        _plot_tracker(plt, paths[3], tracker)
+        _plot_tracker(plt, out / "tracker.png", tracker)
+    if pointing is not None:
+        _plot_pointing(out / "pointing.png", pointing, orbit, summary["pointing"])
     return summary
 
 
@@ -201,6 +224,34 @@ def _plot_tracker(plt, path: Path, tracker: dict) -> None:
     axis.grid(True, alpha=0.3)
     axis.legend(fontsize=8, loc="lower left", framealpha=0.9)
     axis.set_title("Star-tracker frames without attitude along the ground track (physics.md §6)", fontsize=10)
+    figure.tight_layout()
+    figure.savefig(path, dpi=110)
+    plt.close(figure)
+
+
+def _plot_pointing(path: Path, pointing: np.ndarray, orbit, figures: dict) -> None:
+    """``pointing.png``: the true roll and pitch against u, with −(oblateness model) when it is not compensated."""
+    import matplotlib.pyplot as plt
+
+    t, roll, pitch = pointing
+    u_deg = np.degrees(np.mod(orbit.argument_of_latitude(t), 2.0 * math.pi))
+    model_u = np.linspace(0.0, 2.0 * math.pi, 721)
+    _, model_roll, model_pitch = closed_form_oblateness(model_u, orbit.altitude_m, orbit.inclination_rad)
+    figure, axes = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True)
+    for axis, values, model, name in ((axes[0], roll, model_roll, "roll"), (axes[1], pitch, model_pitch, "pitch")):
+        stats = figures[name]
+        axis.plot(u_deg, values / ARCMIN_RAD, ".", markersize=1.5, alpha=0.5,
+                  label=f"true {name} (σ {stats['sigma_arcmin']:.2f}′, mean {stats['mean_arcmin']:+.2f}′)")
+        if not figures["oblateness_compensation"]:
+            axis.plot(np.degrees(model_u), -model / ARCMIN_RAD, "k-", linewidth=1.5,
+                      label="− oblateness model: where the loop settles (physics.md §2.1)")
+        axis.set_ylabel(f"{name}, arcmin")
+        axis.grid(True, alpha=0.3)
+        axis.legend(loc="best", fontsize=8, framealpha=0.9)
+    axes[1].set_xlabel("argument of latitude u, deg")
+    axes[1].set_xlim(0, 360)
+    figure.suptitle(f"True pointing error, PD loop at {figures['bandwidth_hz']:g} Hz (ζ = {figures['damping_ratio']:g}), "
+                    f"oblateness compensation {'on' if figures['oblateness_compensation'] else 'off'}")
     figure.tight_layout()
     figure.savefig(path, dpi=110)
     plt.close(figure)

@@ -77,6 +77,10 @@ def add_parser(subparsers) -> None:
                         help="orbits flown by each task (default 1)")
     parser.add_argument("--rate-hz", type=ranged_float(0.1, 100.0, " Hz"), default=None,
                         help="sensor output rate (default: the preset's)")
+    parser.add_argument("--closed-loop", action="store_true",
+                        help="close the loop in every task (the sensor in follow mode inside attitude_controller_node's "
+                             "plant and PD loop, as pmv simulate --closed-loop): the budget adds the true pointing "
+                             "error beside the residuals")
     parser.add_argument("--components", action="store_true",
                         help="also fly each environment component alone (oblateness, climatology, weather, layer "
                              "height) and give their root sum of squares beside the total")
@@ -139,7 +143,8 @@ def run(args) -> int:
         if from_elements:
             epoch_utc = parse_element_set(sensor["orbit.tle_line1"], sensor["orbit.tle_line2"]).epoch_utc.isoformat()
         days = campaign.parse_days(args.days, year, from_elements)
-        settings = campaign.Settings(document, epoch_utc, args.rate_hz, args.orbits_per_task, from_elements)
+        settings = campaign.Settings(document, epoch_utc, args.rate_hz, args.orbits_per_task, from_elements,
+                                     closed_loop=args.closed_loop)
         tasks = campaign.plan(days, args.seeds, args.components)
         campaign.check(settings, tasks)
     except ParameterError as error:
@@ -161,7 +166,7 @@ def run(args) -> int:
         "task_compute_s": ran["compute_s"], "samples_run": ran["samples"],
         "samples_per_s_per_worker": ran["samples"] / ran["compute_s"] if ran["compute_s"] else None,
         "files": files,
-        "budget": {key: result[key] for key in ("components", "rss", "truth_lost") if key in result},
+        "budget": {key: result[key] for key in ("components", "rss", "truth_lost", "pointing") if key in result},
         "tasks_statistics": result["tasks"],
     }
     if ran["recomputed"]:  # task files that were there but not this campaign's results: name → why
@@ -177,6 +182,10 @@ def run(args) -> int:
         print(f"recomputed {len(ran['recomputed'])} task file(s) that did not hold their task's result: "
               + "; ".join(f"{name} ({reason})" for name, reason in sorted(ran["recomputed"].items())))
     print(format_table(_rows(result["components"]), COLUMNS))
+    if "pointing" in result:
+        print("true pointing error (closed loop: the body's roll and pitch against nadir, after each task's "
+              "settling time, arcmin):")
+        print(format_table(_rows(result["pointing"]), COLUMNS))
     if "rss" in result:
         rows = [{"group": group, "channel": channel, **values}
                 for group, channels in result["rss"].items() for channel, values in channels.items()]

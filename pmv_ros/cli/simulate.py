@@ -45,6 +45,13 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--report", default=None, help="write statistics.json and PNG plots into this folder")
     parser.add_argument("--record", default=None, metavar="FILE.mcap",
                         help="record every topic of the run into a new rosbag2 MCAP file (logged at simulation time)")
+    parser.add_argument("--closed-loop", action="store_true",
+                        help="close the loop: the sensor follows attitude/truth from attitude_controller_node, a rigid "
+                             "body held nadir-pointing by a PD loop on pmv/attitude; the report adds the true pointing "
+                             "error beside the residuals")
+    parser.add_argument("--compensation", choices=("off", "on"), default=None,
+                        help="with --closed-loop: the sensor's on-board oblateness compensation (default: the "
+                             "preset's); off shows the oblateness going into the pointing")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     add_json_flag(parser)
     parser.set_defaults(func=run)
@@ -129,7 +136,12 @@ def run(args) -> int:
     """
     from ..runtime.common.assembly import parse_epoch
 
+    if args.compensation is not None and not args.closed_loop:
+        raise ValueError("--compensation goes with --closed-loop (open loop: set sensor.oblateness_compensation "
+                         "in the preset's /** section)")
     overrides = {} if args.rate_hz is None else {"sensor.rate_hz": args.rate_hz}
+    if args.compensation is not None:  # the sensor's and the monitor's (it must not remove the model twice)
+        overrides["sensor.oblateness_compensation"] = args.compensation == "on"
     if args.seed is not None:
         overrides["seed"] = args.seed
     if args.epoch is not None:
@@ -170,10 +182,10 @@ def _fly(args, overrides: dict, stop: _StopOnSignal) -> int:
 
     from ..nodes.params import ParameterError
     from ..nodes.pipeline import Pipeline
-    from ..apps.report import flight_record, statistics_to_dict, truth_lost_summary, write_report
+    from ..apps.report import flight_record, pointing_to_dict, statistics_to_dict, truth_lost_summary, write_report
 
     try:
-        pipeline = Pipeline(args.config, overrides, record=args.record)
+        pipeline = Pipeline(args.config, overrides, record=args.record, closed_loop=args.closed_loop)
     except ParameterError as error:
         raise ValueError(f"{args.config}: {error}") from None
     started = time.perf_counter()
@@ -218,6 +230,9 @@ def _fly(args, overrides: dict, stop: _StopOnSignal) -> int:
             "seed": pipeline.sensor.get_parameter("seed").value,
             "epoch_utc": pipeline.sensor.get_parameter("sim.epoch_utc").value,
         })
+        if pipeline.controller is not None:
+            result["pointing"] = pointing_to_dict(
+                pipeline.controller.runtime, pipeline.sensor.get_parameter("sensor.oblateness_compensation").value)
         if pipeline.recording is not None:
             pipeline.recording.close()
             if stop.number is not None:  # a signal while the recording was being finalised: it was closed whole
@@ -229,15 +244,25 @@ def _fly(args, overrides: dict, stop: _StopOnSignal) -> int:
             live = {name: {int(k): v for k, v in c["harmonics_arcmin"].items()}
                     for name, c in result["channels"].items()}
             record = flight_record(pipeline.sensor.get_parameter("sim.flight_record").value)
+            pointing = pipeline.controller.pointing.series() if pipeline.controller is not None else None
             result = write_report(args.report, result, pipeline.collector.residual_array(), orbit, live, record,
-                                  _tracker_frames(pipeline, result["truth_lost"]))
+                                  tracker=_tracker_frames(pipeline, result["truth_lost"]), pointing=pointing)
     if args.json:
         print_json(result)
         return 0
     print(f"{result['config']}: {result['simulated_s']:.0f} s simulated in {wall_s:.1f} s wall "
           f"({result['simulated_s'] / wall_s:.0f}× real time); residual statistics, "
           f"oblateness {'removed' if result['oblateness_removed'] else 'kept'}:")
-    print(format_table(_rows(result), [(key, heading, "") for key, heading, _ in COLUMNS]))
+    columns = [(key, heading, "") for key, heading, _ in COLUMNS]
+    print(format_table(_rows(result), columns))
+    if "pointing" in result:
+        pointing = result["pointing"]
+        print(f"true pointing error (the body's roll and pitch against nadir; PD loop at "
+              f"{pointing['bandwidth_hz']:g} Hz, oblateness compensation "
+              f"{'on' if pointing['oblateness_compensation'] else 'off'}), after the loop's settling time "
+              f"{pointing['settling_time_s']:.0f} s:")
+        print(format_table(_rows({"channels": {f"true {axis}": pointing[axis] for axis in ("roll", "pitch")}}),
+                           columns))
     counters = result["counters"]
     skipped = {k: v for k, v in counters.items() if (k.startswith("skipped_") or k.startswith("rejected_")) and v}
     print(f"samples used {counters.get('used', 0)}, not used: "

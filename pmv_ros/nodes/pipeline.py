@@ -1,7 +1,9 @@
-"""The three nodes in one process on one executor, stepped in fast time.
+"""The three nodes in one process on one executor, stepped in fast time — and with the loop closed, four.
 
 Used by ``pmv simulate`` (the main job), the node tests and the pipeline
-benchmark. Each :class:`Pipeline` has its own rclpy context, so several can
+benchmark. With ``closed_loop``, the sensor follows ``attitude/truth`` and an
+:class:`~pmv_ros.nodes.attitude_controller_node.AttitudeControllerNode` publishes it: a rigid body held
+nadir-pointing by a PD loop on ``pmv/attitude`` (``pmv simulate --closed-loop``). Each :class:`Pipeline` has its own rclpy context, so several can
 live in one process one after another. Flow control is explicit: every
 sensor tick is followed by :meth:`Pipeline.drain`, which runs ready callbacks
 until none is left, so no queue grows and nothing is dropped however fast
@@ -27,6 +29,7 @@ import pmv_msgs_shim as shim
 from ..runtime.common.assembly import NODE_PARAMS
 from .base import QOS_DEPTH, PmvNode
 from .launch import hold_single_threaded_blas, release_single_threaded_blas
+from .attitude_controller_node import AttitudeControllerNode
 from .error_monitor_node import ErrorMonitorNode
 from .params import check_params_files
 from .rclpy_internals import TakingQueued, drain, taking_queued
@@ -88,11 +91,15 @@ class Pipeline:
             recording and tf2_msgs is there — nothing else in the process's private graph reads them, and
             two more messages per tick would cost the main job time for nothing (benchmarks/bench_tf.py
             measures it).
+        closed_loop: close the loop: the sensor follows ``attitude/truth`` (``attitude.source`` follow) and the
+            attitude controller publishes it, stepped before each sensor sample to that sample's time
+            (:meth:`step`), so the sensor measures the plant's attitude at its own sample times exactly.
     """
 
     def __init__(self, config: str | os.PathLike | None = None, overrides: dict | None = None,
                  isolated: bool = True, collect: bool = True, lean: bool = True,
-                 record: str | os.PathLike | None = None, publish_tf: bool | None = None):
+                 record: str | os.PathLike | None = None, publish_tf: bool | None = None,
+                 closed_loop: bool = False):
         if isolated:
             os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "OFF"
         args = ["--ros-args"]
@@ -104,6 +111,8 @@ class Pipeline:
             for node_name in NODE_PARAMS:  # a misspelled key in a node's section: ParameterError, as a bad value
                 check_params_files(args, node_name)
         settings = {"sim.fast_time": True, **(overrides or {})}
+        if closed_loop:
+            settings["attitude.source"] = "follow"  # the plant's attitude, not the sensor's own profile
         # Constructor overrides outrank the preset's node sections (a global -p would not).
         self.context = rclpy.Context()
         # No rclpy signal handlers: the caller decides what a signal means (`pmv simulate` stops the run
@@ -124,13 +133,15 @@ class Pipeline:
         # needs no clock.
         self._time_sources = {}  # role → the rclpy TimeSource its node follows
         self._clock_msg = ClockMsg()  # the simulation time last set
-        self.recording = self.recorder = None
+        self.recording = self.recorder = self.controller = None
         self.by_takes = True  # the drain asks the entities instead of waiting where it can (see drain)
         try:
             self.executor = SingleThreadedExecutor(context=self.context)
             self.sensor = self.start_node("sensor")
             self.star_tracker = self.start_node("star_tracker")
             self.monitor = self.start_node("monitor")
+            if closed_loop:
+                self.start_node("controller")
             self.collector = self._add(ReportCollector(**self._options(None))) if collect else None
             if record is not None:
                 self._start_recorder(record)
@@ -141,7 +152,8 @@ class Pipeline:
     #: The pipeline's nodes by role: (class, on the simulation time, constructor arguments).
     ROLES = {"sensor": (SensorNode, False, {"external_drive": True}),
              "star_tracker": (StarTrackerNode, True, {"flushed_by_caller": True}),
-             "monitor": (ErrorMonitorNode, True, {"flushed_by_caller": True})}
+             "monitor": (ErrorMonitorNode, True, {"flushed_by_caller": True}),
+             "controller": (AttitudeControllerNode, True, {"external_drive": True})}
 
     def _start_recorder(self, path) -> None:
         """Record every topic the graph has now (all nodes are up) into ``path``, logged at simulation time."""
@@ -178,7 +190,7 @@ class Pipeline:
         ``overrides`` are added to the pipeline's parameters for this node.
         """
         node_class, sim_time, arguments = self.ROLES[role]
-        if node_class is SensorNode:
+        if node_class in (SensorNode, AttitudeControllerNode):
             arguments = {**arguments, "publish_tf": self.publish_tf}
         source = self._new_time_source() if sim_time else None
         node = self._add(node_class(**arguments, **self._options(source, overrides)))
@@ -211,13 +223,28 @@ class Pipeline:
         return handed
 
     def step(self, ticks: int = 1) -> int:
-        """Advance the simulation by ``ticks`` sensor periods, draining the graph after each; returns callbacks run."""
+        """Advance the simulation by ``ticks`` sensor periods, draining the graph after each; returns callbacks run.
+
+        With the loop closed, the controller's plant reaches each sample's time before the sensor measures it:
+        after the sensor's sample the controller is told the next sample's time, and when the sample's
+        ``pmv/attitude`` reaches it in the drain it steps there with that measurement and publishes
+        ``attitude/truth``, which the same drain takes to the sensor and the star tracker. A plant still short
+        of the coming sample (the first tick, or a tick whose sample was not published) is stepped there first,
+        with its own drain."""
         ran = 0
+        controller, sensor = self.controller, self.sensor.runtime
         for _ in range(ticks):
+            if controller is not None:
+                next_s = sensor.sim_time_s + 1.0 / sensor.values["sensor.rate_hz"]  # as the sensor's clock sums it
+                if controller.runtime.time_s < next_s - 1e-9:
+                    controller.step_to(next_s)
+                    ran += self.drain()
             self.sensor.step()
             shim.write_clock(self._clock_msg, self.sensor.sim_time_s)
             for source in self._time_sources.values():
                 source.clock_callback(self._clock_msg)
+            if controller is not None:
+                controller.step_at_next_measurement(sensor.sim_time_s + 1.0 / sensor.values["sensor.rate_hz"])
             ran += self.drain()
         return ran
 

@@ -107,6 +107,17 @@ def true_roll_pitch(q_orbital_to_body):
     return roll_pitch_from_nadir(nadir_in_body(q))
 
 
+def true_yaw(q_orbital_to_body):
+    """Yaw (REP-103, the angle a horizon sensor cannot see), rad, of a unit quaternion (x, y, z, w).
+
+    ψ = atan2(R[1, 0], R[0, 0]) of R = R_z(ψ)·R_y(θ)·R_x(φ); components as given: a tuple of floats gives a
+    float (no rotation object built: a controller takes it every step), an array ``(4, N)`` an array.
+    """
+    x, y, z, w = q_orbital_to_body
+    yaw = np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+    return float(yaw) if np.ndim(yaw) == 0 else yaw
+
+
 # ------------------------------------------------- quaternion algebra for one frame at a time
 #
 # scipy's Rotation is the reference (tests pin these functions to it), but it

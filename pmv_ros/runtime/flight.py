@@ -1,4 +1,5 @@
 """Fly one stretch of orbit through the core, without ROS: what the three nodes compute, with their own code.
+from ..physics.attitude import true_roll_pitch
 
 orbit → attitude profile → sensor model → star-tracker model → the monitor's
 statistics, for one preset and one set of overrides — the models the nodes
@@ -31,16 +32,27 @@ What each node does, and what runs it here:
 
 Message stamps in the pipeline are whole nanoseconds; here they are the
 float times. The difference moves the statistics by ≈ 1e-9 arcmin.
+The closed loop (:func:`fly_closed_loop`, ``pmv campaign --closed-loop``) adds
+attitude_controller_node's runtime, :class:`~pmv_ros.runtime.control.ControllerRuntime`, and drives
+the four as the in-process pipeline does (``pmv simulate --closed-loop``): before each sensor sample the
+plant is stepped to the sample's time and its states go to the sensor in follow mode
+(:meth:`~pmv_ros.runtime.sensor.runtime.SensorRuntime.add_truth`, then
+:meth:`~pmv_ros.runtime.sensor.runtime.SensorRuntime.step`, one sample at a time), the sample's roll and
+pitch to the controller; the plant's states are the truth stream of the star tracker and the monitor as
+above. The true pointing error is taken at the sensor's sample times
+(:class:`~pmv_ros.runtime.control.PointingStatistics`, after the loop's settling time).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from ..physics.orbit.two_body import geocentric_latitude_longitude
-from .common.assembly import MONITOR_PARAMS, NODE_PARAMS, READ_CORRECTION, SENSOR_PARAMS, STAR_TRACKER_PARAMS
+from .common.assembly import (CONTROLLER_PARAMS, MONITOR_PARAMS, NODE_PARAMS, READ_CORRECTION, SENSOR_PARAMS,
+                              STAR_TRACKER_PARAMS)
+from .control import ControllerRuntime, PointingStatistics
 from .monitor.runtime import MonitorRuntime
 from .monitor.records import BATCH_STATUSES, PENDING_CODE, MonitorSummary
 from .common.parameters import ParameterError, preset_values, unknown_parameter_problem
@@ -52,7 +64,7 @@ from .tracker.runtime import TrackerFrames, TrackerRuntime, track_stream
 OUTCOME_CODES = BATCH_STATUSES
 
 __all__ = ["OUTCOME_CODES", "PENDING_CODE", "Flight", "FlightValues", "TrackerFrames", "flight_values", "fly",
-           "sense_block", "tracker_frames", "wire_clock", "wire_stamps"]
+           "fly_closed_loop", "sense_block", "tracker_frames", "wire_clock", "wire_stamps"]
 
 
 @dataclass(frozen=True)
@@ -62,6 +74,7 @@ class FlightValues:
     sensor: dict
     star_tracker: dict
     monitor: dict
+    controller: dict | None = None  #: attitude_controller_node's (the closed loop)
 
 
 def flight_values(document: dict, overrides: dict | None = None) -> FlightValues:
@@ -89,7 +102,8 @@ def flight_values(document: dict, overrides: dict | None = None) -> FlightValues
 
     return FlightValues(sensor=node("sensor_node", SENSOR_PARAMS),
                         star_tracker=node("star_tracker_node", STAR_TRACKER_PARAMS),
-                        monitor=node("error_monitor_node", MONITOR_PARAMS))
+                        monitor=node("error_monitor_node", MONITOR_PARAMS),
+                        controller=node("attitude_controller_node", CONTROLLER_PARAMS))
 
 
 def _split(t_s) -> tuple[np.ndarray, np.ndarray]:
@@ -155,6 +169,11 @@ class Flight:
     frames: TrackerFrames
     truth_lost: dict  #: samples skipped for want of truth, by the star tracker's reason (``truth_lost_<reason>``)
     values: FlightValues = field(repr=False)
+    #: the closed loop's true pointing error after the loop's settling time (None for an open loop), and the
+    #: true roll and pitch at every sample (rad), the transient included
+    pointing: PointingStatistics | None = None
+    true_roll_rad: np.ndarray | None = None
+    true_pitch_rad: np.ndarray | None = None
 
 
 def fly(values: FlightValues, samples: int) -> Flight:
@@ -181,6 +200,13 @@ def fly(values: FlightValues, samples: int) -> Flight:
     orbit = runtime.orbit
     stamps = wire_stamps(t)  # /attitude/truth, /pmv/attitude and /orbit/odometry as the other nodes read them
     frames = tracker_frames(stamps, q, values.star_tracker, start_s=0.0)
+    return _monitored(values, orbit, t, roll, pitch, frames)
+
+
+def _monitored(values: FlightValues, orbit, t, roll, pitch, frames: TrackerFrames, **closed_loop) -> Flight:
+    """The flight of the sensor's samples ``t``, ``roll``, ``pitch`` and the star tracker's ``frames``: the monitor's
+    work on them (``closed_loop``: the :class:`Flight` fields of the pointing error)."""
+    stamps = wire_stamps(t)
     published = np.flatnonzero(frames.released_at >= 0)  # in release order = frame order
     position, velocity = orbit.state_eci(t)  # what /orbit/odometry carries
     monitor = MonitorRuntime(values.monitor)  # as error_monitor_node takes the stream, all at once
@@ -192,4 +218,49 @@ def fly(values: FlightValues, samples: int) -> Flight:
     u = orbit.argument_of_latitude(t)
     latitude, _ = geocentric_latitude_longitude(position)
     return Flight(t, u, latitude, roll, pitch, batch.status, batch.roll_rad, batch.pitch_rad, batch.meridional_rad,
-                  summary=monitor.monitor.summary(), frames=frames, truth_lost=monitor.truth_lost, values=values)
+                  summary=monitor.monitor.summary(), frames=frames, truth_lost=monitor.truth_lost, values=values,
+                  **closed_loop)
+
+
+def fly_closed_loop(values: FlightValues, samples: int) -> Flight:
+    """Fly ``samples`` sensor samples with the loop closed: the four nodes' work, no ROS (module docstring).
+
+    Args:
+        values: every node's parameter values (:func:`flight_values`); the sensor follows the plant whatever
+            its ``attitude.source``.
+        samples: number of sensor samples (≥ 2).
+    """
+    if samples < 2:
+        raise ValueError(f"samples = {samples}: a flight needs at least 2")
+    if values.sensor["orbit.source"] == "follow":
+        raise ValueError("orbit.source = follow: a flight flies an orbit of its own")
+    sensor = SensorRuntime(dict(values.sensor, **{"attitude.source": "follow"}), clock_epoch_s=0.0,
+                           correction=READ_CORRECTION, stepped=True)
+    controller = ControllerRuntime(values.controller, start_s=sensor.sim_time_s)
+    period_s = 1.0 / values.sensor["sensor.rate_hz"]
+    orbital, sensor_frame = sensor.frames.orbital, controller.frames.sensor
+    truth_s, truth_q, kept = [], [], []
+    for _ in range(samples):
+        now_s = sensor.sim_time_s
+        for state in controller.step_to(now_s + period_s).truth:  # the plant up to the coming sample
+            sensor.add_truth(orbital, state.t_s, state.q_xyzw, now_s)
+            truth_s.append(state.t_s)
+            truth_q.append(state.q_xyzw)
+        for sample in sensor.step().samples:
+            controller.add_measurement(sensor_frame, sample.t_s, sample.roll_rad, sample.pitch_rad, sample.t_s)
+            kept.append((sample.t_s, sample.roll_rad, sample.pitch_rad, *sample.q_xyzw))
+    if len(kept) < samples:
+        raise ValueError(f"the sensor measured {len(kept)} of {samples} samples: the loop lost its truth")
+    table = np.array(kept, float).T
+    t, roll, pitch, q = table[0], table[1], table[2], table[3:7]
+    truth_s = np.array(truth_s)
+    frames = tracker_frames(wire_stamps(truth_s), np.array(truth_q, float).T, values.star_tracker, start_s=0.0)
+    # A frame released at a truth sample reaches the monitor before the sensor sample at that sample's time.
+    released = frames.released_at >= 0
+    arrival = np.where(released, np.searchsorted(t, truth_s[np.where(released, frames.released_at, 0)] - 1e-9), -1)
+    frames = replace(frames, released_at=arrival)
+    pointing = PointingStatistics(controller.pointing.period_s, controller.pointing.skip_until_s)
+    pointing.add_many(t, q)
+    true_roll, true_pitch = true_roll_pitch(q)
+    return _monitored(values, sensor.orbit, t, roll, pitch, frames, pointing=pointing, true_roll_rad=true_roll,
+                      true_pitch_rad=true_pitch)

@@ -432,8 +432,9 @@ def test_every_read_only_parameter_of_every_node_is_refused_and_keeps_its_value(
     # value for each of them with the reason, in-process as through the service (above).
     from pmv_ros.runtime.common.assembly import NODE_PARAMS
 
-    roles = {"sensor_node": "sensor", "star_tracker_node": "star_tracker", "error_monitor_node": "monitor"}
-    with Pipeline(None, {"sensor.detector": "ideal"}, collect=False) as pipeline:
+    roles = {"sensor_node": "sensor", "star_tracker_node": "star_tracker", "error_monitor_node": "monitor",
+             "attitude_controller_node": "controller"}
+    with Pipeline(None, {"sensor.detector": "ideal"}, collect=False, closed_loop=True) as pipeline:
         refused = 0
         for node_name, specs in NODE_PARAMS.items():
             node = getattr(pipeline, roles[node_name])
@@ -447,6 +448,8 @@ def test_every_read_only_parameter_of_every_node_is_refused_and_keeps_its_value(
                     value = not before
                 elif isinstance(spec.default, str):
                     value = "2025-06-01T00:00:00Z" if spec.name == "sim.epoch_utc" else "none"
+                elif isinstance(spec.default, list):
+                    value = [float(spec.low + 1)] * len(before)
                 else:
                     value = type(spec.default)(spec.low + 1)
                 [result] = node.set_parameters([Parameter(spec.name, value=value)])

@@ -58,7 +58,7 @@ def test_colcon_install_layout(colcon_install):
         assert installed.is_file(), f"{installed} missing"
         assert installed.read_bytes() == preset.read_bytes()
     assert (prefix / "share/pmv_ros/config/kondor.yaml").is_file()
-    for name in ("sensor_node", "star_tracker_node", "error_monitor_node"):
+    for name in ("sensor_node", "star_tracker_node", "error_monitor_node", "attitude_controller_node"):
         executable = prefix / "lib/pmv_ros" / name
         assert executable.is_file() and os.access(executable, os.X_OK), f"{executable} missing or not executable"
         shebang = executable.read_text().splitlines()[0]

@@ -194,6 +194,28 @@ def test_launch_follow_starts_no_attitude_source(colcon_install, ros_tools, grap
     assert roll and all(abs(r - math.radians(0.1)) < math.radians(0.25) for r in roll), roll
 
 
+def test_launch_controller_closes_the_loop(colcon_install, ros_tools, graph, tmp_path):
+    # controller:=true: attitude_controller_node publishes /attitude/truth, the sensor follows it (follow mode
+    # without follow:=true) and the loop runs on the wall clock across processes.
+    node, executor = graph
+    attitude, truth = [], []
+    node.create_subscription(Vector3Stamped, "/pmv/attitude", attitude.append, 10)
+    node.create_subscription(QuaternionStamped, "/attitude/truth", truth.append, 10)
+    launched = Launched(colcon_install, ros_tools, tmp_path, "controller:=true")
+    try:
+        _spin_until(executor, launched, lambda: len(attitude) >= 5 and len(truth) >= 5, FIRST_MESSAGE_TIMEOUT_S,
+                    "no /pmv/attitude measured on the controller's /attitude/truth")
+        publishers = node.get_publishers_info_by_topic("/attitude/truth")
+        assert [info.node_name for info in publishers] == ["attitude_controller_node"], launched.log()
+        launched.interrupt()
+    finally:
+        launched.kill()
+    _assert_clean_exit(launched)
+    log = launched.log()
+    assert "attitude from follow" in log and "PD loop on pmv/attitude" in log, log
+    assert [m.header.frame_id for m in truth] == ["orbital"] * len(truth)
+
+
 #: Launch arguments that cannot be used, and a word the refusal must name.
 BAD_ARGUMENTS = (("preset:=kondr", "preset"), ("follow:=yes", "follow"), ("rate_hz:=-1", "sensor.rate_hz"),
                  ("rate_hz:=fast", "rate_hz"), ("seed:=1e9", "seed"), ("log_level:=loud", "log_level"),

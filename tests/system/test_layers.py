@@ -57,7 +57,7 @@ def _imports(path: Path) -> list[str]:
 #: Inside a layer, its parts in order (pmv_ros/runtime/__init__.py, pmv_ros/physics/__init__.py): a part imports
 #: itself and the parts of lower rank, never one of its own rank or above. ``None`` names the layer's own modules.
 INNER_RANKS = {
-    "runtime": {"common": 0, "sensor": 1, "tracker": 1, "monitor": 1, "flight": 2},
+    "runtime": {"common": 0, "sensor": 1, "tracker": 1, "monitor": 1, "control": 1, "flight": 2},
     "physics": {None: 0, "orbit": 1, "chain": 2, "environment": 2, "star_tracker": 2, "instrument": 3},
 }
 

@@ -17,8 +17,9 @@ from ...runtime.flight import OUTCOME_CODES
 from ...analysis.statistics import CHANNELS
 from ...runtime.monitor.records import Status
 from ...analysis.statistics import RunningStatistics
+from ...runtime.control.pointing import AXES
 from ..report import truth_lost_summary
-from .results import _write_atomically, check_result, read_result, task_path
+from .results import POINTING_COLUMNS, _write_atomically, check_result, read_result, task_path
 from .tasks import COMPONENTS, LATITUDE_BIN_DEG, SEASONS, Settings, Task
 
 
@@ -47,7 +48,9 @@ def budget(out: Path, tasks: list[Task], settings: Settings | None = None) -> di
     latitude bin and day; ``tasks``: each task's own statistics (the monitor's);
     ``truth_lost`` (total): the samples skipped for want of star-tracker truth
     by the tracker's reason and their share of all the samples flown (of the
-    year, when the days sample it).
+    year, when the days sample it). A closed-loop campaign adds ``pointing``
+    (component → group → roll/pitch → statistics of the true pointing error,
+    after each task's settling time) and ``pointing_by_day``.
     """
     ok = OUTCOME_CODES.index(Status.OK)
     groups = {}  # component → group → channel → RunningStatistics
@@ -59,6 +62,8 @@ def budget(out: Path, tasks: list[Task], settings: Settings | None = None) -> di
             for channel in CHANNELS}  # sums, counts
     per_task = []
     lost, samples = {}, 0  # the total's samples without truth by the tracker's reason, and all its samples
+    pointing = {}  # component → group → axis → RunningStatistics (closed-loop files)
+    pointing_days = {}  # component → day → axis → RunningStatistics
     for task in tasks:
         path = task_path(out, task)
         table, description = read_result(path) if settings is None else check_result(path, settings, task)
@@ -82,8 +87,11 @@ def budget(out: Path, tasks: list[Task], settings: Settings | None = None) -> di
                 sums, counts = grid[channel]
                 np.add.at(sums[:, column], row[finite], values[finite])
                 np.add.at(counts[:, column], row[finite], 1.0)
+        if POINTING_COLUMNS[0] in table.column_names:
+            _add_pointing(table, task, season, pointing, pointing_days)
         per_task.append({**asdict(task), "epoch_utc": description["epoch_utc"], "season": season,
-                         "samples": description["samples"], **description["summary"]})
+                         "samples": description["samples"], **description["summary"],
+                         **({"pointing": description["pointing"]} if "pointing" in description else {})})
         if task.component == "total":
             samples += description["samples"]
             for key, count in description.get("truth_lost", {}).items():
@@ -106,10 +114,32 @@ def budget(out: Path, tasks: list[Task], settings: Settings | None = None) -> di
                 "latitude_edges_deg": edges.tolist(), "days": task_days,
                 **{f"{c}_mean_arcmin": (grid[c][0] / grid[c][1] / ARCMIN_RAD).tolist() for c in CHANNELS},
                 "count": grid[CHANNELS[0]][1].astype(int).tolist()}
+    if pointing:
+        result["pointing"] = {name: {group: {axis: _statistics_dict(stats) for axis, stats in axes.items()}
+                                     for group, axes in by_group.items() if axes[AXES[0]].count}
+                              for name, by_group in pointing.items()}
+        result["pointing_by_day"] = {name: {str(day): {axis: _statistics_dict(stats) for axis, stats in axes.items()}
+                                            for day, axes in sorted(by_day.items())}
+                                     for name, by_day in pointing_days.items()}
     parts = [name for name in COMPONENTS if name != "total" and name in groups]
     if parts and "total" in groups:
         result["rss"] = _rss(result["components"], parts)
     return finite_json(result)
+
+
+def _add_pointing(table, task: Task, season: str, pointing: dict, pointing_days: dict) -> None:
+    """A closed-loop task's true pointing error (its samples after the loop's settling time) into the year's,
+    its season's and its day's statistics."""
+    groups = pointing.setdefault(task.component, {"year": _new_axes(), **{s: _new_axes() for s in SEASONS}})
+    day = pointing_days.setdefault(task.component, {}).setdefault(task.day, _new_axes())
+    for axis, column in zip(AXES, POINTING_COLUMNS):
+        values = table.column(column).to_numpy()
+        for target in (groups["year"], groups[season], day):
+            target[axis].update(values)
+
+
+def _new_axes() -> dict:
+    return {axis: RunningStatistics() for axis in AXES}
 
 
 def _rss(components: dict, parts: list[str]) -> dict:
@@ -170,6 +200,8 @@ def _plot(out: Path, result: dict) -> list[str]:
     plt.close(fig)
     files.append("sigma_limit.png")
 
+    if result.get("pointing_by_day"):
+        files.append(_plot_pointing(out, result["pointing_by_day"]))
     grid = result.get("latitude_day")
     if grid:
         fig, axes = plt.subplots(1, len(CHANNELS), figsize=(13, 4.5), sharey=True)
@@ -193,6 +225,29 @@ def _plot(out: Path, result: dict) -> list[str]:
         plt.close(fig)
         files.append("latitude_season.png")
     return files
+
+
+def _plot_pointing(out: Path, by_day: dict) -> str:
+    """``pointing.png``: σ and |mean| + 3σ of the true pointing error per day (closed loop)."""
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(len(AXES), 1, figsize=(9, 6), sharex=True)
+    for axis, name in zip(axes, AXES):
+        for component, series in by_day.items():
+            day = np.array([int(d) for d in series])
+            sigma = np.array([series[d][name]["sigma_arcmin"] for d in series], float)
+            limit = np.array([series[d][name]["limit_arcmin"] for d in series], float)
+            axis.plot(day, sigma, "o-", label=f"σ, {component}")
+            axis.plot(day, limit, "s--", label=f"|mean| + 3σ, {component}")
+        axis.set_ylabel(f"true {name}, ′")
+        axis.grid(alpha=0.3)
+    axes[0].legend(fontsize=7, ncol=2)
+    axes[-1].set_xlabel("day of year")
+    fig.suptitle("True pointing error over the year (closed loop, after each run's settling time)")
+    fig.tight_layout()
+    fig.savefig(out / "pointing.png", dpi=110)
+    plt.close(fig)
+    return "pointing.png"
 
 
 def _day_edges(days: list[int]) -> np.ndarray:

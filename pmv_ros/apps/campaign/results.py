@@ -15,7 +15,7 @@ import numpy as np
 
 from ...storage.json_output import finite_json
 from ...physics.constants import ARCMIN_RAD
-from ...runtime.flight import OUTCOME_CODES, flight_values, fly
+from ...runtime.flight import OUTCOME_CODES, flight_values, fly, fly_closed_loop
 from ...analysis.statistics import CHANNELS
 from ...runtime.monitor.records import Status
 from ..report import channel_to_dict
@@ -31,6 +31,15 @@ RESULT_FORMAT = 2
 
 #: Columns of a result file, in order: float64 except ``outcome`` (int8).
 RESULT_COLUMNS = ("t_s", "u_rad", "latitude_rad", "outcome", "roll_rad", "pitch_rad", "meridional_rad")
+
+#: Columns a closed-loop task adds after those: the true pointing error at each sample, rad (NaN during the
+#: loop's settling time).
+POINTING_COLUMNS = ("pointing_roll_rad", "pointing_pitch_rad")
+
+
+def result_columns(settings: Settings) -> tuple:
+    """The columns of a task file of this campaign."""
+    return RESULT_COLUMNS + (POINTING_COLUMNS if settings.closed_loop else ())
 
 #: Largest result file read back, bytes (MAX_TASK_SAMPLES rows of 7 columns, compressed, fit well inside).
 MAX_RESULT_BYTES = 512 << 20
@@ -63,8 +72,9 @@ def run_task(settings: Settings, task: Task):
     with threadpool_limits(limits=1, user_api="blas"):
         overrides = task_overrides(settings, task)
         values = flight_values(settings.document, overrides)
-        flight = fly(values, task_samples(values, settings.orbits_per_task))
-    table = pa.table({
+        flight = (fly_closed_loop if settings.closed_loop else fly)(values, task_samples(values,
+                                                                                       settings.orbits_per_task))
+    columns = {
         "t_s": flight.t_s,
         "u_rad": flight.u_rad,
         "latitude_rad": flight.latitude_rad,
@@ -72,7 +82,12 @@ def run_task(settings: Settings, task: Task):
         "roll_rad": flight.roll_rad,
         "pitch_rad": flight.pitch_rad,
         "meridional_rad": flight.meridional_rad,
-    })
+    }
+    if settings.closed_loop:  # the pointing error after the loop's settling time, NaN before
+        transient = flight.t_s < flight.pointing.skip_until_s
+        columns.update(pointing_roll_rad=np.where(transient, np.nan, flight.true_roll_rad),
+                       pointing_pitch_rad=np.where(transient, np.nan, flight.true_pitch_rad))
+    table = pa.table(columns)
     description = {"format": RESULT_FORMAT, "task": asdict(task), "task_key": task.name,
                    "settings_sha256": settings_digest(settings), "overrides": finite_json(overrides),
                    "epoch_utc": overrides["sim.epoch_utc"],
@@ -81,6 +96,8 @@ def run_task(settings: Settings, task: Task):
                    "outcome_codes": [status.value for status in OUTCOME_CODES],
                    "summary": summary_to_dict(flight.summary),
                    "truth_lost": {k: v for k, v in flight.truth_lost.items() if v}}
+    if settings.closed_loop:
+        description["pointing"] = {channel.channel: channel_to_dict(channel) for channel in flight.pointing.channels()}
     table = table.replace_schema_metadata({METADATA_KEY: json.dumps(finite_json(description)).encode()})
     return table, time.perf_counter() - started
 
@@ -214,7 +231,7 @@ def read_result(path: Path, columns=None):
             raise ResultRejected(f"{path}: columns {[f'{name} {kind}' for name, kind in types][:10]} are not the "
                                  "result's")
         declared = sum(meta.row_group(i).total_byte_size for i in range(meta.num_row_groups))
-        if meta.num_rows > MAX_TASK_SAMPLES or declared > (MAX_TASK_SAMPLES * 8 * len(RESULT_COLUMNS)) * 2:
+        if meta.num_rows > MAX_TASK_SAMPLES or declared > (MAX_TASK_SAMPLES * 8 * len(RESULT_COLUMNS + POINTING_COLUMNS)) * 2:
             raise ResultRejected(f"{path}: declares {meta.num_rows} rows, {declared} bytes, more than a task has")
         raw = (parquet.schema_arrow.metadata or {}).get(METADATA_KEY)
         if raw is None:
@@ -263,12 +280,12 @@ def check_result(path: Path, settings: Settings, task: Task):
         if description.get(key) != value:
             what = "missing" if key not in description else "does not match the task"
             raise ResultRejected(f"{path.name}: {key} {what}")
-    if table.column_names != list(RESULT_COLUMNS):
+    if table.column_names != list(result_columns(settings)):
         raise ResultRejected(f"{path.name}: columns {table.column_names} are not the result's")
     if description.get("samples") != table.num_rows:
         raise ResultRejected(f"{path.name}: {table.num_rows} rows, the description says {description.get('samples')}")
     try:
-        columns = {name: table.column(name).to_numpy() for name in RESULT_COLUMNS}
+        columns = {name: table.column(name).to_numpy() for name in result_columns(settings)}
     except Exception as error:
         raise ResultRejected(f"{path.name}: cannot read its columns ({_one_line(error)})") from None
     outcome = columns["outcome"]
@@ -306,7 +323,38 @@ def check_result(path: Path, settings: Settings, task: Task):
                 if not isinstance(theirs, (int, float)) or not math.isclose(
                         value / ARCMIN_RAD, theirs, rel_tol=SUMMARY_TOLERANCE, abs_tol=1e-9):
                     raise ResultRejected(f"{path.name}: {channel} {key} does not agree with the monitor's summary")
+    if settings.closed_loop:
+        _check_pointing(path, columns, description)
     return table, description
+
+
+def _check_pointing(path: Path, columns: dict, description: dict) -> None:
+    """A closed-loop file's pointing columns: finite or NaN (the transient), within the monitor's angle bound,
+    and agreeing with the pointing summary in its description (count, mean, σ)."""
+    from ...runtime.common.validation import InputBounds
+
+    summary = description.get("pointing")
+    if not isinstance(summary, dict):
+        raise ResultRejected(f"{path.name}: no pointing summary in the description")
+    bound = InputBounds().max_abs_angle_rad
+    for name in POINTING_COLUMNS:
+        axis = name.split("_")[1]
+        values = columns[name]
+        finite = values[np.isfinite(values)] if values.dtype.kind == "f" else None
+        if finite is None or np.any(np.isinf(values)) or np.any(np.abs(finite) > bound):
+            raise ResultRejected(f"{path.name}: {name} is not a pointing error within ±{math.degrees(bound):g}°")
+        mine = summary.get(axis)
+        if not isinstance(mine, dict) or mine.get("count") != finite.size:
+            raise ResultRejected(f"{path.name}: {finite.size} {axis} pointing values, the summary counted "
+                                 f"{mine.get('count') if isinstance(mine, dict) else None}")
+        if finite.size:
+            stats = RunningStatistics()
+            stats.update(finite)
+            for key, value in (("mean_arcmin", stats.mean), ("sigma_arcmin", stats.sigma)):
+                theirs = mine.get(key)
+                if not isinstance(theirs, (int, float)) or not math.isclose(
+                        value / ARCMIN_RAD, theirs, rel_tol=SUMMARY_TOLERANCE, abs_tol=1e-9):
+                    raise ResultRejected(f"{path.name}: pointing {axis} {key} does not agree with its summary")
 
 
 def stale_results(out: Path, settings: Settings, tasks: list[Task]) -> dict[str, str]:

@@ -140,10 +140,16 @@ class Settings:
     orbits_per_task: float
     #: orbit.source tle: ``epoch_utc`` is the element set's epoch and the days count from it
     days_from_elements: bool = False
+    #: fly the closed loop (:func:`pmv_ros.runtime.flight.fly_closed_loop`): the pointing error beside the residuals
+    closed_loop: bool = False
 
     def manifest(self) -> dict:
-        """The settings as JSON-ready data (``campaign.json``)."""
-        return {"preset": self.document, "rate_hz": self.rate_hz, "orbits_per_task": self.orbits_per_task}
+        """The settings as JSON-ready data (``campaign.json``; ``closed_loop`` only when set, so an open-loop
+        campaign's folder reads as it always did)."""
+        manifest = {"preset": self.document, "rate_hz": self.rate_hz, "orbits_per_task": self.orbits_per_task}
+        if self.closed_loop:
+            manifest["closed_loop"] = True
+        return manifest
 
 
 def settings_digest(settings: Settings) -> str:
@@ -196,8 +202,11 @@ def check(settings: Settings, tasks: list[Task]) -> None:
     if values.sensor["orbit.source"] == "follow":
         raise ValueError("orbit.source = follow: a campaign flies an orbit of its own (circular or tle), there is no "
                          "user's orbit/odometry to follow")
-    if values.sensor["attitude.source"] != "profile":
-        raise ValueError("attitude.source = follow: a campaign flies the sensor's own attitude profile")
+    if settings.closed_loop:
+        check_closed_loop(values)
+    elif values.sensor["attitude.source"] != "profile":
+        raise ValueError("attitude.source = follow: a campaign flies the sensor's own attitude profile (or the "
+                         "closed loop: --closed-loop)")
     if any(task.component != "total" for task in tasks) and values.sensor["radiance.source"] != "environment":
         raise ValueError("--components needs radiance.source: environment in the preset (the components are "
                          "the environment's)")
@@ -217,3 +226,16 @@ def check(settings: Settings, tasks: list[Task]) -> None:
         for day in sorted({task.day for task in tasks}):
             sensor = flight_values(settings.document, task_overrides(settings, Task(day, first.seed))).sensor
             build_source_orbit(sensor, sensor["sim.start_time_s"], check_span_s=span_s)
+
+
+def check_closed_loop(values) -> None:
+    """Raise ValueError for a controller no closed-loop task could fly (its gains, its body, its rate)."""
+    from ...runtime.control import LoopSettings, plant_of
+
+    plant_of(values.controller)
+    LoopSettings.from_values(values.controller)
+    period = 1.0 / values.controller["control.rate_hz"]
+    if period > values.star_tracker["max_truth_gap_s"]:
+        raise ValueError(f"control.rate_hz {values.controller['control.rate_hz']:g} Hz: the plant's states "
+                         f"{period:g} s apart are longer than the star tracker's max_truth_gap_s = "
+                         f"{values.star_tracker['max_truth_gap_s']:g} s, so it would measure no frame")

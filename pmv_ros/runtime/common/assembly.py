@@ -17,6 +17,7 @@ from ...physics.environment import CLIMATOLOGY_SAMPLINGS, YEAR_DAYS, Environment
 from ...physics.orbit.ephemeris import Epoch, raan_from_local_time_of_node
 from .orbit_buffer import FollowedOrbit, OrbitBuffer
 from ...physics.orbit.two_body import MAX_ALTITUDE_M, MIN_ALTITUDE_M, CircularOrbit
+from .controller_params import controller_params
 from .frames import FRAME_PARAMS, MOUNTING_PARAMS, Mounting
 from .parameters import ParamSpec
 from .truth_buffer import DEFAULT_BRIDGE_S
@@ -476,6 +477,9 @@ def read_correction(values: dict):
         raise ValueError(f"sensor.correction: {error}") from None
 
 
+#: Parameters of attitude_controller_node (the closed loop's plant and controller).
+CONTROLLER_PARAMS = controller_params(INPUT_PARAMS, ORBIT_ALTITUDE, MONITOR_INPUT_PARAMS[0])
+
 #: Every node's parameters by node name (params files are keyed by it).
 NODE_PARAMS = {"sensor_node": SENSOR_PARAMS, "star_tracker_node": STAR_TRACKER_PARAMS,
-               "error_monitor_node": MONITOR_PARAMS}
+               "error_monitor_node": MONITOR_PARAMS, "attitude_controller_node": CONTROLLER_PARAMS}

@@ -1,0 +1,183 @@
+"""The closed-loop main job against the open-loop one, in one process and one run, alternating.
+
+(a) Open loop: ``pmv simulate``'s pipeline (:class:`pmv_ros.nodes.pipeline.Pipeline`: sensor with its own
+attitude profile, star tracker, monitor, report collector) on the Kondor preset at 10 Hz for ``--orbits``
+(default 0.2) of an orbit.
+
+(b) Closed loop: ``pmv simulate --closed-loop``'s pipeline on the same preset and span: the sensor in follow
+mode, attitude_controller_node stepping the plant before each sample, the star tracker and the monitor as in
+(a). Inside (b) the time spent in the sensor's runtime (its follow path: ``add_truth`` and ``step``) and in
+the controller's runtime is taken (their public methods, outermost calls), so the share of the closed loop
+that the sensor's follow path costs is printed beside the ratio.
+
+(c) Per sample, the sensor alone (:class:`pmv_ros.runtime.sensor.runtime.SensorRuntime`, flight environment
+on, Kondor): its own attitude profile stepped in fast time (blocks of 512) against follow mode fed one truth
+message and stepped one sample at a time, as the closed loop drives it.
+
+Both pipelines are built first and kept alive; the span is cut into rounds that alternate (a) (b) (c) (a) (b)
+(c) …, so a change of load hits both alike; each round's figures are printed with the load average. Only the
+stepping is timed (building the pipelines is the same work in both). The last line is the ratio of (b)'s and
+(a)'s total times; before it, what (b) would cost with the sensor's runtime at 1.5× the open loop's a sample
+(the follow path's target), everything else as measured.
+
+    .venv/bin/python benchmarks/bench_closed_loop.py [--orbits 0.2] [--rounds 10] [--samples 1024]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import tempfile
+import time
+from collections import Counter
+from pathlib import Path
+
+os.environ.setdefault("ROS_LOG_DIR", tempfile.mkdtemp(prefix="pmv_bench_log_"))
+os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "OFF"
+
+import yaml  # noqa: E402
+
+from pmv_ros.nodes.pipeline import Pipeline  # noqa: E402
+from pmv_ros.runtime.common.assembly import READ_CORRECTION  # noqa: E402
+from pmv_ros.runtime.flight import flight_values  # noqa: E402
+from pmv_ros.runtime.sensor.runtime import SensorRuntime  # noqa: E402
+
+KONDOR = Path(__file__).resolve().parents[1] / "config" / "kondor.yaml"
+
+
+class RuntimeTimes:
+    """While installed on nodes: wall time inside each node's runtime (its public methods, outermost calls)."""
+
+    def __init__(self, nodes):
+        self.seconds = Counter()
+        self._depth = [0]
+        for node in nodes:
+            runtime = node.runtime
+            for name in dir(type(runtime)):
+                if not name.startswith("_") and callable(getattr(type(runtime), name, None)):
+                    setattr(runtime, name, self._timed(getattr(runtime, name), node.get_name()))
+
+    def _timed(self, method, owner: str):
+        depth, seconds, clock = self._depth, self.seconds, time.perf_counter
+
+        def timed(*arguments, **keywords):
+            if depth[0]:
+                return method(*arguments, **keywords)
+            depth[0] = 1
+            started = clock()
+            try:
+                return method(*arguments, **keywords)
+            finally:
+                seconds[owner] += clock() - started
+                depth[0] = 0
+
+        return timed
+
+
+class MainJob:
+    """One main job (``closed_loop`` or not) kept alive between rounds: its pipeline stepped a chunk at a time."""
+
+    def __init__(self, closed_loop: bool):
+        self.closed_loop = closed_loop
+        self.pipeline = Pipeline(KONDOR, closed_loop=closed_loop)
+        nodes = [self.pipeline.sensor] + ([self.pipeline.controller] if closed_loop else [])
+        self.times = RuntimeTimes(nodes)
+        self.ticks = 0
+
+    def run(self, ticks: int) -> dict:
+        """Step ``ticks`` ticks: wall time, and the time inside the sensor's and the controller's runtimes."""
+        before = dict(self.times.seconds)
+        started = time.perf_counter()
+        self.pipeline.step(ticks)
+        wall_s = time.perf_counter() - started
+        self.ticks += ticks
+        if self.pipeline.sensor.samples_published != self.ticks:
+            raise RuntimeError(f"the {'closed' if self.closed_loop else 'open'} loop published "
+                               f"{self.pipeline.sensor.samples_published} of {self.ticks} samples")
+        spent = {name: self.times.seconds[name] - before.get(name, 0.0) for name in self.times.seconds}
+        return {"wall_s": wall_s, "sensor_s": spent.get("sensor_node", 0.0),
+                "controller_s": spent.get("attitude_controller_node", 0.0)}
+
+    def close(self) -> None:
+        self.pipeline.close()
+
+
+def sensor_per_sample(samples: int) -> dict:
+    """µs a sample of the sensor runtime alone: own attitude (blocks of 512) and follow (one truth, one sample)."""
+    values = flight_values(yaml.safe_load(KONDOR.read_text())).sensor
+    own = SensorRuntime(values, clock_epoch_s=0.0, correction=READ_CORRECTION, stepped=True)
+    follow = SensorRuntime(dict(values, **{"attitude.source": "follow"}), clock_epoch_s=0.0,
+                           correction=READ_CORRECTION, stepped=True)
+    period = 1.0 / values["sensor.rate_hz"]
+    # The attitudes the own profile flies, fed to the follower one truth message ahead of each sample.
+    profile = own.stream.profile
+    started = time.perf_counter()
+    for _ in range(samples):
+        own.step()
+    own_s = time.perf_counter() - started
+    orbital = follow.frames.orbital
+    started = time.perf_counter()
+    for _ in range(samples):
+        now = follow.sim_time_s
+        follow.add_truth(orbital, now + period, tuple(profile.quaternion(now + period)), now)
+        follow.step()
+    follow_s = time.perf_counter() - started
+    return {"own_us": own_s / samples * 1e6, "follow_us": follow_s / samples * 1e6}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--orbits", type=float, default=0.2, help="span of each main job (default 0.2 orbit)")
+    parser.add_argument("--rounds", type=int, default=10, help="alternating rounds the span is cut into (default 10)")
+    parser.add_argument("--samples", type=int, default=1024,
+                        help="samples of each per-sample run (default 1024: whole blocks of the own-attitude path)")
+    args = parser.parse_args()
+    open_job, closed_job = MainJob(closed_loop=False), MainJob(closed_loop=True)
+    try:
+        rate = open_job.pipeline.sensor.get_parameter("sensor.rate_hz").value
+        ticks = max(args.rounds, round(args.orbits * open_job.pipeline.sensor.orbit.period_s * rate))
+        chunk = ticks // args.rounds
+        print(f"load average at the start: {os.getloadavg()[0]:.2f} (2-core machines vary 2–3× hour to hour: "
+              "compare the ratios of one run)")
+        print(f"main jobs: Kondor at {rate:g} Hz, {chunk * args.rounds} ticks each ({args.orbits:g} orbit), both built "
+              f"first and stepped alternately, {chunk} ticks a round; per-sample runs: {args.samples} samples")
+        rounds = []
+        for round_number in range(1, args.rounds + 1):
+            opened, closed = open_job.run(chunk), closed_job.run(chunk)
+            per_sample = sensor_per_sample(args.samples)
+            rounds.append((opened, closed, per_sample))
+            print(f"round {round_number}: open loop {opened['wall_s'] / chunk * 1e6:.0f} µs/tick (sensor runtime "
+                  f"{opened['sensor_s'] / chunk * 1e6:.0f}), closed loop {closed['wall_s'] / chunk * 1e6:.0f} µs/tick "
+                  f"(sensor runtime {closed['sensor_s'] / chunk * 1e6:.0f}, controller runtime "
+                  f"{closed['controller_s'] / chunk * 1e6:.0f}), ratio {closed['wall_s'] / opened['wall_s']:.2f}x; "
+                  f"sensor alone per sample: own attitude {per_sample['own_us']:.0f} µs, follow "
+                  f"{per_sample['follow_us']:.0f} µs (load {os.getloadavg()[0]:.2f})")
+    finally:
+        open_job.close()
+        closed_job.close()
+    total = {key: sum(r[0][key] for r in rounds) for key in ("wall_s", "sensor_s")}
+    closed_total = {key: sum(r[1][key] for r in rounds) for key in ("wall_s", "sensor_s", "controller_s")}
+    own_us = statistics.median(r[2]["own_us"] for r in rounds)
+    follow_us = statistics.median(r[2]["follow_us"] for r in rounds)
+    n = chunk * args.rounds
+    open_us, closed_us = total["wall_s"] / n * 1e6, closed_total["wall_s"] / n * 1e6
+    open_rest = open_us - total["sensor_s"] / n * 1e6
+    closed_rest = closed_us - closed_total["sensor_s"] / n * 1e6
+    print(f"over all rounds: open loop {open_us:.0f} µs/tick, of which its sensor runtime "
+          f"{total['sensor_s'] / n * 1e6:.0f}; closed loop {closed_us:.0f} µs/tick, of which its sensor runtime (the "
+          f"follow path) {closed_total['sensor_s'] / n * 1e6:.0f} ({closed_total['sensor_s'] / closed_total['wall_s']:.0%})"
+          f" and the controller's {closed_total['controller_s'] / n * 1e6:.0f}; everything else "
+          f"{open_rest:.0f} against {closed_rest:.0f} µs/tick; load average at the end: {os.getloadavg()[0]:.2f}")
+    print(f"sensor alone per sample, follow / own attitude: {follow_us / own_us:.2f}x ({follow_us:.0f} against "
+          f"{own_us:.0f} µs, medians of the rounds)")
+    # What the closed loop would cost with the follow path at 1.5× the own-attitude path's cost a sample (the
+    # sensing target), everything else as measured.
+    at_target = closed_rest + 1.5 * total["sensor_s"] / n * 1e6
+    print(f"closed loop with the sensor's runtime at 1.5x the open loop's (estimate): {at_target / open_us:.2f}x "
+          "the open loop")
+    print(f"closed loop / open loop: {closed_us / open_us:.2f}x")
+
+
+if __name__ == "__main__":
+    main()
