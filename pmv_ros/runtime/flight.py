@@ -1,5 +1,4 @@
 """Fly one stretch of orbit through the core, without ROS: what the three nodes compute, with their own code.
-from ..physics.attitude import true_roll_pitch
 
 orbit → attitude profile → sensor model → star-tracker model → the monitor's
 statistics, for one preset and one set of overrides — the models the nodes
@@ -49,6 +48,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from ..physics.attitude import true_roll_pitch
 from ..physics.orbit.two_body import geocentric_latitude_longitude
 from .common.assembly import (CONTROLLER_PARAMS, MONITOR_PARAMS, NODE_PARAMS, READ_CORRECTION, SENSOR_PARAMS,
                               STAR_TRACKER_PARAMS)
