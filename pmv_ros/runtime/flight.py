@@ -134,7 +134,8 @@ def sense_block(sensor_values: dict) -> int:
     return fast_time_block(sensor_values["sensor.rate_hz"], sensor_values["sim.time_scale"], stepped=True)
 
 
-def tracker_frames(truth_s: np.ndarray, q_truth: np.ndarray, values: dict, start_s: float = 0.0) -> TrackerFrames:
+def tracker_frames(truth_s: np.ndarray, q_truth: np.ndarray, values: dict, start_s: float = 0.0,
+                   orbit_states=None) -> TrackerFrames:
     """What star_tracker_node makes of a clean truth stream: its runtime fed the stream as one batch.
 
     Args:
@@ -142,6 +143,8 @@ def tracker_frames(truth_s: np.ndarray, q_truth: np.ndarray, values: dict, start
         q_truth: ``(4, N)`` true attitude (x, y, z, w) at those stamps.
         values: star_tracker_node parameter values.
         start_s: the node clock at start (outage windows are relative to it), s.
+        orbit_states: with ``orbit.source`` follow, the spacecraft's states at the truth stamps — ``(3, N)``
+            position (m) and ``(3, N)`` velocity (m/s) in ECI — as the odometry the tracker would hear.
     """
     truth_s = np.asarray(truth_s, float)
     steps = np.diff(truth_s)
@@ -149,7 +152,14 @@ def tracker_frames(truth_s: np.ndarray, q_truth: np.ndarray, values: dict, start
         raise ValueError(f"truth samples {steps.max():g} s apart: the star tracker restarts its frames after "
                          f"max_truth_gap_s = {values['max_truth_gap_s']:g} s and would measure none "
                          "(a sensor rate of at least 1/max_truth_gap_s is needed)")
-    return track_stream(TrackerRuntime(values, start_s), truth_s, q_truth)
+    runtime = TrackerRuntime(values, start_s)
+    if runtime.orbit_buffer is not None:
+        if orbit_states is None:
+            raise ValueError("orbit.source = follow: the star tracker needs the spacecraft's states (orbit_states)")
+        position, velocity = (np.asarray(a, float) for a in orbit_states)
+        for k, t in enumerate(truth_s.tolist()):
+            runtime.orbit_buffer.add(t, position[:, k], velocity[:, k])
+    return track_stream(runtime, truth_s, q_truth)
 
 
 @dataclass

@@ -23,6 +23,8 @@ import pytest
 from pmv_ros.runtime.common.assembly import NODE_PARAMS
 from pmv_ros.runtime.common.parameters import ParamSpec
 
+pytestmark = pytest.mark.multi_process  # sphinx builds run as child processes
+
 REPO = Path(__file__).resolve().parents[2]
 DOCS = REPO / "docs"
 

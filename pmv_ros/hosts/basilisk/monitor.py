@@ -60,6 +60,10 @@ class PmvErrorMonitor:
         rows, self._pending = self._pending, []
         t = np.array([s.t_s for s in rows])
         q = np.array([s.q_xyzw for s in rows]).T
+        buffer = self.tracker.orbit_buffer  # orbit.source follow (the host's): the samples' states are its odometry
+        if buffer is not None:
+            for row in rows:
+                buffer.add(row.t_s, row.position_eci_m, row.velocity_eci_m_s)
         self.tracker.add_truth_batch(t, q)
         frame_s, q_measured, arrival = self.tracker.release_batch(t)  # each released at a sample's stamp
         batch = self.monitor.add_stream(t, np.array([s.roll_rad for s in rows]), np.array([s.pitch_rad for s in rows]),

@@ -59,11 +59,12 @@ def flight_summary(values, samples) -> MonitorSummary:
     at, through the star tracker: as :func:`pmv_ros.runtime.flight.fly` computes them."""
     t = np.array([s.t_s for s in samples])
     q = np.array([s.q_xyzw for s in samples]).T
-    frames = tracker_frames(t, q, values.star_tracker, start_s=HOST_CLOCK_OFFSET_S)
+    position = np.array([s.position_eci_m for s in samples]).T
+    velocity = np.array([s.velocity_eci_m_s for s in samples]).T
+    frames = tracker_frames(t, q, values.star_tracker, start_s=HOST_CLOCK_OFFSET_S, orbit_states=(position, velocity))
     published = np.flatnonzero(frames.released_at >= 0)
     monitor = MonitorRuntime(values.monitor)
     monitor.add_stream(t, np.array([s.roll_rad for s in samples]), np.array([s.pitch_rad for s in samples]),
                        frames.frame_s[published], frames.q_measured[:, published], frames.released_at[published],
-                       np.array([s.position_eci_m for s in samples]).T,
-                       np.array([s.velocity_eci_m_s for s in samples]).T)
+                       position, velocity)
     return monitor.monitor.summary()
