@@ -35,7 +35,7 @@ REFUSAL_TIMEOUT_S = 60.0
 START_TIMEOUT_S = 60.0
 
 KNOWN = ("preset", "follow", "fast_time", "time_scale", "use_sim_time", "namespace", "rate_hz", "seed", "log_level",
-         "respawn", "star_tracker", "monitor", "managed", "autostart")
+         "respawn", "star_tracker", "monitor", "controller", "managed", "autostart")
 
 #: A user's launch file that declares an argument of its own and includes pmv.launch.py (one node only).
 INCLUDER = """
