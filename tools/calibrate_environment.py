@@ -49,7 +49,7 @@ Free parameters and their bounds (never widened to hit a number):
 Fixed: σ_h = 10 km (uniform, half-width 17.3 km); the weather's correlation
 radius R_x = 700 km and its zones of 2000 km along the track (the No.2-2
 record); τ = 1 day. The climatology and the weather are a horizon level per
-chord (physics.md §3.2 item 3, extended in round four): sampled at the chord's
+chord (physics.md §3.2 item 3, extended): sampled at the chord's
 horizon point, they scale its whole profile.
 
 Method: a grid over (η, w, R_h) — each point flies both presets on both seed
@@ -66,7 +66,7 @@ sets together, then by the summed cost: the intervals are the requirements,
 the record values only a preference inside them. Seeds 201–206 are flown once,
 at the fitted point, as a validation set the fit never saw. The same run flies
 the fitted parameters with ``climatology_sampling: line_of_sight`` on both
-sets: the change of round four by itself. The fit flies the core at zero
+sets: the change of climatology sampling by itself. The fit flies the core at zero
 attitude (the attitude profile of the presets cancels in sensed − true to
 < 0.01′); ``pmv simulate --seed S`` gives the same figures within the star
 tracker's noise.

@@ -6,7 +6,7 @@ true with the oblateness kept (none of the presets compensates it on board). Her
 days the documenting campaign did not fly, at 1 Hz, and the RMS must agree.
 
 Tolerances (TOLERANCE), from the spread of one orbit's RMS about the year's in the documenting campaigns
-(2026-12-03, the climatology as a horizon level), with a margin for the sparser 1 Hz sampling of the same
+(the climatology as a horizon level), with a margin for the sparser 1 Hz sampling of the same
 error process: Kondor roll 5.44 … 6.18′ about 5.81′, pitch 7.55 … 8.21′ about 7.96′ (within 6.3 %),
 Meteor-M No.2 roll 3.72 … 4.11′ about 3.96′, pitch 6.45 … 7.59′ about 7.05′ (within 8.4 %; the element-set
 preset within 7.9 %): 10 %. No.2-2's over-correcting curve makes its error follow the day's weather: roll

@@ -200,7 +200,7 @@ def wall_clock_run(tmp_path_factory):
     from pmv_ros.nodes.pipeline import Pipeline
 
     # What a real-time node does: its orbit starts at u0 when the node starts, at whatever Unix time
-    # that is (2026-12-01 plus an odd fraction of an orbit), so the stamps say nothing of the phase.
+    # that is (a day plus an odd fraction of an orbit), so the stamps say nothing of the phase.
     start_s = 1_796_158_000.0 + 1234.5
     path = tmp_path_factory.mktemp("wall_clock") / "wall_clock.mcap"
     rate_hz = 0.5

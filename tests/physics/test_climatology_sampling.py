@@ -1,6 +1,6 @@
 """The climatology as a horizon level per chord, against the climatology along the line of sight (issue 30).
 
-physics.md §3.2 item 3 (extended, round four): the latitude/season climatology is sampled once per chord
+physics.md §3.2 item 3 (extended): the latitude/season climatology is sampled once per chord
 at its horizon (limb) point and scales the chord's whole profile, like the synoptic weather;
 ``environment.climatology_sampling: line_of_sight`` keeps the climatology wherever the lines of sight
 meet the ground, for comparison. The Meteor-M figures this was fitted to are checked in

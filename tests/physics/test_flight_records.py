@@ -8,7 +8,7 @@ A regression test (marked so): the presets were fitted to these very figures. It
 drift in two ways: each seed's figures equal the calibration's own for that seed (0.01′: the No.2-2
 curve's CSV keeps 6 decimals), and the three-seed means stay inside the issue's intervals widened by two
 standard errors of a three-seed mean (σ_seed/√3, σ_seed the calibration's six-seed spread on that set).
-What the change of round four does by itself is tested independently of the fit in
+What the climatology sampled at the horizon does by itself is tested independently of the fit in
 tests/physics/test_climatology_sampling.py.
 """
 

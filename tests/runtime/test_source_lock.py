@@ -89,7 +89,7 @@ def test_a_faster_second_sensor_whose_count_catches_up_never_takes_the_lock(seed
     # a neighbour from 1 s on at 40 Hz numbered from 1, stamping near the real grid. Its count meets the
     # real one's once (near 3 s): the step then ties, and only the numbering rates tell the two apart.
     # Under load a subscriber's queue drops messages of both (``loss``): a real message two numbers
-    # on must still beat a neighbour's one number on (the CI failure of 2026-12-02: with the smallest
+    # on must still beat a neighbour's one number on (with the smallest
     # step first, 98 of 300 seeds at 10 % loss let a neighbour's sample through).
     rng = np.random.default_rng(seed)
     lock = SourceLock(timeout_s=1.0)

@@ -1,8 +1,7 @@
 """No behaviour change across code moves: today's ``pmv`` outputs against the captured golden ones.
 
-``tests/data/golden.json`` was captured with ``python tools/golden.py capture``
-on main at 89715af, before the layout move, and re-captured only where a
-change said so in its commit message; every number must agree to 1e-9′
+``tests/data/golden.json`` is captured with ``python tools/golden.py capture``
+and re-captured only where a change says so in its commit message; every number must agree to 1e-9′
 (tools/golden.py says why). A deliberate change of a figure re-captures the
 file in the same commit, and the commit message says which figures moved.
 """

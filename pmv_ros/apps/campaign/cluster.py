@@ -17,14 +17,14 @@ from .tasks import Settings, Task
 #: Environment of the embedded cluster's worker processes: one BLAS/OpenMP thread each, and glibc's own
 #: malloc thresholds. Dask's default also sets MALLOC_TRIM_THRESHOLD_ = 65536, which fixes the mmap
 #: threshold at 128 kB: the sensor model's temporaries are then mapped and unmapped on every call and
-#: a task takes ≈ 1.6× longer (42 against 25 µs a sample, measured 2026-12-01).
+#: a task takes ≈ 1.6× longer (42 against 25 µs a sample on a 2-core machine).
 WORKER_ENVIRONMENT = {"OMP_NUM_THREADS": 1, "MKL_NUM_THREADS": 1, "OPENBLAS_NUM_THREADS": 1}
 
 #: Dask's diagnostics in the embedded cluster, for a dashboard nobody opens here: the workers' statistical
 #: profiler off (it samples each worker's stack every 10 ms: ≈ 11 % of a 1 Hz campaign's CPU time, all
 #: processes, 6 tasks of 2.5 orbits on 2 workers: 44–46 against 50–51 µs a sample), and the system monitor
 #: and the event-loop watchdog every second or more instead of every 0.5 s and 20 ms (the client's process,
-#: which runs the scheduler: ≈ 2 against ≈ 3.5 µs a sample). Measured 2026-12-02 on this 2-core machine.
+#: which runs the scheduler: ≈ 2 against ≈ 3.5 µs a sample), on a 2-core machine.
 QUIET_DIAGNOSTICS = {"distributed.worker.profile.enabled": False,
                      "distributed.admin.system-monitor.interval": "5s",
                      "distributed.admin.tick.interval": "1s"}

@@ -32,9 +32,9 @@ IFOV_MIN_WAVELENGTH_M = 100e3
 WEATHER_MIN_WAVELENGTH_M = 300e3
 #: Where a chord's sensor takes the latitude/season climatology (:attr:`EnvironmentParameters.climatology_sampling`):
 #: ``horizon`` — once per chord, at its horizon (limb) point, a level that scales the chord's whole profile
-#: like the weather's (physics.md §3.2 item 3, extended in round four); ``line_of_sight`` — at the horizon
+#: like the weather's (physics.md §3.2 item 3, extended); ``line_of_sight`` — at the horizon
 #: point and where the lines of sight below it hit the ground, the profile following the climatology
-#: inwards (the model before round four, kept for comparison).
+#: inwards (the earlier model, kept for comparison).
 CLIMATOLOGY_SAMPLINGS = ("horizon", "line_of_sight")
 
 

@@ -47,8 +47,7 @@ from ..constants import SECONDS_PER_DAY
 from .two_body import CircularOrbit, check_range
 
 # --------------------------------------------------------------------------
-# Constants (kept here rather than in constants.py while that file is being
-# edited by others; candidates to move there).
+# Constants of the ephemerides (used by this module only).
 # --------------------------------------------------------------------------
 
 #: Astronomical unit, m (IAU 2012 Resolution B2, exact).
