@@ -322,6 +322,11 @@ class PmvNode(Node):
         if len(self._queued) >= MAX_QUEUED_INPUTS:
             self.flush_inputs()
 
+    @property
+    def queued_inputs(self) -> int:
+        """Inputs taken from the subscriptions and not yet handed to the runtime (:meth:`flush_inputs`)."""
+        return len(self._queued)
+
     def flush_inputs(self) -> bool:
         """Hand the queued inputs to the runtime as one batch (``add_inputs``), in arrival order, and publish;
         whether that gave anything to publish."""

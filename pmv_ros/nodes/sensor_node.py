@@ -122,7 +122,7 @@ class SensorNode(PmvNode):
     def _start_timer(self, values: dict) -> None:
         rate, scale = values["sensor.rate_hz"], values["sim.time_scale"]
         if not values["sim.fast_time"]:
-            self._timer = self.make_timer(1.0 / rate, self._on_real_time_tick)
+            self._timer = self.make_timer(1.0 / rate, self.tick)
         else:  # fast time paced on the wall clock (time_scale 0: as fast as it goes)
             self._timer = self.make_timer(0.0 if scale == 0.0 else 1.0 / (rate * scale), self.step,
                                           clock=Clock(clock_type=ClockType.STEADY_TIME))
@@ -137,8 +137,9 @@ class SensorNode(PmvNode):
         self.emit("clock", self._runtime.sim_time_s)
         self.take_output(output)
 
-    def _on_real_time_tick(self) -> None:
-        """Publish every sample of the sensor's grid due since the last tick (:meth:`SensorRuntime.tick`)."""
+    def tick(self) -> None:
+        """Real time: publish every sample of the sensor's grid due since the last tick (the timer's work,
+        :meth:`SensorRuntime.tick`)."""
         self.take_output(self._runtime.tick(self.now_s()))
 
     def _graph_problems(self) -> tuple[int, tuple]:
@@ -156,6 +157,7 @@ class SensorNode(PmvNode):
     orbit_status = property(lambda self: self._orbit_status,
                             doc="The epoch-and-elements status on every /diagnostics (None for a followed orbit).")
     sim_time_s = property(lambda self: self._runtime.sim_time_s, doc="Simulation time of the fast-time clock, s.")
+    timer = property(lambda self: self._timer, doc="The timer that paces the samples (real or fast time).")
     orbit = property(lambda self: self._runtime.orbit, doc="The orbit the sensor flies.")
     samples_computed_ahead = property(lambda self: self._runtime.stream.pending,
                                       doc="Fast-time samples computed ahead and not yet published (≤ one block).")

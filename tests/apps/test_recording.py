@@ -463,7 +463,7 @@ def test_orbit_status_round_trip_and_a_real_time_sensors_epoch(harness):
     h = harness(SensorNode, {"sim.fast_time": False, "sensor.rate_hz": 1.0, "sensor.detector": "ideal",
                              "orbit.u0_deg": 30.0, "sim.epoch_utc": "2026-12-01T12:00:00Z"})
     diagnostics = h.record(DiagnosticArray, "/diagnostics")
-    h.node._on_real_time_tick()  # the 1 Hz timer's work, without waiting for it
+    h.node.tick()  # the 1 Hz timer's work, without waiting for it
     h.drain()
     found = [e for e in (shim.find_orbit_elements(m) for m in diagnostics) if e is not None]
     assert found, "no orbit status on the sensor's /diagnostics"

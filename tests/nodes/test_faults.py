@@ -465,7 +465,7 @@ def test_following_sensor_on_the_wall_clock_takes_truth_stamped_now(harness):
             truth.publish(quaternion_msg(now_s - 0.1, q))
         truth.publish(quaternion_msg(now_s, q))
         h.drain()
-        h.node._on_real_time_tick()  # the timer's work, without waiting for it
+        h.node.tick()  # the timer's work, without waiting for it
         ticks.append(h.node.get_clock().now().nanoseconds * 1e-9)
         h.drain()
     stamps = np.array([shim.time_from_msg(m.header.stamp) for m in attitude])

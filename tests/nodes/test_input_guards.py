@@ -387,7 +387,7 @@ def test_a_refused_star_tracker_update_changes_nothing(harness):
     """A combination only the stamp check refuses (a clock jump shorter than the rate limit's interval) leaves the
     frame grid, the latency and the tracker as they were (found by review: the runtime was reconfigured first)."""
     h = harness(StarTrackerNode, {"frame_period_s": 0.5, "exposure_s": 0.5, "processing_s": 0.25})
-    runtime = h.node._runtime
+    runtime = h.node.runtime
     tracker = runtime.tracker
     result = h.node.set_parameters_atomically([Parameter("frame_period_s", value=0.8),
                                                Parameter("processing_s", value=3.0),

@@ -113,7 +113,7 @@ def test_sensor_at_50_hz_in_real_time_publishes_every_tick_and_the_monitor_keeps
         while time.monotonic() - started < duration_s:
             executor.spin_once(timeout_sec=0.1)
             pending_max = max(pending_max, monitor.monitor.pending_count)
-        sensor._timer.cancel()
+        sensor.timer.cancel()
         drain(executor)  # what was published is delivered
         published = sensor.samples_published
         counters = monitor.monitor.counters

@@ -843,20 +843,20 @@ def test_a_wake_up_s_messages_reach_the_monitor_together_at_the_next_wake_up(har
     clock.publish(shim.write_clock(Clock(), 10.0))
     h.drain()
     batches = []
-    add_inputs = h.node._runtime.add_inputs
-    h.node._runtime.add_inputs = lambda events: batches.append(len(events)) or add_inputs(events)
+    add_inputs = h.node.runtime.add_inputs
+    h.node.runtime.add_inputs = lambda events: batches.append(len(events)) or add_inputs(events)
     q = quaternion_from_roll_pitch_yaw(0.0, 0.0, 0.0)
     for k in range(1, 6):
         sensor.publish(shim.write_attitude_angles(Vector3Stamped(), 9.0 + 0.1 * k, shim.SENSOR_FRAME, 1e-4, 0.0))
     truth.publish(shim.write_attitude_quaternion(QuaternionStamped(), 9.0, shim.ORBITAL_FRAME, q))
     truth.publish(shim.write_attitude_quaternion(QuaternionStamped(), 9.6, shim.ORBITAL_FRAME, q))
     waits = 0
-    while not h.node._queued and waits < 100:  # until a wake-up has taken the first message
+    while not h.node.queued_inputs and waits < 100:  # until a wake-up has taken the first message
         h.executor.spin_once(timeout_sec=0.1)
         waits += 1
-    assert h.node._queued and batches == []  # queued, not handed over
+    assert h.node.queued_inputs and batches == []  # queued, not handed over
     h.drain()
-    assert not h.node._queued and sum(batches) == 7 and max(batches) >= 2  # several messages per hand-over
+    assert not h.node.queued_inputs and sum(batches) == 7 and max(batches) >= 2  # several messages per hand-over
     counters = h.node.monitor.counters
     assert counters["sensor_received"] == 5 and counters["truth_received"] == 2 and counters["used"] == 5
     stamps = [shim.attitude_angles_from_msg(m).stamp_s for m in residuals]
