@@ -1,23 +1,15 @@
 """What each remaining fast twin buys the main job: a float path kept beside an array path of the same computation.
 
 A twin is an array path and a plain-float path of one computation, kept equal for speed; one stays only where
-it pays (5 % of the main job's or the campaign's time). This script measures the twins the tree still has
-outside the monitor (whose one, the array scan, ``design/twin_scan_clean.py`` measures):
+it pays (5 % of the main job's or the campaign's time). The monitor's one, the array scan, is measured by
+``design/twin_scan_clean.py``. Deleted after this script measured them below 5 %: the closed-form oblateness of
+one position in floats (the compiled closed form serves both) and the harmonic ring's bin filled in floats
+(``OrbitRing.add`` is ``add_many`` of one sample). The orbit angles and the orbital axes of one state are no
+twins any more (one state and an array of them run the same compiled kernel), nor are the star tracker's
+one-frame paths (its frames run one compiled kernel, one message or a batch). Measured here:
 
-* ``closed_form_scalar`` — :func:`pmv_ros.physics.instrument.oblateness.closed_form_oblateness` of one orbit
-  position in floats;
-* ``orbit_angles_floats`` — :func:`pmv_ros.physics.orbit.two_body.orbit_angles_from_state` of one state in
-  floats (the monitor's odometry);
-* ``orbital_axes_floats`` — :func:`pmv_ros.physics.orbit.two_body.orbital_axes_of_state` (the shim's odometry
-  message, one per sample);
 * ``true_roll_pitch_floats`` — :func:`pmv_ros.physics.attitude.true_roll_pitch` of one quaternion in floats (the
-  monitor's truth);
-* ``ring_add_floats`` — :meth:`pmv_ros.analysis.statistics.OrbitRing.add`, the bin being filled in floats, which
-  ``add_many`` takes below ``_FEW`` samples;
-* the star tracker's one message in floats: ``tracker_measure_one`` (:meth:`StarTracker.measure_one` beside
-  ``measure_groups``), ``tracker_grid_floats`` (:meth:`FrameGrid.add` with ``slerp`` beside ``add_many`` with
-  ``slerp_each``), ``tracker_queue_singles`` (:class:`LatencyQueue`'s frames pushed one at a time beside its
-  arrays), and ``tracker_one_message`` (all of them: a truth message through the array path).
+  monitor's truth; also the closed loop's pointing statistics, one quaternion a control step).
 
 How: the main job (``pmv simulate``'s pipeline on the Kondor preset) runs once for ``--orbits`` while the calls
 its monitor and star-tracker runtimes receive, and the states the sensor writes as odometry, are recorded; the
@@ -40,12 +32,10 @@ import argparse
 import contextlib
 import copy
 import importlib
-import inspect
 import os
 import statistics
 import sys
 import tempfile
-import textwrap
 import time
 from pathlib import Path
 
@@ -77,41 +67,6 @@ def patched(*replacements):
 
 # --------------------------------------------------------------------------------- the array path in place of each
 
-def _closed_form_scalar():
-    from pmv_ros.physics.instrument import oblateness
-
-    arrays = oblateness.closed_form_oblateness
-
-    def scalar(u, h, inclination, ellipsoid, r):
-        meridional, roll, pitch = arrays(np.array([u]), np.array([h]), inclination, ellipsoid, r)
-        return float(meridional[0]), float(roll[0]), float(pitch[0])
-
-    return patched((oblateness, "_closed_form_oblateness_scalar", scalar))
-
-
-def _orbit_angles_floats():
-    from pmv_ros.physics.orbit import two_body
-    from pmv_ros.runtime.monitor import records
-
-    def angles(position, velocity):
-        u, inclination, altitude = two_body._orbit_angles_arrays(np.asarray(position, float).reshape(3, 1),
-                                                                 np.asarray(velocity, float).reshape(3, 1))
-        return float(u[0]), float(inclination[0]), float(altitude[0])
-
-    return patched((records, "orbit_angles_from_state", angles))
-
-
-def _orbital_axes_floats():
-    import pmv_msgs_shim.conversions as conversions
-    from pmv_ros.physics.orbit import two_body
-
-    def axes(position, velocity):
-        frame = two_body.orbital_frame_from_state(np.asarray(position, float), np.asarray(velocity, float))
-        return tuple(tuple(frame[:, k].tolist()) for k in range(3))
-
-    return patched((conversions, "orbital_axes_of_state", axes))
-
-
 def _true_roll_pitch_floats():
     from pmv_ros.physics import attitude
     from pmv_ros.runtime.monitor import scan
@@ -127,111 +82,15 @@ def _true_roll_pitch_floats():
     return patched((scan, "true_roll_pitch", roll_pitch))
 
 
-def _ring_add_floats():
-    from pmv_ros.analysis import statistics as ring_module
-
-    return patched((ring_module, "_FEW", 0))
-
-
-def _measure_groups_on_arrays():
-    """:meth:`StarTracker.measure_groups` without its one-frame branch to :meth:`measure_one` (its source, that
-    branch cut out); LookupError where the branch is not there any more."""
-    from pmv_ros.physics import star_tracker
-
-    lines = textwrap.dedent(inspect.getsource(star_tracker.StarTracker.measure_groups)).splitlines()
-    start = next((i for i, line in enumerate(lines) if "self.measure_one(" in line), None)
-    if start is None:
-        raise LookupError("StarTracker.measure_groups has no one-frame branch")
-    branch = start - 1  # the ``if`` that leads to it, its call and its return
-    if "if " not in lines[branch] or "return" not in lines[start + 1]:
-        raise LookupError("StarTracker.measure_groups: its one-frame branch is not the expected three lines")
-    del lines[branch:start + 2]
-    namespace = dict(vars(star_tracker))
-    exec("\n".join(lines), namespace)  # noqa: S102 - the module's own source, one branch cut
-    return namespace["measure_groups"]
-
-
-def _tracker_measure_one():
-    from pmv_ros.physics import star_tracker
-
-    on_arrays = _measure_groups_on_arrays()
-
-    def measure_one(self, t_s, q_true, rate_rad_s):
-        measured, outcome = on_arrays(self, np.array([t_s]), np.array(q_true, float).reshape(4, 1),
-                                      np.array([rate_rad_s]), [1])
-        return tuple(measured[:, 0].tolist()), int(outcome[0])
-
-    return patched((star_tracker.StarTracker, "measure_groups", on_arrays),
-                   (star_tracker.StarTracker, "measure_one", measure_one))
-
-
-def _tracker_grid_floats():
-    from pmv_ros.physics import star_tracker
-
-    def add(self, t_s, q_xyzw):
-        frames = self.add_many(np.array([float(t_s)]), np.asarray(q_xyzw, float).reshape(4, 1))
-        if not frames.frame_s.size:
-            return [], [], (0.0, 0.0, 0.0)
-        return (frames.frame_s.tolist(), [tuple(q) for q in frames.attitude.T.tolist()],
-                tuple(frames.turn_rate_rad_s[:, 0].tolist()))
-
-    return patched((star_tracker.FrameGrid, "add", add))
-
-
-def _release_on_arrays(self, t_s):
-    frame_s, q, _ = self.release_many(np.array([float(t_s)]))
-    return list(zip(frame_s.tolist(), map(tuple, q.T.tolist())))
-
-
-def _tracker_queue_singles():
-    from pmv_ros.physics import star_tracker
-
-    def push(self, frame_s, q_xyzw):
-        self.push_many(np.array([float(frame_s)]), np.asarray(q_xyzw, float).reshape(4, 1))
-
-    return patched((star_tracker.LatencyQueue, "push", push), (star_tracker.LatencyQueue, "release", _release_on_arrays))
-
-
-def _tracker_one_message():
-    from pmv_ros.physics import star_tracker
-    from pmv_ros.runtime.tracker import runtime
-
-    on_arrays, floats = _measure_groups_on_arrays(), runtime.TrackerRuntime._add_truth
-
-    def add_truth(self, t_s, q_xyzw):
-        if isinstance(t_s, float):
-            return floats(self, np.array([t_s]), np.asarray(q_xyzw, float).reshape(4, 1))
-        return floats(self, t_s, q_xyzw)
-
-    return patched((star_tracker.StarTracker, "measure_groups", on_arrays),
-                   (runtime.TrackerRuntime, "_add_truth", add_truth),
-                   (star_tracker.LatencyQueue, "release", _release_on_arrays))
-
-
 #: Twin → (what replays it, the array path in its place).
 TWINS = {
     "null (nothing replaced)": ("monitor", lambda: patched()),
-    "closed_form_scalar": ("monitor", _closed_form_scalar),
-    "orbit_angles_floats": ("monitor", _orbit_angles_floats),
     "true_roll_pitch_floats": ("monitor", _true_roll_pitch_floats),
-    "ring_add_floats": ("monitor", _ring_add_floats),
-    "tracker_measure_one": ("tracker", _tracker_measure_one),
-    "tracker_grid_floats": ("tracker", _tracker_grid_floats),
-    "tracker_queue_singles": ("tracker", _tracker_queue_singles),
-    "tracker_one_message": ("tracker", _tracker_one_message),
-    "orbital_axes_floats": ("odometry", _orbital_axes_floats),
 }
 
 #: The fast paths counted over a campaign task: (module, attribute).
 FAST_PATHS = {
-    "closed_form_scalar": ("pmv_ros.physics.instrument.oblateness", "_closed_form_oblateness_scalar"),
-    "orbit_angles_floats": ("pmv_ros.runtime.monitor.records", "orbit_angles_from_state"),
-    "orbital_axes_floats": ("pmv_msgs_shim.conversions", "orbital_axes_of_state"),
     "true_roll_pitch_floats": ("pmv_ros.runtime.monitor.scan", "true_roll_pitch"),
-    "ring_add_floats": ("pmv_ros.analysis.statistics", "OrbitRing.add"),
-    "tracker_measure_one": ("pmv_ros.physics.star_tracker", "StarTracker.measure_one"),
-    "tracker_grid_floats": ("pmv_ros.physics.star_tracker", "FrameGrid.add"),
-    "tracker_queue_singles": ("pmv_ros.physics.star_tracker", "LatencyQueue.push"),
 }
 
 

@@ -37,10 +37,6 @@ MAX_NOISE_GAIN = 3.0
 TWO_PI = 2.0 * math.pi
 
 
-#: Up to this many samples, :meth:`OrbitRing.add_many` adds them one by one (cheaper than the arrays).
-_FEW = 16
-
-
 class RunningStatistics:
     """Running count, mean, sample σ (N − 1), 3σ and max |e| of a stream of values, O(1) memory.
 
@@ -353,83 +349,31 @@ class OrbitRing:
         self._first_bin = None
         self._latest_bin = None
         self._time_origin_s = None
-        # The bin being filled, as Python floats: (absolute bin, slot, counts, time sums, value sums).
-        # Written back to the arrays when another bin is touched or the arrays are read.
-        self._open = None
 
     @property
     def nbytes(self) -> int:
         """Memory held by the ring's arrays, bytes (constant for the ring's life)."""
         return sum(a.nbytes for a in (self._bin_index, self._count, self._time_sum, self._value_sum))
 
-    def _flush(self) -> None:
-        """Write the bin being filled back to the arrays."""
-        if self._open is not None:
-            _, slot, count, time_sum, value_sum = self._open
-            self._count[slot] = count
-            self._time_sum[slot] = time_sum
-            self._value_sum[slot] = value_sum
-            self._open = None
-
     def add(self, t_s: float, values) -> bool:
-        """Add one sample at time ``t_s`` (s); NaN channels are skipped. False if older than the ring.
+        """Add one sample at time ``t_s`` (s); NaN (or None) channels are skipped. False if older than the ring."""
+        row = np.asarray(values, float).ravel()
+        if row.size != self.n_channels:
+            raise ValueError(f"expected {self.n_channels} values, got {row.size}")
+        return self.add_many((float(t_s),), row[None, :]) == 1
 
-        Samples arrive some ten per bin, so the bin being filled is summed in
-        Python floats and written to the arrays once, when the next bin starts.
-        """
-        t_s = float(t_s)
-        if self._time_origin_s is None:
-            # Time sums relative to the first stamp keep the bin means exact for large stamps.
-            self._time_origin_s = t_s
-        absolute = math.floor(t_s / self.bin_width_s)
-        if self._latest_bin is not None and absolute <= self._latest_bin - self.n_bins:
-            return False
-        row = values
-        if not (isinstance(row, (list, tuple)) and all(type(value) is float for value in row)):
-            row = np.asarray(row, float).ravel().tolist()  # None → NaN, nested lists flattened
-        if len(row) != self.n_channels:
-            raise ValueError(f"expected {self.n_channels} values, got {len(row)}")
-        if self._open is None or self._open[0] != absolute:
-            self._flush()
-            slot = absolute % self.n_bins
-            if self._bin_index[slot] != absolute:
-                if self._bin_index[slot] > absolute:
-                    return False
-                self._bin_index[slot] = absolute
-                self._count[slot] = 0.0
-                self._time_sum[slot] = 0.0
-                self._value_sum[slot] = 0.0
-            self._open = (absolute, slot, self._count[slot].tolist(), self._time_sum[slot].tolist(),
-                          self._value_sum[slot].tolist())
-        _, _, count, time_sum, value_sum = self._open
-        offset = t_s - self._time_origin_s
-        for channel, value in enumerate(row):
-            if math.isfinite(value):
-                count[channel] += 1.0
-                time_sum[channel] += offset
-                value_sum[channel] += value
-        if self._first_bin is None:
-            self._first_bin = absolute
-        self._latest_bin = absolute if self._latest_bin is None else max(self._latest_bin, absolute)
-        return True
+    def add_many(self, t_s, values) -> int:
+        """Add ``(N,)`` increasing stamps (s) and their ``(N, n_channels)`` values, each bin summed at once; NaN
+        channels are skipped. Samples older than the ring are skipped too; returns how many were added.
 
-    def add_many(self, t_s, values) -> None:
-        """:meth:`add` for ``(N,)`` increasing stamps (s) and ``(N, n_channels)`` values: the same bins, summed at once.
-
-        Samples older than the ring are skipped, as :meth:`add` skips them; the
-        sums differ from N calls only by rounding.
+        Time sums are kept relative to the first stamp, which keeps the bin means exact for large stamps.
         """
         t = np.asarray(t_s, float).ravel()
         data = np.asarray(values, float).reshape(t.size, self.n_channels)
         if t.size == 0:
-            return
+            return 0
         if (t[1:] < t[:-1]).any():
             raise ValueError("add_many needs increasing stamps")
-        if t.size <= _FEW:  # a few: one by one into the open bin (cheaper than the arrays)
-            for stamp, row in zip(t.tolist(), data.tolist()):
-                self.add(stamp, row)
-            return
-        self._flush()
         if self._time_origin_s is None:
             self._time_origin_s = float(t[0])
         absolute = np.floor(t / self.bin_width_s).astype(np.int64)
@@ -439,6 +383,8 @@ class OrbitRing:
         offsets = np.where(finite, (t - self._time_origin_s)[:, None], 0.0)
         time_sums = np.add.reduceat(offsets, starts, axis=0)
         value_sums = np.add.reduceat(np.where(finite, data, 0.0), starts, axis=0)
+        sizes = np.diff(np.r_[starts, t.size]).tolist()
+        added = 0
         for row, b in enumerate(absolute[starts].tolist()):  # one pass per bin (≈ n_bins per orbit)
             if self._latest_bin is not None and b <= self._latest_bin - self.n_bins:
                 continue
@@ -456,6 +402,8 @@ class OrbitRing:
             if self._first_bin is None:
                 self._first_bin = b
             self._latest_bin = b if self._latest_bin is None else max(self._latest_bin, b)
+            added += sizes[row]
+        return added
 
     @property
     def full_orbit(self) -> bool:
@@ -492,7 +440,6 @@ class OrbitRing:
         channels = self.n_channels
         if not self.full_orbit:
             return lambda: [None] * channels
-        self._flush()
         omega, oldest = TWO_PI / self.period_s, self._latest_bin - self.n_bins
         bin_index, count, time_sum, value_sum = (a.copy() for a in (self._bin_index, self._count, self._time_sum,
                                                                     self._value_sum))
