@@ -312,18 +312,8 @@ def check_result(path: Path, settings: Settings, task: Task):
         finite = values[np.isfinite(values)]
         if np.any(np.isinf(values)) or np.any(np.abs(finite) > bound):
             raise ResultRejected(f"{path.name}: {channel} values beyond the monitor's ±{math.degrees(bound):g}° bound")
-        mine = channels.get(channel)
-        if not isinstance(mine, dict) or mine.get("count") != finite.size:
-            raise ResultRejected(f"{path.name}: {finite.size} {channel} values, the monitor counted "
-                                 f"{mine.get('count') if isinstance(mine, dict) else None}")
-        if finite.size:
-            stats = RunningStatistics()
-            stats.update(finite)
-            for key, value in (("mean_arcmin", stats.mean), ("sigma_arcmin", stats.sigma)):
-                theirs = mine.get(key)
-                if not isinstance(theirs, (int, float)) or not math.isclose(
-                        value / ARCMIN_RAD, theirs, rel_tol=SUMMARY_TOLERANCE, abs_tol=1e-9):
-                    raise ResultRejected(f"{path.name}: {channel} {key} does not agree with the monitor's summary")
+        _check_summary(path, finite, channels.get(channel), f"{channel} values, the monitor counted",
+                       f"{channel} {{key}} does not agree with the monitor's summary")
     if settings.closed_loop:
         _check_pointing(path, columns, description)
     return table, description
@@ -344,18 +334,25 @@ def _check_pointing(path: Path, columns: dict, description: dict) -> None:
         finite = values[np.isfinite(values)] if values.dtype.kind == "f" else None
         if finite is None or np.any(np.isinf(values)) or np.any(np.abs(finite) > bound):
             raise ResultRejected(f"{path.name}: {name} is not a pointing error within ±{math.degrees(bound):g}°")
-        mine = summary.get(axis)
-        if not isinstance(mine, dict) or mine.get("count") != finite.size:
-            raise ResultRejected(f"{path.name}: {finite.size} {axis} pointing values, the summary counted "
-                                 f"{mine.get('count') if isinstance(mine, dict) else None}")
-        if finite.size:
-            stats = RunningStatistics()
-            stats.update(finite)
-            for key, value in (("mean_arcmin", stats.mean), ("sigma_arcmin", stats.sigma)):
-                theirs = mine.get(key)
-                if not isinstance(theirs, (int, float)) or not math.isclose(
-                        value / ARCMIN_RAD, theirs, rel_tol=SUMMARY_TOLERANCE, abs_tol=1e-9):
-                    raise ResultRejected(f"{path.name}: pointing {axis} {key} does not agree with its summary")
+        _check_summary(path, finite, summary.get(axis), f"{axis} pointing values, the summary counted",
+                       f"pointing {axis} {{key}} does not agree with its summary")
+
+
+def _check_summary(path: Path, finite: np.ndarray, mine, counted: str, disagrees: str) -> None:
+    """The finite values of a column against the summary the task wrote of them: the count exactly, the mean and σ
+    within SUMMARY_TOLERANCE. ``counted`` follows the count in the refusal; ``disagrees`` is the refusal's words
+    for a figure (``{key}`` names it)."""
+    if not isinstance(mine, dict) or mine.get("count") != finite.size:
+        raise ResultRejected(f"{path.name}: {finite.size} {counted} "
+                             f"{mine.get('count') if isinstance(mine, dict) else None}")
+    if finite.size:
+        stats = RunningStatistics()
+        stats.update(finite)
+        for key, value in (("mean_arcmin", stats.mean), ("sigma_arcmin", stats.sigma)):
+            theirs = mine.get(key)
+            if not isinstance(theirs, (int, float)) or not math.isclose(
+                    value / ARCMIN_RAD, theirs, rel_tol=SUMMARY_TOLERANCE, abs_tol=1e-9):
+                raise ResultRejected(f"{path.name}: {disagrees.format(key=key)}")
 
 
 def stale_results(out: Path, settings: Settings, tasks: list[Task]) -> dict[str, str]:
