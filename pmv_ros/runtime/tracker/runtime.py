@@ -62,6 +62,7 @@ REJECTIONS = TRUTH_REJECTIONS + (Rejection.WRONG_FRAME,)
 ODOMETRY_REJECTIONS = STAMP_REJECTIONS + (Rejection.IMPLAUSIBLE_ORBIT, Rejection.WRONG_FRAME)
 #: The outcomes by code, and their reasons.
 _OUTCOMES = tuple(Outcome)
+_OK = Outcome.OK.value  # a plain int: numpy compares with an IntEnum member slowly
 _REASONS = tuple(outcome.reason for outcome in Outcome)
 #: The /diagnostics keys of the frame outcomes (in Outcome order) and of the refusals.
 _FRAME_KEYS = tuple(f"frames_{outcome.reason}" for outcome in Outcome)
@@ -217,14 +218,19 @@ class TrackerRuntime:
         codes = outcome.tolist()
         if len(codes) == 1:  # a node's frame
             self.outcomes[_OUTCOMES[codes[0]]] += 1
+            good = int(codes[0] == _OK)
         else:
             for code, count in enumerate(np.bincount(outcome).tolist()):
                 if count:
                     self.outcomes[_OUTCOMES[code]] += count
+            good = codes.count(_OK)
         self.last_outcome = _OUTCOMES[codes[-1]]
-        self.last_stars, self.last_hits = int(frames.stars[-1]), int(frames.hits[-1])
-        ok = outcome == Outcome.OK.value  # a plain int: numpy compares with an IntEnum member slowly
-        self.queue.push_many(grid.frame_s[ok], frames.q_measured[:, ok], grid.truth_index[ok])
+        self.last_stars, self.last_hits = frames.stars[-1].item(), frames.hits[-1].item()
+        if good == len(codes):  # every frame has an attitude: all wait for their release
+            self.queue.push_many(grid.frame_s, frames.q_measured, grid.truth_index)
+        elif good:
+            ok = outcome == _OK
+            self.queue.push_many(grid.frame_s[ok], frames.q_measured[:, ok], grid.truth_index[ok])
         return MeasuredFrames(grid.frame_s, frames.q_measured, outcome, frames.stars, frames.hits, grid.truth_index)
 
     @property
@@ -402,11 +408,13 @@ class TrackerRuntime:
 def _in_order(frames: MeasuredFrames, frame_s, q_measured, released_at) -> list:
     """What a batch publishes, as one message at a time does: at each truth sample, the statuses of the frames it
     completes, then the frames it releases."""
-    items = [(i, 0, FrameStatus(t, _REASONS[code], stars, hits)) for i, t, code, stars, hits in zip(
-        frames.truth_index.tolist(), frames.frame_s.tolist(), frames.outcome.tolist(), frames.stars.tolist(),
-        frames.hits.tolist())]
-    items += [(i, 1, ReleasedFrame(t, tuple(q)))
-              for i, t, q in zip(released_at.tolist(), frame_s.tolist(), q_measured.T.tolist())]
+    statuses = [FrameStatus(t, _REASONS[code], stars, hits) for t, code, stars, hits in zip(
+        frames.frame_s.tolist(), frames.outcome.tolist(), frames.stars.tolist(), frames.hits.tolist())]
+    releases = [ReleasedFrame(t, tuple(q)) for t, q in zip(frame_s.tolist(), q_measured.T.tolist())]
+    if not releases or not statuses:  # each kind is in truth order already
+        return statuses or releases
+    items = [(i, 0, status) for i, status in zip(frames.truth_index.tolist(), statuses)]
+    items += [(i, 1, release) for i, release in zip(released_at.tolist(), releases)]
     items.sort(key=lambda item: item[:2])  # stable: frames stay in their order
     return [item for _, _, item in items]
 
