@@ -195,7 +195,7 @@ class LatencyQueue:
             self._ready = np.concatenate([self._ready, ready])
         else:  # nothing waiting (a node's frame is most often released before the next is measured): copies
             self._release_s, self._frame_s, self._q, self._ready = release_s, frame_s.copy(), q.copy(), ready.copy()
-        self._held_back = self._held_back or bool(ready.any())
+        self._held_back = self._held_back or np.count_nonzero(ready) > 0
         self._first_release_s = float(self._release_s[0])
         # In frame order, the last frame pushed is the latest due of these (an earlier one may be later still: the
         # latency was longer when it was pushed).

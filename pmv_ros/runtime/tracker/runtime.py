@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from operator import itemgetter
 from typing import Callable, NamedTuple
 
 import numpy as np
@@ -67,6 +68,7 @@ _REASONS = tuple(outcome.reason for outcome in Outcome)
 #: The /diagnostics keys of the frame outcomes (in Outcome order) and of the refusals.
 _FRAME_KEYS = tuple(f"frames_{outcome.reason}" for outcome in Outcome)
 _REJECTED_KEYS = tuple(f"rejected_truth_{reason.value}" for reason in REJECTIONS)
+_rejected_counts = itemgetter(*_REJECTED_KEYS)  # input counters → the refusals' counts
 
 
 class FrameStatus(NamedTuple):
@@ -225,7 +227,7 @@ class TrackerRuntime:
                     self.outcomes[_OUTCOMES[code]] += count
             good = codes.count(_OK)
         self.last_outcome = _OUTCOMES[codes[-1]]
-        self.last_stars, self.last_hits = frames.stars[-1].item(), frames.hits[-1].item()
+        self.last_stars, self.last_hits = frames.stars.item(-1), frames.hits.item(-1)
         if good == len(codes):  # every frame has an attitude: all wait for their release
             self.queue.push_many(grid.frame_s, frames.q_measured, grid.truth_index)
         elif good:
@@ -392,8 +394,7 @@ class TrackerRuntime:
         values = self.counters
         values.update(self._source_counters())
         values.update(stars_in_field=self.last_stars, proton_hits=self.last_hits, release_queue=len(self.queue))
-        counts = self.input_counts
-        rejected = sum(counts[key] for key in _REJECTED_KEYS)
+        rejected = sum(_rejected_counts(self.input_counts))
         if rejected > self._rejected_reported:
             problems = problems + ["rejected /attitude/truth messages"]
         self._rejected_reported = rejected
