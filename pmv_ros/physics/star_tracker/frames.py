@@ -101,13 +101,12 @@ class FrameGrid:
             if not times:  # the first sample, or one after a gap: the grid starts again
                 return _NO_FRAMES
             count = len(times)
-            # The turn's two ends and the stamps, each built as one array (a frame costs a few numpy calls).
-            ends = np.array([previous[1], q_xyzw], float).reshape(2, 4, 1)
+            q0 = np.array(previous[1], float).reshape(4, 1)
+            q1 = np.array(q_xyzw, float).reshape(4, 1)
             if count > 1:
-                ends = ends.repeat(count, axis=2)
-            q0, q1 = ends
-            t0, t1, frame_s = np.array([[previous[0]] * count, [t_s] * count, times])
-            attitude, rate = slerp_frames(t0, q0, t1, q1, frame_s)
+                q0, q1 = np.repeat(q0, count, axis=1), np.repeat(q1, count, axis=1)
+            frame_s = np.array(times)
+            attitude, rate = slerp_frames(np.array([previous[0]] * count), q0, np.array([t_s] * count), q1, frame_s)
             return GridFrames(frame_s, attitude, rate, _FIRST_SAMPLE if count == 1 else np.zeros(count, np.int64))
         t = np.atleast_1d(np.asarray(t_s, float)).ravel()
         if not t.size:

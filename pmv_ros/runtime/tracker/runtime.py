@@ -334,7 +334,7 @@ class TrackerRuntime:
                 one = len(stamps) == 1
                 frames = self.add_truth_batch(stamps[0] if one else np.array(stamps),
                                               quaternions[0] if one else np.array(quaternions).T)
-                released = self.release_batch(stamps[0] if one else np.array(stamps))
+                released = self.queue.release_many(stamps[0] if one else np.array(stamps))  # release_batch
                 if frames.frame_s.size or released[0].size:  # most messages fall between two frames
                     output.published += _in_order(frames, *released)
             stamps.clear()
@@ -357,7 +357,8 @@ class TrackerRuntime:
                 continue
             self.last_arrival_s = now_s
             sample = check_quaternion_sample(self.stamps, stamp_s, q_xyzw, now_s)
-            counts["clock_outliers"] += sample.outliers
+            if sample.outliers:
+                counts["clock_outliers"] += sample.outliers
             if sample.jumped:  # the truth clock went back: frames of the old timeline not yet released are dropped
                 measure()
                 counts["clock_jumps"] += 1
@@ -366,7 +367,8 @@ class TrackerRuntime:
             if sample.rejection is not None:
                 counts[f"rejected_truth_{sample.rejection.value}"] += 1
                 continue
-            counts["truth_quaternions_normalised"] += sample.normalised
+            if sample.normalised:
+                counts["truth_quaternions_normalised"] += 1
             stamps.append(stamp_s)
             quaternions.append(sample.q_xyzw)
             if stamp_s - self._last_health_s >= 1.0:
