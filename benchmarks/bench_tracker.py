@@ -1,6 +1,6 @@
 """The star tracker's cost in the node and in the campaign, against another tree of pmv_ros in the same run.
 
-    .venv/bin/python benchmarks/bench_tracker.py [--baseline DIR] [--rounds 3] [--seconds 300]
+    .venv/bin/python benchmarks/bench_tracker.py [--baseline DIR] [--rounds 3] [--seconds 300] [--frame-rate-hz F]
 
 What star_tracker_node's runtime costs (no ROS): a Kondor truth stream at
 10 Hz fed one message at a time through ``receive_truth`` (the node's path:
@@ -13,8 +13,9 @@ own interpreter (``DIR/.venv/bin/python`` with ``DIR`` on the path), the two
 alternating over ``--rounds`` rounds; each figure is the best of its
 rounds, the load average beside it, and the ratios are this tree's speed
 over the baseline's (≥ 1: this tree is as fast). The trees' own presets
-are flown (their frame periods differ: per frame and per truth message are
-both printed).
+are flown (their frame periods may differ: per frame and per truth message
+are both printed); ``--frame-rate-hz`` flies both at one frame rate, so that
+per frame compares the same number of truth messages a frame.
 """
 
 from __future__ import annotations
@@ -37,6 +38,9 @@ from pmv_ros.runtime.tracker.runtime import TrackerRuntime, track_stream
 from pmv_ros.storage.files import read_yaml_file
 seconds = float(sys.argv[2])
 values = flight_values(read_yaml_file(sys.argv[1] + "/config/kondor.yaml", "preset")).star_tracker
+rate_hz = float(sys.argv[3])
+if rate_hz > 0.0:  # the frame rate, in whichever parameter the tree has
+    values = dict(values, **({"frame_period_s": 1.0 / rate_hz} if "frame_period_s" in values else {"rate_hz": rate_hz}))
 t = 100.0 + np.arange(int(seconds * 10)) / 10.0
 angle = 2e-4 * np.sin(t / 300.0)
 q = np.array([np.sin(angle / 2), np.zeros_like(t), np.zeros_like(t), np.cos(angle / 2)])
@@ -63,11 +67,14 @@ print(json.dumps({"messages": int(t.size), "frames": int(frames), "node_s": node
 """
 
 
-def measure(tree: Path, seconds: float) -> dict:
+def measure(tree: Path, seconds: float, frame_rate_hz: float) -> dict:
     python = tree / ".venv" / "bin" / "python"
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
-    out = subprocess.run([str(python), "-c", PROBE, str(tree), str(seconds)], capture_output=True, text=True,
-                         env=env, check=True, cwd=str(tree))
+    out = subprocess.run([str(python), "-c", PROBE, str(tree), str(seconds), str(frame_rate_hz)], capture_output=True,
+                         text=True, env=env, cwd=str(tree))
+    if out.returncode:
+        lines = out.stderr.strip().splitlines()
+        raise SystemExit(f"{tree}: {lines[-1] if lines else f'exit {out.returncode}'}")
     result = json.loads(out.stdout.strip().splitlines()[-1])
     result["load"] = os.getloadavg()[0]
     return result
@@ -78,11 +85,14 @@ def main(argv=None) -> int:
     parser.add_argument("--baseline", type=Path, required=True, help="another checkout with its own .venv")
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--seconds", type=float, default=300.0)
+    parser.add_argument("--frame-rate-hz", type=float, default=0.0,
+                        help="fly both trees at this frame rate, one their parameters accept (default: each "
+                             "tree's preset)")
     args = parser.parse_args(argv)
     runs = {"this": [], "baseline": []}
     for round_ in range(args.rounds):
         for name, tree in (("this", HERE), ("baseline", args.baseline)):
-            runs[name].append(measure(tree, args.seconds))
+            runs[name].append(measure(tree, args.seconds, args.frame_rate_hz))
             r = runs[name][-1]
             print(f"round {round_ + 1} {name:8s}: node {1e6 * r['node_s'] / r['messages']:7.1f} µs/message, "
                   f"{1e6 * r['node_s'] / r['frames']:8.1f} µs/frame ({r['frames']} frames); campaign path "

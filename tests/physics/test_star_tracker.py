@@ -16,6 +16,7 @@ from pmv_ros.physics.star_tracker import (REASON_ORDER, Outcome, RadiationGrid, 
 from pmv_ros.physics.star_tracker.draws import Draws
 from pmv_ros.physics.star_tracker.model import (CCD_AREA_CM2, hit_footprint_moments, recognition_failure,
                                                 rotation_matrices)
+from pmv_ros.physics.star_tracker import sky as sky_module
 from pmv_ros.physics.star_tracker.sky import precession_matrix
 
 EPOCH = Epoch.from_utc("2013-09-10T00:00:00Z")
@@ -90,6 +91,33 @@ def test_the_real_sky_is_clustered_where_poisson_is_not(sky):
     assert 0.0015 < np.mean(counts < 3) < 0.007
     # The field's square: no star beyond the half-width on either axis.
     assert np.abs(stars.u_rad).max() <= math.radians(7.81) / 2.0 and np.abs(stars.v_rad).max() <= math.radians(3.905)
+
+
+def test_a_sky_index_serves_the_skies_of_other_dates(monkeypatch):
+    """A campaign's tasks share one sky index (sky.INDEX_MARGIN_RAD, 0.1°): a sky four years on (≈ 200″ of
+    precession) takes the index built for the first, whose cells hold every star the later sky's own cells would
+    hold; 6000 random 7.81° fields see the same stars through it as through an index of the later sky's own; a
+    sky sixty years on (≈ 0.8°) builds its own."""
+    from scipy.spatial import cKDTree
+
+    monkeypatch.setattr(sky_module, "_SHARED_INDEXES", {})
+    half_width, date = math.radians(7.81) / 2.0, float(EPOCH.julian_date_tt(0.0))
+    first, later = Sky(date), Sky(date + 4 * 365.25)
+    start, stars = first.index(half_width)
+    assert later.index(half_width)[1] is stars
+    reach = math.atan(math.sqrt(2.0) * math.tan(half_width)) + sky_module._CELL_RADIUS_RAD  # without the margin
+    needed = cKDTree(later.direction_eci.T).query_ball_point(sky_module._cell_centres().T, 2.0 * math.sin(reach / 2))
+    assert all(np.isin(cell, stars[start[c]:start[c + 1]]).all() for c, cell in enumerate(needed))
+    axes = _random_axes(6000, 2)
+    shared = later.stars_in_fields(axes, half_width)
+    monkeypatch.setattr(sky_module, "_SHARED_INDEXES", {})
+    own = Sky(date + 4 * 365.25)
+    assert own.index(half_width)[1] is not stars
+    alone = own.stars_in_fields(axes, half_width)
+    for name in ("field", "star", "u_rad", "v_rad", "hp_mag"):
+        np.testing.assert_array_equal(getattr(shared, name), getattr(alone, name))
+    assert shared.star.size > 50000
+    assert Sky(date + 60 * 365.25).index(half_width)[1] is not own.index(half_width)[1]
 
 
 def _tracker(sky, radiation, **options) -> StarTracker:

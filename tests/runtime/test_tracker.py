@@ -98,6 +98,31 @@ def test_the_latency_queue_releases_in_frame_order_and_never_before_a_frame_exis
     assert queue.clear() == 0 and Outcome.OK == 0
 
 
+def test_the_latency_queue_releases_the_same_stamp_by_stamp_as_at_once():
+    """A node's stamps, one float at a time (the queue's shortcuts: nothing due, everything due), against the
+    same stamps as one array, with the latency changed between pushes (a frame pushed earlier may be due later)."""
+    rng = np.random.default_rng(5)
+    one, whole = LatencyQueue(0.0), LatencyQueue(0.0)
+    frame_s, got, expected = 0.0, [], []
+    for _ in range(80):
+        for _ in range(int(rng.integers(0, 4))):  # frames 0.4 s apart, each with its own latency
+            one.latency_s = whole.latency_s = float(rng.choice([0.0, 0.3, 1.7, 3.0]))
+            frame_s += 0.4
+            q = rng.normal(size=(4, 1))
+            one.push_many(np.array([frame_s]), q)
+            whole.push_many(np.array([frame_s]), q)
+        stamps = frame_s + np.sort(rng.uniform(0.0, 2.0, 4))
+        for stamp in stamps.tolist():
+            released, q_released, at = one.release_many(stamp)
+            got += [(stamp, t, tuple(c)) for t, c in zip(released.tolist(), q_released.T.tolist())]
+            assert not at.any()
+        released, q_released, at = whole.release_many(stamps)
+        expected += [(stamps[i], t, tuple(c)) for i, t, c in zip(at.tolist(), released.tolist(),
+                                                                q_released.T.tolist())]
+        assert len(one) == len(whole)
+    assert got == expected and len(got) > 40
+
+
 def test_two_trackers_started_20_s_apart_give_the_same_frames_for_the_same_frame_times():
     """physics.md §6 item 9 (draws keyed by the frame's time): a tracker that starts 20 s of truth later (a late
     /clock, a respawn) gives, frame for frame, what the one running since the start gives — bit for bit."""

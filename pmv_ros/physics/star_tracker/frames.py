@@ -65,6 +65,8 @@ def read_only(array: np.ndarray) -> np.ndarray:
 #: What a batch that completes no frame gives (shared: its arrays are empty and read-only).
 _NO_FRAMES = GridFrames(read_only(np.empty(0)), read_only(np.empty((4, 0))), read_only(np.empty((3, 0))),
                         read_only(np.empty(0, np.int64)))
+#: The truth index of one frame completed by the batch's first sample (shared, read-only).
+_FIRST_SAMPLE = read_only(np.zeros(1, np.int64))
 
 
 class FrameGrid:
@@ -105,7 +107,7 @@ class FrameGrid:
                 q0, q1 = np.repeat(q0, count, axis=1), np.repeat(q1, count, axis=1)
             frame_s = np.array(times)
             attitude, rate = slerp_frames(np.array([previous[0]] * count), q0, np.array([t_s] * count), q1, frame_s)
-            return GridFrames(frame_s, attitude, rate, np.zeros(count, np.int64))
+            return GridFrames(frame_s, attitude, rate, _FIRST_SAMPLE if count == 1 else np.zeros(count, np.int64))
         t = np.atleast_1d(np.asarray(t_s, float)).ravel()
         if not t.size:
             return _NO_FRAMES
@@ -169,6 +171,7 @@ class LatencyQueue:
         self._release_s, self._frame_s = np.empty(0), np.empty(0)  # per frame, in frame order
         self._q, self._ready = np.empty((4, 0)), np.empty(0, np.int64)
         self._first_release_s = math.inf  # of the frame ahead (a stamp before it releases nothing)
+        self._last_release_s = -math.inf  # the latest of the frames waiting (a stamp after it releases them all)
         self._held_back = False  # some frame of ``_ready`` waits for a later stamp of the next release_many
 
     def __len__(self) -> int:
@@ -179,15 +182,23 @@ class LatencyQueue:
         ``(K,)``: the index of the first stamp of the next :meth:`release_many` that may release each
         (the truth sample that completed it; default 0)."""
         frame_s = np.asarray(frame_s, float).ravel()
-        if not frame_s.size:
+        count = frame_s.size
+        if not count:
             return
-        ready = np.zeros(frame_s.size, np.int64) if not_before is None else np.asarray(not_before, np.int64)
-        self._release_s = np.concatenate([self._release_s, frame_s + self.latency_s])
-        self._frame_s = np.concatenate([self._frame_s, frame_s])
-        self._q = np.concatenate([self._q, np.asarray(q_xyzw, float).reshape(4, frame_s.size)], axis=1)
-        self._ready = np.concatenate([self._ready, ready])
-        self._held_back = self._held_back or bool(ready.any())
+        ready = np.zeros(count, np.int64) if not_before is None else np.asarray(not_before, np.int64)
+        release_s, q = frame_s + self.latency_s, np.asarray(q_xyzw, float).reshape(4, count)
+        if self._release_s.size:
+            self._release_s = np.concatenate([self._release_s, release_s])
+            self._frame_s = np.concatenate([self._frame_s, frame_s])
+            self._q = np.concatenate([self._q, q], axis=1)
+            self._ready = np.concatenate([self._ready, ready])
+        else:  # nothing waiting (a node's frame is most often released before the next is measured): copies
+            self._release_s, self._frame_s, self._q, self._ready = release_s, frame_s.copy(), q.copy(), ready.copy()
+        self._held_back = self._held_back or np.count_nonzero(ready) > 0
         self._first_release_s = float(self._release_s[0])
+        # In frame order, the last frame pushed is the latest due of these (an earlier one may be later still: the
+        # latency was longer when it was pushed).
+        self._last_release_s = max(self._last_release_s, float(release_s[-1]))
 
     def release_many(self, stamps_s) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The frames due at each of increasing truth stamps ``(N,)``, as if released stamp by stamp.
@@ -197,8 +208,13 @@ class LatencyQueue:
         it. Returns (frame times ``(R,)``, quaternions ``(4, R)``, the index of the
         stamp each is released at ``(R,)``); the frames not due stay queued.
         """
-        if type(stamps_s) is float and stamps_s + RELEASE_TOLERANCE_S < self._first_release_s and not self._held_back:
-            return _NONE_RELEASED  # one stamp (a node's), before the frame ahead is due
+        if type(stamps_s) is float and not self._held_back:  # one stamp (a node's)
+            if stamps_s + RELEASE_TOLERANCE_S < self._first_release_s:
+                return _NONE_RELEASED  # before the frame ahead is due
+            if stamps_s + RELEASE_TOLERANCE_S >= self._last_release_s:  # every frame waiting is due: all go
+                released = self._frame_s, self._q, np.zeros(self._frame_s.size, np.int64)
+                self.clear()
+                return released
         stamps = np.atleast_1d(np.asarray(stamps_s, float)).ravel()
         if not stamps.size or (stamps[-1] + RELEASE_TOLERANCE_S < self._first_release_s and not self._held_back):
             return _NONE_RELEASED  # nothing due yet (most truth stamps of a node)
@@ -209,6 +225,8 @@ class LatencyQueue:
         self._release_s, self._frame_s, self._q = self._release_s[count:], self._frame_s[count:], self._q[:, count:]
         self._ready, self._held_back = np.zeros(self._release_s.size, np.int64), False
         self._first_release_s = float(self._release_s[0]) if self._release_s.size else math.inf
+        if not self._release_s.size:
+            self._last_release_s = -math.inf
         return released
 
     def clear(self) -> int:
@@ -216,7 +234,7 @@ class LatencyQueue:
         dropped = len(self)
         self._release_s, self._frame_s = self._release_s[:0], self._frame_s[:0]
         self._q, self._ready, self._held_back = self._q[:, :0], self._ready[:0], False
-        self._first_release_s = math.inf
+        self._first_release_s, self._last_release_s = math.inf, -math.inf
         return dropped
 
 

@@ -350,6 +350,9 @@ class StarTracker:
                 star_adc_scale=STAR_ADC * p.exposure_s / STAR_ADC_EXPOSURE_S, star_adc_hp=STAR_ADC_HP,
                 star_pixels=STAR_PX, max_ranked_hits=MAX_RANKED_HITS)
             self._config = np.array([float(constants[name]) for name in CONFIG])
+            # The kernel's arguments that are the same for every frame, in its order.
+            self._tables = (self.tracker_axes, self._config, self.seed, self.sky.direction_eci, hp, self.hip,
+                            self._bias[0], self._bias[1], *self._cells, CELLS_PER_EDGE)
 
     # -- the stages ------------------------------------------------------------------------------
 
@@ -467,7 +470,7 @@ class StarTracker:
         (:func:`~pmv_ros.physics.star_tracker.kernel.measure_frames`).
         """
         p = self.parameters
-        t = np.atleast_1d(np.asarray(t_s, float))
+        t = np.asarray(t_s, float).reshape(-1)
         n_frames = t.size
         q_true = np.asarray(q_orbital_to_body, float).reshape(4, n_frames)
         outage = self.in_outage(t)
@@ -480,15 +483,12 @@ class StarTracker:
             q[:, outcome != Outcome.OK.value] = np.nan
             return FrameMeasurement(q, outcome, *(np.zeros(n_frames, np.int64) for _ in range(3)))
         environment, column = self._environment(t)
-        cell_start, cell_stars = self._cells
         q_measured, outcome, counts = np.empty((4, n_frames)), np.empty(n_frames, np.int8), \
             np.empty((3, n_frames), np.int64)
         stars, hits, used = counts
         measure_frames(t, np.ascontiguousarray(q_true), outage,
-                       np.ascontiguousarray(np.reshape(relative_rate_rad_s, (3, n_frames)), float), column,
-                       *environment, self.tracker_axes, self._config, self.seed, self.sky.direction_eci,
-                       self.sky.hp_mag, self.hip, self._bias[0], self._bias[1], cell_start, cell_stars,
-                       CELLS_PER_EDGE, q_measured, outcome, stars, hits, used)
+                       np.ascontiguousarray(np.asarray(relative_rate_rad_s, float).reshape(3, n_frames)), column,
+                       *environment, *self._tables, q_measured, outcome, stars, hits, used)
         return FrameMeasurement(q_measured, outcome, stars, hits, used)
 
 

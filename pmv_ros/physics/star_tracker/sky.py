@@ -89,6 +89,33 @@ def _cell_centres() -> np.ndarray:
 
 #: Largest angle from a cell's centre to a point of the cell, rad (the corners of the central cells of a face).
 _CELL_RADIUS_RAD = math.atan(math.sqrt(2.0) / CELLS_PER_EDGE) * 1.01
+#: A sky index serves every sky whose stars are within this of their places in the sky it was built on: its cells
+#: reach this much further (≈ 2.5 % more candidates a frame, each checked against the field), and the runs of a
+#: process on other dates — a campaign's tasks, each a day of the year — share it instead of building one each
+#: (≈ 0.1 s). Precession moves the stars ≈ 50″ a year: one index serves some six years either side.
+INDEX_MARGIN_RAD = math.radians(0.1)
+#: Indexes kept for other skies, by field half-width: (the star directions it was built on, the index).
+_SHARED_INDEXES: dict = {}
+_SHARED_INDEXES_KEPT = 4
+
+
+def _build_index(direction_eci: np.ndarray, half_width_rad: float) -> tuple[np.ndarray, np.ndarray]:
+    """:meth:`Sky.index` of the stars at ``direction_eci`` ``(3, S)``: each cell holds every star within the reach of
+    a field centred in it, widened by :data:`INDEX_MARGIN_RAD`, in star order."""
+    reach = math.atan(math.sqrt(2.0) * math.tan(half_width_rad)) + _CELL_RADIUS_RAD + INDEX_MARGIN_RAD
+    found = cKDTree(direction_eci.T).query_ball_point(_cell_centres().T, 2.0 * math.sin(reach / 2.0),
+                                                      return_sorted=True)
+    counts = np.fromiter(map(len, found), np.int64, len(found))
+    stars = np.concatenate([np.asarray(hits, np.int64) for hits in found])
+    return np.concatenate([[0], np.cumsum(counts)]), stars
+
+
+def _within(built_on: np.ndarray, direction_eci: np.ndarray, angle_rad: float) -> bool:
+    """Whether every star of ``direction_eci`` ``(3, S)`` is within ``angle_rad`` of its place in ``built_on``."""
+    if built_on.shape != direction_eci.shape:
+        return False
+    chord_squared = float(np.max(np.sum((built_on - direction_eci) ** 2, axis=0), initial=0.0))
+    return chord_squared <= (2.0 * math.sin(angle_rad / 2.0)) ** 2
 
 
 class Sky:
@@ -125,15 +152,18 @@ class Sky:
 
     def index(self, half_width_rad: float) -> tuple[np.ndarray, np.ndarray]:
         """For each sky cell, the stars (in brightness order) a field of this half-width centred anywhere in the
-        cell can hold, as one flat array and each cell's start (built once per field size)."""
+        cell can hold, and a few more, as one flat array and each cell's start (built once per field size, and
+        shared with the skies of other dates that it serves: :data:`INDEX_MARGIN_RAD`)."""
         index = self._indexes.get(half_width_rad)
         if index is None:
-            reach = math.atan(math.sqrt(2.0) * math.tan(half_width_rad)) + _CELL_RADIUS_RAD
-            found = cKDTree(self.direction_eci.T).query_ball_point(_cell_centres().T, 2.0 * math.sin(reach / 2.0),
-                                                                   return_sorted=True)
-            counts = np.fromiter(map(len, found), np.int64, len(found))
-            stars = np.concatenate([np.asarray(hits, np.int64) for hits in found])
-            index = self._indexes[half_width_rad] = (np.concatenate([[0], np.cumsum(counts)]), stars)
+            built_on, index = _SHARED_INDEXES.get(half_width_rad, (None, None))
+            if index is None or not _within(built_on, self.direction_eci, INDEX_MARGIN_RAD):
+                index = _build_index(self.direction_eci, half_width_rad)
+                _SHARED_INDEXES.pop(half_width_rad, None)
+                _SHARED_INDEXES[half_width_rad] = (self.direction_eci, index)
+                while len(_SHARED_INDEXES) > _SHARED_INDEXES_KEPT:
+                    _SHARED_INDEXES.pop(next(iter(_SHARED_INDEXES)))
+            self._indexes[half_width_rad] = index
         return index
 
     def __len__(self) -> int:

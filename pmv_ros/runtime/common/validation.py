@@ -204,17 +204,19 @@ def check_quaternion(q_xyzw, tolerance: float = QUATERNION_NORM_TOLERANCE):
     every |component| ≤ 1 + ``tolerance``.
     """
     try:
-        components = [float(c) for c in q_xyzw]
+        x, y, z, w = map(float, q_xyzw)  # not four components: ValueError
     except (TypeError, ValueError):
         return None, Rejection.NON_FINITE, False
-    if len(components) != 4 or not all(map(math.isfinite, components)):
+    isfinite = math.isfinite
+    if not (isfinite(x) and isfinite(y) and isfinite(z) and isfinite(w)):
         return None, Rejection.NON_FINITE, False
     # hypot does not overflow for finite components: 1e308 gives a norm of 1e308, refused below.
-    norm = math.hypot(*components)
-    if not abs(norm - 1.0) <= tolerance:
+    norm = math.hypot(x, y, z, w)
+    off = abs(norm - 1.0)
+    if not off <= tolerance:
         return None, Rejection.BAD_QUATERNION, False
     # Float by float (a message's one quaternion: no array to build): each quotient as an array's would be.
-    return tuple(c / norm for c in components), None, abs(norm - 1.0) > UNIT_ROUNDING
+    return (x / norm, y / norm, z / norm, w / norm), None, off > UNIT_ROUNDING
 
 
 def check_angles(roll_rad: float, pitch_rad: float, max_abs_rad: float, *, allow_nan: bool) -> Rejection | None:

@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from operator import itemgetter
 from typing import Callable, NamedTuple
 
 import numpy as np
@@ -62,10 +63,12 @@ REJECTIONS = TRUTH_REJECTIONS + (Rejection.WRONG_FRAME,)
 ODOMETRY_REJECTIONS = STAMP_REJECTIONS + (Rejection.IMPLAUSIBLE_ORBIT, Rejection.WRONG_FRAME)
 #: The outcomes by code, and their reasons.
 _OUTCOMES = tuple(Outcome)
+_OK = Outcome.OK.value  # a plain int: numpy compares with an IntEnum member slowly
 _REASONS = tuple(outcome.reason for outcome in Outcome)
 #: The /diagnostics keys of the frame outcomes (in Outcome order) and of the refusals.
 _FRAME_KEYS = tuple(f"frames_{outcome.reason}" for outcome in Outcome)
 _REJECTED_KEYS = tuple(f"rejected_truth_{reason.value}" for reason in REJECTIONS)
+_rejected_counts = itemgetter(*_REJECTED_KEYS)  # input counters → the refusals' counts
 
 
 class FrameStatus(NamedTuple):
@@ -217,14 +220,19 @@ class TrackerRuntime:
         codes = outcome.tolist()
         if len(codes) == 1:  # a node's frame
             self.outcomes[_OUTCOMES[codes[0]]] += 1
+            good = int(codes[0] == _OK)
         else:
             for code, count in enumerate(np.bincount(outcome).tolist()):
                 if count:
                     self.outcomes[_OUTCOMES[code]] += count
+            good = codes.count(_OK)
         self.last_outcome = _OUTCOMES[codes[-1]]
-        self.last_stars, self.last_hits = int(frames.stars[-1]), int(frames.hits[-1])
-        ok = outcome == Outcome.OK.value  # a plain int: numpy compares with an IntEnum member slowly
-        self.queue.push_many(grid.frame_s[ok], frames.q_measured[:, ok], grid.truth_index[ok])
+        self.last_stars, self.last_hits = frames.stars.item(-1), frames.hits.item(-1)
+        if good == len(codes):  # every frame has an attitude: all wait for their release
+            self.queue.push_many(grid.frame_s, frames.q_measured, grid.truth_index)
+        elif good:
+            ok = outcome == _OK
+            self.queue.push_many(grid.frame_s[ok], frames.q_measured[:, ok], grid.truth_index[ok])
         return MeasuredFrames(grid.frame_s, frames.q_measured, outcome, frames.stars, frames.hits, grid.truth_index)
 
     @property
@@ -326,7 +334,7 @@ class TrackerRuntime:
                 one = len(stamps) == 1
                 frames = self.add_truth_batch(stamps[0] if one else np.array(stamps),
                                               quaternions[0] if one else np.array(quaternions).T)
-                released = self.release_batch(stamps[0] if one else np.array(stamps))
+                released = self.queue.release_many(stamps[0] if one else np.array(stamps))  # release_batch
                 if frames.frame_s.size or released[0].size:  # most messages fall between two frames
                     output.published += _in_order(frames, *released)
             stamps.clear()
@@ -349,7 +357,8 @@ class TrackerRuntime:
                 continue
             self.last_arrival_s = now_s
             sample = check_quaternion_sample(self.stamps, stamp_s, q_xyzw, now_s)
-            counts["clock_outliers"] += sample.outliers
+            if sample.outliers:
+                counts["clock_outliers"] += sample.outliers
             if sample.jumped:  # the truth clock went back: frames of the old timeline not yet released are dropped
                 measure()
                 counts["clock_jumps"] += 1
@@ -358,7 +367,8 @@ class TrackerRuntime:
             if sample.rejection is not None:
                 counts[f"rejected_truth_{sample.rejection.value}"] += 1
                 continue
-            counts["truth_quaternions_normalised"] += sample.normalised
+            if sample.normalised:
+                counts["truth_quaternions_normalised"] += 1
             stamps.append(stamp_s)
             quaternions.append(sample.q_xyzw)
             if stamp_s - self._last_health_s >= 1.0:
@@ -386,8 +396,7 @@ class TrackerRuntime:
         values = self.counters
         values.update(self._source_counters())
         values.update(stars_in_field=self.last_stars, proton_hits=self.last_hits, release_queue=len(self.queue))
-        counts = self.input_counts
-        rejected = sum(counts[key] for key in _REJECTED_KEYS)
+        rejected = sum(_rejected_counts(self.input_counts))
         if rejected > self._rejected_reported:
             problems = problems + ["rejected /attitude/truth messages"]
         self._rejected_reported = rejected
@@ -402,11 +411,13 @@ class TrackerRuntime:
 def _in_order(frames: MeasuredFrames, frame_s, q_measured, released_at) -> list:
     """What a batch publishes, as one message at a time does: at each truth sample, the statuses of the frames it
     completes, then the frames it releases."""
-    items = [(i, 0, FrameStatus(t, _REASONS[code], stars, hits)) for i, t, code, stars, hits in zip(
-        frames.truth_index.tolist(), frames.frame_s.tolist(), frames.outcome.tolist(), frames.stars.tolist(),
-        frames.hits.tolist())]
-    items += [(i, 1, ReleasedFrame(t, tuple(q)))
-              for i, t, q in zip(released_at.tolist(), frame_s.tolist(), q_measured.T.tolist())]
+    statuses = [FrameStatus(t, _REASONS[code], stars, hits) for t, code, stars, hits in zip(
+        frames.frame_s.tolist(), frames.outcome.tolist(), frames.stars.tolist(), frames.hits.tolist())]
+    releases = [ReleasedFrame(t, tuple(q)) for t, q in zip(frame_s.tolist(), q_measured.T.tolist())]
+    if not releases or not statuses:  # each kind is in truth order already
+        return statuses or releases
+    items = [(i, 0, status) for i, status in zip(frames.truth_index.tolist(), statuses)]
+    items += [(i, 1, release) for i, release in zip(released_at.tolist(), releases)]
     items.sort(key=lambda item: item[:2])  # stable: frames stay in their order
     return [item for _, _, item in items]
 
