@@ -33,6 +33,10 @@ import pytest
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "OFF")
 os.environ.setdefault("ROS_LOG_DIR", tempfile.mkdtemp(prefix="pmv_ros_test_log_"))
 os.environ.setdefault("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
+# One cache of compiled kernels for every process of the run (pmv_ros.physics.compiled): the xdist workers, the nodes
+# they start, and the colcon-installed copy of the package that ros2 launch starts (the same sources: the same
+# cache files). In the venv, whose numba compiled them.
+os.environ.setdefault("NUMBA_CACHE_DIR", str(Path(sys.prefix) / "numba_cache"))
 # A run started in the background by a non-interactive shell (`make test &`) has SIGINT ignored, and an ignored
 # signal stays ignored across exec: every child (ros2 launch, the nodes) would ignore the SIGINT the tests send
 # it. With a handler here, the children start with the default action.
@@ -351,6 +355,34 @@ def _abandoned(work: Path) -> bool:
     return not any(path.exists() and _alive(path.read_text()) for path in (work / "pid", work / "maker"))
 
 
+#: Presets flown for a few ticks before the tests (:func:`_warm_kernels`): between them every compiled kernel of the
+#: sensor and the star tracker, with the argument types the nodes give them.
+WARM_PRESETS = ("config/kondor.yaml", "config/meteor_m2_tle.yaml")
+_WARM = ("import contextlib, io, sys\n"
+         "from pmv_ros.cli import main\n"
+         "for config in sys.argv[1:]:\n"
+         "    with contextlib.redirect_stdout(io.StringIO()):\n"
+         "        status = main(['simulate', '--config', config, '--orbits', '0.0005', '--quiet', '--json'])\n"
+         "    if status:\n"
+         "        sys.exit(f'pmv simulate --config {config}: status {status}')\n")
+
+
+def _warm_kernels() -> None:
+    """Compile the kernels into the run's cache once, in one process, before any test: otherwise each xdist
+    worker and each node process a test starts before a first one has written the cache compiles them itself
+    (≈ 15 s of CPU each, a node meanwhile deaf to SIGINT). Once per source tree and numba: a file in the cache
+    folder says it was done. A failure here is left to the tests that fly the presets to show."""
+    from pmv_ros.physics.compiled import cache_folder
+
+    done = cache_folder() / "warm"
+    if done.exists():
+        return
+    result = subprocess.run([sys.executable, "-c", _WARM, *WARM_PRESETS], cwd=REPO, stdin=subprocess.DEVNULL,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, timeout=600)
+    if result.returncode == 0:
+        done.touch()
+
+
 @pytest.hookimpl(trylast=True)  # after the tmp_path plugin's
 def pytest_configure(config):
     """The process that hands out the tests gets a folder for early work in the run's base temporary folder
@@ -358,6 +390,8 @@ def pytest_configure(config):
     outside (tools/flake_hunt.py) is kept across runs: its finished work is reused, the rest started again."""
     if hasattr(config, "workerinput"):
         return
+    if not config.option.collectonly:
+        _warm_kernels()
     config._pmv_run = f"{os.getpid()}-{time.time_ns()}"
     os.environ[RUN_ENV] = config._pmv_run
     if os.environ.get(EARLY_ENV):

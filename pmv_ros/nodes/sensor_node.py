@@ -21,7 +21,7 @@ from sensor_msgs.msg import Imu
 
 import pmv_msgs_shim as shim
 from .base import PmvNode, Pub, Sub
-from ..runtime.common.assembly import SENSOR_PARAMS as PARAMS, read_correction
+from ..runtime.common.assembly import READ_CORRECTION, SENSOR_PARAMS as PARAMS
 from ..runtime.common.frames import Mounting
 from ..runtime.sensor.runtime import HealthAt, SamplePublication, SensorRuntime
 from .launch import node_main
@@ -80,7 +80,7 @@ class SensorNode(PmvNode):
         try:
             self._runtime = SensorRuntime(
                 v, clock_epoch_s=self.now_s(), stepped=external_drive,
-                correction=read_correction(v),  # the one file read: here, at start-up
+                correction=READ_CORRECTION,  # the one file read: at start-up, once the orbit is checked
                 check_lines_of_sight=shim.checked_lines_of_sight, truth_topic=self.resolve_topic_name("attitude/truth"),
                 odometry_topic=self.resolve_topic_name("orbit/odometry"), graph_problems=self._graph_problems,
                 source_counters=self.input_source_counters)

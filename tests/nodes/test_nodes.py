@@ -568,7 +568,13 @@ def test_sensor_topics_types_frames_and_units():
 
 
 def test_star_tracker_node_alone(harness):
-    h = harness(StarTrackerNode, {"frame_period_s": 0.5, "exposure_s": 0.5, "processing_s": 0.3})
+    # On the simulation's clock (sim.fast_time: the orbit is at its epoch elements at sim.start_time_s, 0): the
+    # stamps below are then the preset's first 200 s. On the wall clock the orbit's epoch is the node's start, and
+    # stamps of 0…200 s lie decades before it, at an orbit phase and a Sun that change with the start time: over
+    # a month of start times ≈ 1 % of them put these frames in the Earth's or the Sun's exclusion or in a field
+    # without stars (47 frames with attitude, or none, instead of ≈ 370).
+    h = harness(StarTrackerNode, {"frame_period_s": 0.5, "exposure_s": 0.5, "processing_s": 0.3,
+                                  "sim.fast_time": True})
     h.record(QuaternionStamped, "/star_tracker/attitude")
     h.record(DiagnosticArray, "/diagnostics")
     truth = h.publisher(QuaternionStamped, "/attitude/truth")

@@ -80,11 +80,15 @@ def refusals(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("hostile_tle")
     files = _files(tmp)
     listing = tmp / "cases.json"
-    # The first case imports the nodes and builds a pipeline (the good preset, one tick): the refusals after it
-    # are timed without the imports.
-    warm_up = {"warm_up": ["simulate", "--config", str(PRESET), "--orbits", "0.0001", "--quiet", "--json"]}
+    # The first case imports the nodes and builds them up to a refusal (the good preset flown 40 years after its
+    # element set's epoch): the refusals after it are timed without the imports. The good preset itself flies (one
+    # tick, status 0: what the cases change is what they are refused for) last, after every refusal was measured:
+    # the peak is the process's so far, and a run that senses holds the compiled kernels (≈ 300 MB).
+    warm_up = {"warm_up": ["simulate", "--config", str(PRESET), "--orbits", "0.01", "--epoch", "2056-11-11T00:00:00Z",
+                           "--quiet"]}
+    control = {"control": ["simulate", "--config", str(PRESET), "--orbits", "0.0001", "--quiet", "--json"]}
     listing.write_text(json.dumps({**warm_up, **{case: ["simulate", "--config", str(path), "--orbits", "0.01",
-                                                        "--quiet"] for case, (path, _) in files.items()}}))
+                                                        "--quiet"] for case, (path, _) in files.items()}, **control}))
     env = dict(os.environ, ROS_LOG_DIR=str(tmp / "log"), ROS_AUTOMATIC_DISCOVERY_RANGE="OFF")
     with ThreadPoolExecutor(max_workers=2) as pool:
         nodes = {case: pool.submit(run_measured, [*node("sensor_node"), "--ros-args", "--params-file", path],
@@ -94,7 +98,9 @@ def refusals(tmp_path_factory):
         runs = {case: future.result() for case, future in nodes.items()}
     assert result.returncode == 0, result.stderr[-3000:]
     outcomes = {line["name"]: line for line in map(json.loads, result.stdout.splitlines())}
-    assert outcomes["warm_up"]["status"] == 0, outcomes["warm_up"]
+    assert outcomes["warm_up"]["status"] == 2 and "days from the element set's epoch" in outcomes["warm_up"]["stderr"], \
+        outcomes["warm_up"]
+    assert outcomes["control"]["status"] == 0, outcomes["control"]
     for case in CASES:
         outcome, run = outcomes.get(case), runs[case]
         print(f"TLE {case}: pmv simulate status {outcome and outcome['status']}, {outcome and outcome['wall_s']:.2f} s, "
@@ -116,3 +122,20 @@ def test_a_hostile_element_set_is_one_line_from_simulate_and_from_the_node(refus
     assert len(node_lines) == 1 and phrase in node_lines[0], node_lines
     assert node_lines[0].startswith("sensor_node: "), node_lines
     assert run.peak_mb <= PEAK_MB, run
+
+
+def test_a_refused_element_set_neither_imports_nor_compiles_the_kernels(refusals):
+    # The refusals come before anything senses: numba and llvmlite (≈ 70 MB resident, ≈ 0.3 s of CPU to import)
+    # stay out of a process that only says no (pmv_ros.physics.compiled imports numba at a kernel's first call).
+    code = ("import contextlib, io, sys\n"
+            "from pmv_ros.cli import main\n"
+            "statuses = []\n"
+            "for path in sys.argv[1:]:\n"
+            "    with contextlib.redirect_stderr(io.StringIO()):\n"
+            "        statuses.append(main(['simulate', '--config', path, '--orbits', '0.01', '--quiet']))\n"
+            "print(statuses, sorted({'numba', 'llvmlite'} & set(sys.modules)))\n")
+    paths = [refusals[case][2] for case in ("checksum", "epoch_1980", "epoch_2056", "decayed")]
+    result = subprocess.run([sys.executable, "-c", code, *paths], capture_output=True, text=True, timeout=120,
+                            env=dict(os.environ, ROS_AUTOMATIC_DISCOVERY_RANGE="OFF"))
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert result.stdout.split("] [")[0] == "[2, 2, 2, 2" and result.stdout.strip().endswith("[]"), result.stdout

@@ -20,7 +20,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from ..compiled import kernel
 
 _GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 _M1 = np.uint64(0xBF58476D1CE4E5B9)
@@ -30,7 +30,7 @@ _TWO_M53 = 2.0 ** -53
 _MASK = 0xFFFFFFFFFFFFFFFF
 
 
-@njit(cache=True, inline="always")
+@kernel(error_model="python", inline="always")
 def _mix(x):
     """The splitmix64 finaliser of a uint64 (a bijection that spreads every input bit)."""
     x = x ^ (x >> _S30)
@@ -46,12 +46,12 @@ def seed_hash(seed: int) -> np.uint64:
         return _seed_hash(np.uint64(int(seed) & _MASK))
 
 
-@njit(cache=True)
+@kernel(error_model="python")
 def _seed_hash(seed):
     return _mix(seed + _GOLDEN)
 
 
-@njit(cache=True, inline="always")
+@kernel(error_model="python", inline="always")
 def uniform(seed, stream, key1, key2, n_keys):
     """A uniform in (0, 1) keyed by (stream, key1[, key2]) — ``n_keys`` 1 or 2 — from the hashed ``seed``."""
     x = _mix(seed ^ (np.uint64(stream) * _GOLDEN))
@@ -61,7 +61,7 @@ def uniform(seed, stream, key1, key2, n_keys):
     return (float(x >> _S11) + 0.5) * _TWO_M53
 
 
-@njit(cache=True)
+@kernel(error_model="python")
 def ndtri(p):
     """The standard normal quantile of p in (0, 1) (Wichura 1988, AS 241 PPND16)."""
     q = p - 0.5
@@ -94,7 +94,7 @@ def ndtri(p):
     return -value if q < 0.0 else value
 
 
-@njit(cache=True)
+@kernel(error_model="python")
 def poisson_quantile(mean, u):
     """The smallest count whose Poisson CDF of ``mean`` reaches ``u`` (0 where the mean is not positive).
 
@@ -119,7 +119,7 @@ def frame_key(frame_s) -> np.ndarray:
     return np.round(np.atleast_1d(np.asarray(frame_s, float)) * 1e9).astype(np.int64)
 
 
-@njit(cache=True)
+@kernel(error_model="python")
 def _uniforms(seed, stream, key1, key2, n_keys):
     out = np.empty(stream.size)
     for i in range(stream.size):
@@ -127,7 +127,7 @@ def _uniforms(seed, stream, key1, key2, n_keys):
     return out
 
 
-@njit(cache=True)
+@kernel(error_model="python")
 def _normals(u):
     out = np.empty(u.size)
     for i in range(u.size):
@@ -135,7 +135,7 @@ def _normals(u):
     return out
 
 
-@njit(cache=True)
+@kernel(error_model="python")
 def _poissons(mean, u):
     out = np.empty(u.size, np.int64)
     for i in range(u.size):

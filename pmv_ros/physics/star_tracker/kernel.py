@@ -30,7 +30,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from ..compiled import kernel
 
 from ..constants import ARCSEC_RAD
 from .draws import ndtri, poisson_quantile, uniform
@@ -44,7 +44,7 @@ ABOUT_BORESIGHT_LEVER = 0.055
 _OK, _RATE, _OUTAGE, _NO_STARS, _RECOGNITION, _OVERFLOW, _EXCLUSION, _INVALID = 0, 1, 2, 3, 4, 5, 6, 7
 
 
-@njit(cache=True)
+@kernel(error_model="python")
 def slerp_frames(t0_s, q0, t1_s, q1, times_s):
     """The attitude at each frame time on the constant-rate turn between the truth samples around it, and the rate.
 
@@ -82,7 +82,7 @@ def slerp_frames(t0_s, q0, t1_s, q1, times_s):
     return attitude, rate
 
 
-@njit(cache=True, inline="always")
+@kernel(error_model="python", inline="always")
 def _cube_cell(x, y, z, cells):
     """The sky-index cell of a unit vector: the cube face it pierces and the square of the face (:mod:`.sky`)."""
     ax, ay, az = abs(x), abs(y), abs(z)
@@ -99,7 +99,7 @@ def _cube_cell(x, y, z, cells):
     return (face * cells + i) * cells + j
 
 
-@njit(cache=True)
+@kernel(error_model="python")
 def _look_at(q, n, tracker_axes, orbital_axes, m, relative_rate, frame_rate, in_orbital, axes):
     """Stage 1, frame ``n`` on the orbit's column ``m``: the tracker's axes in the orbital frame and in ECI
     (written into ``in_orbital``, ``axes``: columns the two focal-plane axes and the boresight) and its inertial
@@ -124,7 +124,7 @@ def _look_at(q, n, tracker_axes, orbital_axes, m, relative_rate, frame_rate, in_
             in_orbital[0, 2] * r0 + in_orbital[1, 2] * r1 + in_orbital[2, 2] * r2)
 
 
-@njit(cache=True)
+@kernel(error_model="python")
 def pointing_batch(q, tracker_axes, orbital_axes, relative_rate, frame_rate):
     """Stage 1 for every frame: the tracker's axes in ECI ``(3, 3, N)`` and the inertial rate across and about the
     boresight ``(N,)`` each."""
@@ -139,7 +139,7 @@ def pointing_batch(q, tracker_axes, orbital_axes, relative_rate, frame_rate):
     return axes_eci, cross, about
 
 
-@njit(cache=True, inline="always")
+@kernel(error_model="python", inline="always")
 def _in_field(star, axes, star_direction, limit_tan):
     """Whether a star is inside the square field of ``axes`` (columns: focal-plane axes, boresight), and its
     tangent-plane coordinates along the two focal-plane axes."""
@@ -150,7 +150,7 @@ def _in_field(star, axes, star_direction, limit_tan):
     return along > 0.0 and abs(u) <= limit_tan and abs(v) <= limit_tan, u, v
 
 
-@njit(cache=True)
+@kernel(error_model="python")
 def field_stars_batch(axes_eci, half_width, n_sky, cell_start, cell_stars, cells_per_edge, star_direction):
     """Stage 4's field for every frame: (field index, star row, u rad, v rad) ``(S,)`` each, grouped by field,
     the stars in brightness order within each."""
@@ -179,19 +179,19 @@ def field_stars_batch(axes_eci, half_width, n_sky, cell_start, cell_stars, cells
     return field[:found], rows[:found], u_rad[:found], v_rad[:found]
 
 
-@njit(cache=True)
+@kernel(error_model="python")
 def trail_rate(cross_rad_s, about_rad_s):
     """ω_eff = √(ω⊥² + (0.055·ω∥)²): the rate at which star images trail across the CCD, rad/s (§6 item 3)."""
     return math.hypot(cross_rad_s, ABOUT_BORESIGHT_LEVER * abs(about_rad_s))
 
 
-@njit(cache=True)
+@kernel(error_model="python")
 def smear_loss_mag(trail_rate_rad_s, exposure_s):
     """ΔM_rate = 2.5·lg(max(1, ω·t_exp/(d·ρ/f))): what the trail costs the detection limit, mag (§6 item 3)."""
     return 2.5 * math.log10(max(1.0, trail_rate_rad_s * exposure_s / SPOT_RAD))
 
 
-@njit(cache=True)
+@kernel(error_model="python")
 def recognition_failure(catalogue_stars, other_objects, p3, scale, p_conf):
     """p = 1 − (1 − p3·e^−(n−3)/n_s)·(1 − p_conf)^(others among the K) (physics.md §6 item 4)."""
     return 1.0 - (1.0 - p3 * math.exp(-(catalogue_stars - 3.0) / scale)) * (1.0 - p_conf) ** other_objects
@@ -207,7 +207,7 @@ CONFIG = ("exposure_s", "half_width_rad", "catalogue_stars", "sky_stars", "detec
           "max_ranked_hits")
 
 
-@njit(cache=True)
+@kernel(error_model="python")
 def measure_frames(frame_s, q_in, in_outage, rate_in, column, orbital_axes, frame_rate, position, sun, moon,
                    side_mean, lens_mean, tracker_axes, config, seeds,
                    star_direction, star_hp, star_hip, bias_u, bias_v, cell_start, cell_stars, cells_per_edge,
@@ -406,7 +406,7 @@ def measure_frames(frame_s, q_in, in_outage, rate_in, column, orbital_axes, fram
         q_measured[2, n], q_measured[3, n] = sign * mz, sign * mw
 
 
-@njit(cache=True)
+@kernel(error_model="python")
 def star_biases(seed, hip):
     """Each star's centroid bias, per focal-plane axis (the normals keyed by the star alone), ``(S,)`` each."""
     bias_u, bias_v = np.empty(hip.size), np.empty(hip.size)

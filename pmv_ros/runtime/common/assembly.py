@@ -344,17 +344,7 @@ def build_models(values: dict, *, clock_epoch_s: float = 0.0, correction=READ_CO
         correction: the brightness-correction table already read (:func:`read_correction`; None: no
             correction), or :data:`READ_CORRECTION` to read what ``sensor.correction`` names now.
     """
-    epoch = parse_epoch(values["sim.epoch_utc"])  # parsed whatever the detector: a bad date is refused now
-    orbit = CircularOrbit(
-        altitude_m=values["orbit.altitude_km"] * 1e3,
-        inclination_rad=math.radians(values["orbit.inclination_deg"]),
-        raan_rad=raan_at_epoch_rad(values, epoch),
-        arg_latitude_at_epoch_rad=math.radians(values["orbit.u0_deg"]),
-        epoch_s=values["sim.start_time_s"] if values["sim.fast_time"] else clock_epoch_s,
-        j2_node_drift=values["orbit.j2_node_drift"],
-    )
-    if values["orbit.source"] != "circular":
-        orbit = build_source_orbit(values, orbit.epoch_s, epoch=epoch)
+    orbit, epoch = build_orbit(values, clock_epoch_s=clock_epoch_s)
     per_hour = ARCMIN_RAD / 3600.0
     profile = AttitudeProfile(
         roll_offset_rad=values["attitude.roll_offset_arcmin"] * ARCMIN_RAD,
@@ -420,6 +410,23 @@ def nominal_altitude_m(values: dict) -> float:
                              f"{MAX_ALTITUDE_M / 1e3:g} km (mean motion)")
         return altitude_m
     return values["orbit.altitude_km"] * 1e3
+
+
+def build_orbit(values: dict, *, clock_epoch_s: float = 0.0):
+    """(the sensor's orbit, the run's epoch) from parameter values, as :func:`build_models` takes them; ValueError
+    for a bad date or element set."""
+    epoch = parse_epoch(values["sim.epoch_utc"])  # parsed whatever the detector: a bad date is refused now
+    orbit = CircularOrbit(
+        altitude_m=values["orbit.altitude_km"] * 1e3,
+        inclination_rad=math.radians(values["orbit.inclination_deg"]),
+        raan_rad=raan_at_epoch_rad(values, epoch),
+        arg_latitude_at_epoch_rad=math.radians(values["orbit.u0_deg"]),
+        epoch_s=values["sim.start_time_s"] if values["sim.fast_time"] else clock_epoch_s,
+        j2_node_drift=values["orbit.j2_node_drift"],
+    )
+    if values["orbit.source"] != "circular":
+        orbit = build_source_orbit(values, orbit.epoch_s, epoch=epoch)
+    return orbit, epoch
 
 
 def build_detector(values: dict, orbit: CircularOrbit, epoch: Epoch, correction=READ_CORRECTION):

@@ -49,7 +49,7 @@ from typing import Callable, NamedTuple
 import numpy as np
 
 from ...physics.orbit.tle import OrbitPropagationError
-from ..common.assembly import build_models, orbit_bounds
+from ..common.assembly import READ_CORRECTION, build_models, build_orbit, orbit_bounds, read_correction
 from .estimator_output import EstimatorOrientation, estimator_orientation, variance_from_rms_arcmin
 from ..common.frames import Frames
 from ..common.orbit_buffer import FollowedOrbit, OrbitAt
@@ -112,7 +112,9 @@ class SensorRuntime:
     Args:
         values: sensor_node parameter values (:data:`pmv_ros.runtime.common.assembly.SENSOR_PARAMS`).
         clock_epoch_s: the node clock at the start, s (the orbit's epoch and the sample grid's origin).
-        correction: the brightness-correction table (read once by the caller).
+        correction: the brightness-correction table (read once by the caller), or
+            :data:`~pmv_ros.runtime.common.assembly.READ_CORRECTION`: read here, once, after the orbit and the
+            epoch are checked (refused, they read no file and compute no table).
         check_lines_of_sight: the message layer's check of a block's lines of sight (see SampleStream).
         stepped: fast time is stepped by a caller (``pmv simulate``), not by a paced timer.
         truth_topic, odometry_topic: the node's resolved input names (its health names them).
@@ -132,6 +134,9 @@ class SensorRuntime:
         self.frames = Frames.from_values(values)
         self.clock_epoch_s = clock_epoch_s
         self.stepped = stepped
+        if correction is READ_CORRECTION:
+            build_orbit(values, clock_epoch_s=clock_epoch_s)
+            correction = read_correction(values)
         self._correction, self._check_lines_of_sight = correction, check_lines_of_sight
         self._graph_problems, self._source_counters = graph_problems, source_counters
         self.stream = self.grid = self.truth = self._truth_stamps = None
