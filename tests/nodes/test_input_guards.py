@@ -295,6 +295,27 @@ def _run_monitor_stream(harness, hostile: bool):
     return statistics, h.node.monitor.counters
 
 
+def test_odometry_along_its_position_is_refused_and_the_monitor_runs_on(harness):
+    # Issue 50 item 1: one such message killed the monitor with a traceback. Now it is refused and counted, and
+    # the good states around it are taken.
+    from neighbour import radial_fall
+
+    from pmv_ros.physics.orbit.two_body import CircularOrbit
+
+    h = harness(ErrorMonitorNode, {"max_truth_wait_s": 3600.0})
+    odometry = h.publisher(Odometry, "/orbit/odometry")
+    h.drain()
+    orbit, start = CircularOrbit(500e3, math.radians(74.5)), now_s(h) - 10.0
+    for k in range(1, 21):
+        t = start + 0.2 * k
+        r, v = orbit.state_eci(t - start)
+        odometry.publish(shim.write_orbit_state(Odometry(), t, shim.ECI_FRAME, shim.ORBITAL_FRAME, r, v))
+        odometry.publish(radial_fall(t + 0.05))
+        h.drain()
+    counters = h.node.monitor.counters
+    assert counters["odometry_received"] == 40 and counters["rejected_odometry_implausible_orbit"] == 20
+
+
 def test_a_stream_with_1e308_angles_and_absurd_odometry_gives_the_clean_statistics(harness):
     clean, _ = _run_monitor_stream(harness, hostile=False)
     attacked, counters = _run_monitor_stream(harness, hostile=True)

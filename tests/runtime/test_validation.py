@@ -97,6 +97,7 @@ def test_an_accepted_orbit_state_is_a_bound_earth_orbit(position, velocity):
         assert BOUNDS.min_orbit_radius_m <= radius <= BOUNDS.max_orbit_radius_m
         assert BOUNDS.min_orbit_speed_m_s <= speed <= BOUNDS.max_orbit_speed_m_s
         assert 0.5 * speed**2 - 3.986005e14 / radius < 0.0
+        assert np.linalg.norm(np.cross(position, velocity)) > 0.0  # an orbital plane
 
 
 def test_orbit_reasons():
@@ -108,6 +109,24 @@ def test_orbit_reasons():
     assert check_orbit_state(r / np.linalg.norm(r) * 1e12, v, BOUNDS) is Rejection.IMPLAUSIBLE_ORBIT
     assert check_orbit_state(r, v * 1.5, BOUNDS) is Rejection.IMPLAUSIBLE_ORBIT  # above escape speed at 500 km
     assert check_orbit_state(r, [math.nan, 0.0, 0.0], BOUNDS) is Rejection.NON_FINITE
+
+
+def test_a_state_whose_orbit_meets_the_ground_is_no_orbit():
+    # Issue 50 item 1: radius 6,871 km, 7.6 km/s along the position — radius, speed and a bound energy all pass,
+    # but there is no angular momentum (no orbital plane: the monitor's and the follower's orbit frame raised on
+    # it). Nor is a bound state whose perigee is below the ground.
+    r = np.array([6871e3, 0.0, 0.0])
+    assert check_orbit_state(r, [7.6e3, 0.0, 0.0], BOUNDS) is Rejection.IMPLAUSIBLE_ORBIT
+    assert check_orbit_state(r, [-7.6e3, 1e-3, 0.0], BOUNDS) is Rejection.IMPLAUSIBLE_ORBIT
+    steep = 7.6e3 * np.array([math.cos(math.radians(60.0)), math.sin(math.radians(60.0)), 0.0])  # 30° from r
+    assert check_orbit_state(r, steep, BOUNDS) is Rejection.IMPLAUSIBLE_ORBIT  # perigee ≈ 1,800 km from the centre
+    # An eccentric orbit whose perigee clears the ground, taken anywhere on it, passes: e = 0.3, perigee 600 km.
+    from pmv_ros.physics.orbit.two_body import KeplerOrbit
+
+    orbit = KeplerOrbit(600e3, 0.3, math.radians(63.4), 0.4, math.radians(270.0), 0.0, 0.0)
+    for t_s in np.linspace(0.0, orbit.period_s, 13):
+        position, velocity = orbit.state_eci(t_s)
+        assert check_orbit_state(position, velocity, BOUNDS) is None, t_s
 
 
 # ----------------------------------------------------------------------------- stamps

@@ -240,8 +240,11 @@ def check_angles(roll_rad: float, pitch_rad: float, max_abs_rad: float, *, allow
 def check_orbit_state(position_m, velocity_m_s, bounds: InputBounds) -> Rejection | None:
     """Why an ECI position (m) and velocity (m/s) are not a state of a bound Earth orbit, or None.
 
-    Radius and speed within ``bounds``, and negative specific energy
-    v²/2 − GM/r (a hyperbolic state is no orbit the sensor flies).
+    Radius and speed within ``bounds``, negative specific energy v²/2 − GM/r
+    (a hyperbolic state is no orbit the sensor flies), and a perigee above
+    the Earth's mean radius: a state whose orbit meets the ground — a
+    velocity along the position (no angular momentum, no orbital plane)
+    among them — is no orbit either.
     """
     try:
         rx, ry, rz = map(float, position_m)  # map, not a generator: this runs for every odometry message
@@ -255,7 +258,14 @@ def check_orbit_state(position_m, velocity_m_s, bounds: InputBounds) -> Rejectio
         return Rejection.IMPLAUSIBLE_ORBIT
     if not (bounds.min_orbit_speed_m_s <= speed <= bounds.max_orbit_speed_m_s):
         return Rejection.IMPLAUSIBLE_ORBIT
-    if 0.5 * speed * speed - GM_EARTH_M3_S2 / radius >= 0.0:
+    energy = 0.5 * speed * speed - GM_EARTH_M3_S2 / radius
+    if energy >= 0.0:
+        return Rejection.IMPLAUSIBLE_ORBIT
+    # Perigee r_p = p / (1 + e), p = h²/GM, e² = 1 + 2εh²/GM² (h the specific angular momentum |r × v|).
+    h_squared = (ry * vz - rz * vy) ** 2 + (rz * vx - rx * vz) ** 2 + (rx * vy - ry * vx) ** 2
+    semi_latus_rectum = h_squared / GM_EARTH_M3_S2
+    eccentricity = math.sqrt(max(0.0, 1.0 + 2.0 * energy * semi_latus_rectum / GM_EARTH_M3_S2))
+    if not semi_latus_rectum / (1.0 + eccentricity) >= EARTH_MEAN_RADIUS_M:
         return Rejection.IMPLAUSIBLE_ORBIT
     return None
 
