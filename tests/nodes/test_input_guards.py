@@ -300,6 +300,50 @@ def test_a_stream_with_1e308_angles_and_absurd_odometry_gives_the_clean_statisti
         assert a.count > 250 and math.isfinite(b.sigma_rad)
 
 
+def radial_odometry(t_s, position_m, velocity_m_s) -> Odometry:
+    """An Odometry as a hand-made publisher writes it: identity orientation (so the twist is the ECI velocity);
+    write_orbit_state refuses a state with no orbital frame, so this one is filled field by field."""
+    msg = Odometry()
+    msg.header.stamp.sec, msg.header.stamp.nanosec = int(t_s), int((t_s % 1.0) * 1e9)
+    msg.header.frame_id, msg.child_frame_id = shim.ECI_FRAME, shim.ORBITAL_FRAME
+    p, v = msg.pose.pose.position, msg.twist.twist.linear
+    p.x, p.y, p.z = map(float, position_m)
+    v.x, v.y, v.z = map(float, velocity_m_s)
+    msg.pose.pose.orientation.w = 1.0
+    return msg
+
+
+@pytest.mark.parametrize("node_class, overrides", [
+    (ErrorMonitorNode, {"max_truth_wait_s": 3600.0}),
+    (SensorNode, {"orbit.source": "follow"}),
+    (StarTrackerNode, {"orbit.source": "follow"}),
+])
+def test_odometry_with_velocity_along_position_is_refused_and_the_node_lives(harness, node_class, overrides):
+    """Radius 6,871 km, 7.6 km/s along r: bound and within every radius and speed bound, yet r × v = 0 (no orbit
+    plane, no argument of latitude). Refused as an implausible orbit and counted; the node goes on. The monitor and
+    the sensor say the count on /diagnostics at once; the tracker says its counters with its frames (it has no
+    truth here), so its count is read from the node."""
+    h = harness(node_class, overrides)
+    diagnostics = h.record(DiagnosticArray, "/diagnostics")
+    odometry = h.publisher(Odometry, "/orbit/odometry")
+    h.drain()
+    radial = np.array([0.6, 0.0, 0.8])
+    t = now_s(h) - 1.0
+    for k in range(3):
+        odometry.publish(radial_odometry(t + 0.5 * k, 6.871e6 * radial, 7.6e3 * radial))
+        h.drain()
+    deadline = time.monotonic() + 3.0
+    counts = []
+    while time.monotonic() < deadline and not counts:
+        h.drain()
+        time.sleep(0.05)
+        counts = [int(kv.value) for m in diagnostics for s in m.status for kv in s.values
+                  if kv.key.endswith("rejected_odometry_implausible_orbit")]
+    if node_class is StarTrackerNode:
+        counts = [h.node.counters["rejected_odometry_implausible_orbit"]]
+    assert counts and counts[-1] == 3, counts
+
+
 # -------------------------------------------------------------------------- a single forged stamp or clock
 
 def test_a_single_forged_truth_stamp_or_clock_leaves_the_tracker_output_of_the_clean_stream(harness):

@@ -110,6 +110,24 @@ def test_orbit_reasons():
     assert check_orbit_state(r, [math.nan, 0.0, 0.0], BOUNDS) is Rejection.NON_FINITE
 
 
+def test_a_state_with_no_angular_momentum_or_a_perigee_inside_the_earth_is_no_orbit():
+    # Radius 6,871 km, 7.6 km/s along r: bound (v²/2 − GM/r < 0), inside every radius and speed bound, r × v = 0.
+    radial = np.array([0.6, 0.0, 0.8])
+    assert check_orbit_state(6.871e6 * radial, 7.6e3 * radial, BOUNDS) is Rejection.IMPLAUSIBLE_ORBIT
+    assert check_orbit_state(6.871e6 * radial, -7.6e3 * radial, BOUNDS) is Rejection.IMPLAUSIBLE_ORBIT
+    # A 1 m/s sideways push leaves r_p ≈ h²/2GM of a few cm: still a fall.
+    assert check_orbit_state(6.871e6 * radial, 7.6e3 * radial + [0.0, 1.0, 0.0], BOUNDS) is Rejection.IMPLAUSIBLE_ORBIT
+    # 500 km circular speed, flown 60° off horizontal: a = r, e ≈ 0.87, perigee ≈ 920 km from the centre.
+    r = np.array([6.871e6, 0.0, 0.0])
+    speed = math.sqrt(3.986004418e14 / 6.871e6)
+    steep = speed * np.array([math.sin(math.radians(60.0)), math.cos(math.radians(60.0)), 0.0])
+    assert check_orbit_state(r, steep, BOUNDS) is Rejection.IMPLAUSIBLE_ORBIT
+    # An eccentric orbit whose perigee clears the surface (Molniya-like, r_p ≈ 7,000 km) is an orbit.
+    r_p, r_a = 7.0e6, 4.6e7
+    v_p = math.sqrt(3.986004418e14 * 2.0 * r_a / (r_p * (r_p + r_a)))
+    assert check_orbit_state([r_p, 0.0, 0.0], [0.0, v_p, 0.0], BOUNDS) is None
+
+
 # ----------------------------------------------------------------------------- stamps
 
 @PROPERTY

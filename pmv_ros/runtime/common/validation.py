@@ -10,7 +10,8 @@ monitor core only call these checks, count the reasons and say so on
   :func:`check_angles` (finite or NaN where the stream allows "lost", and
   within a plausibility bound: a horizon sensor that reads 1e308 rad has not
   measured anything), :func:`check_orbit_state` (a bound Earth orbit: radius
-  and speed within bounds, negative specific energy). The bounds are
+  and speed within bounds, negative specific energy, a perigee above the
+  Earth's surface). The bounds are
   :class:`InputBounds`, set from node parameters.
 * **Stamps** — :class:`StampCheck`, one per stream: NaN/Inf, zero or negative,
   in the future of the node clock, duplicate, backwards, and faster than the
@@ -69,7 +70,7 @@ class Rejection(str, Enum):
     TOO_FAST = "too_fast"                    # stamped closer to the previous sample than the stream's rate allows
     BAD_QUATERNION = "bad_quaternion"        # norm further than the tolerance from 1 (or zero)
     IMPLAUSIBLE_ANGLE = "implausible_angle"  # |roll| or |pitch| beyond the plausibility bound
-    IMPLAUSIBLE_ORBIT = "implausible_orbit"  # radius, speed or energy not those of a bound Earth orbit
+    IMPLAUSIBLE_ORBIT = "implausible_orbit"  # radius, speed, energy or perigee not those of a bound Earth orbit
     OTHER_SOURCE = "other_source"            # from a second publisher on the stream (source_lock.SourceLock)
     WRONG_FRAME = "wrong_frame"              # stamped in another frame than the stream's (check_frame)
 
@@ -238,8 +239,11 @@ def check_angles(roll_rad: float, pitch_rad: float, max_abs_rad: float, *, allow
 def check_orbit_state(position_m, velocity_m_s, bounds: InputBounds) -> Rejection | None:
     """Why an ECI position (m) and velocity (m/s) are not a state of a bound Earth orbit, or None.
 
-    Radius and speed within ``bounds``, and negative specific energy
-    v²/2 − GM/r (a hyperbolic state is no orbit the sensor flies).
+    Radius and speed within ``bounds``, negative specific energy v²/2 − GM/r
+    (a hyperbolic state is no orbit the sensor flies), and a perigee above the
+    Earth's mean radius: a state whose conic passes through the Earth is a fall,
+    not an orbit, and the limit of that is zero angular momentum (r ∥ v), where
+    the orbit plane, the node and the argument of latitude do not exist.
     """
     try:
         rx, ry, rz = map(float, position_m)  # map, not a generator: this runs for every odometry message
@@ -253,7 +257,14 @@ def check_orbit_state(position_m, velocity_m_s, bounds: InputBounds) -> Rejectio
         return Rejection.IMPLAUSIBLE_ORBIT
     if not (bounds.min_orbit_speed_m_s <= speed <= bounds.max_orbit_speed_m_s):
         return Rejection.IMPLAUSIBLE_ORBIT
-    if 0.5 * speed * speed - GM_EARTH_M3_S2 / radius >= 0.0:
+    energy = 0.5 * speed * speed - GM_EARTH_M3_S2 / radius
+    if energy >= 0.0:
+        return Rejection.IMPLAUSIBLE_ORBIT
+    # Perigee r_p = p / (1 + e), p = h²/GM, e² = 1 + 2εh²/GM² (clamped: rounding near a circle).
+    h = math.hypot(ry * vz - rz * vy, rz * vx - rx * vz, rx * vy - ry * vx)
+    semi_latus = h * h / GM_EARTH_M3_S2
+    eccentricity = math.sqrt(max(0.0, 1.0 + 2.0 * energy * semi_latus / GM_EARTH_M3_S2))
+    if not semi_latus / (1.0 + eccentricity) > EARTH_MEAN_RADIUS_M:
         return Rejection.IMPLAUSIBLE_ORBIT
     return None
 
