@@ -31,6 +31,7 @@ from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
 from pmv_ros.physics.constants import ARCMIN_RAD
 from pmv_ros.physics.instrument.correction import CorrectionTable
 from pmv_ros.runtime.common.assembly import MAX_OUTAGES
+from pmv_ros.runtime.common.validation import MAX_PLAUSIBLE_RESIDUAL_RAD
 
 pytestmark = [pytest.mark.multi_process]
 
@@ -342,6 +343,38 @@ def test_odometry_with_velocity_along_position_is_refused_and_the_node_lives(har
     if node_class is StarTrackerNode:
         counts = [h.node.counters["rejected_odometry_implausible_orbit"]]
     assert counts and counts[-1] == 3, counts
+
+
+def test_a_truth_ten_degrees_from_the_sensor_is_refused_not_added(harness):
+    """A forged truth that got past the source lock (10° of roll, against a sensor reading 2′): its residuals,
+    ≈ 598′, are no residual of one spacecraft. Counted as skipped_implausible_residual; the statistics keep only
+    none beyond the bound."""
+    from pmv_ros.physics.orbit.two_body import CircularOrbit
+
+    h = harness(ErrorMonitorNode, {"max_truth_wait_s": 3600.0})
+    sensor = h.publisher(Vector3Stamped, "/pmv/attitude")
+    truth = h.publisher(QuaternionStamped, "/star_tracker/attitude")
+    odometry = h.publisher(Odometry, "/orbit/odometry")
+    h.drain()
+    orbit = CircularOrbit(500e3, math.radians(74.5))
+    start = now_s(h) - 20.0
+    real = quaternion_from_roll_pitch_yaw(2 * ARCMIN_RAD, -1 * ARCMIN_RAD)
+    forged = quaternion_from_roll_pitch_yaw(math.radians(10.0), 0.0)
+    for k in range(1, 151):
+        t = start + 0.1 * k
+        r, v = orbit.state_eci(t - start)
+        odometry.publish(shim.write_orbit_state(Odometry(), t, shim.ECI_FRAME, shim.ORBITAL_FRAME, r, v))
+        if k % 5 == 0:
+            truth.publish(quaternion_msg(t, forged if 50 < k <= 70 else real))
+        sensor.publish(angles_msg(t, 2 * ARCMIN_RAD, -1 * ARCMIN_RAD))
+        h.drain()
+    statistics = h.node.publish_statistics(start + 14.0)
+    counters = h.node.monitor.counters
+    assert counters["skipped_implausible_residual"] >= 15, counters  # 20 frames of forged truth, less its edges
+    roll = statistics.channels[0]
+    # Samples between a real and a forged truth frame are interpolated across both, and may fall under the bound:
+    # the bound keeps out what no spacecraft can measure, the source lock keeps out the neighbour.
+    assert roll.count > 80 and roll.max_abs_rad <= MAX_PLAUSIBLE_RESIDUAL_RAD, (roll.count, roll.max_abs_rad)
 
 
 # -------------------------------------------------------------------------- a single forged stamp or clock

@@ -75,6 +75,13 @@ class Rejection(str, Enum):
     WRONG_FRAME = "wrong_frame"              # stamped in another frame than the stream's (check_frame)
 
 
+#: Largest |sensor − truth| per axis that can be a residual of one spacecraft, rad (6°). The PMV reads roll and
+#: pitch only within ≈ 3° (beyond, a chord pair loses the horizon and its angle is NaN, never a number), so a valid
+#: reading and the truth of the same spacecraft differ by at most ≈ 3° plus the truth's own ≈ 3°; a sensor good to
+#: a few arcminutes against a truth 10° away (≈ 600′) is a forged or foreign truth, refused and counted
+#: (``skipped_implausible_residual``), never added to the statistics.
+MAX_PLAUSIBLE_RESIDUAL_RAD = math.radians(6.0)
+
 #: The stamp reasons, in the order :class:`StampCheck` tries them.
 STAMP_REJECTIONS = (Rejection.NON_FINITE, Rejection.ZERO_STAMP, Rejection.FUTURE_STAMP, Rejection.DUPLICATE,
                     Rejection.BACKWARDS, Rejection.UNCONFIRMED_JUMP, Rejection.TOO_FAST)
