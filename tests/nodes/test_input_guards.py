@@ -377,6 +377,51 @@ def test_a_truth_ten_degrees_from_the_sensor_is_refused_not_added(harness):
     assert roll.count > 80 and roll.max_abs_rad <= MAX_PLAUSIBLE_RESIDUAL_RAD, (roll.count, roll.max_abs_rad)
 
 
+def test_a_restarted_sensor_starts_a_new_statistics_epoch_said_once(harness):
+    """A sensor publishes 2 s, dies, and comes back 1.5 s later as a new publisher (its numbering from 1 again,
+    its orbit from u0 = 0): its samples start a new statistics epoch — counted, said once on /diagnostics —
+    and never add to the old one's statistics."""
+    from pmv_ros.physics.orbit.two_body import CircularOrbit
+
+    h = harness(ErrorMonitorNode, {"max_truth_wait_s": 3600.0})
+    diagnostics = h.record(DiagnosticArray, "/diagnostics")
+    truth = h.publisher(QuaternionStamped, "/star_tracker/attitude")
+    odometry = h.publisher(Odometry, "/orbit/odometry")
+    orbit = CircularOrbit(500e3, math.radians(74.5))
+    q = quaternion_from_roll_pitch_yaw(2 * ARCMIN_RAD, -1 * ARCMIN_RAD)
+    origin = now_s(h)
+
+    def fly(sensor, seconds, k0):
+        for k in range(k0, k0 + int(seconds * 10)):
+            t = now_s(h) - 1.0
+            r, v = orbit.state_eci(t - origin)
+            odometry.publish(shim.write_orbit_state(Odometry(), t, shim.ECI_FRAME, shim.ORBITAL_FRAME, r, v))
+            truth.publish(quaternion_msg(t, q))
+            sensor.publish(angles_msg(t, 2 * ARCMIN_RAD, -1 * ARCMIN_RAD))
+            h.drain()
+            time.sleep(0.1)
+        return k0 + int(seconds * 10)
+
+    first = h.publisher(Vector3Stamped, "/pmv/attitude")
+    h.drain()
+    k = fly(first, 2.0, 1)
+    before = h.node.publish_statistics(now_s(h)).channels[0].count
+    h.tester.destroy_publisher(first)
+    for _ in range(15):  # 1.5 s of silence: the lock gives the old source up
+        h.drain()
+        time.sleep(0.1)
+    fly(h.publisher(Vector3Stamped, "/pmv/attitude"), 2.0, k)
+    after = h.node.publish_statistics(now_s(h)).channels[0].count
+    end = time.monotonic() + 1.5
+    while time.monotonic() < end:
+        h.drain()
+        time.sleep(0.05)
+    said = [s.message for s in statuses(diagnostics, "pmv_ros/error_monitor_node") if "statistics epoch 2" in s.message]
+    assert before > 10 and 0 < after <= 20, (before, after)  # the new source sent 20: not before + those
+    assert h.node.sources.locks[h.node._sensor_topic].lock_changes == 1
+    assert len(said) == 1 and "a new source of /pmv/attitude" in said[0], said
+
+
 # -------------------------------------------------------------------------- a single forged stamp or clock
 
 def test_a_single_forged_truth_stamp_or_clock_leaves_the_tracker_output_of_the_clean_stream(harness):

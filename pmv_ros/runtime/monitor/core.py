@@ -174,6 +174,14 @@ class ErrorMonitor(EventScan):
         parts, self._parts = self._parts, []
         return self._outcomes(Settled.concatenate(parts))
 
+    def new_epoch(self) -> None:
+        """A source restarted its timeline: statistics and the harmonic ring start over; alignment and counters
+        carry on. Samples not yet in the statistics belong to the old epoch and are dropped with it."""
+        self._unaccounted, self._unaccounted_count = [], 0
+        for statistics in self._sets.values():
+            statistics.reset()
+        self._ring.clear()
+
     def reset(self) -> None:
         """Forget everything: alignment, statistics and counters."""
         self._alignment.clear()
