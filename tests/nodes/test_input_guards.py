@@ -422,6 +422,47 @@ def test_a_restarted_sensor_starts_a_new_statistics_epoch_said_once(harness):
     assert len(said) == 1 and "a new source of /pmv/attitude" in said[0], said
 
 
+def test_a_neighbour_with_a_fresh_publisher_per_message_never_reaches_the_residuals(harness):
+    """A 2 Hz star tracker with a 2.5 s outage; a neighbour sends a 10° roll on /star_tracker/attitude at 10 Hz,
+    each message from a new publisher destroyed after it (discovery churn: every message a new source). None of
+    it reaches pmv/residual (the sensor reads 2′); every forged message is counted as another source's."""
+    from pmv_ros.physics.orbit.two_body import CircularOrbit
+
+    h = harness(ErrorMonitorNode, {"max_truth_wait_s": 3600.0})
+    residuals = h.record(Vector3Stamped, "/pmv/residual")
+    sensor = h.publisher(Vector3Stamped, "/pmv/attitude")
+    tracker = h.publisher(QuaternionStamped, "/star_tracker/attitude")
+    odometry = h.publisher(Odometry, "/orbit/odometry")
+    orbit = CircularOrbit(500e3, math.radians(74.5))
+    real = quaternion_from_roll_pitch_yaw(2 * ARCMIN_RAD, -1 * ARCMIN_RAD)
+    forged = quaternion_from_roll_pitch_yaw(math.radians(10.0), 0.0)
+    h.drain()
+    origin, forged_sent = now_s(h), 0
+    for k in range(60):                                   # 6 s
+        t = now_s(h) - 0.5
+        r, v = orbit.state_eci(t - origin)
+        odometry.publish(shim.write_orbit_state(Odometry(), t, shim.ECI_FRAME, shim.ORBITAL_FRAME, r, v))
+        sensor.publish(angles_msg(t, 2 * ARCMIN_RAD, -1 * ARCMIN_RAD))
+        if k % 5 == 0 and not 20 <= k < 45:
+            tracker.publish(quaternion_msg(t, real))
+        if k >= 5:
+            churn = h.tester.create_publisher(QuaternionStamped, "/star_tracker/attitude", 10)
+            h.drain()  # matched before it publishes
+            churn.publish(quaternion_msg(t + 0.01, forged))
+            forged_sent += 1
+            h.tester.destroy_publisher(churn)  # gone from the graph before its message is taken
+        h.drain()
+        time.sleep(0.1)
+    for _ in range(10):
+        h.drain()
+        time.sleep(0.05)
+    worst = max((max(abs(m.vector.x), abs(m.vector.y)) for m in residuals), default=math.nan)
+    lock = h.node.sources.locks[h.node.resolve_topic_name("star_tracker/attitude")]
+    assert lock.lock_changes == 0 and lock.other_source_messages >= forged_sent - 5, (lock.lock_changes, forged_sent)
+    assert len(residuals) > 10 and worst < 10 * ARCMIN_RAD, (len(residuals), worst / ARCMIN_RAD)
+    assert h.node.monitor.counters["skipped_implausible_residual"] == 0  # none got as far as the residual bound
+
+
 # -------------------------------------------------------------------------- a single forged stamp or clock
 
 def test_a_single_forged_truth_stamp_or_clock_leaves_the_tracker_output_of_the_clean_stream(harness):
