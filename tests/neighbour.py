@@ -68,19 +68,6 @@ error_monitor_node:
 """
 
 
-def radial_fall(t_s: float) -> Odometry:
-    """Odometry written by hand as a hostile neighbour would (issue 50 item 1): radius 6,871 km, 7.6 km/s along the
-    position (a bound energy, every radius and speed bound met), the identity as the orbital frame's orientation,
-    stamped ``t_s``: a state with no angular momentum, no orbit."""
-    msg = Odometry()
-    msg.header.stamp.sec = int(t_s)
-    msg.header.stamp.nanosec = min(int(round((t_s - int(t_s)) * 1e9)), 999_999_999)
-    msg.header.frame_id, msg.child_frame_id = "eci", "orbital"
-    msg.pose.pose.position.x, msg.pose.pose.orientation.w = 6871e3, 1.0
-    msg.twist.twist.linear.x = 7.6e3
-    return msg
-
-
 def rss_mb(pid: int) -> float:
     for line in Path(f"/proc/{pid}/status").read_text().splitlines():
         if line.startswith("VmRSS:"):

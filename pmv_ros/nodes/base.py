@@ -298,8 +298,11 @@ class PmvNode(Node):
         def on_message(message, info) -> None:
             now_s = clock_s(clock)  # one reading: the arrival and the input's clock
             stamp = message.header.stamp
+            changes = lock.lock_changes
             if lock.admit(arrival_s(now_s), gid=_publisher_gid(info),
                           sequence=info.get("publication_sequence_number"), stamp_s=stamp.sec + stamp.nanosec * 1e-9):
+                if lock.lock_changes != changes:
+                    self.on_new_source(topic)
                 self._take_input(to, read(message), self.input_clock(now_s))
 
         subscription = self.make_subscription(declared.type, declared.topic, on_message, self._input_qos,
@@ -307,6 +310,10 @@ class PmvNode(Node):
         topic = subscription.topic_name  # resolved once, by rcl (namespace and remapping): one lock per spacecraft
         lock = self.sources.lock(topic, declared.topic, source_timeout_s)  # before any message: none is taken yet
         lock.crowded = lambda: self.count_publishers(topic) > 1  # a starved source stays locked
+
+    def on_new_source(self, topic: str) -> None:
+        """Another publisher took the input ``topic`` (its old source gone); called before its first message is
+        handed over. A node whose output depends on one source's timeline overrides this."""
 
     def input_clock(self, now_s: float) -> float | None:
         """The node clock as an input sees it: None before simulation time started (a node overrides this)."""

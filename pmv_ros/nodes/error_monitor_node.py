@@ -90,6 +90,7 @@ class ErrorMonitorNode(PmvNode):
             raise ParameterError(str(error)) from None
         install_validation(self, PARAMS, self._values, self._rebuild)
         self.wire(TOPICS, self._values["input.source_timeout_s"])
+        self._sensor_topic = self.resolve_topic_name("pmv/attitude")  # as the lock names it (namespace, remapping)
         self.make_timer(1.0, self._on_timer)
         self.get_logger().info(f"{self.get_fully_qualified_name()}: ready, statistics at "
                                f"{self._values['statistics_rate_hz']:g} Hz, {self.clock_name()}")
@@ -98,6 +99,14 @@ class ErrorMonitorNode(PmvNode):
         self.flush_inputs()  # what arrived before the change counts in the statistics it arrived under
         self._runtime.reconfigure(values)  # a new configuration starts new statistics
         self.sources.set_timeout(values["input.source_timeout_s"])
+
+    def on_new_source(self, topic: str) -> None:
+        """A new sensor source (a restarted sensor starts its orbit and timeline again): a new statistics epoch;
+        what the old one sent is handed over first, to the old epoch."""
+        if topic == self._sensor_topic:
+            self.flush_inputs()
+            self._runtime.new_epoch(topic)
+            self.get_logger().warning(f"{topic}: a new source; statistics epoch {self._runtime.statistics_epochs + 1}")
 
     def _on_timer(self) -> None:
         self.flush_inputs()

@@ -20,7 +20,6 @@ from geometry_msgs.msg import Vector3Stamped
 from nav_msgs.msg import Odometry
 
 import pmv_msgs_shim as shim
-from neighbour import radial_fall
 from pmv_ros.nodes.sensor_node import SensorNode
 from pmv_ros.physics.constants import ARCMIN_RAD
 from pmv_ros.physics.orbit.two_body import CircularOrbit, KeplerOrbit
@@ -121,16 +120,6 @@ def test_stale_odometry_stops_the_output_with_an_error_and_bad_odometry_is_refus
     _fly(h, 5)
     assert max(m.header.stamp.sec for m in attitude) == int(h.node.sim_time_s)
     assert _statuses(diagnostics)[-1].level == b"\x00"
-
-
-def test_odometry_along_its_position_is_refused_and_the_sensor_flies_on(harness):
-    h = harness(SensorNode, FOLLOW, external_drive=True)
-    attitude = h.record(Vector3Stamped, "/pmv/attitude")
-    diagnostics = h.record(DiagnosticArray, "/diagnostics")
-    _fly(h, 20, bad=(lambda t_s: radial_fall(t_s + 0.01),))
-    assert len(attitude) == 20  # every sample measured on the good states
-    counters = {kv.key: kv.value for kv in _statuses(diagnostics)[-1].values}
-    assert int(counters["rejected_odometry_implausible_orbit"]) > 90  # one a good state, 5 a second
 
 
 def test_a_sensor_following_an_orbit_is_refused_by_nothing_else(harness):

@@ -31,6 +31,7 @@ from pmv_ros.physics.attitude import quaternion_from_roll_pitch_yaw
 from pmv_ros.physics.constants import ARCMIN_RAD
 from pmv_ros.physics.instrument.correction import CorrectionTable
 from pmv_ros.runtime.common.assembly import MAX_OUTAGES
+from pmv_ros.runtime.common.validation import MAX_PLAUSIBLE_RESIDUAL_RAD
 
 pytestmark = [pytest.mark.multi_process]
 
@@ -295,27 +296,6 @@ def _run_monitor_stream(harness, hostile: bool):
     return statistics, h.node.monitor.counters
 
 
-def test_odometry_along_its_position_is_refused_and_the_monitor_runs_on(harness):
-    # Issue 50 item 1: one such message killed the monitor with a traceback. Now it is refused and counted, and
-    # the good states around it are taken.
-    from neighbour import radial_fall
-
-    from pmv_ros.physics.orbit.two_body import CircularOrbit
-
-    h = harness(ErrorMonitorNode, {"max_truth_wait_s": 3600.0})
-    odometry = h.publisher(Odometry, "/orbit/odometry")
-    h.drain()
-    orbit, start = CircularOrbit(500e3, math.radians(74.5)), now_s(h) - 10.0
-    for k in range(1, 21):
-        t = start + 0.2 * k
-        r, v = orbit.state_eci(t - start)
-        odometry.publish(shim.write_orbit_state(Odometry(), t, shim.ECI_FRAME, shim.ORBITAL_FRAME, r, v))
-        odometry.publish(radial_fall(t + 0.05))
-        h.drain()
-    counters = h.node.monitor.counters
-    assert counters["odometry_received"] == 40 and counters["rejected_odometry_implausible_orbit"] == 20
-
-
 def test_a_stream_with_1e308_angles_and_absurd_odometry_gives_the_clean_statistics(harness):
     clean, _ = _run_monitor_stream(harness, hostile=False)
     attacked, counters = _run_monitor_stream(harness, hostile=True)
@@ -323,6 +303,168 @@ def test_a_stream_with_1e308_angles_and_absurd_odometry_gives_the_clean_statisti
     for a, b in zip(clean.channels, attacked.channels):
         assert (a.count, a.mean_rad, a.sigma_rad, a.max_abs_rad) == (b.count, b.mean_rad, b.sigma_rad, b.max_abs_rad)
         assert a.count > 250 and math.isfinite(b.sigma_rad)
+
+
+def radial_odometry(t_s, position_m, velocity_m_s) -> Odometry:
+    """An Odometry as a hand-made publisher writes it: identity orientation (so the twist is the ECI velocity);
+    write_orbit_state refuses a state with no orbital frame, so this one is filled field by field."""
+    msg = Odometry()
+    msg.header.stamp.sec, msg.header.stamp.nanosec = int(t_s), int((t_s % 1.0) * 1e9)
+    msg.header.frame_id, msg.child_frame_id = shim.ECI_FRAME, shim.ORBITAL_FRAME
+    p, v = msg.pose.pose.position, msg.twist.twist.linear
+    p.x, p.y, p.z = map(float, position_m)
+    v.x, v.y, v.z = map(float, velocity_m_s)
+    msg.pose.pose.orientation.w = 1.0
+    return msg
+
+
+@pytest.mark.parametrize("node_class, overrides", [
+    (ErrorMonitorNode, {"max_truth_wait_s": 3600.0}),
+    (SensorNode, {"orbit.source": "follow"}),
+    (StarTrackerNode, {"orbit.source": "follow"}),
+])
+def test_odometry_with_velocity_along_position_is_refused_and_the_node_lives(harness, node_class, overrides):
+    """Radius 6,871 km, 7.6 km/s along r: bound and within every radius and speed bound, yet r × v = 0 (no orbit
+    plane, no argument of latitude). Refused as an implausible orbit and counted; the node goes on. The monitor and
+    the sensor say the count on /diagnostics at once; the tracker says its counters with its frames (it has no
+    truth here), so its count is read from the node."""
+    h = harness(node_class, overrides)
+    diagnostics = h.record(DiagnosticArray, "/diagnostics")
+    odometry = h.publisher(Odometry, "/orbit/odometry")
+    h.drain()
+    radial = np.array([0.6, 0.0, 0.8])
+    t = now_s(h) - 1.0
+    for k in range(3):
+        odometry.publish(radial_odometry(t + 0.5 * k, 6.871e6 * radial, 7.6e3 * radial))
+        h.drain()
+    deadline = time.monotonic() + 3.0
+    counts = []
+    while time.monotonic() < deadline and not counts:
+        h.drain()
+        time.sleep(0.05)
+        counts = [int(kv.value) for m in diagnostics for s in m.status for kv in s.values
+                  if kv.key.endswith("rejected_odometry_implausible_orbit")]
+    if node_class is StarTrackerNode:
+        counts = [h.node.counters["rejected_odometry_implausible_orbit"]]
+    assert counts and counts[-1] == 3, counts
+
+
+def test_a_truth_ten_degrees_from_the_sensor_is_refused_not_added(harness):
+    """A forged truth that got past the source lock (10° of roll, against a sensor reading 2′): its residuals,
+    ≈ 598′, are no residual of one spacecraft. Counted as skipped_implausible_residual; the statistics keep only
+    none beyond the bound."""
+    from pmv_ros.physics.orbit.two_body import CircularOrbit
+
+    h = harness(ErrorMonitorNode, {"max_truth_wait_s": 3600.0})
+    sensor = h.publisher(Vector3Stamped, "/pmv/attitude")
+    truth = h.publisher(QuaternionStamped, "/star_tracker/attitude")
+    odometry = h.publisher(Odometry, "/orbit/odometry")
+    h.drain()
+    orbit = CircularOrbit(500e3, math.radians(74.5))
+    start = now_s(h) - 20.0
+    real = quaternion_from_roll_pitch_yaw(2 * ARCMIN_RAD, -1 * ARCMIN_RAD)
+    forged = quaternion_from_roll_pitch_yaw(math.radians(10.0), 0.0)
+    for k in range(1, 151):
+        t = start + 0.1 * k
+        r, v = orbit.state_eci(t - start)
+        odometry.publish(shim.write_orbit_state(Odometry(), t, shim.ECI_FRAME, shim.ORBITAL_FRAME, r, v))
+        if k % 5 == 0:
+            truth.publish(quaternion_msg(t, forged if 50 < k <= 70 else real))
+        sensor.publish(angles_msg(t, 2 * ARCMIN_RAD, -1 * ARCMIN_RAD))
+        h.drain()
+    statistics = h.node.publish_statistics(start + 14.0)
+    counters = h.node.monitor.counters
+    assert counters["skipped_implausible_residual"] >= 15, counters  # 20 frames of forged truth, less its edges
+    roll = statistics.channels[0]
+    # Samples between a real and a forged truth frame are interpolated across both, and may fall under the bound:
+    # the bound keeps out what no spacecraft can measure, the source lock keeps out the neighbour.
+    assert roll.count > 80 and roll.max_abs_rad <= MAX_PLAUSIBLE_RESIDUAL_RAD, (roll.count, roll.max_abs_rad)
+
+
+def test_a_restarted_sensor_starts_a_new_statistics_epoch_said_once(harness):
+    """A sensor publishes 2 s, dies, and comes back 1.5 s later as a new publisher (its numbering from 1 again,
+    its orbit from u0 = 0): its samples start a new statistics epoch — counted, said once on /diagnostics —
+    and never add to the old one's statistics."""
+    from pmv_ros.physics.orbit.two_body import CircularOrbit
+
+    h = harness(ErrorMonitorNode, {"max_truth_wait_s": 3600.0})
+    diagnostics = h.record(DiagnosticArray, "/diagnostics")
+    truth = h.publisher(QuaternionStamped, "/star_tracker/attitude")
+    odometry = h.publisher(Odometry, "/orbit/odometry")
+    orbit = CircularOrbit(500e3, math.radians(74.5))
+    q = quaternion_from_roll_pitch_yaw(2 * ARCMIN_RAD, -1 * ARCMIN_RAD)
+    origin = now_s(h)
+
+    def fly(sensor, seconds, k0):
+        for k in range(k0, k0 + int(seconds * 10)):
+            t = now_s(h) - 1.0
+            r, v = orbit.state_eci(t - origin)
+            odometry.publish(shim.write_orbit_state(Odometry(), t, shim.ECI_FRAME, shim.ORBITAL_FRAME, r, v))
+            truth.publish(quaternion_msg(t, q))
+            sensor.publish(angles_msg(t, 2 * ARCMIN_RAD, -1 * ARCMIN_RAD))
+            h.drain()
+            time.sleep(0.1)
+        return k0 + int(seconds * 10)
+
+    first = h.publisher(Vector3Stamped, "/pmv/attitude")
+    h.drain()
+    k = fly(first, 2.0, 1)
+    before = h.node.publish_statistics(now_s(h)).channels[0].count
+    h.tester.destroy_publisher(first)
+    for _ in range(15):  # 1.5 s of silence: the lock gives the old source up
+        h.drain()
+        time.sleep(0.1)
+    fly(h.publisher(Vector3Stamped, "/pmv/attitude"), 2.0, k)
+    after = h.node.publish_statistics(now_s(h)).channels[0].count
+    end = time.monotonic() + 1.5
+    while time.monotonic() < end:
+        h.drain()
+        time.sleep(0.05)
+    said = [s.message for s in statuses(diagnostics, "pmv_ros/error_monitor_node") if "statistics epoch 2" in s.message]
+    assert before > 10 and 0 < after <= 20, (before, after)  # the new source sent 20: not before + those
+    assert h.node.sources.locks[h.node._sensor_topic].lock_changes == 1
+    assert len(said) == 1 and "a new source of /pmv/attitude" in said[0], said
+
+
+def test_a_neighbour_with_a_fresh_publisher_per_message_never_reaches_the_residuals(harness):
+    """A 2 Hz star tracker with a 2.5 s outage; a neighbour sends a 10° roll on /star_tracker/attitude at 10 Hz,
+    each message from a new publisher destroyed after it (discovery churn: every message a new source). None of
+    it reaches pmv/residual (the sensor reads 2′); every forged message is counted as another source's."""
+    from pmv_ros.physics.orbit.two_body import CircularOrbit
+
+    h = harness(ErrorMonitorNode, {"max_truth_wait_s": 3600.0})
+    residuals = h.record(Vector3Stamped, "/pmv/residual")
+    sensor = h.publisher(Vector3Stamped, "/pmv/attitude")
+    tracker = h.publisher(QuaternionStamped, "/star_tracker/attitude")
+    odometry = h.publisher(Odometry, "/orbit/odometry")
+    orbit = CircularOrbit(500e3, math.radians(74.5))
+    real = quaternion_from_roll_pitch_yaw(2 * ARCMIN_RAD, -1 * ARCMIN_RAD)
+    forged = quaternion_from_roll_pitch_yaw(math.radians(10.0), 0.0)
+    h.drain()
+    origin, forged_sent = now_s(h), 0
+    for k in range(60):                                   # 6 s
+        t = now_s(h) - 0.5
+        r, v = orbit.state_eci(t - origin)
+        odometry.publish(shim.write_orbit_state(Odometry(), t, shim.ECI_FRAME, shim.ORBITAL_FRAME, r, v))
+        sensor.publish(angles_msg(t, 2 * ARCMIN_RAD, -1 * ARCMIN_RAD))
+        if k % 5 == 0 and not 20 <= k < 45:
+            tracker.publish(quaternion_msg(t, real))
+        if k >= 5:
+            churn = h.tester.create_publisher(QuaternionStamped, "/star_tracker/attitude", 10)
+            h.drain()  # matched before it publishes
+            churn.publish(quaternion_msg(t + 0.01, forged))
+            forged_sent += 1
+            h.tester.destroy_publisher(churn)  # gone from the graph before its message is taken
+        h.drain()
+        time.sleep(0.1)
+    for _ in range(10):
+        h.drain()
+        time.sleep(0.05)
+    worst = max((max(abs(m.vector.x), abs(m.vector.y)) for m in residuals), default=math.nan)
+    lock = h.node.sources.locks[h.node.resolve_topic_name("star_tracker/attitude")]
+    assert lock.lock_changes == 0 and lock.other_source_messages >= forged_sent - 5, (lock.lock_changes, forged_sent)
+    assert len(residuals) > 10 and worst < 10 * ARCMIN_RAD, (len(residuals), worst / ARCMIN_RAD)
+    assert h.node.monitor.counters["skipped_implausible_residual"] == 0  # none got as far as the residual bound
 
 
 # -------------------------------------------------------------------------- a single forged stamp or clock

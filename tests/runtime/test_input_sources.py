@@ -45,3 +45,19 @@ def test_the_arrival_clock_believes_a_jump_only_when_the_next_reading_confirms_i
     assert sources.arrival_s(100.1) == 100.1
     assert sources.arrival_s(5000.0) == 100.1
     assert sources.arrival_s(5000.1) == 5000.1  # confirmed by the next reading
+
+
+def test_a_restarted_source_is_not_a_second_one_while_its_dead_self_lingers_in_the_graph():
+    # kill -9 and respawn: the old publisher stays in the graph until the middleware's lease ends (≈ 15 s); the
+    # lock gave it up after its silence and took the new one. One source, no ERROR.
+    sources, graph = InputSources(), {"/pmv/attitude": 2}
+    lock = sources.lock("/pmv/attitude", "pmv/attitude", timeout_s=1.0)
+    assert all(lock.admit(0.1 * k, sequence=k, stamp_s=0.1 * k) for k in range(1, 30))   # to 2.9 s
+    assert all(lock.admit(6.1 + 0.1 * k, sequence=k, stamp_s=6.1 + 0.1 * k) for k in range(1, 20))  # 3.2 s later
+    assert lock.lock_changes == 1
+    assert sources.problems(8.0, wall_s=100.0, publishers=graph.get, clock_subscribed=False) == []
+    assert sources.counters() == {"source_changes_pmv_attitude": 1}
+    # A third publisher that talks is a second source, whatever the graph says.
+    assert not lock.admit(8.05, sequence=1, stamp_s=8.05)
+    assert sources.problems(8.1, wall_s=101.0, publishers=graph.get, clock_subscribed=False) == [
+        "2 publishers of /pmv/attitude: only the first one heard is used (1 messages of others dropped)"]

@@ -23,12 +23,20 @@ def test_a_gid_locks_the_first_publisher():
     assert not lock.admit(0.01, gid=b"b" * 16, sequence=1)
     assert lock.admit(0.02, gid=b"a" * 16, sequence=2)
     assert lock.sources_heard(0.02) == 2 and lock.other_source_messages == 1
-    # The locked publisher falls silent: after the timeout the next one heard is locked — but not b, which
-    # spoke while a was still talking (an intruder never inherits the lock); c, heard only after a stopped, is.
+    # The locked publisher falls silent. b spoke while a was still talking: an intruder, it never inherits the
+    # lock, and the stream is contested — c, heard only after a stopped, is locked only after the crowded limit.
     assert not lock.admit(0.9, gid=b"b" * 16, sequence=2)
     assert not lock.admit(1.1, gid=b"b" * 16, sequence=3) and lock.lock_changes == 0
-    assert lock.admit(1.2, gid=b"c" * 16, sequence=1) and lock.lock_changes == 1
-    assert not lock.admit(1.3, gid=b"b" * 16, sequence=4)
+    assert not lock.admit(1.2, gid=b"c" * 16, sequence=1) and lock.contested
+    assert lock.admit(0.03 + CROWDED_TIMEOUT_FACTOR, gid=b"c" * 16, sequence=2) and lock.lock_changes == 1
+    assert not lock.admit(0.04 + CROWDED_TIMEOUT_FACTOR, gid=b"b" * 16, sequence=4)
+
+
+def test_a_restart_uncontested_is_followed_after_the_timeout():
+    # Without a neighbour, a publisher heard only after the locked one stopped takes over after one timeout.
+    lock = SourceLock(timeout_s=1.0)
+    assert lock.admit(0.0, gid=b"a" * 16, sequence=1) and lock.admit(0.5, gid=b"a" * 16, sequence=2)
+    assert lock.admit(1.6, gid=b"c" * 16, sequence=1) and lock.lock_changes == 1 and not lock.contested
 
 
 def test_a_flood_that_outlasts_a_stall_of_the_real_source_never_takes_the_lock():
@@ -156,10 +164,13 @@ def test_a_flood_during_a_stall_waits_while_the_graph_shows_the_starved_source()
     flood = [lock.admit(5.0 + 0.01 * n, sequence=n, stamp_s=100.0 + n) for n in range(1, 301)]  # to 8.0 s
     assert not any(flood) and lock.lock_changes == 0
     assert lock.admit(8.2, sequence=11, stamp_s=8.2)
-    # The flood spoke while the real one was alive: an intruder now. A third publisher, first heard after the
-    # real one's last message, takes over once the silence is longer than the crowded limit.
+    # The flood spoke while the real one was alive: an intruder now, and the stream contested. A third publisher,
+    # first heard after the real one's last message, takes over only once the silence is longer than the crowded
+    # limit and the graph shows no other publisher (the real one and the flood have left it).
     assert not lock.admit(8.2 + 0.5 * CROWDED_TIMEOUT_FACTOR, sequence=1, stamp_s=500.0)
-    assert lock.admit(8.3 + CROWDED_TIMEOUT_FACTOR, sequence=2, stamp_s=501.0) and lock.lock_changes == 1
+    assert not lock.admit(8.3 + CROWDED_TIMEOUT_FACTOR, sequence=2, stamp_s=501.0) and lock.lock_changes == 0
+    graph["publishers"] = 1
+    assert lock.admit(8.35 + CROWDED_TIMEOUT_FACTOR, sequence=3, stamp_s=502.0) and lock.lock_changes == 1
     assert not lock.admit(8.4 + CROWDED_TIMEOUT_FACTOR, sequence=301, stamp_s=401.0)  # the flood never
 
 
@@ -170,3 +181,22 @@ def test_a_restarted_publisher_is_locked_after_the_timeout_once_the_old_one_left
     assert not lock.admit(11.0, sequence=1, stamp_s=11.0)  # silent 1.5 s, but two publishers in the graph
     graph["publishers"] = 1
     assert lock.admit(11.5, sequence=2, stamp_s=11.5) and lock.lock_changes == 1
+
+
+def test_a_neighbour_with_a_fresh_publisher_per_message_never_takes_over_a_silent_tracker():
+    # A 1 Hz star tracker; a neighbour sends its forged attitude at 10 Hz, each message from a new publisher
+    # (numbered 1, gone after it). Jazzy gives no GID: every forged message is a new track, never an intruder by
+    # its track. The tracker's frames come ≈ 1 s apart (a timeout's worth of silence every second), then it is
+    # out for 4 s (an ordinary outage), and comes back: no forged message is ever taken.
+    graph = {"publishers": 1}  # the churned publisher is gone from the graph by the time the lock asks
+    lock = SourceLock(timeout_s=1.0, crowded=lambda: graph["publishers"] > 1)
+    real, taken = 0, []
+    for k in range(200):                                   # 20 s
+        arrival = 0.1 * k
+        if k % 10 == 0 and not 8.0 <= arrival < 12.0:
+            real += 1
+            assert lock.admit(arrival + 0.02 * (k % 3), sequence=real, stamp_s=arrival)
+        if k > 5:
+            taken.append(lock.admit(arrival + 0.05, sequence=1, stamp_s=arrival + 0.05))
+    assert not any(taken) and lock.lock_changes == 0 and lock.contested
+    assert lock.other_source_messages == len(taken)

@@ -89,6 +89,16 @@ class SourceLock:
       the graph, so it may be starved, not gone. A restarted publisher's old
       self leaves the graph (at once on a clean exit; after the middleware's
       lease on kill -9), and the new one is locked after ``timeout_s``.
+    * Once any other source has spoken while the locked one was alive (heard
+      between two of its messages: a restarted publisher, heard only after its
+      old self stopped, is not one), the
+      stream is *contested* for good: a neighbour that publishes each message
+      from a fresh publisher (discovery churn) is a new track every time and
+      never an intruder by its track, so the memory is the stream's. A
+      contested lock moves only after :data:`CROWDED_TIMEOUT_FACTOR` timeouts
+      of silence and only while the graph shows no publisher but the one
+      taking over (the locked source has left the graph, not merely fallen
+      silent); until then the stream says its ERROR and uses nothing else.
     * A message with neither GID nor sequence number (an in-process call)
       counts as the locked source.
 
@@ -117,6 +127,7 @@ class SourceLock:
         self._locked: _Track | None = None
         self.lock_changes = 0
         self.other_source_messages = 0
+        self.contested = False  # another source spoke while the locked one was alive (kept for the stream's life)
 
     def admit(self, arrival_s: float, *, gid=None, sequence: int | None = None,
               stamp_s: float = math.nan) -> bool:
@@ -125,13 +136,7 @@ class SourceLock:
             return True
         track = self._track_for(gid, sequence, stamp_s, arrival_s)
         locked = self._locked
-        # Silent for the timeout — or the clock went back by more (a restarted simulation): given up, to any
-        # source but one refused while the locked one was still talking; while the graph still shows another
-        # publisher beside the new one, only after CROWDED_TIMEOUT_FACTOR timeouts.
-        if locked is None or (locked is not track and not track.intruder
-                              and abs(arrival_s - locked.arrival_s) > self.timeout_s
-                              and (abs(arrival_s - locked.arrival_s) > CROWDED_TIMEOUT_FACTOR * self.timeout_s
-                                   or self.crowded is None or not self.crowded())):
+        if locked is None or (locked is not track and not track.intruder and self._given_up(locked, arrival_s)):
             if locked is not None:
                 self.lock_changes += 1
             self._locked = locked = track
@@ -139,11 +144,29 @@ class SourceLock:
         if track is locked:
             for other in self._tracks:  # refused since its previous message: they spoke while it was alive
                 if other.refused and other is not track:
-                    other.intruder = True
+                    other.intruder = self.contested = True
             return True
         track.refused = True
         self.other_source_messages += 1
         return False
+
+    def _given_up(self, locked: "_Track", arrival_s: float) -> bool:
+        """Whether the silent locked source may be given up to a message arriving at ``arrival_s``.
+
+        Silent for the timeout (or the clock went back by more: a restarted simulation). While the graph shows
+        another publisher beside the new one, only after CROWDED_TIMEOUT_FACTOR timeouts. Once the stream is
+        *contested* — some other source spoke while the locked one was alive — only after that longer silence
+        *and* with the graph showing no publisher but the one taking over: a neighbour whose publishers are
+        short-lived is a new track every time, so it is remembered by the stream, not by its track.
+        """
+        silence = abs(arrival_s - locked.arrival_s)
+        if silence <= self.timeout_s:
+            return False
+        long_silence = silence > CROWDED_TIMEOUT_FACTOR * self.timeout_s
+        crowded = self.crowded is not None and self.crowded()
+        if self.contested:
+            return long_silence and not crowded
+        return long_silence or not crowded
 
     def sources_heard(self, now_s: float) -> int:
         """Sources heard within ``timeout_s`` before ``now_s`` (arrival clock)."""

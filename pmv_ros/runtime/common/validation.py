@@ -10,7 +10,8 @@ monitor core only call these checks, count the reasons and say so on
   :func:`check_angles` (finite or NaN where the stream allows "lost", and
   within a plausibility bound: a horizon sensor that reads 1e308 rad has not
   measured anything), :func:`check_orbit_state` (a bound Earth orbit: radius
-  and speed within bounds, negative specific energy). The bounds are
+  and speed within bounds, negative specific energy, a perigee above the
+  Earth's surface). The bounds are
   :class:`InputBounds`, set from node parameters.
 * **Stamps** — :class:`StampCheck`, one per stream: NaN/Inf, zero or negative,
   in the future of the node clock, duplicate, backwards, and faster than the
@@ -69,10 +70,17 @@ class Rejection(str, Enum):
     TOO_FAST = "too_fast"                    # stamped closer to the previous sample than the stream's rate allows
     BAD_QUATERNION = "bad_quaternion"        # norm further than the tolerance from 1 (or zero)
     IMPLAUSIBLE_ANGLE = "implausible_angle"  # |roll| or |pitch| beyond the plausibility bound
-    IMPLAUSIBLE_ORBIT = "implausible_orbit"  # radius, speed or energy not those of a bound Earth orbit
+    IMPLAUSIBLE_ORBIT = "implausible_orbit"  # radius, speed, energy or perigee not those of a bound Earth orbit
     OTHER_SOURCE = "other_source"            # from a second publisher on the stream (source_lock.SourceLock)
     WRONG_FRAME = "wrong_frame"              # stamped in another frame than the stream's (check_frame)
 
+
+#: Largest |sensor − truth| per axis that can be a residual of one spacecraft, rad (6°). The PMV reads roll and
+#: pitch only within ≈ 3° (beyond, a chord pair loses the horizon and its angle is NaN, never a number), so a valid
+#: reading and the truth of the same spacecraft differ by at most ≈ 3° plus the truth's own ≈ 3°; a sensor good to
+#: a few arcminutes against a truth 10° away (≈ 600′) is a forged or foreign truth, refused and counted
+#: (``skipped_implausible_residual``), never added to the statistics.
+MAX_PLAUSIBLE_RESIDUAL_RAD = math.radians(6.0)
 
 #: The stamp reasons, in the order :class:`StampCheck` tries them.
 STAMP_REJECTIONS = (Rejection.NON_FINITE, Rejection.ZERO_STAMP, Rejection.FUTURE_STAMP, Rejection.DUPLICATE,
@@ -204,19 +212,17 @@ def check_quaternion(q_xyzw, tolerance: float = QUATERNION_NORM_TOLERANCE):
     every |component| ≤ 1 + ``tolerance``.
     """
     try:
-        x, y, z, w = map(float, q_xyzw)  # not four components: ValueError
+        components = [float(c) for c in q_xyzw]
     except (TypeError, ValueError):
         return None, Rejection.NON_FINITE, False
-    isfinite = math.isfinite
-    if not (isfinite(x) and isfinite(y) and isfinite(z) and isfinite(w)):
+    if len(components) != 4 or not all(map(math.isfinite, components)):
         return None, Rejection.NON_FINITE, False
     # hypot does not overflow for finite components: 1e308 gives a norm of 1e308, refused below.
-    norm = math.hypot(x, y, z, w)
-    off = abs(norm - 1.0)
-    if not off <= tolerance:
+    norm = math.hypot(*components)
+    if not abs(norm - 1.0) <= tolerance:
         return None, Rejection.BAD_QUATERNION, False
     # Float by float (a message's one quaternion: no array to build): each quotient as an array's would be.
-    return (x / norm, y / norm, z / norm, w / norm), None, off > UNIT_ROUNDING
+    return tuple(c / norm for c in components), None, abs(norm - 1.0) > UNIT_ROUNDING
 
 
 def check_angles(roll_rad: float, pitch_rad: float, max_abs_rad: float, *, allow_nan: bool) -> Rejection | None:
@@ -241,10 +247,10 @@ def check_orbit_state(position_m, velocity_m_s, bounds: InputBounds) -> Rejectio
     """Why an ECI position (m) and velocity (m/s) are not a state of a bound Earth orbit, or None.
 
     Radius and speed within ``bounds``, negative specific energy v²/2 − GM/r
-    (a hyperbolic state is no orbit the sensor flies), and a perigee above
-    the Earth's mean radius: a state whose orbit meets the ground — a
-    velocity along the position (no angular momentum, no orbital plane)
-    among them — is no orbit either.
+    (a hyperbolic state is no orbit the sensor flies), and a perigee above the
+    Earth's mean radius: a state whose conic passes through the Earth is a fall,
+    not an orbit, and the limit of that is zero angular momentum (r ∥ v), where
+    the orbit plane, the node and the argument of latitude do not exist.
     """
     try:
         rx, ry, rz = map(float, position_m)  # map, not a generator: this runs for every odometry message
@@ -261,11 +267,11 @@ def check_orbit_state(position_m, velocity_m_s, bounds: InputBounds) -> Rejectio
     energy = 0.5 * speed * speed - GM_EARTH_M3_S2 / radius
     if energy >= 0.0:
         return Rejection.IMPLAUSIBLE_ORBIT
-    # Perigee r_p = p / (1 + e), p = h²/GM, e² = 1 + 2εh²/GM² (h the specific angular momentum |r × v|).
-    h_squared = (ry * vz - rz * vy) ** 2 + (rz * vx - rx * vz) ** 2 + (rx * vy - ry * vx) ** 2
-    semi_latus_rectum = h_squared / GM_EARTH_M3_S2
-    eccentricity = math.sqrt(max(0.0, 1.0 + 2.0 * energy * semi_latus_rectum / GM_EARTH_M3_S2))
-    if not semi_latus_rectum / (1.0 + eccentricity) >= EARTH_MEAN_RADIUS_M:
+    # Perigee r_p = p / (1 + e), p = h²/GM, e² = 1 + 2εh²/GM² (clamped: rounding near a circle).
+    h = math.hypot(ry * vz - rz * vy, rz * vx - rx * vz, rx * vy - ry * vx)
+    semi_latus = h * h / GM_EARTH_M3_S2
+    eccentricity = math.sqrt(max(0.0, 1.0 + 2.0 * energy * semi_latus / GM_EARTH_M3_S2))
+    if not semi_latus / (1.0 + eccentricity) > EARTH_MEAN_RADIUS_M:
         return Rejection.IMPLAUSIBLE_ORBIT
     return None
 

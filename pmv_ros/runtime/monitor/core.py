@@ -95,10 +95,11 @@ from .records import (
     ground_components,
 )
 from .scan import MIN_ARRAY_SAMPLES, EventScan, OpenSegment, scan_clean
-from ..common.validation import JumpDetector, Rejection, StampCheck
+from ..common.validation import MAX_PLAUSIBLE_RESIDUAL_RAD, JumpDetector, Rejection, StampCheck
 
 _SKIP_CODES = {BATCH_STATUSES.index(status): f"skipped_{status.value}" for status in SKIP_REASONS}
 _OK = BATCH_STATUSES.index(Status.OK)
+_IMPLAUSIBLE_RESIDUAL = BATCH_STATUSES.index(Status.IMPLAUSIBLE_RESIDUAL)
 _FIRST_REFUSAL = BATCH_STATUSES.index(SENSOR_REJECTIONS[0])  # codes from here on: refused on arrival
 _FIRST = (0,)  # the arrival of the one truth or odometry sample of a one-event input
 
@@ -172,6 +173,14 @@ class ErrorMonitor(EventScan):
         self._reset()
         parts, self._parts = self._parts, []
         return self._outcomes(Settled.concatenate(parts))
+
+    def new_epoch(self) -> None:
+        """A source restarted its timeline: statistics and the harmonic ring start over; alignment and counters
+        carry on. Samples not yet in the statistics belong to the old epoch and are dropped with it."""
+        self._unaccounted, self._unaccounted_count = [], 0
+        for statistics in self._sets.values():
+            statistics.reset()
+        self._ring.clear()
 
     def reset(self) -> None:
         """Forget everything: alignment, statistics and counters."""
@@ -463,6 +472,12 @@ class ErrorMonitor(EventScan):
             return settled
         counters = self._counters
         ok = settled.values[2] == _OK
+        with np.errstate(invalid="ignore"):  # NaN: a lost chord pair, not a residual
+            implausible = ok & ((np.abs(settled.values[3]) > MAX_PLAUSIBLE_RESIDUAL_RAD)
+                                | (np.abs(settled.values[4]) > MAX_PLAUSIBLE_RESIDUAL_RAD))
+        if implausible.any():
+            settled.values[2, implausible] = _IMPLAUSIBLE_RESIDUAL
+            ok &= ~implausible
         used = int(np.count_nonzero(ok))
         if used < settled.size:  # skipped or refused samples among them: counted per reason
             codes = np.bincount(settled.code, minlength=len(BATCH_STATUSES)).tolist()

@@ -46,11 +46,12 @@ class Status(str, Enum):
     PENDING_OVERFLOW = "pending_overflow"  # pushed out of a full pending queue
     RESET = "reset"                        # still pending when a discontinuity reset the alignment
     NO_VALID_ANGLE = "no_valid_angle"      # the sensor reported neither roll nor pitch (both chord pairs lost)
+    IMPLAUSIBLE_RESIDUAL = "implausible_residual"  # sensor − truth beyond validation.MAX_PLAUSIBLE_RESIDUAL_RAD
 
 
 #: Reasons a valid sensor sample could not be aligned with truth.
 SKIP_REASONS = (Status.NO_VALID_ANGLE, Status.NO_TRUTH, Status.TOO_OLD, Status.TRUTH_GAP, Status.STALE_TRUTH,
-                Status.PENDING_OVERFLOW, Status.RESET)
+                Status.PENDING_OVERFLOW, Status.RESET, Status.IMPLAUSIBLE_RESIDUAL)
 
 #: Reasons an incoming sample is rejected, per stream.
 SENSOR_REJECTIONS = STAMP_REJECTIONS + (Rejection.IMPLAUSIBLE_ANGLE,)

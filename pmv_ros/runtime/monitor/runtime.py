@@ -184,6 +184,7 @@ class MonitorRuntime:
         self.lost_truth = LostTruth(values["max_truth_gap_s"])  # samples without truth, by the tracker's reason
         self.values = values
         self._source_problems, self._source_counters = source_problems, source_counters
+        self.statistics_epochs, self._epoch_phrase = 0, None
         # What is refused before the monitor sees it (fixed keys: memory stays bounded).
         self.rejected_messages = {f"rejected_{stream}_{reason}": 0 for stream in ("sensor", "truth", "odometry")
                                   for reason in ("unreadable", Rejection.WRONG_FRAME.value)}
@@ -197,6 +198,15 @@ class MonitorRuntime:
         self._next_statistics_s = None
         self._rejected_reported = 0
         self.latest_statistics = None  # the last MonitorStatistics computed (:meth:`statistics`)
+
+    def new_epoch(self, topic: str) -> None:
+        """Another source took ``topic`` (a sensor restarted: its orbit and its timeline start again): new
+        statistics, counted (``statistics_epochs``) and said once on /diagnostics."""
+        self.monitor.new_epoch()
+        self._next_statistics_s = None
+        self.statistics_epochs += 1
+        self._epoch_phrase = (f"statistics epoch {self.statistics_epochs + 1}: a new source of {topic}, "
+                              "statistics started over")
 
     def reconfigure(self, values: dict) -> None:
         """New parameter values: new statistics (mixing two configurations would mean nothing)."""
@@ -381,6 +391,9 @@ class MonitorRuntime:
         mismatch = self.period_mismatch()
         if mismatch is not None:
             problems.append(mismatch)
+        if self._epoch_phrase is not None:  # said once
+            problems.append(self._epoch_phrase)
+            self._epoch_phrase = None
         rejected_total = sum(rejected.values())
         if rejected_total > self._rejected_reported:
             problems.append("rejected input messages")
@@ -389,5 +402,6 @@ class MonitorRuntime:
         lost = {k: v for k, v in self.lost_truth.counts.items() if v}
         values = {"used": counters["used"], **skipped, **lost, **rejected, **self._source_counters(),
                   **{k: counters[k] for k in _SHOWN_COUNTERS if counters[k]},
+                  **({"statistics_epochs": self.statistics_epochs} if self.statistics_epochs else {}),
                   "pending": self.monitor.pending_count, "truth_buffer": self.monitor.truth_buffer_length}
         return HealthSummary(level, "; ".join(problems) if problems else "aligned with truth", values)
