@@ -4,9 +4,11 @@ from __future__ import annotations
 
 import signal
 import sys
+import warnings
 
 import rclpy
 import rclpy.logging
+from rclpy.exceptions import NameValidationException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.impl.implementation_singleton import rclpy_implementation
 from rclpy.signals import SignalHandlerOptions
@@ -18,6 +20,10 @@ try:  # no rosdep key (package.xml): a ROS workspace may not have it
     from threadpoolctl import ThreadpoolController
 except ImportError:
     ThreadpoolController = None
+
+#: Exit status of a node whose command line rclpy refuses (an unknown ROS argument, a namespace, node name or
+#: remap that is too long or malformed): a usage error, as the CLI's.
+USAGE_STATUS = 2
 
 #: Longest wait of the executor between checks for a stop request, s.
 STOP_CHECK_S = 0.1
@@ -121,13 +127,21 @@ def run_node(factory, name: str, args=None) -> int:
     try:
         try:
             rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-        except rclpy_implementation.RCLError as error:
-            print(f"{name}: cannot start: {error}", file=sys.stderr)
-            return 1
+        except (rclpy_implementation.RCLError, rclpy_implementation.UnknownROSArgsError) as error:
+            print(f"{name}: cannot start: {_one_line(error)}", file=sys.stderr)
+            return USAGE_STATUS
         hold_single_threaded_blas()  # for the life of the process
         return _spin(factory, name, stop)
     finally:
         stop.restore()
+
+
+def _one_line(error: Exception) -> str:
+    """rcl's reason for refusing a command line, on one line (rcl appends where in its sources it failed)."""
+    text = " ".join(str(error).split())
+    if isinstance(error, rclpy_implementation.UnknownROSArgsError):
+        return f"unknown ROS arguments after --ros-args: {text}"
+    return text.split(", at /")[0]
 
 
 def _refused_transition(error: Exception) -> bool:
@@ -140,7 +154,18 @@ def _spin(factory, name: str, stop: StopRequest) -> int:
     node = executor = None
     status = 0
     try:
-        node = factory()
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("default")
+            try:
+                node = factory()
+            except (rclpy_implementation.RCLError, NameValidationException) as error:
+                # rcl refuses the node's name, namespace or a remapped topic (too long, malformed) only when the
+                # node or the entity is made: a usage error of the command line, not a fault of the node. rclpy's
+                # warnings about the half-made node it then tears down would only bury the one line.
+                print(f"{name}: cannot start: {_one_line(error)}", file=sys.stderr)
+                return USAGE_STATUS
+        for warning in caught:  # a node that was made: its construction's warnings as they would have been
+            warnings.showwarning(warning.message, warning.category, warning.filename, warning.lineno)
         executor = SingleThreadedExecutor()
         executor.add_node(node)
         while not stop.requested and rclpy.ok():
