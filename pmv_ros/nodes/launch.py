@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import signal
 import sys
 import warnings
@@ -29,6 +30,11 @@ USAGE_STATUS = 2
 STOP_CHECK_S = 0.1
 
 _STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+#: A node's own argument (before ``--ros-args``): stop as on SIGINT when the process that started it is gone.
+#: ``ros2 launch`` ends on SIGTERM without stopping its children (launch's own behaviour); the launch file gives
+#: its nodes this flag so that they do not run on as orphans.
+STOP_WITH_PARENT_FLAG = "--stop-with-parent"
 
 _blas = {"holders": 0, "limiter": None}
 
@@ -73,12 +79,17 @@ class StopRequest:
     both signals ignored.
     """
 
-    def __init__(self):
+    def __init__(self, with_parent: bool = False):
         self.requested = False
+        self._parent = os.getppid() if with_parent else None
         self._previous = {number: signal.signal(number, self._on_signal) for number in _STOP_SIGNALS}
 
     def _on_signal(self, number, frame) -> None:
         self.requested = True
+
+    def orphaned(self) -> bool:
+        """With ``with_parent``: whether the process that started this one has ended (this one was re-parented)."""
+        return self._parent is not None and os.getppid() != self._parent
 
     def ignore(self) -> None:
         """From here on (the teardown) both signals are ignored."""
@@ -105,6 +116,14 @@ def node_main(node_class, managed_class, args=None) -> int:
     return run_node(factory, node_class.NODE_NAME, args)
 
 
+def _own_flag(args, flag: str) -> bool:
+    """Whether ``flag`` is among the node's own arguments (those before ``--ros-args``)."""
+    argv = list(sys.argv[1:] if args is None else args)
+    if "--ros-args" in argv:
+        argv = argv[:argv.index("--ros-args")]
+    return flag in argv
+
+
 def run_node(factory, name: str, args=None) -> int:
     """Create the node with ``factory()`` and spin it until SIGINT, SIGTERM or shutdown; returns the exit status.
 
@@ -123,7 +142,7 @@ def run_node(factory, name: str, args=None) -> int:
     except ValueError as error:  # the params file itself: not a regular file, not YAML, a YAML bomb
         print(f"{name}: cannot start: {error}", file=sys.stderr)
         return 1
-    stop = StopRequest()
+    stop = StopRequest(with_parent=_own_flag(args, STOP_WITH_PARENT_FLAG))
     try:
         try:
             rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
@@ -169,6 +188,9 @@ def _spin(factory, name: str, stop: StopRequest) -> int:
         executor = SingleThreadedExecutor()
         executor.add_node(node)
         while not stop.requested and rclpy.ok():
+            if stop.orphaned():
+                node.get_logger().warning("the process that started this node (ros2 launch) is gone: stopping")
+                break
             try:
                 executor.spin_once(timeout_sec=STOP_CHECK_S)
             except rclpy_implementation.RCLError as error:
