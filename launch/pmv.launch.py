@@ -335,8 +335,8 @@ def _managed(*, name: str, namespace: str, parameters: list, log_level: str, res
     from lifecycle_msgs.msg import Transition
 
     node = LifecycleNode(package=PACKAGE, executable=name, name=name, namespace=namespace, output="screen",
-                         arguments=["--managed", STOP_WITH_PARENT], parameters=parameters, ros_arguments=["--log-level", log_level],
-                         respawn=respawn, respawn_delay=RESPAWN_DELAY_S)
+                         arguments=["--managed", STOP_WITH_PARENT], parameters=parameters,
+                         ros_arguments=["--log-level", log_level], respawn=respawn, respawn_delay=RESPAWN_DELAY_S)
     if not autostart:
         return [node]
 

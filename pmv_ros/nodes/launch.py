@@ -174,7 +174,6 @@ def _spin(factory, name: str, stop: StopRequest) -> int:
     status = 0
     try:
         with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("default")
             try:
                 node = factory()
             except (rclpy_implementation.RCLError, NameValidationException) as error:
@@ -189,7 +188,7 @@ def _spin(factory, name: str, stop: StopRequest) -> int:
         executor.add_node(node)
         while not stop.requested and rclpy.ok():
             if stop.orphaned():
-                node.get_logger().warning("the process that started this node (ros2 launch) is gone: stopping")
+                node.get_logger().warning("the process that started this node is gone (--stop-with-parent): stopping")
                 break
             try:
                 executor.spin_once(timeout_sec=STOP_CHECK_S)
