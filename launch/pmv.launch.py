@@ -89,6 +89,17 @@ ARGUMENTS = (
                           "process starts; false: the nodes wait unconfigured for your lifecycle manager"),
 )
 LOG_LEVELS = ("debug", "info", "warn", "error", "fatal")
+#: The longest names a node makes under its own name (rclpy's parameter and lifecycle services): a namespace too
+#: long for one of them is refused before any node starts.
+LONGEST_NAMES = ("get_available_transitions", "describe_parameters", "get_type_description")
+#: A node that exits non-zero within this time of its start ends the launch, non-zero, s (a node that refuses its
+#: configuration does so within seconds; a later death is left to ``respawn``).
+START_UP_S = 30.0
+#: Exit statuses the nodes give only at start-up for a refused configuration (1) or command line (2): a respawn
+#: would be refused again, so these end the launch with respawn too.
+REFUSED_STATUSES = (1, 2)
+#: The nodes' own argument that stops them when ``ros2 launch`` is gone (pmv_ros.nodes.launch.STOP_WITH_PARENT_FLAG).
+STOP_WITH_PARENT = "--stop-with-parent"
 RESPAWN_DELAY_S = 2.0
 
 
@@ -142,6 +153,35 @@ def _refuse_unknown_arguments(context):
     return []
 
 
+def _check_params_file(path: Path, argument: str) -> None:
+    """Refuse a params file as every node would refuse it at start-up, with the nodes' own check and bounds
+    (:func:`pmv_ros.nodes.params.check_params_files`: the package's bounded reader, a mapping of node sections,
+    no key a node does not have); one line naming the argument."""
+    from pmv_ros.nodes.params import ParameterError, check_params_files
+
+    for node in NODES:
+        try:
+            check_params_files(["--ros-args", "--params-file", str(path)], node)
+        except (ParameterError, ValueError) as error:
+            raise LaunchArgumentError(f"{argument}:={path}: {error}") from None
+
+
+def _check_name_lengths(namespace: str) -> None:
+    """Refuse a namespace under which rcl would refuse a node's longest name (a service of its node name, as a
+    managed node has): the nodes would die at start-up."""
+    from rclpy.validate_full_topic_name import validate_full_topic_name
+
+    prefix = "/" + namespace.strip("/")
+    for node in NODES:
+        for suffix in LONGEST_NAMES:
+            try:
+                validate_full_topic_name(f"{prefix}/{node}/{suffix}", is_service=True)
+            except Exception as error:  # rclpy's InvalidServiceNameException, with rcl's reason
+                reason = str(error).splitlines()[0]
+                raise LaunchArgumentError(f"namespace:={namespace}: too long for node {node} "
+                                          f"({len(prefix)} characters): {reason}") from None
+
+
 def _node_sections(values: dict, namespace: str, made: list) -> str:
     """A params file with one section per node (``values``: node → parameters), full names when namespaced;
     its path is added to ``made`` (removed when the launch ends)."""
@@ -162,7 +202,9 @@ def _namespaced(files: list[str], namespace: str, made: list) -> list[str]:
     prefix = "/" + namespace.strip("/")
     renamed = []
     for path in files:
-        document = yaml.safe_load(Path(path).read_text()) or {}
+        from pmv_ros.storage.files import read_yaml_file  # the nodes' bounded reader (checked already)
+
+        document = read_yaml_file(path, "params file") or {}
         document = {(f"{prefix}/{key.lstrip('/')}" if key.lstrip("/") in NODES else key): value
                     for key, value in document.items()}
         with tempfile.NamedTemporaryFile("w", prefix="pmv_launch_", suffix=".yaml", delete=False) as stream:
@@ -178,6 +220,7 @@ def _nodes(context):
     path = config / f"{preset}.yaml" if preset in PRESETS else Path(preset).expanduser()
     if not path.is_file():
         raise LaunchArgumentError(f"preset:={preset}: not one of {', '.join(PRESETS)} and no such file")
+    _check_params_file(path, "preset")
     controller = _flag(context, "controller")
     follow, fast_time = _flag(context, "follow") or controller, _flag(context, "fast_time")
     use_sim_time = _flag(context, "use_sim_time")
@@ -190,6 +233,7 @@ def _nodes(context):
         except Exception as error:  # rclpy's InvalidNamespaceException, with rcl's reason
             reason = str(error).splitlines()[0]
             raise LaunchArgumentError(f"namespace:={namespace}: {reason}") from None
+        _check_name_lengths(namespace)
     log_level = LaunchConfiguration("log_level").perform(context).strip().lower()
     if log_level not in LOG_LEVELS:
         raise LaunchArgumentError(f"log_level:={log_level}: expected one of {', '.join(LOG_LEVELS)}")
@@ -230,9 +274,38 @@ def _nodes(context):
     else:
         nodes = [Node(package=PACKAGE, executable=name, name=name, namespace=namespace, output="screen",
                       parameters=[*files, sensor if name == "sensor_node" else others],
-                      ros_arguments=["--log-level", log_level], respawn=respawn, respawn_delay=RESPAWN_DELAY_S)
+                      arguments=[STOP_WITH_PARENT], ros_arguments=["--log-level", log_level], respawn=respawn,
+                      respawn_delay=RESPAWN_DELAY_S)
                  for name in NODES if wanted[name]]
-    return nodes + _removed_at_shutdown(made)
+    return _ended_by_start_up_failure(respawn) + nodes + _removed_at_shutdown(made)
+
+
+def _ended_by_start_up_failure(respawn: bool) -> list:
+    """An action that ends the launch, non-zero and naming the node, when a node of it dies at start-up: exits
+    non-zero within :data:`START_UP_S` of its start (without ``respawn``), or with a status of
+    :data:`REFUSED_STATUSES` (also with ``respawn``: a restart would be refused the same way)."""
+    import time
+
+    from launch.actions import RegisterEventHandler
+    from launch.event_handlers import OnProcessExit, OnProcessStart
+
+    started = {}
+
+    def on_start(event, context) -> None:
+        started[event.pid] = time.monotonic()
+
+    def on_exit(event, context):
+        status, name = event.returncode, event.action.name
+        if not status or context.is_shutdown:
+            return None
+        early = time.monotonic() - started.get(event.pid, 0.0) < START_UP_S
+        if status in REFUSED_STATUSES or (early and not respawn):
+            raise LaunchArgumentError(f"{name} exited with status {status} at start-up (its own line above says "
+                                      "why): the launch ends")
+        return None
+
+    return [RegisterEventHandler(OnProcessStart(on_start=on_start)),
+            RegisterEventHandler(OnProcessExit(on_exit=on_exit))]
 
 
 def _removed_at_shutdown(paths: list) -> list:
@@ -262,8 +335,8 @@ def _managed(*, name: str, namespace: str, parameters: list, log_level: str, res
     from lifecycle_msgs.msg import Transition
 
     node = LifecycleNode(package=PACKAGE, executable=name, name=name, namespace=namespace, output="screen",
-                         arguments=["--managed"], parameters=parameters, ros_arguments=["--log-level", log_level],
-                         respawn=respawn, respawn_delay=RESPAWN_DELAY_S)
+                         arguments=["--managed", STOP_WITH_PARENT], parameters=parameters,
+                         ros_arguments=["--log-level", log_level], respawn=respawn, respawn_delay=RESPAWN_DELAY_S)
     if not autostart:
         return [node]
 

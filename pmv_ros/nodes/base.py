@@ -17,7 +17,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.event_handler import EventHandler, PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, QoSPolicyKind, QoSProfile, ReliabilityPolicy
 
 import pmv_msgs_shim as shim
 from ..runtime.common.clock_watch import CLOCK_STALL_S, CLOCK_WATCH_PERIOD_S, ClockWatch
@@ -223,10 +223,34 @@ class PmvNode(Node):
         """A set-parameters callback of the configuration (``add_on_set_parameters_callback``)."""
         self.add_on_set_parameters_callback(callback)
 
-    def quiet_options(self, kind: str) -> dict:
-        """The options of a ``"Publisher"`` or ``"Subscription"`` of this node: a lean node's come without rclpy's
-        default QoS-event handlers."""
-        return _QUIET[kind] if self._lean else {}
+    def quiet_options(self, kind: str, topic: str = "") -> dict:
+        """The options of a ``"Publisher"`` or ``"Subscription"`` of this node on ``topic``: a lean node's come
+        without rclpy's default QoS-event handlers; any other node's incompatible-QoS event goes to
+        :meth:`note_incompatible_qos` instead of rclpy's default, which logs a warning per event (a neighbour
+        that keeps making mismatched endpoints floods every node's log)."""
+        if self._lean:
+            return _QUIET[kind]
+        callbacks = PublisherEventCallbacks if kind == "Publisher" else SubscriptionEventCallbacks
+        return {"event_callbacks": callbacks(
+            incompatible_qos=lambda event: self.note_incompatible_qos(kind, topic, event))}
+
+    def note_incompatible_qos(self, kind: str, topic: str, event) -> None:
+        """Count endpoints of others whose QoS cannot match one of ours (``incompatible_qos`` on /diagnostics);
+        log it only when :class:`~pmv_ros.runtime.common.refusals.RefusalTally` says so."""
+        if not hasattr(self, "incompatible_qos"):
+            self.incompatible_qos = RefusalTally("a QoS-incompatible endpoint")
+        try:
+            policy = QoSPolicyKind(event.last_policy_kind).name.lower()
+        except ValueError:
+            policy = str(event.last_policy_kind)
+        peer = "subscription" if kind == "Publisher" else "publisher"
+        line = None
+        for _ in range(max(int(getattr(event, "total_count_change", 1)), 1)):
+            line = self.incompatible_qos.refuse(
+                f"a {peer} on {topic or 'a topic of ours'} asks for an incompatible {policy} policy: it hears "
+                f"nothing from this node", time.monotonic()) or line
+        if line is not None:
+            self.get_logger().warning(line)
 
     def destroy_node(self):
         """Destroy the node (re-attaching detached handlers first: rclpy removes them with their publisher)."""
@@ -246,7 +270,8 @@ class PmvNode(Node):
             if isinstance(topic, Sub):
                 self._input(topic, source_timeout_s)
                 continue
-            publisher = self.make_publisher(topic.type, topic.topic, topic.qos, **self.quiet_options("Publisher"))
+            publisher = self.make_publisher(topic.type, topic.topic, topic.qos,
+                                            **self.quiet_options("Publisher", topic.topic))
             message = topic.make(self) if topic.make is not None else topic.type()
             # A latched topic always goes out: a later subscriber gets the last message.
             always = not self._lean or topic.qos.durability == DurabilityPolicy.TRANSIENT_LOCAL
@@ -282,11 +307,12 @@ class PmvNode(Node):
 
     def publisher(self, message_type, topic: str):
         """A publisher with the project QoS (outside the table: tests, benchmarks)."""
-        return self.make_publisher(message_type, topic, QOS, **self.quiet_options("Publisher"))
+        return self.make_publisher(message_type, topic, QOS, **self.quiet_options("Publisher", topic))
 
     def subscription(self, message_type, topic: str, callback, qos: QoSProfile = QOS):
         """A subscription with the project QoS (outside the table: the report collector, benchmarks)."""
-        return self.make_subscription(message_type, topic, callback, qos, **self.quiet_options("Subscription"))
+        return self.make_subscription(message_type, topic, callback, qos,
+                                      **self.quiet_options("Subscription", topic))
 
     # -- inputs: one source each, then the runtime (at once, or once per wake-up) -----------------------
 
@@ -306,7 +332,7 @@ class PmvNode(Node):
                 self._take_input(to, read(message), self.input_clock(now_s))
 
         subscription = self.make_subscription(declared.type, declared.topic, on_message, self._input_qos,
-                                              **self.quiet_options("Subscription"))
+                                              **self.quiet_options("Subscription", declared.topic))
         topic = subscription.topic_name  # resolved once, by rcl (namespace and remapping): one lock per spacecraft
         lock = self.sources.lock(topic, declared.topic, source_timeout_s)  # before any message: none is taken yet
         lock.crowded = lambda: self.count_publishers(topic) > 1  # a starved source stays locked
@@ -355,6 +381,9 @@ class PmvNode(Node):
         refusals = getattr(self, "parameter_refusals", None)
         if refusals is not None and refusals.count:
             counters["rejected_parameter_updates"] = refusals.count
+        incompatible = getattr(self, "incompatible_qos", None)
+        if incompatible is not None and incompatible.count:
+            counters["incompatible_qos"] = incompatible.count
         return counters
 
     # -- /clock -----------------------------------------------------------------------------------

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import os
 import signal
 import sys
+import warnings
 
 import rclpy
 import rclpy.logging
+from rclpy.exceptions import NameValidationException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.impl.implementation_singleton import rclpy_implementation
 from rclpy.signals import SignalHandlerOptions
@@ -19,10 +22,19 @@ try:  # no rosdep key (package.xml): a ROS workspace may not have it
 except ImportError:
     ThreadpoolController = None
 
+#: Exit status of a node whose command line rclpy refuses (an unknown ROS argument, a namespace, node name or
+#: remap that is too long or malformed): a usage error, as the CLI's.
+USAGE_STATUS = 2
+
 #: Longest wait of the executor between checks for a stop request, s.
 STOP_CHECK_S = 0.1
 
 _STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+#: A node's own argument (before ``--ros-args``): stop as on SIGINT when the process that started it is gone.
+#: ``ros2 launch`` ends on SIGTERM without stopping its children (launch's own behaviour); the launch file gives
+#: its nodes this flag so that they do not run on as orphans.
+STOP_WITH_PARENT_FLAG = "--stop-with-parent"
 
 _blas = {"holders": 0, "limiter": None}
 
@@ -67,12 +79,17 @@ class StopRequest:
     both signals ignored.
     """
 
-    def __init__(self):
+    def __init__(self, with_parent: bool = False):
         self.requested = False
+        self._parent = os.getppid() if with_parent else None
         self._previous = {number: signal.signal(number, self._on_signal) for number in _STOP_SIGNALS}
 
     def _on_signal(self, number, frame) -> None:
         self.requested = True
+
+    def orphaned(self) -> bool:
+        """With ``with_parent``: whether the process that started this one has ended (this one was re-parented)."""
+        return self._parent is not None and os.getppid() != self._parent
 
     def ignore(self) -> None:
         """From here on (the teardown) both signals are ignored."""
@@ -99,6 +116,14 @@ def node_main(node_class, managed_class, args=None) -> int:
     return run_node(factory, node_class.NODE_NAME, args)
 
 
+def _own_flag(args, flag: str) -> bool:
+    """Whether ``flag`` is among the node's own arguments (those before ``--ros-args``)."""
+    argv = list(sys.argv[1:] if args is None else args)
+    if "--ros-args" in argv:
+        argv = argv[:argv.index("--ros-args")]
+    return flag in argv
+
+
 def run_node(factory, name: str, args=None) -> int:
     """Create the node with ``factory()`` and spin it until SIGINT, SIGTERM or shutdown; returns the exit status.
 
@@ -117,17 +142,25 @@ def run_node(factory, name: str, args=None) -> int:
     except ValueError as error:  # the params file itself: not a regular file, not YAML, a YAML bomb
         print(f"{name}: cannot start: {error}", file=sys.stderr)
         return 1
-    stop = StopRequest()
+    stop = StopRequest(with_parent=_own_flag(args, STOP_WITH_PARENT_FLAG))
     try:
         try:
             rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-        except rclpy_implementation.RCLError as error:
-            print(f"{name}: cannot start: {error}", file=sys.stderr)
-            return 1
+        except (rclpy_implementation.RCLError, rclpy_implementation.UnknownROSArgsError) as error:
+            print(f"{name}: cannot start: {_one_line(error)}", file=sys.stderr)
+            return USAGE_STATUS
         hold_single_threaded_blas()  # for the life of the process
         return _spin(factory, name, stop)
     finally:
         stop.restore()
+
+
+def _one_line(error: Exception) -> str:
+    """rcl's reason for refusing a command line, on one line (rcl appends where in its sources it failed)."""
+    text = " ".join(str(error).split())
+    if isinstance(error, rclpy_implementation.UnknownROSArgsError):
+        return f"unknown ROS arguments after --ros-args: {text}"
+    return text.split(", at /")[0]
 
 
 def _refused_transition(error: Exception) -> bool:
@@ -140,10 +173,23 @@ def _spin(factory, name: str, stop: StopRequest) -> int:
     node = executor = None
     status = 0
     try:
-        node = factory()
+        with warnings.catch_warnings(record=True) as caught:
+            try:
+                node = factory()
+            except (rclpy_implementation.RCLError, NameValidationException) as error:
+                # rcl refuses the node's name, namespace or a remapped topic (too long, malformed) only when the
+                # node or the entity is made: a usage error of the command line, not a fault of the node. rclpy's
+                # warnings about the half-made node it then tears down would only bury the one line.
+                print(f"{name}: cannot start: {_one_line(error)}", file=sys.stderr)
+                return USAGE_STATUS
+        for warning in caught:  # a node that was made: its construction's warnings as they would have been
+            warnings.showwarning(warning.message, warning.category, warning.filename, warning.lineno)
         executor = SingleThreadedExecutor()
         executor.add_node(node)
         while not stop.requested and rclpy.ok():
+            if stop.orphaned():
+                node.get_logger().warning("the process that started this node is gone (--stop-with-parent): stopping")
+                break
             try:
                 executor.spin_once(timeout_sec=STOP_CHECK_S)
             except rclpy_implementation.RCLError as error:

@@ -143,8 +143,9 @@ def check_params_files(args, node_name: str) -> None:
     anyone = {spec.name for specs in NODE_PARAMS.values() for spec in specs}
     for path in params_files(args):
         document = read_yaml_file(path, "params file") or {}
-        if not isinstance(document, dict):
-            continue
+        if not isinstance(document, dict):  # rcl would refuse it with a traceback-sized message
+            raise ValueError(f"params file {path}: a mapping of node sections expected, not a "
+                             f"{type(document).__name__}")
         for section, body in document.items():
             name = str(section).rstrip("/").rsplit("/", 1)[-1]  # "/ns/sensor_node", "/**/sensor_node", "/**"
             known = own if name == node_name else anyone if name == "**" else None

@@ -109,3 +109,98 @@ def test_a_launch_file_including_pmv_keeps_its_own_arguments(colcon_install, ros
     finally:
         stop(process)
     assert "unknown launch argument" not in log.read_text(errors="replace")
+
+
+def _wait(process: subprocess.Popen, timeout_s: float) -> float:
+    started = time.monotonic()
+    try:
+        process.wait(timeout=timeout_s)
+    finally:
+        stop(process)
+    return time.monotonic() - started
+
+
+def test_what_the_nodes_would_refuse_is_refused_by_the_launch(colcon_install, ros_tools, tmp_path):
+    """A namespace too long for the nodes' names, a preset that is a YAML list, a preset past the nodes' size
+    bound (with a namespace, which made the launch read it whole): one line, non-zero, before any node starts."""
+    (tmp_path / "list.yaml").write_text("- sensor_node\n- ros__parameters\n")
+    big = tmp_path / "big.yaml"
+    big.write_text("sensor_node:\n  ros__parameters:\n    seed: 1\n" + "# padding\n" * 200_000)  # 2 MiB > 1 MiB
+    cases = {"namespace": ("namespace:=" + "n" * 225, "too long"),
+             "list": (f"preset:={tmp_path / 'list.yaml'}", "not a list"),
+             "big": (f"preset:={big}", "namespace:=sat1", "more than the 1048576 allowed")}
+    started = {case: launch(colcon_install, ros_tools, tmp_path / case, "pmv_ros", "pmv.launch.py", *arguments)
+               for case, (*arguments, _) in cases.items()}
+    took = {case: _wait(process, REFUSAL_TIMEOUT_S) for case, (process, _) in started.items()}
+    for case, (process, log) in started.items():
+        text = log.read_text(errors="replace")
+        errors = [line for line in text.splitlines() if "ERROR" in line]
+        assert process.returncode not in (0, None), f"{case}: exit {process.returncode}\n{text}"
+        assert len(errors) == 1 and cases[case][-1] in errors[0] and "Traceback" not in text, f"{case}:\n{text}"
+        assert "process started" not in text, f"{case}: a node started\n{text}"
+    print("refused by the launch: " + ", ".join(f"{case} exit {process.returncode} in {took[case]:.1f} s"
+                                                for case, (process, _) in started.items()))
+
+
+def test_a_node_dying_at_start_up_ends_the_launch_non_zero(colcon_install, ros_tools, tmp_path):
+    """A preset the launch cannot judge (a value out of range: the node's own check) stops the sensor node at
+    start-up; the launch used to run on and exit 0. Now it ends, non-zero, naming the node."""
+    preset = tmp_path / "fast.yaml"
+    preset.write_text("sensor_node:\n  ros__parameters:\n    sensor.rate_hz: 500.0\n")
+    process, log = launch(colcon_install, ros_tools, tmp_path / "run", "pmv_ros", "pmv.launch.py",
+                          f"preset:={preset}")
+    took = _wait(process, START_TIMEOUT_S)
+    text = log.read_text(errors="replace")
+    assert process.returncode not in (0, None), f"exit {process.returncode}\n{text}"
+    assert "sensor_node: invalid parameter: sensor.rate_hz" in text, text
+    ended = [line for line in text.splitlines() if "exited with status 1 at start-up" in line]
+    assert len(ended) == 1 and "sensor_node" in ended[0] and "Traceback" not in text, text
+    print(f"a node dying at start-up: ros2 launch exit {process.returncode} after {took:.1f} s")
+
+
+def _pids(text: str) -> list[int]:
+    import re
+
+    return [int(pid) for pid in re.findall(r"process started with pid \[(\d+)\]", text)]
+
+
+def test_sigterm_to_the_launch_leaves_no_node_running(colcon_install, ros_tools, tmp_path):
+    """``ros2 launch`` ends on SIGTERM without stopping its children (launch's own behaviour); the nodes it
+    started stop by themselves when it is gone (``--stop-with-parent``), within seconds."""
+    process, log = launch(colcon_install, ros_tools, tmp_path, "pmv_ros", "pmv.launch.py")
+    try:
+        deadline = time.monotonic() + START_TIMEOUT_S
+        while len(_pids(log.read_text(errors="replace"))) < 3 or "attitude from" not in log.read_text(errors="replace"):
+            assert process.poll() is None, log.read_text()
+            assert time.monotonic() < deadline, log.read_text()
+            time.sleep(0.2)
+        pids = _pids(log.read_text(errors="replace"))
+        started = time.monotonic()
+        process.send_signal(signal.SIGTERM)
+        process.wait(timeout=REFUSAL_TIMEOUT_S)
+        launch_s = time.monotonic() - started
+        deadline = time.monotonic() + 10.0
+        while any(Path(f"/proc/{pid}").exists() and "zombie" not in _state(pid) for pid in pids):
+            if time.monotonic() > deadline:
+                break
+            time.sleep(0.1)
+        left = [pid for pid in pids if Path(f"/proc/{pid}").exists() and "zombie" not in _state(pid)]
+        nodes_s = time.monotonic() - started
+    finally:
+        stop(process)
+        for pid in _pids(log.read_text(errors="replace")):
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+    assert not left, f"nodes still running 10 s after SIGTERM to ros2 launch: {left}\n{log.read_text()}"
+    print(f"SIGTERM: ros2 launch exit {process.returncode} in {launch_s:.1f} s, its {len(pids)} nodes gone "
+          f"{nodes_s:.1f} s after the signal")
+
+
+def _state(pid: int) -> str:
+    try:
+        return next(line for line in Path(f"/proc/{pid}/status").read_text().splitlines()
+                    if line.startswith("State:")).lower()
+    except (OSError, StopIteration):
+        return "zombie"
