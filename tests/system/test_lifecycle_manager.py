@@ -29,13 +29,14 @@ from lifecycle_msgs.srv import GetState
 from rclpy.executors import SingleThreadedExecutor
 
 #: Block 0, as the other launch tests: modules sharing a worker run one after another, the other worker's
-#: domain differs.
+#: domain differs (this module's group is a part of its own: it may run beside the launch tests, on the other one).
 DOMAIN_ID = domain_id(0)
 
 pytestmark = [
     pytest.mark.launch,
     pytest.mark.multi_process,
-    pytest.mark.xdist_group("ros_workspace"),
+    # Two tests that mostly wait on `ros2 lifecycle` (≈ 3 min): beside the other users of the colcon build.
+    pytest.mark.xdist_group("ros_workspace/lifecycle"),
     pytest.mark.skipif(not VENDOR_INSTALLER.is_file(),
                        reason=f"no {VENDOR} (vendored ros2 launch snapshots): not tested"),
 ]
