@@ -52,7 +52,9 @@ REPO = Path(__file__).resolve().parents[1]
 # nodes on a DDS domain, ros2 launch, a Dask cluster, pmv in a child — tools/flake_hunt.py repeats these under
 # load) and ``xdist_group(NAME)`` when it uses a session fixture that runs a long command once per run
 # (SESSION_RUNS): under ``pytest -n 2 --dist loadgroup`` every test of a group runs on one worker, so the command
-# runs once. A test module without an explicit group is a group of its own (its module fixtures run once).
+# runs once. A group ``NAME/PART`` shares the fixture's command too (it runs once, early, for the whole run, and
+# each worker reads its result): a module whose tests mostly wait — on `ros2 lifecycle` processes, say — takes a
+# part of its own and runs beside the group on the other worker. A test module without an explicit group is a group of its own (its module fixtures run once).
 # Two checks keep the marks true when files are renamed or tests added: a test that uses a SESSION_RUNS fixture
 # outside its group fails the collection, and a test that starts a process in a module not marked
 # ``multi_process`` fails (the audit hook below sees every subprocess, fork and exec of the test process).
@@ -117,7 +119,7 @@ def pytest_collection_modifyitems(config, items):
     run_long = config.getoption("--run-long")
     for item in items:
         needed, group = _session_group(item), _group(item)
-        if needed is not None and group != needed:
+        if needed is not None and group != needed and not (group or "").startswith(needed + "/"):
             raise pytest.UsageError(
                 f"{_module(item)} uses a session fixture of group {needed!r} "
                 f"({', '.join(sorted(name for name in item.fixturenames if name in SESSION_RUNS))}) but is "

@@ -328,17 +328,20 @@ FLEET = {"sat1": "kondor", "sat2": "meteor_m2"}
 
 
 def _fleet_presets(folder: Path) -> dict:
-    """The fleet's params files: kondor's as shipped; meteor_m2's with its star tracker flying no trapped protons —
-    its session starts over the South Atlantic Anomaly, where the proton hits crowd the stars out of the tracker's
-    field for its first ≈ 70 s (physics.md §6), so the run here would have no residual to compare."""
+    """The fleet's params files: kondor's as shipped; meteor_m2's started 20° of argument of latitude later. At
+    u = 0° its star tracker's field holds two catalogue stars for the first ≈ 26 s (no attitude: the monitor forms
+    no residual, and the lockstep's monitors fall behind; over the South Atlantic Anomaly the trapped protons
+    crowd out even those for ≈ 70 s, physics.md §6); from u = 20° every frame of the first 20 s has its stars."""
     presets = {}
     for name, preset in FLEET.items():
         document = yaml.safe_load((REPO / "config" / f"{preset}.yaml").read_text())
         if preset == "meteor_m2":
-            document["star_tracker_node"]["ros__parameters"]["protons.trapped"] = "off"
+            document["/**"]["ros__parameters"]["orbit"]["u0_deg"] = 20.0
         presets[name] = folder / f"{preset}.yaml"
         presets[name].write_text(yaml.safe_dump(document))
     return presets
+
+
 #: How far a monitor's residuals may trail its sensor's samples in the lockstep: the truth that aligns a sample
 #: comes with the next 1 Hz star-tracker frame, published ≈ 0.9 s after its time (≤ 19 samples at 10 Hz), and the
 #: samples before the first frame never get a residual (≤ 10), with room to spare.

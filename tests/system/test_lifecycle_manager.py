@@ -1,6 +1,10 @@
 """Managed nodes go only where they are told: an external lifecycle manager — the real ``ros2 lifecycle`` CLI —
 drives the launched nodes through every transition.
 
+Each transition is sent by ``ros2 lifecycle set``; the states in between are read by this process's own
+``get_state`` client (the service ``ros2 lifecycle get`` calls, without a CLI process that spends its 5 s of
+discovery on every read); one read goes through ``ros2 lifecycle get`` too.
+
 ``ros2 launch pmv_ros pmv.launch.py managed:=true`` configures and activates each node once, at start-up
 (``autostart``, default true); a later configure, after a cleanup, leaves the node inactive for the manager's own
 ``activate``. With ``autostart:=false`` the launch changes no state at all: the nodes wait unconfigured.
@@ -21,16 +25,18 @@ import pytest
 import rclpy
 from children import VENDOR, VENDOR_INSTALLER, domain_id, install_env, join_domain
 from geometry_msgs.msg import Vector3Stamped
+from lifecycle_msgs.srv import GetState
 from rclpy.executors import SingleThreadedExecutor
 
 #: Block 0, as the other launch tests: modules sharing a worker run one after another, the other worker's
-#: domain differs.
+#: domain differs (this module's group is a part of its own: it may run beside the launch tests, on the other one).
 DOMAIN_ID = domain_id(0)
 
 pytestmark = [
     pytest.mark.launch,
     pytest.mark.multi_process,
-    pytest.mark.xdist_group("ros_workspace"),
+    # Two tests that mostly wait on `ros2 lifecycle` (≈ 3 min): beside the other users of the colcon build.
+    pytest.mark.xdist_group("ros_workspace/lifecycle"),
     pytest.mark.skipif(not VENDOR_INSTALLER.is_file(),
                        reason=f"no {VENDOR} (vendored ros2 launch snapshots): not tested"),
 ]
@@ -72,7 +78,7 @@ class Stack:
                               timeout=CLI_TIMEOUT_S)
         return (done.stdout + done.stderr).strip()
 
-    def state(self, node: str) -> str:
+    def cli_state(self, node: str) -> str:
         """The node's state label, as ``ros2 lifecycle get`` prints it (``inactive [2]``)."""
         return self.lifecycle("get", node).split(" [")[0]
 
@@ -95,12 +101,14 @@ class Stack:
 
 @pytest.fixture
 def listener(monkeypatch):
-    """A node of this process on the children's domain that counts /pmv/attitude; yields (count, spin)."""
+    """A node of this process on the children's domain that counts /pmv/attitude and reads the nodes' lifecycle
+    states; yields (count, spin, state): ``state(node)`` is the label ``ros2 lifecycle get`` prints (``inactive``),
+    or "unknown" while the node's get_state service does not answer."""
     context = join_domain(monkeypatch, DOMAIN_ID)
     node = rclpy.create_node("lifecycle_test_listener", context=context)
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
-    attitude = []
+    attitude, clients = [], {}
     node.create_subscription(Vector3Stamped, "/pmv/attitude", attitude.append, 100)
 
     def spin(seconds: float) -> None:
@@ -108,20 +116,34 @@ def listener(monkeypatch):
         while time.monotonic() < end:
             executor.spin_once(timeout_sec=0.05)
 
+    def state(name: str) -> str:
+        client = clients.setdefault(name, node.create_client(GetState, f"{name}/get_state"))
+        deadline = time.monotonic() + CLI_TIMEOUT_S
+        while not client.service_is_ready():
+            if time.monotonic() > deadline:
+                return "unknown"
+            spin(0.1)
+        future = client.call_async(GetState.Request())
+        while not future.done():
+            if time.monotonic() > deadline:
+                return "unknown"
+            executor.spin_once(timeout_sec=0.05)
+        return future.result().current_state.label
+
     try:
-        yield (lambda: len(attitude)), spin
+        yield (lambda: len(attitude)), spin, state
     finally:
         executor.shutdown()
         node.destroy_node()
         rclpy.shutdown(context=context)
 
 
-def _wait_for_state(stack: Stack, node: str, wanted: str) -> None:
+def _wait_for_state(state, stack: Stack, node: str, wanted: str) -> None:
     deadline = time.monotonic() + START_TIMEOUT_S
-    while (state := stack.state(node)) != wanted:
+    while (now := state(node)) != wanted:
         if time.monotonic() > deadline:
-            pytest.fail(f"{node} is {state!r}, not {wanted} within {START_TIMEOUT_S:g} s:\n{stack.log()}")
-        time.sleep(1.0)
+            pytest.fail(f"{node} is {now!r}, not {wanted} within {START_TIMEOUT_S:g} s:\n{stack.log()}")
+        time.sleep(0.2)
 
 
 def _publishes(count, spin, seconds: float = 2.0) -> bool:
@@ -132,20 +154,20 @@ def _publishes(count, spin, seconds: float = 2.0) -> bool:
 
 def test_after_a_cleanup_the_managers_configure_leaves_the_node_inactive_for_its_own_activate(
         colcon_install, ros_tools, listener, tmp_path):
-    count, spin = listener
+    count, spin, state = listener
     stack = Stack(colcon_install, ros_tools, tmp_path)
     try:
-        _wait_for_state(stack, "/sensor_node", "active")  # the launch's own start-up: configure, activate
+        _wait_for_state(state, stack, "/sensor_node", "active")  # the launch's own start-up: configure, activate
         assert _publishes(count, spin)
         stack.set("/sensor_node", "deactivate")
         stack.set("/sensor_node", "cleanup")
-        assert stack.state("/sensor_node") == "unconfigured"
+        assert stack.cli_state("/sensor_node") == "unconfigured"  # the CLI reads it too
         stack.set("/sensor_node", "configure")
         spin(STAYS_S)
-        assert stack.state("/sensor_node") == "inactive"  # the launch does not activate it behind the manager
+        assert state("/sensor_node") == "inactive"  # the launch does not activate it behind the manager
         assert not _publishes(count, spin)
         stack.set("/sensor_node", "activate")  # the manager's own activate is not refused
-        assert stack.state("/sensor_node") == "active" and _publishes(count, spin)
+        assert state("/sensor_node") == "active" and _publishes(count, spin)
         stack.interrupt()
     finally:
         stack.kill()
@@ -153,24 +175,24 @@ def test_after_a_cleanup_the_managers_configure_leaves_the_node_inactive_for_its
 
 
 def test_without_autostart_the_manager_drives_every_transition(colcon_install, ros_tools, listener, tmp_path):
-    count, spin = listener
+    count, spin, state = listener
     stack = Stack(colcon_install, ros_tools, tmp_path, "autostart:=false")
     nodes = ("/sensor_node", "/star_tracker_node", "/error_monitor_node")
     try:
         for node in nodes:  # started, and left unconfigured by the launch
-            _wait_for_state(stack, node, "unconfigured")
+            _wait_for_state(state, stack, node, "unconfigured")
         spin(STAYS_S)
-        assert [stack.state(node) for node in nodes] == ["unconfigured"] * 3 and not _publishes(count, spin, 0.5)
-        for transition, state, publishing in (("configure", "inactive", False), ("activate", "active", True),
+        assert [state(node) for node in nodes] == ["unconfigured"] * 3 and not _publishes(count, spin, 0.5)
+        for transition, wanted, publishing in (("configure", "inactive", False), ("activate", "active", True),
                                               ("deactivate", "inactive", False), ("cleanup", "unconfigured", False),
                                               ("configure", "inactive", False), ("activate", "active", True)):
             stack.set("/sensor_node", transition)
             spin(STAYS_S if transition == "configure" else 0.5)
-            assert stack.state("/sensor_node") == state, (transition, stack.log()[-3000:])
+            assert state("/sensor_node") == wanted, (transition, stack.log()[-3000:])
             spin(1.0)  # what was on its way before the transition
             assert _publishes(count, spin) == publishing, transition
         stack.set("/sensor_node", "shutdown")
-        assert stack.state("/sensor_node") == "finalized"
+        assert state("/sensor_node") == "finalized"
         stack.interrupt()
     finally:
         stack.kill()
