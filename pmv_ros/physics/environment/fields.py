@@ -329,7 +329,7 @@ class SynopticBandField:
         # What every evaluation uses, in the evaluation's complex type: w = e₁ + i·e₂ and the degrees.
         self._complex = np.result_type(self.dtype, np.complex64)
         self._w = (q[:, :, 0].T + 1j * q[:, :, 1].T).astype(self._complex)
-        self._complex_degrees = self.degrees.astype(self._complex)
+        self._integer_degrees = self.degrees.astype(np.int64)
 
     def correlation(self, angle_rad):
         """Ensemble correlation at great-circle angle ψ (rad): the band mean of P_ℓ(cos ψ)."""
@@ -345,9 +345,8 @@ class SynopticBandField:
     def evaluate(self, lat, lon, t):
         """The field at flat arrays of latitude, longitude (rad) and time (s); ``(N,)``.
 
-        Re[(x·w)^ℓ·e^{iφ(t)}] summed with the amplitudes: the power of the complex number x·w by numpy's
-        complex power (exact repeated multiplication for integer ℓ), the phase φ = ωt + b as e^{iφ} once per
-        distinct time of the batch (a node's grid has a few times for its four chords).
+        Re[(x·w)^ℓ·e^{iφ(t)}] summed with the amplitudes (:func:`_sectoral_sums`), the phase φ = ωt + b as
+        e^{iφ} once per distinct time of the batch (a node's grid has a few times for its four chords).
         """
         out = np.empty(lat.size)
         if lat.size == 0:
@@ -360,13 +359,34 @@ class SynopticBandField:
         unit[:, 2] = np.sin(lat)
         times, which = np.unique(t - t_ref, return_inverse=True)
         rotation = np.exp(1j * (phase_ref + times[:, None] * self._frequency_rad_s)).astype(self._complex)
-        block_points = max(64, (_BLOCK_ELEMENTS // 4) // self.n_components)
-        for start in range(0, lat.size, block_points):
-            stop = min(start + block_points, lat.size)
-            power = np.power(unit[start:stop] @ self._w, self._complex_degrees)  # (x·w)^ℓ, (n, M)
-            power *= rotation[which[start:stop]]
-            out[start:stop] = power.real @ self._amplitude
+        _sectoral_sums(unit, self._w, self._integer_degrees, rotation, which.ravel(), self._amplitude, out)
         return out
+
+
+@kernel
+def _sectoral_sums(unit, w, degrees, rotation, which, amplitude, out):
+    """out[p] = Σⱼ amplitude[j]·Re[(unit[p]·w[:, j])^degrees[j]·rotation[which[p], j]], one pass per point; the
+    power by repeated squaring (≤ 8 squarings for ℓ ≤ 200), in the complex type of ``w``."""
+    components = degrees.size
+    row = np.empty(components)
+    for p in range(unit.shape[0]):
+        x0, x1, x2 = unit[p, 0], unit[p, 1], unit[p, 2]
+        turn = rotation[which[p]]
+        for j in range(components):
+            base = x0 * w[0, j] + x1 * w[1, j] + x2 * w[2, j]
+            power = base
+            n = degrees[j] - 1
+            while n > 0:
+                if n & 1:
+                    power = power * base
+                base = base * base
+                n >>= 1
+            value = power * turn[j]
+            row[j] = value.real
+        total = 0.0
+        for j in range(components):
+            total += amplitude[j] * row[j]
+        out[p] = total
 
 
 def _flat_points(lat_rad, lon_rad, t_s):

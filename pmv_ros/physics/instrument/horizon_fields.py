@@ -341,12 +341,12 @@ class HorizonFields:
         frame = orbital_frame_from_state(position, velocity)  # (3, 3, K): columns X, Y, Z
         radius = np.sqrt(np.sum(position * position, axis=0))
         angle = np.arccos(EARTH_MEAN_RADIUS_M / radius)
-        for n, k in enumerate(nodes):
-            grid.rings[k] = np.concatenate([frame[:, 2, n], frame[:, 0, n], frame[:, 1, n], [angle[n], final[n]]])
-            if final[n] == 0.0:
-                grid.provisional.add(k)
-            else:
-                grid.provisional.discard(k)
+        final = np.asarray(final, float)
+        rings = np.concatenate([frame[:, 2], frame[:, 0], frame[:, 1], angle[None], final[None]])  # (11, K)
+        grid.rings.update(zip(nodes, np.ascontiguousarray(rings.T)))
+        provisional = set(np.asarray(nodes)[final == 0.0].tolist())
+        grid.provisional.difference_update(set(nodes) - provisional)
+        grid.provisional.update(provisional)
         if len(grid.rings) > RINGS_KEPT:  # the rings of time nodes the samples no longer reach
             for k in [k for k in grid.rings if k < grid.first_needed]:
                 del grid.rings[k]
