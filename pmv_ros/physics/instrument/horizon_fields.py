@@ -307,9 +307,12 @@ class HorizonFields:
         self.refresh()
         first_s = float(sample_times.min())
         for index, grid in enumerate(self.grids):
-            rows = np.unique(misses[:count][misses[:count, 0] == index][:, 1:], axis=0)
-            if rows.size == 0:
+            missed = misses[:count][misses[:count, 0] == index]
+            if missed.size == 0:
                 continue
+            # (time node, azimuth node) rows once each, in the order of their keys (a 1-D sort, not of rows)
+            keys = np.unique(missed[:, 1] * grid.azimuths + missed[:, 2])
+            rows = np.stack(np.divmod(keys, grid.azimuths), 1)
             # and the time nodes after the last one missing at each azimuth node (NODES_AHEAD)
             order = np.lexsort((rows[:, 0], rows[:, 1]))
             last = order[np.r_[rows[order[1:], 1] != rows[order[:-1], 1], True]]
