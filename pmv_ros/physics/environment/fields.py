@@ -222,26 +222,41 @@ _HALF_PI_HI = math.ldexp(math.floor(math.ldexp(0.5 * math.pi, 32)), -32)
 _HALF_PI_MID = 0.5 * math.pi - _HALF_PI_HI
 _HALF_PI_LO = 0.5 * math.sin(math.pi)
 #: Taylor coefficients of cos and sin in r² on |r| ≤ π/4: the first term left out is < 3·10⁻¹⁸.
-_COS_TERMS = tuple((-1) ** i / math.factorial(2 * i) for i in range(9))
-_SIN_TERMS = tuple((-1) ** i / math.factorial(2 * i + 1) for i in range(9))
+_C0, _C1, _C2, _C3, _C4, _C5, _C6, _C7, _C8 = ((-1) ** i / math.factorial(2 * i) for i in range(9))
+_S0, _S1, _S2, _S3, _S4, _S5, _S6, _S7, _S8 = ((-1) ** i / math.factorial(2 * i + 1) for i in range(9))
 
 
 @kernel
 def _cosine(x):
     """cos x (float64, |x| < 10⁶ rad) to ≈ 1 ulp: reduced to r in [−π/4, π/4] and a quadrant, then a polynomial.
-    Branch-free in the quadrant, so a loop of them runs in SIMD lanes: ≈ 8× numpy's float64 cosine
-    (benchmarks/bench_environment.py --points), the cost of the environment's fields."""
+    Branch-free in the quadrant, so a loop of them runs in SIMD lanes, several times faster than numpy's float64
+    cosine at phases of 10⁴ rad — the cost of the environment's fields (benchmarks/bench_environment.py --points)."""
     n = math.floor(x * (2.0 / math.pi) + 0.5)
     r = ((x - n * _HALF_PI_HI) - n * _HALF_PI_MID) - n * _HALF_PI_LO
     z = r * r
-    c = _COS_TERMS[8]
-    s = _SIN_TERMS[8]
-    for i in range(7, -1, -1):
-        c = _COS_TERMS[i] + z * c
-        s = _SIN_TERMS[i] + z * s
-    quadrant = np.int64(n) & 3
-    value = c if (quadrant & 1) == 0 else r * s
-    return value if (quadrant == 0 or quadrant == 3) else -value
+    c = _C0 + z * (_C1 + z * (_C2 + z * (_C3 + z * (_C4 + z * (_C5 + z * (_C6 + z * (_C7 + z * _C8)))))))
+    s = _S0 + z * (_S1 + z * (_S2 + z * (_S3 + z * (_S4 + z * (_S5 + z * (_S6 + z * (_S7 + z * _S8)))))))
+    quadrant = n - 4.0 * math.floor(0.25 * n)  # n mod 4, in floats (a float-to-integer conversion has no SIMD form)
+    value = c if (quadrant == 0.0 or quadrant == 2.0) else r * s
+    return value if (quadrant == 0.0 or quadrant == 3.0) else -value
+
+
+@kernel
+def _weighted_sum(weights, values):
+    """Σ weights·values in four interleaved partial sums: four additions in flight, not one chain of them."""
+    s0 = s1 = s2 = s3 = 0.0
+    n = values.size
+    j = 0
+    while j + 4 <= n:
+        s0 += weights[j] * values[j]
+        s1 += weights[j + 1] * values[j + 1]
+        s2 += weights[j + 2] * values[j + 2]
+        s3 += weights[j + 3] * values[j + 3]
+        j += 4
+    while j < n:
+        s0 += weights[j] * values[j]
+        j += 1
+    return (s0 + s1) + (s2 + s3)
 
 
 @kernel
@@ -257,10 +272,7 @@ def _cosine_sums(design, weights, phase, amplitudes, out):
             row[j] = _cosine(d0 * weights[0, j] + d1 * weights[1, j] + d2 * weights[2, j] + d3 * weights[3, j]
                              + phase[j])
         for f in range(out.shape[1]):
-            total = 0.0
-            for j in range(components):
-                total += amplitudes[j, f] * row[j]
-            out[p, f] = total
+            out[p, f] = _weighted_sum(amplitudes[:, f], row)
 
 
 class SynopticBandField:
@@ -383,10 +395,7 @@ def _sectoral_sums(unit, w, degrees, rotation, which, amplitude, out):
                 n >>= 1
             value = power * turn[j]
             row[j] = value.real
-        total = 0.0
-        for j in range(components):
-            total += amplitude[j] * row[j]
-        out[p] = total
+        out[p] = _weighted_sum(amplitude, row)
 
 
 def _flat_points(lat_rad, lon_rad, t_s):
