@@ -103,8 +103,10 @@ class GaussianSphereField:
     scale. The marginal is a sum of M equal-amplitude cosines — Gaussian to
     within an excess kurtosis of −1.5/M.
 
-    Evaluation is cos of an (N × M) array: ≈ 1 ns per point and component
-    in float32, ≈ 6× that in float64 (benchmarks/bench_environment.py --points).
+    Evaluation is a compiled pass over the N × M phases with a SIMD cosine
+    (:func:`_cosine_sums`): ≈ 3 ns per point and component in float64 (the
+    phases are formed in the field's float type, the cosine in float64;
+    benchmarks/bench_environment.py --points).
 
     Args:
         correlation_radius_m: e-folding distance R_x, m (10 km … 6371 km).
