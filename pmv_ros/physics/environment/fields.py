@@ -217,30 +217,28 @@ class _SpectralBank:
         return out
 
 
-#: π/2 in three parts for the cosine's argument reduction: its first 33 bits (so that n·HI is exact for the
-#: quadrant counts n < 2²⁰ of phases below ≈ 10⁶ rad), the rest of the float64 π/2, and π − fl(π) = sin(fl(π))
-#: halved — r = x − n·π/2 to ≈ 10⁻²⁰ rad.
-_HALF_PI_HI = math.ldexp(math.floor(math.ldexp(0.5 * math.pi, 32)), -32)
-_HALF_PI_MID = 0.5 * math.pi - _HALF_PI_HI
-_HALF_PI_LO = 0.5 * math.sin(math.pi)
-#: Taylor coefficients of cos and sin in r² on |r| ≤ π/4: the first term left out is < 3·10⁻¹⁸.
-_C0, _C1, _C2, _C3, _C4, _C5, _C6, _C7, _C8 = ((-1) ** i / math.factorial(2 * i) for i in range(9))
-_S0, _S1, _S2, _S3, _S4, _S5, _S6, _S7, _S8 = ((-1) ** i / math.factorial(2 * i + 1) for i in range(9))
+#: π in three parts for the cosine's argument reduction: its first 33 bits (so that n·HI is exact for the
+#: half-turn counts n < 2²⁰ of phases below ≈ 3·10⁶ rad), the rest of the float64 π, and π − fl(π) = sin(fl(π))
+#: — r = x − n·π to ≈ 10⁻²⁰ rad.
+_PI_HI = math.ldexp(math.floor(math.ldexp(math.pi, 31)), -31)
+_PI_MID = math.pi - _PI_HI
+_PI_LO = math.sin(math.pi)
+#: Taylor coefficients of cos in r² on |r| ≤ π/2: the first term left out, (π/2)²²/22!, is < 2·10⁻¹⁷.
+_C0, _C1, _C2, _C3, _C4, _C5, _C6, _C7, _C8, _C9, _C10 = ((-1) ** i / math.factorial(2 * i) for i in range(11))
 
 
 @kernel
 def _cosine(x):
-    """cos x (float64, |x| < 10⁶ rad) to ≈ 1 ulp: reduced to r in [−π/4, π/4] and a quadrant, then a polynomial.
-    Branch-free in the quadrant, so a loop of them runs in SIMD lanes, several times faster than numpy's float64
-    cosine at phases of 10⁴ rad — the cost of the environment's fields (benchmarks/bench_environment.py --points)."""
-    n = math.floor(x * (2.0 / math.pi) + 0.5)
-    r = ((x - n * _HALF_PI_HI) - n * _HALF_PI_MID) - n * _HALF_PI_LO
+    """cos x (float64, |x| < 10⁶ rad) to ≈ 1 ulp: x = n·π + r with r in [−π/2, π/2], (−1)ⁿ times a polynomial in r².
+    Branch-free, so a loop of them runs in SIMD lanes, several times faster than numpy's float64 cosine at
+    phases of 10⁴ rad — the cost of the environment's fields (benchmarks/bench_environment.py --points)."""
+    n = math.floor(x * (1.0 / math.pi) + 0.5)
+    r = ((x - n * _PI_HI) - n * _PI_MID) - n * _PI_LO
     z = r * r
-    c = _C0 + z * (_C1 + z * (_C2 + z * (_C3 + z * (_C4 + z * (_C5 + z * (_C6 + z * (_C7 + z * _C8)))))))
-    s = _S0 + z * (_S1 + z * (_S2 + z * (_S3 + z * (_S4 + z * (_S5 + z * (_S6 + z * (_S7 + z * _S8)))))))
-    quadrant = n - 4.0 * math.floor(0.25 * n)  # n mod 4, in floats (a float-to-integer conversion has no SIMD form)
-    value = c if (quadrant == 0.0 or quadrant == 2.0) else r * s
-    return value if (quadrant == 0.0 or quadrant == 3.0) else -value
+    c = _C0 + z * (_C1 + z * (_C2 + z * (_C3 + z * (_C4 + z * (_C5 + z * (_C6 + z * (_C7 + z * (_C8 + z * (
+        _C9 + z * _C10)))))))))
+    odd = n - 2.0 * math.floor(0.5 * n)  # n mod 2, in floats (a float-to-integer conversion has no SIMD form)
+    return -c if odd == 1.0 else c
 
 
 @kernel
