@@ -341,7 +341,8 @@ class SynopticBandField:
         # What every evaluation uses, in the evaluation's complex type: w = e₁ + i·e₂ and the degrees.
         self._complex = np.result_type(self.dtype, np.complex64)
         self._w = (q[:, :, 0].T + 1j * q[:, :, 1].T).astype(self._complex)
-        self._integer_degrees = self.degrees.astype(np.int64)
+        self._w_re, self._w_im = np.ascontiguousarray(self._w.real), np.ascontiguousarray(self._w.imag)
+        self._exponents = self.degrees.astype(np.int64) - 1  # (x·w)^ℓ = (x·w)·(x·w)^(ℓ − 1)
 
     def correlation(self, angle_rad):
         """Ensemble correlation at great-circle angle ψ (rad): the band mean of P_ℓ(cos ψ)."""
@@ -371,30 +372,39 @@ class SynopticBandField:
         unit[:, 2] = np.sin(lat)
         times, which = np.unique(t - t_ref, return_inverse=True)
         rotation = np.exp(1j * (phase_ref + times[:, None] * self._frequency_rad_s)).astype(self._complex)
-        _sectoral_sums(unit, self._w, self._integer_degrees, rotation, which.ravel(), self._amplitude, out)
+        _sectoral_sums(unit, self._w_re, self._w_im, self._exponents, rotation, which.ravel(), self._amplitude, out)
         return out
 
 
 @kernel
-def _sectoral_sums(unit, w, degrees, rotation, which, amplitude, out):
-    """out[p] = Σⱼ amplitude[j]·Re[(unit[p]·w[:, j])^degrees[j]·rotation[which[p], j]], one pass per point; the
-    power by repeated squaring (≤ 8 squarings for ℓ ≤ 200), in the complex type of ``w``."""
-    components = degrees.size
+def _sectoral_sums(unit, w_re, w_im, exponents, rotation, which, amplitude, out):
+    """out[p] = Σⱼ amplitude[j]·Re[zⱼ^(exponents[j] + 1)·rotation[which[p], j]] with zⱼ = unit[p]·(w_re + i·w_im)[:, j],
+    one pass per point; the power by repeated squaring, bit by bit of the exponents over all components at once
+    (a loop over components runs in SIMD lanes), in the float type of ``w``."""
+    components = exponents.size
+    top = 0
+    while (np.max(exponents) >> top) > 0:
+        top += 1
+    base_re, base_im = np.empty(components, w_re.dtype), np.empty(components, w_re.dtype)
+    power_re, power_im = np.empty(components, w_re.dtype), np.empty(components, w_re.dtype)
     row = np.empty(components)
     for p in range(unit.shape[0]):
         x0, x1, x2 = unit[p, 0], unit[p, 1], unit[p, 2]
+        for j in range(components):
+            base_re[j] = x0 * w_re[0, j] + x1 * w_re[1, j] + x2 * w_re[2, j]
+            base_im[j] = x0 * w_im[0, j] + x1 * w_im[1, j] + x2 * w_im[2, j]
+            power_re[j], power_im[j] = base_re[j], base_im[j]
+        for bit in range(top):
+            for j in range(components):
+                br, bi, pr, pi = base_re[j], base_im[j], power_re[j], power_im[j]
+                use = (exponents[j] >> bit) & 1
+                power_re[j] = pr * br - pi * bi if use else pr
+                power_im[j] = pr * bi + pi * br if use else pi
+                base_re[j] = br * br - bi * bi
+                base_im[j] = br * bi + bi * br
         turn = rotation[which[p]]
         for j in range(components):
-            base = x0 * w[0, j] + x1 * w[1, j] + x2 * w[2, j]
-            power = base
-            n = degrees[j] - 1
-            while n > 0:
-                if n & 1:
-                    power = power * base
-                base = base * base
-                n >>= 1
-            value = power * turn[j]
-            row[j] = value.real
+            row[j] = power_re[j] * turn[j].real - power_im[j] * turn[j].imag
         out[p] = _weighted_sum(amplitude, row)
 
 
