@@ -19,6 +19,7 @@ import math
 import numpy as np
 from scipy.special import eval_legendre, gammaln, ndtri
 
+from ..compiled import kernel
 from ..constants import EARTH_MEAN_RADIUS_M
 from ..orbit.two_body import check_range
 
@@ -102,8 +103,10 @@ class GaussianSphereField:
     scale. The marginal is a sum of M equal-amplitude cosines — Gaussian to
     within an excess kurtosis of −1.5/M.
 
-    Evaluation is cos of an (N × M) array: ≈ 1 ns per point and component
-    in float32, ≈ 6× that in float64 (benchmarks/bench_environment.py --points).
+    Evaluation is a compiled pass over the N × M phases with a SIMD cosine
+    (:func:`_cosine_sums`): ≈ 3 ns per point and component in float64 (the
+    phases are formed in the field's float type, the cosine in float64;
+    benchmarks/bench_environment.py --points).
 
     Args:
         correlation_radius_m: e-folding distance R_x, m (10 km … 6371 km).
@@ -205,22 +208,71 @@ class _SpectralBank:
             return out
         t_ref, phase_ref = _reference_phases(self._phase_rad, self._frequency_rad_s, t)
         cos_lat = np.cos(lat)
-        phase_ref = phase_ref.astype(self.dtype)
         design = np.empty((lat.size, 4), dtype=self.dtype)
         design[:, 0] = cos_lat * np.cos(lon)
         design[:, 1] = cos_lat * np.sin(lon)
         design[:, 2] = np.sin(lat)
         design[:, 3] = t - t_ref
-        block_points = max(64, _BLOCK_ELEMENTS // self._phase_rad.size)
-        work = np.empty((min(block_points, lat.size), self._phase_rad.size), dtype=self.dtype)
-        for start in range(0, lat.size, block_points):
-            stop = min(start + block_points, lat.size)
-            block = work[: stop - start]
-            np.matmul(design[start:stop], self._design_weights, out=block)
-            block += phase_ref
-            np.cos(block, out=block)
-            out[start:stop] = block @ self._amplitudes
+        _cosine_sums(design, self._design_weights, phase_ref.astype(self.dtype), self._amplitudes, out)
         return out
+
+
+#: π in three parts for the cosine's argument reduction: its first 33 bits (so that n·HI is exact for the
+#: half-turn counts n < 2²⁰ of phases below ≈ 3·10⁶ rad), the rest of the float64 π, and π − fl(π) = sin(fl(π))
+#: — r = x − n·π to ≈ 10⁻²⁰ rad.
+_PI_HI = math.ldexp(math.floor(math.ldexp(math.pi, 31)), -31)
+_PI_MID = math.pi - _PI_HI
+_PI_LO = math.sin(math.pi)
+#: Taylor coefficients of cos in r² on |r| ≤ π/2: the first term left out, (π/2)²²/22!, is < 2·10⁻¹⁷.
+_C0, _C1, _C2, _C3, _C4, _C5, _C6, _C7, _C8, _C9, _C10 = ((-1) ** i / math.factorial(2 * i) for i in range(11))
+
+
+@kernel
+def _cosine(x):
+    """cos x (float64, |x| < 10⁶ rad) to ≈ 1 ulp: x = n·π + r with r in [−π/2, π/2], (−1)ⁿ times a polynomial in r².
+    Branch-free, so a loop of them runs in SIMD lanes, several times faster than numpy's float64 cosine at
+    phases of 10⁴ rad — the cost of the environment's fields (benchmarks/bench_environment.py --points)."""
+    n = math.floor(x * (1.0 / math.pi) + 0.5)
+    r = ((x - n * _PI_HI) - n * _PI_MID) - n * _PI_LO
+    z = r * r
+    c = _C0 + z * (_C1 + z * (_C2 + z * (_C3 + z * (_C4 + z * (_C5 + z * (_C6 + z * (_C7 + z * (_C8 + z * (
+        _C9 + z * _C10)))))))))
+    odd = n - 2.0 * math.floor(0.5 * n)  # n mod 2, in floats (a float-to-integer conversion has no SIMD form)
+    return -c if odd == 1.0 else c
+
+
+@kernel
+def _weighted_sum(weights, values):
+    """Σ weights·values in four interleaved partial sums: four additions in flight, not one chain of them."""
+    s0 = s1 = s2 = s3 = 0.0
+    n = values.size
+    j = 0
+    while j + 4 <= n:
+        s0 += weights[j] * values[j]
+        s1 += weights[j + 1] * values[j + 1]
+        s2 += weights[j + 2] * values[j + 2]
+        s3 += weights[j + 3] * values[j + 3]
+        j += 4
+    while j < n:
+        s0 += weights[j] * values[j]
+        j += 1
+    return (s0 + s1) + (s2 + s3)
+
+
+@kernel
+def _cosine_sums(design, weights, phase, amplitudes, out):
+    """out[p, f] = Σⱼ amplitudes[j, f]·cos(design[p]·weights[:, j] + phase[j]): the spectral fields at the points
+    (rows of ``design``: the point's direction cosines and its time from the reference), one pass per point
+    (no points × components work array). The phase is formed in the bank's float type, the cosine in float64."""
+    components = phase.size
+    row = np.empty(components)
+    for p in range(design.shape[0]):
+        d0, d1, d2, d3 = design[p, 0], design[p, 1], design[p, 2], design[p, 3]
+        for j in range(components):
+            row[j] = _cosine(d0 * weights[0, j] + d1 * weights[1, j] + d2 * weights[2, j] + d3 * weights[3, j]
+                             + phase[j])
+        for f in range(out.shape[1]):
+            out[p, f] = _weighted_sum(amplitudes[:, f], row)
 
 
 class SynopticBandField:
@@ -289,7 +341,8 @@ class SynopticBandField:
         # What every evaluation uses, in the evaluation's complex type: w = e₁ + i·e₂ and the degrees.
         self._complex = np.result_type(self.dtype, np.complex64)
         self._w = (q[:, :, 0].T + 1j * q[:, :, 1].T).astype(self._complex)
-        self._complex_degrees = self.degrees.astype(self._complex)
+        self._w_re, self._w_im = np.ascontiguousarray(self._w.real), np.ascontiguousarray(self._w.imag)
+        self._exponents = self.degrees.astype(np.int64) - 1  # (x·w)^ℓ = (x·w)·(x·w)^(ℓ − 1)
 
     def correlation(self, angle_rad):
         """Ensemble correlation at great-circle angle ψ (rad): the band mean of P_ℓ(cos ψ)."""
@@ -305,9 +358,8 @@ class SynopticBandField:
     def evaluate(self, lat, lon, t):
         """The field at flat arrays of latitude, longitude (rad) and time (s); ``(N,)``.
 
-        Re[(x·w)^ℓ·e^{iφ(t)}] summed with the amplitudes: the power of the complex number x·w by numpy's
-        complex power (exact repeated multiplication for integer ℓ), the phase φ = ωt + b as e^{iφ} once per
-        distinct time of the batch (a node's grid has a few times for its four chords).
+        Re[(x·w)^ℓ·e^{iφ(t)}] summed with the amplitudes (:func:`_sectoral_sums`), the phase φ = ωt + b as
+        e^{iφ} once per distinct time of the batch (a node's grid has a few times for its four chords).
         """
         out = np.empty(lat.size)
         if lat.size == 0:
@@ -320,13 +372,40 @@ class SynopticBandField:
         unit[:, 2] = np.sin(lat)
         times, which = np.unique(t - t_ref, return_inverse=True)
         rotation = np.exp(1j * (phase_ref + times[:, None] * self._frequency_rad_s)).astype(self._complex)
-        block_points = max(64, (_BLOCK_ELEMENTS // 4) // self.n_components)
-        for start in range(0, lat.size, block_points):
-            stop = min(start + block_points, lat.size)
-            power = np.power(unit[start:stop] @ self._w, self._complex_degrees)  # (x·w)^ℓ, (n, M)
-            power *= rotation[which[start:stop]]
-            out[start:stop] = power.real @ self._amplitude
+        _sectoral_sums(unit, self._w_re, self._w_im, self._exponents, rotation, which.ravel(), self._amplitude, out)
         return out
+
+
+@kernel
+def _sectoral_sums(unit, w_re, w_im, exponents, rotation, which, amplitude, out):
+    """out[p] = Σⱼ amplitude[j]·Re[zⱼ^(exponents[j] + 1)·rotation[which[p], j]] with zⱼ = unit[p]·(w_re + i·w_im)[:, j],
+    one pass per point; the power by repeated squaring, bit by bit of the exponents over all components at once
+    (a loop over components runs in SIMD lanes), in the float type of ``w``."""
+    components = exponents.size
+    top = 0
+    while (np.max(exponents) >> top) > 0:
+        top += 1
+    base_re, base_im = np.empty(components, w_re.dtype), np.empty(components, w_re.dtype)
+    power_re, power_im = np.empty(components, w_re.dtype), np.empty(components, w_re.dtype)
+    row = np.empty(components)
+    for p in range(unit.shape[0]):
+        x0, x1, x2 = unit[p, 0], unit[p, 1], unit[p, 2]
+        for j in range(components):
+            base_re[j] = x0 * w_re[0, j] + x1 * w_re[1, j] + x2 * w_re[2, j]
+            base_im[j] = x0 * w_im[0, j] + x1 * w_im[1, j] + x2 * w_im[2, j]
+            power_re[j], power_im[j] = base_re[j], base_im[j]
+        for bit in range(top):
+            for j in range(components):
+                br, bi, pr, pi = base_re[j], base_im[j], power_re[j], power_im[j]
+                use = (exponents[j] >> bit) & 1
+                power_re[j] = pr * br - pi * bi if use else pr
+                power_im[j] = pr * bi + pi * br if use else pi
+                base_re[j] = br * br - bi * bi
+                base_im[j] = br * bi + bi * br
+        turn = rotation[which[p]]
+        for j in range(components):
+            row[j] = power_re[j] * turn[j].real - power_im[j] * turn[j].imag
+        out[p] = _weighted_sum(amplitude, row)
 
 
 def _flat_points(lat_rad, lon_rad, t_s):

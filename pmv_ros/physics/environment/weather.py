@@ -28,9 +28,10 @@ WINDOW_HALF_RANGE_M = math.sqrt(3.0) * 10e3
 #: flips roundings of phases of up to ≈ 400 rad (100 km waves; ULP 3·10⁻⁵ rad), and the sensed angles of
 #: the two runs part by ≈ 5·10⁻⁶′ (heights) and ≈ 7·10⁻⁷′ (weather at η = 0.3); in float64 by ≈ 3·10⁻⁷′
 #: (physics.md §3.2 item 6 asks 10⁻⁶′). Tried and dropped: a phase reduced to ±π in float64 with a float32
-#: cosine (9·10⁻⁷′), float32 offsets from float64 references every 16 points of a track (2·10⁻⁶′). numpy's
-#: float64 cosine costs ≈ 6× its float32 one here, and the layer height's is the largest item of the
-#: environment's cost (benchmarks/bench_environment.py --profile).
+#: cosine (9·10⁻⁷′), float32 offsets from float64 references every 16 points of a track (2·10⁻⁶′). The fields'
+#: own SIMD cosine (:func:`~pmv_ros.physics.environment.fields._cosine`) makes float64 cost about what numpy's
+#: float32 cosine did; the layer height's is the largest item of the environment's cost
+#: (benchmarks/bench_environment.py --profile).
 PRECISE_FIELD_DTYPE = np.float64
 
 

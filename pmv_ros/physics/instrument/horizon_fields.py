@@ -307,9 +307,12 @@ class HorizonFields:
         self.refresh()
         first_s = float(sample_times.min())
         for index, grid in enumerate(self.grids):
-            rows = np.unique(misses[:count][misses[:count, 0] == index][:, 1:], axis=0)
-            if rows.size == 0:
+            missed = misses[:count][misses[:count, 0] == index]
+            if missed.size == 0:
                 continue
+            # (time node, azimuth node) rows once each, in the order of their keys (a 1-D sort, not of rows)
+            keys = np.unique(missed[:, 1] * grid.azimuths + missed[:, 2])
+            rows = np.stack(np.divmod(keys, grid.azimuths), 1)
             # and the time nodes after the last one missing at each azimuth node (NODES_AHEAD)
             order = np.lexsort((rows[:, 0], rows[:, 1]))
             last = order[np.r_[rows[order[1:], 1] != rows[order[:-1], 1], True]]
@@ -341,12 +344,12 @@ class HorizonFields:
         frame = orbital_frame_from_state(position, velocity)  # (3, 3, K): columns X, Y, Z
         radius = np.sqrt(np.sum(position * position, axis=0))
         angle = np.arccos(EARTH_MEAN_RADIUS_M / radius)
-        for n, k in enumerate(nodes):
-            grid.rings[k] = np.concatenate([frame[:, 2, n], frame[:, 0, n], frame[:, 1, n], [angle[n], final[n]]])
-            if final[n] == 0.0:
-                grid.provisional.add(k)
-            else:
-                grid.provisional.discard(k)
+        final = np.asarray(final, float)
+        rings = np.concatenate([frame[:, 2], frame[:, 0], frame[:, 1], angle[None], final[None]])  # (11, K)
+        grid.rings.update(zip(nodes, np.ascontiguousarray(rings.T)))
+        provisional = set(np.asarray(nodes)[final == 0.0].tolist())
+        grid.provisional.difference_update(set(nodes) - provisional)
+        grid.provisional.update(provisional)
         if len(grid.rings) > RINGS_KEPT:  # the rings of time nodes the samples no longer reach
             for k in [k for k in grid.rings if k < grid.first_needed]:
                 del grid.rings[k]
