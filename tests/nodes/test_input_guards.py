@@ -422,7 +422,7 @@ def test_a_restarted_sensor_starts_a_new_statistics_epoch_said_once(harness):
         time.sleep(0.05)
     said = [s.message for s in statuses(diagnostics, "pmv_ros/error_monitor_node") if "statistics epoch 2" in s.message]
     assert before > 10 and 0 < after <= 20, (before, after)  # the new source sent 20: not before + those
-    assert h.node.sources.locks[h.node._sensor_topic].lock_changes == 1
+    assert h.node.sources.locks["/pmv/attitude"].lock_changes == 1
     assert len(said) == 1 and "a new source of /pmv/attitude" in said[0], said
 
 
