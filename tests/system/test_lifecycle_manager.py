@@ -1,9 +1,10 @@
-"""Managed nodes go only where they are told: an external lifecycle manager — the real ``ros2 lifecycle`` CLI —
-drives the launched nodes through every transition.
+"""Managed nodes go only where they are told: an external lifecycle manager drives the launched nodes through
+every transition.
 
-Each transition is sent by ``ros2 lifecycle set``; the states in between are read by this process's own
-``get_state`` client (the service ``ros2 lifecycle get`` calls, without a CLI process that spends its 5 s of
-discovery on every read); one read goes through ``ros2 lifecycle get`` too.
+The manager is this process's own clients of the nodes' ``change_state`` and ``get_state`` services — what a
+lifecycle manager (nav2's, a team's own) calls, and what ``ros2 lifecycle set``/``get`` call — and the real
+``ros2 lifecycle`` CLI for a few transitions and one read among them, so the CLI's path is taken too without a
+CLI process spending its 5 s of discovery on every transition.
 
 ``ros2 launch pmv_ros pmv.launch.py managed:=true`` configures and activates each node once, at start-up
 (``autostart``, default true); a later configure, after a cleanup, leaves the node inactive for the manager's own
@@ -25,7 +26,8 @@ import pytest
 import rclpy
 from children import VENDOR, VENDOR_INSTALLER, domain_id, install_env, join_domain
 from geometry_msgs.msg import Vector3Stamped
-from lifecycle_msgs.srv import GetState
+from lifecycle_msgs.msg import Transition
+from lifecycle_msgs.srv import ChangeState, GetState
 from rclpy.executors import SingleThreadedExecutor
 
 #: Block 0, as the other launch tests: modules sharing a worker run one after another, the other worker's
@@ -35,7 +37,8 @@ DOMAIN_ID = domain_id(0)
 pytestmark = [
     pytest.mark.launch,
     pytest.mark.multi_process,
-    # Two tests that mostly wait on `ros2 lifecycle` (≈ 3 min): beside the other users of the colcon build.
+    # Two tests that mostly wait on the launch and on `ros2 lifecycle` (≈ 1.5 min): beside the other users of the
+    # colcon build.
     pytest.mark.xdist_group("ros_workspace/lifecycle"),
     pytest.mark.skipif(not VENDOR_INSTALLER.is_file(),
                        reason=f"no {VENDOR} (vendored ros2 launch snapshots): not tested"),
@@ -101,9 +104,11 @@ class Stack:
 
 @pytest.fixture
 def listener(monkeypatch):
-    """A node of this process on the children's domain that counts /pmv/attitude and reads the nodes' lifecycle
-    states; yields (count, spin, state): ``state(node)`` is the label ``ros2 lifecycle get`` prints (``inactive``),
-    or "unknown" while the node's get_state service does not answer."""
+    """A node of this process on the children's domain that counts /pmv/attitude and reads and changes the nodes'
+    lifecycle states; yields (count, spin, state, change): ``state(node)`` is the label ``ros2 lifecycle get``
+    prints (``inactive``), or "unknown" while the node's get_state service does not answer; ``change(node,
+    transition)`` asks the node's change_state service for the transition of that label (``configure``) and
+    fails the test unless it says it succeeded."""
     context = join_domain(monkeypatch, DOMAIN_ID)
     node = rclpy.create_node("lifecycle_test_listener", context=context)
     executor = SingleThreadedExecutor(context=context)
@@ -116,22 +121,31 @@ def listener(monkeypatch):
         while time.monotonic() < end:
             executor.spin_once(timeout_sec=0.05)
 
-    def state(name: str) -> str:
-        client = clients.setdefault(name, node.create_client(GetState, f"{name}/get_state"))
+    def call(service_type, name: str, request):
+        """The response of the service ``name``, or None when it does not answer within CLI_TIMEOUT_S."""
+        client = clients.setdefault(name, node.create_client(service_type, name))
         deadline = time.monotonic() + CLI_TIMEOUT_S
         while not client.service_is_ready():
             if time.monotonic() > deadline:
-                return "unknown"
+                return None
             spin(0.1)
-        future = client.call_async(GetState.Request())
+        future = client.call_async(request)
         while not future.done():
             if time.monotonic() > deadline:
-                return "unknown"
+                return None
             executor.spin_once(timeout_sec=0.05)
-        return future.result().current_state.label
+        return future.result()
+
+    def state(name: str) -> str:
+        answer = call(GetState, f"{name}/get_state", GetState.Request())
+        return "unknown" if answer is None else answer.current_state.label
+
+    def change(name: str, transition: str) -> None:
+        answer = call(ChangeState, f"{name}/change_state", ChangeState.Request(transition=Transition(label=transition)))
+        assert answer is not None and answer.success, f"{name} {transition}: {answer}"
 
     try:
-        yield (lambda: len(attitude)), spin, state
+        yield (lambda: len(attitude)), spin, state, change
     finally:
         executor.shutdown()
         node.destroy_node()
@@ -154,19 +168,19 @@ def _publishes(count, spin, seconds: float = 2.0) -> bool:
 
 def test_after_a_cleanup_the_managers_configure_leaves_the_node_inactive_for_its_own_activate(
         colcon_install, ros_tools, listener, tmp_path):
-    count, spin, state = listener
+    count, spin, state, change = listener
     stack = Stack(colcon_install, ros_tools, tmp_path)
     try:
         _wait_for_state(state, stack, "/sensor_node", "active")  # the launch's own start-up: configure, activate
         assert _publishes(count, spin)
-        stack.set("/sensor_node", "deactivate")
-        stack.set("/sensor_node", "cleanup")
+        change("/sensor_node", "deactivate")
+        stack.set("/sensor_node", "cleanup")  # through the CLI
         assert stack.cli_state("/sensor_node") == "unconfigured"  # the CLI reads it too
-        stack.set("/sensor_node", "configure")
+        change("/sensor_node", "configure")
         spin(STAYS_S)
         assert state("/sensor_node") == "inactive"  # the launch does not activate it behind the manager
         assert not _publishes(count, spin)
-        stack.set("/sensor_node", "activate")  # the manager's own activate is not refused
+        change("/sensor_node", "activate")  # the manager's own activate is not refused
         assert state("/sensor_node") == "active" and _publishes(count, spin)
         stack.interrupt()
     finally:
@@ -175,7 +189,7 @@ def test_after_a_cleanup_the_managers_configure_leaves_the_node_inactive_for_its
 
 
 def test_without_autostart_the_manager_drives_every_transition(colcon_install, ros_tools, listener, tmp_path):
-    count, spin, state = listener
+    count, spin, state, change = listener
     stack = Stack(colcon_install, ros_tools, tmp_path, "autostart:=false")
     nodes = ("/sensor_node", "/star_tracker_node", "/error_monitor_node")
     try:
@@ -183,15 +197,18 @@ def test_without_autostart_the_manager_drives_every_transition(colcon_install, r
             _wait_for_state(state, stack, node, "unconfigured")
         spin(STAYS_S)
         assert [state(node) for node in nodes] == ["unconfigured"] * 3 and not _publishes(count, spin, 0.5)
-        for transition, wanted, publishing in (("configure", "inactive", False), ("activate", "active", True),
-                                              ("deactivate", "inactive", False), ("cleanup", "unconfigured", False),
-                                              ("configure", "inactive", False), ("activate", "active", True)):
-            stack.set("/sensor_node", transition)
+        for step, (transition, wanted, publishing) in enumerate((
+                ("configure", "inactive", False), ("activate", "active", True), ("deactivate", "inactive", False),
+                ("cleanup", "unconfigured", False), ("configure", "inactive", False), ("activate", "active", True))):
+            if step == 0:
+                stack.set("/sensor_node", transition)  # the first through the CLI
+            else:
+                change("/sensor_node", transition)
             spin(STAYS_S if transition == "configure" else 0.5)
             assert state("/sensor_node") == wanted, (transition, stack.log()[-3000:])
             spin(1.0)  # what was on its way before the transition
             assert _publishes(count, spin) == publishing, transition
-        stack.set("/sensor_node", "shutdown")
+        stack.set("/sensor_node", "shutdown")  # through the CLI: it picks the shutdown of the active state
         assert state("/sensor_node") == "finalized"
         stack.interrupt()
     finally:
