@@ -32,7 +32,7 @@ bytecode: $(STAMP)
 demo: $(STAMP) bytecode
 	$(BIN)/pmv simulate --config config/kondor.yaml --orbits 1 --report report
 
-# One BLAS thread in every process of the suite: two workers and their children already fill the two cores, and
+# One BLAS thread in every process of the suite: the workers and their children already fill the two cores, and
 # a BLAS thread waiting for work spins. The parallel part, back to back on one machine: 319 s (560 s of CPU) with
 # the default threads, 277 s (479 s) with one. The campaign's Dask workers are set the same way (WORKER_ENVIRONMENT,
 # pmv_ros/apps/campaign/cluster.py).
@@ -40,13 +40,14 @@ test test-long: export OPENBLAS_NUM_THREADS = 1
 test test-long: export OMP_NUM_THREADS = 1
 test test-long: export MKL_NUM_THREADS = 1
 
-# Two workers: half the suite waits on child processes and simulated time, so two share the two cores well.
+# Three workers on two cores: much of the suite waits on child processes, discovery and simulated time; with three
+# the cores still stood idle 8 % of the parallel part (back to back on one machine: two workers 408 s, three 347 s).
 # xdist hands out groups (--dist loadgroup): a test module is a group (its module fixtures run once), and the
 # modules that share a session fixture declare one group in their pytestmark; the groups go out in the order
 # tests/conftest.py sorts them (--no-loadscope-reorder keeps it). Tests whose figures are rates of wall time
 # (marked serial) run afterwards, alone.
 test: $(STAMP) bytecode
-	$(BIN)/python -m pytest -q -n 2 --dist loadgroup --no-loadscope-reorder -m "not serial"
+	$(BIN)/python -m pytest -q -n 3 --dist loadgroup --no-loadscope-reorder -m "not serial"
 	$(BIN)/python -m pytest -q -m serial
 
 # Tests marked `long` at full length: the 24 h soak (≈ 20 min) and 60 s of 50 Hz load; figures printed.

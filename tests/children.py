@@ -30,13 +30,13 @@ VENDOR_INSTALLER = VENDOR / "install-ros-tools.sh"
 
 
 def domain_id(block: int) -> int:
-    """A ROS domain of this run's own in ``block`` (0: 1…100, 1: 101…200): apart from other runs by the pid,
-    and from the other worker of a parallel run (``pytest -n 2``) by the worker's number.
+    """A ROS domain of this run's own in ``block`` (0: 1…99, 1: 101…199): apart from other runs by the pid,
+    and from the other workers of a parallel run (``pytest -n 2`` or ``-n 3``) by the worker's number.
 
     Test modules whose children may overlap in time take different blocks.
     """
     worker = os.environ.get("PYTEST_XDIST_WORKER", "gw0").removeprefix("gw")
-    return 1 + 100 * block + 2 * (os.getpid() % 50) + (int(worker) if worker.isdigit() else 0) % 2
+    return 1 + 100 * block + 3 * (os.getpid() % 33) + (int(worker) if worker.isdigit() else 0) % 3
 
 
 def child_env(log_dir: Path, domain: int, *, discovery: str = "LOCALHOST", fresh_shell: bool = False,

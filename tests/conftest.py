@@ -51,10 +51,11 @@ REPO = Path(__file__).resolve().parents[1]
 # ``make test`` runs it after the parallel part, alone), ``multi_process`` (its tests start child processes:
 # nodes on a DDS domain, ros2 launch, a Dask cluster, pmv in a child — tools/flake_hunt.py repeats these under
 # load) and ``xdist_group(NAME)`` when it uses a session fixture that runs a long command once per run
-# (SESSION_RUNS): under ``pytest -n 2 --dist loadgroup`` every test of a group runs on one worker, so the command
+# (SESSION_RUNS): under ``pytest -n 3 --dist loadgroup`` every test of a group runs on one worker, so the command
 # runs once. A group ``NAME/PART`` shares the fixture's command too (it runs once, early, for the whole run, and
 # each worker reads its result): a module whose tests mostly wait — on `ros2 lifecycle` processes, say — takes a
-# part of its own and runs beside the group on the other worker. A test module without an explicit group is a group of its own (its module fixtures run once).
+# part of its own and runs beside the group on another worker. A test module without an explicit group is a group
+# of its own (its module fixtures run once).
 # Two checks keep the marks true when files are renamed or tests added: a test that uses a SESSION_RUNS fixture
 # outside its group fails the collection, and a test that starts a process in a module not marked
 # ``multi_process`` fails (the audit hook below sees every subprocess, fork and exec of the test process).
@@ -96,7 +97,7 @@ def _order(items) -> list:
     """The tests in the order ``--dist loadgroup --no-loadscope-reorder`` hands their groups out, each group's tests
     together and in collection order: first the groups that start processes (much of their time is waiting on
     children, and the longest tests are among them), then the users of SESSION_RUNS fixtures (their commands run
-    in the background meanwhile), then the rest, whose many short modules let the two workers finish together."""
+    in the background meanwhile), then the rest, whose many short modules let the workers finish together."""
     first, session_users, multi_process = {}, set(), set()
     for index, item in enumerate(items):
         group = _group(item)

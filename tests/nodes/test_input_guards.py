@@ -1,4 +1,4 @@
-"""Issue 15 in-process: one source per input, no file read from the network, bounded and known parameters.
+"""The input guards in-process: one source per input, no file read from the network, bounded and known parameters.
 
 The multi-process attacks (a second process on the DDS domain) are in
 tests/system/test_adversarial.py; these tests drive one node in its own context.

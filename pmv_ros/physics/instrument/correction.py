@@ -119,7 +119,7 @@ class CorrectionTable:
         first_line, header = rows[0]
         names = [c.strip().lower() for c in next(csv.reader(io.StringIO(header)))]
         if names != list(CSV_COLUMNS):
-            # The reason names the line, never quotes it: the file may be anything (issue 15).
+            # The reason names the line, never quotes it: the file may be anything.
             raise ValueError(f"correction table {source} line {first_line}: the header must be "
                              f"'{','.join(CSV_COLUMNS)}'")
         values = []

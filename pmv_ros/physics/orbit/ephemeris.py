@@ -1,6 +1,6 @@
 """Where the Sun and the Moon are: the run's clock on the astronomical time scales, and the ephemerides.
 
-Sensor fault "bright body in a chord's field" (issue 6, item 3): while the Sun
+Sensor fault "bright body in a chord's field": while the Sun
 or the Moon is within a configurable angle of the part of a chord's scan that
 looks at space, the chord's crossing is unreliable. This module and
 :mod:`pmv_ros.physics.instrument.bright_body` are the pure part of that check:

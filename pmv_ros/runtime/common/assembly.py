@@ -27,7 +27,7 @@ from ...physics.star_tracker import SOLAR_EVENTS
 from .validation import InputBounds
 
 
-#: Input guards every node has (issue 15; the checks are runtime/validation.py). Read-only while the node runs:
+#: Input guards every node has (the checks are runtime/common/validation.py). Read-only while the node runs:
 #: anyone on the DDS domain can set parameters, and a guard a neighbour could loosen guards nothing.
 INPUT_PARAMS = (
     ParamSpec("input.max_rate_hz", 500.0, "an input stream stamped faster than this is thinned to it and the rest "

@@ -9,7 +9,7 @@ and the tests read presets through :func:`preset_values` without rclpy.
 An integer given for a floating-point parameter (``rate_hz: 10`` in YAML) is
 taken as that number, not rejected: nobody means anything else by it.
 
-Sizes are bounded (issue 15: anyone on the DDS domain can set parameters): a
+Sizes are bounded (anyone on the DDS domain can set parameters): a
 list parameter declares its ``max_length`` (documented in its descriptor), a
 string is at most :data:`MAX_STRING_LENGTH` characters; longer values are
 refused before anything is built from them. A key that no parameter of the

@@ -11,7 +11,8 @@ monitor core only call these checks, count the reasons and say so on
   within a plausibility bound: a horizon sensor that reads 1e308 rad has not
   measured anything), :func:`check_orbit_state` (a bound Earth orbit: radius
   and speed within bounds, negative specific energy, a perigee above the
-  Earth's surface). The bounds are
+  Earth's surface), :func:`check_odometry` (a whole orbit/odometry message:
+  frames, state, stamp). The bounds are
   :class:`InputBounds`, set from node parameters.
 * **Stamps** — :class:`StampCheck`, one per stream: NaN/Inf, zero or negative,
   in the future of the node clock, duplicate, backwards, and faster than the
@@ -274,6 +275,26 @@ def check_orbit_state(position_m, velocity_m_s, bounds: InputBounds) -> Rejectio
     if not semi_latus / (1.0 + eccentricity) > EARTH_MEAN_RADIUS_M:
         return Rejection.IMPLAUSIBLE_ORBIT
     return None
+
+
+def check_odometry(frame_id: str, child_frame_id: str, state, eci: str, orbital: str, bounds: InputBounds,
+                   stamps: "StampCheck", now_s: float | None) -> tuple[Rejection | None, bool]:
+    """(why one orbit/odometry message is refused or None, whether its stamp confirmed a clock jump back).
+
+    The sensor's and the tracker's one check of ``orbit.source`` follow: the pose in the ``eci`` frame, the twist
+    in the ``orbital`` frame (:func:`check_frame`), ``state`` (stamp s, position m, velocity m/s; None when the
+    message was unreadable: an orientation that is no rotation, a bad stamp) a bound orbit
+    (:func:`check_orbit_state`), and only then the stamp through the stream's ``stamps`` at ``now_s``. After a
+    confirmed jump the caller starts its orbit history over.
+    """
+    rejection = check_frame(frame_id, eci) or check_frame(child_frame_id, orbital)
+    if rejection is None:
+        if state is None:
+            return Rejection.NON_FINITE, False
+        rejection = check_orbit_state(state[1], state[2], bounds)
+    if rejection is not None:
+        return rejection, False
+    return stamps.check(state[0], now_s)
 
 
 # ------------------------------------------------------------------------------ clock jumps

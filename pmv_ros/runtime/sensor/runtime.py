@@ -57,7 +57,7 @@ from ..common.records import HealthAt, HealthSummary, Level  # HealthAt: the sen
 from .sample_stream import SampleGrid, SampleStream, SensorSample, fast_time_block
 from .health import SensorHealth, truth_source_warnings
 from ..common.truth_buffer import PendingSamples, TruthAt, TruthBuffer
-from ..common.validation import Jump, JumpDetector, Rejection, StampCheck, check_frame, check_orbit_state, \
+from ..common.validation import Jump, JumpDetector, Rejection, StampCheck, check_frame, check_odometry, \
     check_quaternion_sample
 
 
@@ -247,21 +247,16 @@ class SensorRuntime:
     def add_odometry(self, frame_id: str, child_frame_id: str, state, clock_s: float) -> None:
         """orbit.source follow: one orbit/odometry message, ``state`` (stamp s, position m, velocity m/s) in ECI
         or None when unreadable; keep a valid state, drop and count a bad one."""
-        rejection = check_frame(frame_id, self.frames.eci) or check_frame(child_frame_id, self.frames.orbital)
-        if rejection is None:
-            if state is None:  # an orientation that is no rotation, or a bad stamp
-                rejection = Rejection.NON_FINITE
-            else:
-                stamp_s, position, velocity = state
-                rejection = check_orbit_state(position, velocity, self._orbit_bounds)
-        if rejection is None:
-            rejection, jumped = self._odometry_stamps.check(stamp_s, self.now_s(clock_s))
-            if jumped:
-                self.health.count("clock_jumps")
-                self.stream.orbit.buffer.clear()
+        frames = self.frames
+        rejection, jumped = check_odometry(frame_id, child_frame_id, state, frames.eci, frames.orbital,
+                                           self._orbit_bounds, self._odometry_stamps, self.now_s(clock_s))
+        if jumped:
+            self.health.count("clock_jumps")
+            self.stream.orbit.buffer.clear()
         if rejection is not None:
             self.health.count(f"rejected_odometry_{rejection.value}")
             return
+        stamp_s, position, velocity = state
         buffer = self.stream.orbit.buffer
         buffer.add(stamp_s, position, velocity)
         # The sensor's field nodes placed ahead of the odometry are placed again once it covers them; a buffer

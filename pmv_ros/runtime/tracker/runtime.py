@@ -55,7 +55,7 @@ from ..common.assembly import orbit_bounds
 from ..common.frames import Frames
 from ..common.records import HealthAt, HealthSummary, Level, LogLine
 from ..common.validation import (STAMP_REJECTIONS, TRUTH_REJECTIONS, FrameCheck, Rejection, StampCheck,
-                                 check_frame, check_orbit_state, check_quaternion_sample)
+                                 check_odometry, check_quaternion_sample)
 
 #: Why a truth message is dropped: the checks of the stream, and a frame other than the orbital one.
 REJECTIONS = TRUTH_REJECTIONS + (Rejection.WRONG_FRAME,)
@@ -268,20 +268,15 @@ class TrackerRuntime:
         buffer = self.orbit_buffer
         if buffer is None:
             return
-        rejection = check_frame(frame_id, self.frames.eci) or check_frame(child_frame_id, self.frames.orbital)
-        if rejection is None:
-            if state is None:  # an orientation that is no rotation, or a bad stamp
-                rejection = Rejection.NON_FINITE
-            else:
-                stamp_s, position, velocity = state
-                rejection = check_orbit_state(position, velocity, self._orbit_bounds)
-        if rejection is None:
-            rejection, jumped = self.odometry_stamps.check(stamp_s, now_s)
-            if jumped:
-                buffer.clear()
+        frames = self.frames
+        rejection, jumped = check_odometry(frame_id, child_frame_id, state, frames.eci, frames.orbital,
+                                           self._orbit_bounds, self.odometry_stamps, now_s)
+        if jumped:
+            buffer.clear()
         if rejection is not None:
             self.input_counts[f"rejected_odometry_{rejection.value}"] += 1
             return
+        stamp_s, position, velocity = state
         buffer.add(stamp_s, position, velocity)
 
     def add_truth(self, t_s: float, q_xyzw) -> list[tuple[float, np.ndarray, Outcome]]:
