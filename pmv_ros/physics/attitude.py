@@ -35,15 +35,22 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 #: The local nadir in the orbital frame.
 NADIR_ORBITAL = np.array([0.0, 0.0, -1.0])
 
 
-def _rotation(q_xyzw) -> Rotation:
+def _rotation_type():
+    """scipy's ``Rotation``, imported at its first use: scipy.spatial costs ≈ 0.2 s of every process that imports
+    this module (every node, every ``pmv`` command) and many never call what needs it."""
+    from scipy.spatial.transform import Rotation
+
+    return Rotation
+
+
+def _rotation(q_xyzw):
     q = np.asarray(q_xyzw, float)
-    return Rotation.from_quat(q.T)
+    return _rotation_type().from_quat(q.T)
 
 
 def quaternion_from_roll_pitch_yaw(roll_rad, pitch_rad, yaw_rad=0.0):
@@ -54,7 +61,7 @@ def quaternion_from_roll_pitch_yaw(roll_rad, pitch_rad, yaw_rad=0.0):
     roll, pitch, yaw = np.broadcast_arrays(*(np.asarray(a, float) for a in (roll_rad, pitch_rad, yaw_rad)))
     # R = R_z(ψ) R_y(θ) R_x(φ): scipy's intrinsic Z-Y-X.
     angles = np.stack([yaw, pitch, roll], axis=-1)
-    return Rotation.from_euler("ZYX", angles).as_quat().T
+    return _rotation_type().from_euler("ZYX", angles).as_quat().T
 
 
 def roll_pitch_yaw_from_quaternion(q_orbital_to_body):

@@ -11,7 +11,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.special import eval_legendre
 
 from ..compiled import elementwise
 from ..constants import EARTH_MEAN_RADIUS_M
@@ -83,6 +82,8 @@ def background_radius_m(correlation_radius_m: float, synoptic_fraction: float, d
     chordal = 2.0 * EARTH_MEAN_RADIUS_M * math.sin(0.5 * psi)
     if w == 0.0:
         return float(chordal)
+    from scipy.special import eval_legendre  # imported where used, as in fields.py
+
     band = float(np.mean([eval_legendre(ell, math.cos(psi)) for ell in range(degrees[0], degrees[1] + 1)]))
     target = (math.exp(-1.0) - w * band) / (1.0 - w) if w < 1.0 else -1.0
     radius = -chordal / math.log(target) if 0.0 < target < 1.0 else math.inf

@@ -17,7 +17,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ..constants import ARCSEC_RAD
 from .kernel import field_stars_batch
@@ -102,6 +101,10 @@ _SHARED_INDEXES_KEPT = 4
 def _build_index(direction_eci: np.ndarray, half_width_rad: float) -> tuple[np.ndarray, np.ndarray]:
     """:meth:`Sky.index` of the stars at ``direction_eci`` ``(3, S)``: each cell holds every star within the reach of
     a field centred in it, widened by :data:`INDEX_MARGIN_RAD`, in star order."""
+    # Imported here: scipy.spatial costs ≈ 0.2 s of every process that imports this module (through the Outcome
+    # codes, every node and `pmv` command), and only a tracker building its sky's index needs it.
+    from scipy.spatial import cKDTree
+
     reach = math.atan(math.sqrt(2.0) * math.tan(half_width_rad)) + _CELL_RADIUS_RAD + INDEX_MARGIN_RAD
     found = cKDTree(direction_eci.T).query_ball_point(_cell_centres().T, 2.0 * math.sin(reach / 2.0),
                                                       return_sorted=True)
