@@ -45,7 +45,8 @@ TOPICS = (
         m, s.t_s, f.eci, f.orbital, s.position_eci_m, s.velocity_eci_m_s)),
         when=lambda n: not n.follows_orbit),  # orbit.source follow: the user's (its TF is still ours)
     Pub("pmv/horizon_crossings", PolygonStamped, SamplePublication, _sample(
-        lambda m, s, f: shim.write_horizon_crossings(m, s.t_s, f.sensor, s.line_of_sight))),
+        lambda m, s, f: shim.write_horizon_crossings(m, s.t_s, f.sensor, shim.checked_lines_of_sight(
+            s.line_of_sight, s.chord_valid)))),  # checked as a message's: only when someone subscribes
     Pub("pmv/attitude", Vector3Stamped, SamplePublication, _sample(
         lambda m, s, f: shim.write_attitude_angles(m, s.t_s, f.sensor, s.roll_rad, s.pitch_rad))),
     Pub("pmv/attitude_uncorrected", Vector3Stamped, SamplePublication, _sample(lambda m, s, f: (
@@ -81,7 +82,7 @@ class SensorNode(PmvNode):
             self._runtime = SensorRuntime(
                 v, clock_epoch_s=self.now_s(), stepped=external_drive,
                 correction=READ_CORRECTION,  # the one file read: at start-up, once the orbit is checked
-                check_lines_of_sight=shim.checked_lines_of_sight, truth_topic=self.resolve_topic_name("attitude/truth"),
+                truth_topic=self.resolve_topic_name("attitude/truth"),
                 odometry_topic=self.resolve_topic_name("orbit/odometry"), graph_problems=self._graph_problems,
                 source_counters=self.input_source_counters)
             self._orbit_status = self._orbit_status_of(v)

@@ -115,7 +115,6 @@ class SensorRuntime:
         correction: the brightness-correction table (read once by the caller), or
             :data:`~pmv_ros.runtime.common.assembly.READ_CORRECTION`: read here, once, after the orbit and the
             epoch are checked (refused, they read no file and compute no table).
-        check_lines_of_sight: the message layer's check of a block's lines of sight (see SampleStream).
         stepped: fast time is stepped by a caller (``pmv simulate``), not by a paced timer.
         truth_topic, odometry_topic: the node's resolved input names (its health names them).
         graph_problems: ``() -> (other_truth_publishers, source_errors)``: how many publish /attitude/truth
@@ -126,8 +125,7 @@ class SensorRuntime:
     Raises ValueError for a combination of values the parameter ranges cannot check.
     """
 
-    def __init__(self, values: dict, *, clock_epoch_s: float, correction, check_lines_of_sight=None,
-                 stepped: bool = False, truth_topic: str = "/attitude/truth",
+    def __init__(self, values: dict, *, clock_epoch_s: float, correction, stepped: bool = False, truth_topic: str = "/attitude/truth",
                  odometry_topic: str = "/orbit/odometry",
                  graph_problems: Callable[[], tuple[int, tuple]] = _no_graph_problems,
                  source_counters: Callable[[], dict] = dict) -> None:
@@ -137,7 +135,7 @@ class SensorRuntime:
         if correction is READ_CORRECTION:
             build_orbit(values, clock_epoch_s=clock_epoch_s)
             correction = read_correction(values)
-        self._correction, self._check_lines_of_sight = correction, check_lines_of_sight
+        self._correction = correction
         self._graph_problems, self._source_counters = graph_problems, source_counters
         self.stream = self.grid = self.truth = self._truth_stamps = None
         self.values = values
@@ -175,7 +173,7 @@ class SensorRuntime:
         if isinstance(orbit, FollowedOrbit) and isinstance(previous_orbit, FollowedOrbit):  # it keeps its states
             orbit.buffer.take_states(previous_orbit.buffer)
         self._orbit_bounds = orbit_bounds(values)
-        self.stream = SampleStream(model, orbit, profile, self._check_lines_of_sight)
+        self.stream = SampleStream(model, orbit, profile)
         self._imu_variances = (variance_from_rms_arcmin(values["imu.roll_error_rms_arcmin"]),
                                variance_from_rms_arcmin(values["imu.pitch_error_rms_arcmin"]))
         # Real time: the sample times, on the grid of the orbit's epoch (the node clock at the start).

@@ -37,6 +37,11 @@ class SensorSample(NamedTuple):
     position_eci_m: tuple  #: spacecraft position in ECI
     velocity_eci_m_s: tuple  #: spacecraft velocity in ECI
 
+    @property
+    def chord_valid(self) -> tuple:
+        """Per chord, whether it saw a horizon (its status is VALID; the others' lines of sight are NaN)."""
+        return tuple(code == ChordStatus.VALID for code in self.chord_status)
+
 #: Samples computed per call in fast time with the own attitude profile (the per-call cost of the instrument,
 #: a few µs, and of the environment's node evaluations amortised; benchmarks/bench_sensing.py). A parameter
 #: change discards the block.
@@ -139,13 +144,13 @@ class SampleStream:
         model: the instrument (:class:`pmv_ros.physics.instrument.sensor.SensorModel`).
         orbit: the orbit it flies (for position and velocity).
         profile: the own attitude model (``quaternion(t_s)``), used by :meth:`next_profile_sample`.
-        check_lines_of_sight: called with the ``(N, 4, 3)`` lines of sight and the ``(N, 4)``
-            validity of a block; returns them as published (the node passes the shim's check).
+
+    The lines of sight are the instrument's (unit vectors; NaN for a chord that is not VALID); the node checks
+    them as a message's at publication, when anyone subscribes.
     """
 
-    def __init__(self, model, orbit, profile, check_lines_of_sight=None):
+    def __init__(self, model, orbit, profile):
         self.model, self.orbit, self.profile = model, orbit, profile
-        self._check = check_lines_of_sight
         self._pending = deque()
         self._grid_block = (None, None, [])  # real time: (grid, block number, its samples)
 
@@ -201,16 +206,11 @@ class SampleStream:
         N samples, made from the reading's rows (:attr:`~pmv_ros.physics.instrument.sensor.SensorReading.table`)."""
         if reading is None:
             reading = self.model.sense(times, q)
-        table = reading.table
-        sights = None
-        if self._check is not None:
-            sights = self._check(table[:, LINE_OF_SIGHT].reshape(-1, 4, 3), table[:, STATUS] == ChordStatus.VALID)
-            sights = [tuple(map(tuple, sight)) for sight in sights.tolist()]
         samples = []
-        for n, (t_s, q_xyzw, row) in enumerate(zip(reading.t_s.tolist(), reading.q_orbital_to_body.T.tolist(),
-                                                   table.tolist())):
-            sight = sights[n] if sights is not None else ((row[_S0], row[_S1], row[_S2]), (row[_S3], row[_S4], row[_S5]),
-                                                           (row[_S6], row[_S7], row[_S8]), (row[_S9], row[_S10], row[_S11]))
+        for t_s, q_xyzw, row in zip(reading.t_s.tolist(), reading.q_orbital_to_body.T.tolist(),
+                                    reading.table.tolist()):
+            sight = ((row[_S0], row[_S1], row[_S2]), (row[_S3], row[_S4], row[_S5]), (row[_S6], row[_S7], row[_S8]),
+                     (row[_S9], row[_S10], row[_S11]))
             samples.append(SensorSample(t_s, tuple(q_xyzw), sight, row[ROLL], row[PITCH], row[ROLL_UNCORRECTED],
                                         row[PITCH_UNCORRECTED], (int(row[_C0]), int(row[_C1]), int(row[_C2]), int(row[_C3])),
                                         (int(row[_B0]), int(row[_B1]), int(row[_B2]), int(row[_B3])),
