@@ -215,7 +215,8 @@ def main(argv=None) -> int:
     }
     year_min = YEAR_S / best["workers_2_at_1_hz"] / 60.0
     result = {
-        "preset": PRESET.name, "rate_hz": RATE_HZ, "orbits_per_task": args.orbits, "orbits_per_task_at_1_hz": orbits_1_hz,
+        "preset": PRESET.name, "rate_hz": RATE_HZ, "orbits_per_task": args.orbits,
+        "orbits_per_task_at_1_hz": orbits_1_hz,
         "rounds": rounds, "best_samples_per_s": best,
         "core_1_worker_over_pipeline": best["workers_1"] / best["pipeline"],
         "workers_2_over_1": best["workers_2"] / best["workers_1"],
@@ -239,13 +240,17 @@ def main(argv=None) -> int:
         print(json.dumps(result))
         return 0
     print(f"{PRESET.name}: {args.tasks} tasks of {args.orbits:g} orbit at {RATE_HZ:g} Hz and of {orbits_1_hz:g} orbit "
-          f"at 1 Hz, {args.rounds} rounds (load average {', '.join(f'{x:.1f}' for x in loads)} on {os.cpu_count()} CPUs)")
+          f"at 1 Hz, {args.rounds} rounds (load average {', '.join(f'{x:.1f}' for x in loads)} "
+          f"on {os.cpu_count()} CPUs)")
     for index, r in enumerate(rounds, 1):
         print(f"  round {index}: pipeline {r['pipeline']:6.0f}  instrument {r['instrument']:6.0f}  1 worker "
               f"{r['workers_1']:6.0f}  2 workers {r['workers_2']:6.0f} samples/s at {RATE_HZ:g} Hz;  at 1 Hz: "
-              f"instrument {r['instrument_at_1_hz']:6.0f}  2 workers {r['workers_2_at_1_hz']:6.0f};  load {r['load']:.1f}")
-        print(f"           core/pipeline {r['workers_1'] / r['pipeline']:5.1f}×  2/1 {r['workers_2'] / r['workers_1']:4.2f}×"
-              f"  worker/instrument {r['workers_1'] / r['instrument']:4.2f}  year at 1 Hz {r['year_at_1_hz_min']:5.1f} min"
+              f"instrument {r['instrument_at_1_hz']:6.0f}  2 workers {r['workers_2_at_1_hz']:6.0f};"
+              f"  load {r['load']:.1f}")
+        print(f"           core/pipeline {r['workers_1'] / r['pipeline']:5.1f}×"
+              f"  2/1 {r['workers_2'] / r['workers_1']:4.2f}×"
+              f"  worker/instrument {r['workers_1'] / r['instrument']:4.2f}"
+              f"  year at 1 Hz {r['year_at_1_hz_min']:5.1f} min"
               f";  by CPU time: worker/instrument {r['cpu_worker_over_instrument']:4.2f}  2/1 {r['cpu_2_over_1']:4.2f}×"
               f"  year {r['cpu_year_at_1_hz_min']:5.1f} min")
     print("best of the rounds: " + ", ".join(f"{key} {value:.0f}" for key, value in best.items()) + " samples/s")

@@ -20,9 +20,9 @@ Both pipelines are built first and kept alive; the span is cut into rounds that 
 stepping is timed (building the pipelines is the same work in both). Before the first round each job and the
 per-sample run are stepped once untimed (``--warmup`` ticks): the first steps load the compiled sensing code
 and fill caches, which would otherwise land on whichever job runs first. The median of the rounds' ratios is
-printed beside the ratio of the totals (a round caught by a burst of load moves the median less). The last line is the ratio of (b)'s and
-(a)'s total times; before it, what (b) would cost with the sensor's runtime at 1.5× the open loop's a sample
-(the follow path's target), everything else as measured.
+printed beside the ratio of the totals (a round caught by a burst of load moves the median less). The last line
+is the ratio of (b)'s and (a)'s total times; before it, what (b) would cost with the sensor's runtime at 1.5× the
+open loop's a sample (the follow path's target), everything else as measured.
 
     .venv/bin/python benchmarks/bench_closed_loop.py [--orbits 0.2] [--rounds 10] [--samples 1024] [--warmup 100]
 """
@@ -34,7 +34,6 @@ import os
 import statistics
 import tempfile
 import time
-from collections import Counter
 from pathlib import Path
 
 os.environ.setdefault("ROS_LOG_DIR", tempfile.mkdtemp(prefix="pmv_bench_log_"))
@@ -43,41 +42,13 @@ os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "OFF"
 import numpy as np  # noqa: E402
 import yaml  # noqa: E402
 
+from bench_main_job import RuntimeTimes  # noqa: E402  (this folder: the script's own)
 from pmv_ros.nodes.pipeline import Pipeline  # noqa: E402
 from pmv_ros.runtime.common.assembly import READ_CORRECTION  # noqa: E402
 from pmv_ros.runtime.flight import flight_values  # noqa: E402
 from pmv_ros.runtime.sensor.runtime import SensorRuntime  # noqa: E402
 
 KONDOR = Path(__file__).resolve().parents[1] / "config" / "kondor.yaml"
-
-
-class RuntimeTimes:
-    """While installed on nodes: wall time inside each node's runtime (its public methods, outermost calls)."""
-
-    def __init__(self, nodes):
-        self.seconds = Counter()
-        self._depth = [0]
-        for node in nodes:
-            runtime = node.runtime
-            for name in dir(type(runtime)):
-                if not name.startswith("_") and callable(getattr(type(runtime), name, None)):
-                    setattr(runtime, name, self._timed(getattr(runtime, name), node.get_name()))
-
-    def _timed(self, method, owner: str):
-        depth, seconds, clock = self._depth, self.seconds, time.perf_counter
-
-        def timed(*arguments, **keywords):
-            if depth[0]:
-                return method(*arguments, **keywords)
-            depth[0] = 1
-            started = clock()
-            try:
-                return method(*arguments, **keywords)
-            finally:
-                seconds[owner] += clock() - started
-                depth[0] = 0
-
-        return timed
 
 
 class MainJob:
@@ -179,7 +150,8 @@ def main() -> None:
     closed_rest = closed_us - closed_total["sensor_s"] / n * 1e6
     print(f"over all rounds: open loop {open_us:.0f} µs/tick, of which its sensor runtime "
           f"{total['sensor_s'] / n * 1e6:.0f}; closed loop {closed_us:.0f} µs/tick, of which its sensor runtime (the "
-          f"follow path) {closed_total['sensor_s'] / n * 1e6:.0f} ({closed_total['sensor_s'] / closed_total['wall_s']:.0%})"
+          f"follow path) {closed_total['sensor_s'] / n * 1e6:.0f} "
+          f"({closed_total['sensor_s'] / closed_total['wall_s']:.0%})"
           f" and the controller's {closed_total['controller_s'] / n * 1e6:.0f}; everything else "
           f"{open_rest:.0f} against {closed_rest:.0f} µs/tick; load average at the end: {os.getloadavg()[0]:.2f}")
     print(f"sensor alone per sample, follow / own attitude: {follow_us / own_us:.2f}x ({follow_us:.0f} against "

@@ -86,13 +86,14 @@ class Recorder:
 
 
 class RuntimeTimes:
-    """While installed on a pipeline: wall time spent inside its nodes' runtimes (every public method of each
-    node's runtime, outermost calls only), per node — the computation the main job does besides ROS."""
+    """While installed on nodes (a pipeline's, or some of them): wall time spent inside their runtimes (every
+    public method of each node's runtime, outermost calls only), per node name — the computation the main job
+    does besides ROS. ``benchmarks/bench_closed_loop.py`` uses it too."""
 
-    def __init__(self, pipeline: Pipeline):
+    def __init__(self, nodes):
         self.seconds = Counter()
         self._depth = [0]
-        for node in pipeline.nodes:
+        for node in nodes:
             runtime = getattr(node, "runtime", None)
             for name in dir(type(runtime)) if runtime is not None else ():
                 if not name.startswith("_") and callable(getattr(type(runtime), name, None)):
@@ -141,7 +142,7 @@ def _main_job(ticks: int, record: bool) -> dict:
         graph = graph_of(pipeline)
         taken = Counter()
         recorder = Recorder() if record else None
-        runtimes = RuntimeTimes(pipeline) if record else None
+        runtimes = RuntimeTimes(pipeline.nodes) if record else None
         for node in pipeline.nodes:  # count what each subscription takes (and, recording, which node, which tick)
             for subscription in node.subscriptions:
                 holder = subscription.callback if isinstance(subscription.callback, TakingQueued) else subscription
@@ -294,7 +295,8 @@ def main() -> None:
     published = Counter(topic for tick in recorded["schedule"] for topic in tick)
     print(f"main job: {ticks} ticks; per tick it publishes "
           + ", ".join(f"{topic} {count / ticks:.2f}" for topic, count in sorted(published.items()))
-          + "; takes " + ", ".join(f"{topic} {count / ticks:.2f}" for topic, count in sorted(recorded["taken"].items())))
+          + "; takes "
+          + ", ".join(f"{topic} {count / ticks:.2f}" for topic, count in sorted(recorded["taken"].items())))
     jobs, floors, job_cpu, floor_cpu, chains, waited, public = [], [], [], [], [], [], []
     for round_number in range(1, args.rounds + 1):
         job = main_job(ticks)

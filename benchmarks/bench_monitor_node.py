@@ -96,8 +96,9 @@ class Bench:
             truth = None
             if round(t * 10) % 5 == 0:
                 stamp = t - 0.25
-                truth = shim.write_attitude_quaternion(QuaternionStamped(), stamp, "orbital", quaternion_from_roll_pitch_yaw(
-                    1e-3 * math.sin(stamp / 300.0), -5e-4, 0.0))
+                truth = shim.write_attitude_quaternion(QuaternionStamped(), stamp, "orbital",
+                                                       quaternion_from_roll_pitch_yaw(
+                                                           1e-3 * math.sin(stamp / 300.0), -5e-4, 0.0))
             ticks_out.append((t, odometry, angles, truth))
         return ticks_out
 

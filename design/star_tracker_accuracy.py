@@ -79,7 +79,8 @@ def main(argv=None) -> int:
           f"(5–95 %: {np.nanpercentile(ratio, 5):.1f}–"
           f"{np.nanpercentile(ratio, 95):.1f})")
     print(f"  error across the boresight: RMS {np.sqrt(np.nanmean(across ** 2)):.2f}″ per axis, median |.| "
-          f"{np.nanmedian(np.abs(across)) / 0.6745:.2f}″ (as a σ); about it: RMS {np.sqrt(np.nanmean(error[2] ** 2)):.1f}″, "
+          f"{np.nanmedian(np.abs(across)) / 0.6745:.2f}″ (as a σ); "
+          f"about it: RMS {np.sqrt(np.nanmean(error[2] ** 2)):.1f}″, "
           f"median-based σ {np.nanmedian(np.abs(error[2])) / 0.6745:.1f}″; RMS ratio about/across "
           f"{np.sqrt(np.nanmean(error[2] ** 2) / np.nanmean(across ** 2)):.1f}")
     print(f"  correlation time (autocorrelation < 1/e): across {correlation_time_s(error[0], step):.0f} s, "

@@ -76,7 +76,8 @@ def main(argv=None) -> int:
               + ", ".join(f"{o.reason} {100 * np.mean(frames.outcome == o):.2f} %" for o in Outcome
                           if o not in (Outcome.OK, Outcome.BUFFER_OVERFLOW) and np.any(frames.outcome == o)) + ")")
         print(f"  most hits in a frame {frames.hits.max()}; frames with ≥ 5 hits where AP8 J(>45 MeV) is zero: "
-              f"{int(np.sum(hot & (flux45 <= 0.0)))}; where J(>45 MeV) < 1 cm-2 s-1: {int(np.sum(hot & (flux45 < 1.0)))}")
+              f"{int(np.sum(hot & (flux45 <= 0.0)))}; "
+              f"where J(>45 MeV) < 1 cm-2 s-1: {int(np.sum(hot & (flux45 < 1.0)))}")
         runs = passes(t, hot)
         minutes = values["frame_period_s"] / 60.0
         longest = max((b - a for a, b in runs), default=0) * minutes
@@ -84,7 +85,8 @@ def main(argv=None) -> int:
         for a, b in runs:
             peak = a + int(np.argmax(frames.hits[a:b]))
             print(f"    t {t[a] / 3600:6.2f} h, {(b - a) * minutes:4.1f} min, "
-                  f"lat {lat[a:b].min():6.1f}…{lat[a:b].max():6.1f}°, lon {lon[a:b].min():7.1f}…{lon[a:b].max():7.1f}°, "
+                  f"lat {lat[a:b].min():6.1f}…{lat[a:b].max():6.1f}°, "
+                  f"lon {lon[a:b].min():7.1f}…{lon[a:b].max():7.1f}°, "
                   f"most hits {frames.hits[peak]} at ({lat[peak]:.1f}°, {lon[peak]:.1f}°), "
                   f"overflow {int(overflow[a:b].sum())} frames")
         drawn.append((preset, lat, lon, hot))

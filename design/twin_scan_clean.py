@@ -3,7 +3,8 @@
 The twin: :func:`pmv_ros.runtime.monitor.scan.scan_clean` validates a whole clean batch on arrays (a campaign's
 flight: an orbit of samples in one call), where :class:`pmv_ros.runtime.monitor.scan.EventScan` — the general
 path, clock jumps and bad stamps included — validates any input one event at a time. Both give the same
-verdicts, counters and timelines (``tests/runtime/test_monitor.py::test_the_array_scan_of_a_clean_batch_is_the_event_scan``).
+verdicts, counters and timelines
+(``tests/runtime/test_monitor.py::test_the_array_scan_of_a_clean_batch_is_the_event_scan``).
 
 This script measures, in one run:
 

@@ -194,7 +194,8 @@ def alternate(measure_a, measure_b, pairs: int) -> tuple[float, float, float, fl
 
 
 def campaign_calls() -> dict:
-    """Each fast path's float-path calls over one campaign task (the worker's ``run_task``, Meteor-M No.2, 10 Hz, 0.25 orbit)."""
+    """Each fast path's float-path calls over one campaign task (the worker's ``run_task``, Meteor-M No.2, 10 Hz,
+    0.25 orbit)."""
     from pmv_ros.apps import campaign
     from pmv_ros.apps.campaign.results import run_task
 
@@ -253,7 +254,8 @@ def main(argv=None) -> int:
           f"load {os.getloadavg()[0]:.1f}", flush=True)
     calls = campaign_calls()
     samples = calls.pop("(samples)")
-    print(f"{'twin':26s} {'main job: without it':>22s} {'(quartiles)':>18s}   campaign: calls in a task of {samples} samples")
+    print(f"{'twin':26s} {'main job: without it':>22s} {'(quartiles)':>18s}   "
+          f"campaign: calls in a task of {samples} samples")
     for twin, (target, replaced) in TWINS.items():
         try:
             replaced()  # made, not entered: a fast path no longer there says so here

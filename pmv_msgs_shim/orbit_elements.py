@@ -83,7 +83,8 @@ class OrbitElements:
         """From a :class:`pmv_ros.physics.orbit.two_body.CircularOrbit` (read by attribute) and the UTC of its epoch."""
         return cls(epoch_utc=str(epoch_utc), epoch_stamp_s=float(orbit.epoch_s),
                    altitude_km=orbit.altitude_m / 1e3, inclination_deg=math.degrees(orbit.inclination_rad),
-                   raan_deg=math.degrees(orbit.raan_rad), arg_latitude_deg=math.degrees(orbit.arg_latitude_at_epoch_rad),
+                   raan_deg=math.degrees(orbit.raan_rad),
+                   arg_latitude_deg=math.degrees(orbit.arg_latitude_at_epoch_rad),
                    period_s=float(orbit.period_s),
                    raan_rate_deg_per_day=math.degrees(orbit.raan_rate_rad_s) * SECONDS_PER_DAY)
 

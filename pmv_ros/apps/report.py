@@ -157,8 +157,10 @@ def write_report(directory, summary: dict, residuals: np.ndarray, orbit, live_ha
     _, model_roll, model_pitch = closed_form_oblateness(model_u, orbit.altitude_m, orbit.inclination_rad)
     figure, axes = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True)
     for axis, values, model, name in ((axes[0], roll, model_roll, "roll"), (axes[1], pitch, model_pitch, "pitch")):
-        axis.plot(u_deg, values / ARCMIN_RAD, ".", markersize=1.5, alpha=0.5, label=f"{name} residual (sensor − star tracker)")
-        axis.plot(np.degrees(model_u), model / ARCMIN_RAD, "k-", linewidth=1.5, label="oblateness model (physics.md §2.1)")
+        axis.plot(u_deg, values / ARCMIN_RAD, ".", markersize=1.5, alpha=0.5,
+                  label=f"{name} residual (sensor − star tracker)")
+        axis.plot(np.degrees(model_u), model / ARCMIN_RAD, "k-", linewidth=1.5,
+                  label="oblateness model (physics.md §2.1)")
         axis.set_ylabel(f"{name}, arcmin")
         axis.grid(True, alpha=0.3)
         axis.legend(loc="best", fontsize=8, framealpha=0.9)
@@ -250,7 +252,8 @@ def _plot_pointing(path: Path, pointing: np.ndarray, orbit, figures: dict) -> No
         axis.legend(loc="best", fontsize=8, framealpha=0.9)
     axes[1].set_xlabel("argument of latitude u, deg")
     axes[1].set_xlim(0, 360)
-    figure.suptitle(f"True pointing error, PD loop at {figures['bandwidth_hz']:g} Hz (ζ = {figures['damping_ratio']:g}), "
+    figure.suptitle(f"True pointing error, PD loop at {figures['bandwidth_hz']:g} Hz "
+                    f"(ζ = {figures['damping_ratio']:g}), "
                     f"oblateness compensation {'on' if figures['oblateness_compensation'] else 'off'}")
     figure.tight_layout()
     figure.savefig(path, dpi=110)

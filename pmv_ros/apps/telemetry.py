@@ -137,7 +137,8 @@ def _block_values(path, numbers, rows, width, wanted, index, bounds):
                 try:
                     float(text)
                 except ValueError:
-                    raise ValueError(f"{path}, line {line}, column '{name}': {text.strip()!r} is not a number") from None
+                    raise ValueError(f"{path}, line {line}, column '{name}': "
+                                     f"{text.strip()!r} is not a number") from None
             raise
         low, high = bounds[name]
         with np.errstate(invalid="ignore"):

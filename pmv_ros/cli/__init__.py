@@ -29,7 +29,8 @@ SUBCOMMANDS = ("oblateness", "scenario", "analyze", "simulate", "campaign")
 
 def build_parser() -> OneLineParser:
     """The ``pmv`` argument parser with every subcommand registered."""
-    parser = OneLineParser(prog="pmv", description="PMV infrared horizon sensor emulator: tools for people and scripts.")
+    parser = OneLineParser(prog="pmv",
+                           description="PMV infrared horizon sensor emulator: tools for people and scripts.")
     subparsers = parser.add_subparsers(dest="command", required=True, parser_class=OneLineParser)
     for name in SUBCOMMANDS:
         importlib.import_module(f"{__name__}.{name}").add_parser(subparsers)

@@ -78,9 +78,9 @@ def add_parser(subparsers) -> None:
     parser.add_argument("--rate-hz", type=ranged_float(0.1, 100.0, " Hz"), default=None,
                         help="sensor output rate (default: the preset's)")
     parser.add_argument("--closed-loop", action="store_true",
-                        help="close the loop in every task (the sensor in follow mode inside attitude_controller_node's "
-                             "plant and PD loop, as pmv simulate --closed-loop): the budget adds the true pointing "
-                             "error beside the residuals")
+                        help="close the loop in every task (the sensor in follow mode inside "
+                             "attitude_controller_node's plant and PD loop, as pmv simulate --closed-loop): "
+                             "the budget adds the true pointing error beside the residuals")
     parser.add_argument("--components", action="store_true",
                         help="also fly each environment component alone (oblateness, climatology, weather, layer "
                              "height) and give their root sum of squares beside the total")

@@ -140,8 +140,10 @@ def run(args) -> int:
 
 def _chord_failure(chord: int, status: str) -> int:
     reasons = {
-        DetectionStatus.FIRST_THRESHOLD_NOT_REACHED.name: "never crossed the first threshold (0.33 J): horizon too dark",
-        DetectionStatus.SECOND_THRESHOLD_NOT_REACHED.name: "never crossed the second threshold (0.67 J): horizon too dark",
+        DetectionStatus.FIRST_THRESHOLD_NOT_REACHED.name: "never crossed the first threshold (0.33 J): "
+                                                          "horizon too dark",
+        DetectionStatus.SECOND_THRESHOLD_NOT_REACHED.name: "never crossed the second threshold (0.67 J): "
+                                                           "horizon too dark",
     }
     fail("pmv scenario", f"chord {chord}: {reasons.get(status, status)}")
     return 1

@@ -3,8 +3,8 @@
 Used by ``pmv simulate`` (the main job), the node tests and the pipeline
 benchmark. With ``closed_loop``, the sensor follows ``attitude/truth`` and an
 :class:`~pmv_ros.nodes.attitude_controller_node.AttitudeControllerNode` publishes it: a rigid body held
-nadir-pointing by a PD loop on ``pmv/attitude`` (``pmv simulate --closed-loop``). Each :class:`Pipeline` has its own rclpy context, so several can
-live in one process one after another. Flow control is explicit: every
+nadir-pointing by a PD loop on ``pmv/attitude`` (``pmv simulate --closed-loop``). Each :class:`Pipeline` has
+its own rclpy context, so several can live in one process one after another. Flow control is explicit: every
 sensor tick is followed by :meth:`Pipeline.drain`, which runs ready callbacks
 until none is left, so no queue grows and nothing is dropped however fast
 the simulation runs (:func:`~pmv_ros.nodes.rclpy_internals.drain`, also

@@ -138,7 +138,8 @@ _SMALL_ANGLE_RAD = 1e-3
 
 
 def quaternion_product(a, b):
-    """Hamilton product a ⊗ b of (x, y, z, w) quaternions: rotation b, then a (scipy's ``Rotation(a) * Rotation(b)``)."""
+    """Hamilton product a ⊗ b of (x, y, z, w) quaternions: rotation b, then a
+    (scipy's ``Rotation(a) * Rotation(b)``)."""
     ax, ay, az, aw = a
     bx, by, bz, bw = b
     product = (aw * bx + ax * bw + ay * bz - az * by,

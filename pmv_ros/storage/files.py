@@ -194,7 +194,8 @@ MAX_CSV_BYTES = 256 << 20
 
 def iter_csv_blocks(path, what: str, max_bytes: int = MAX_CSV_BYTES, max_line: int = MAX_CSV_LINE_CHARS,
                     max_rows: int = MAX_CSV_ROWS, block_bytes: int = 1 << 20):
-    """The rows of a CSV file in blocks: ``(line numbers, rows)`` per block of ≈ ``block_bytes``; ValueError on a defect.
+    """The rows of a CSV file in blocks: ``(line numbers, rows)`` per block of ≈ ``block_bytes``;
+    ValueError on a defect.
 
     Blank lines and lines starting with ``#`` are skipped; the first row of
     the first block is the header. Memory is one block, whatever the file

@@ -866,7 +866,8 @@ def _checked_connections(path: Path, reader, wanted: dict[str, tuple[str, ...]])
         if accepted is None:
             continue
         if connection.msgtype not in accepted:
-            raise RecordingError(f"{path}: {connection.topic} is {connection.msgtype}, expected " + " or ".join(accepted))
+            raise RecordingError(f"{path}: {connection.topic} is {connection.msgtype}, expected "
+                                 + " or ".join(accepted))
         connections.append(connection)
     return connections
 

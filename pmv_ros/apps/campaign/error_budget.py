@@ -70,7 +70,8 @@ def budget(out: Path, tasks: list[Task], settings: Settings | None = None) -> di
         used = table.column("outcome").to_numpy() == ok
         latitude = np.degrees(table.column("latitude_rad").to_numpy())[used]
         season = description["season"]
-        component = groups.setdefault(task.component, {"year": _new_channels(), **{s: _new_channels() for s in SEASONS}})
+        component = groups.setdefault(task.component,
+                                      {"year": _new_channels(), **{s: _new_channels() for s in SEASONS}})
         day = days.setdefault(task.component, {}).setdefault(task.day, _new_channels())
         sigmas = seed_sigma.setdefault(task.component, {}).setdefault(task.day, {c: [] for c in CHANNELS})
         row = np.clip(np.digitize(latitude, edges) - 1, 0, edges.size - 2)

@@ -232,7 +232,8 @@ def read_result(path: Path, columns=None):
             raise ResultRejected(f"{path}: columns {[f'{name} {kind}' for name, kind in types][:10]} are not the "
                                  "result's")
         declared = sum(meta.row_group(i).total_byte_size for i in range(meta.num_row_groups))
-        if meta.num_rows > MAX_TASK_SAMPLES or declared > (MAX_TASK_SAMPLES * 8 * len(RESULT_COLUMNS + POINTING_COLUMNS)) * 2:
+        if (meta.num_rows > MAX_TASK_SAMPLES
+                or declared > (MAX_TASK_SAMPLES * 8 * len(RESULT_COLUMNS + POINTING_COLUMNS)) * 2):
             raise ResultRejected(f"{path}: declares {meta.num_rows} rows, {declared} bytes, more than a task has")
         raw = (parquet.schema_arrow.metadata or {}).get(METADATA_KEY)
         if raw is None:

@@ -217,7 +217,8 @@ def check(settings: Settings, tasks: list[Task]) -> None:
     period = 1.0 / values.sensor["sensor.rate_hz"]
     if period > values.star_tracker["max_truth_gap_s"]:
         raise ValueError(f"sensor rate {values.sensor['sensor.rate_hz']:g} Hz: samples {period:g} s apart are "
-                         f"longer than the star tracker's max_truth_gap_s = {values.star_tracker['max_truth_gap_s']:g} s"
+                         "longer than the star tracker's "
+                         f"max_truth_gap_s = {values.star_tracker['max_truth_gap_s']:g} s"
                          ", so it would measure no frame")
     for name in {task.component for task in tasks} - {first.component}:  # each component's overrides once
         flight_values(settings.document, task_overrides(settings, Task(first.day, first.seed, name)))

@@ -68,6 +68,7 @@ __all__ = [
     "ChordReadings", "brightness_correction", "comparator_times", "detector_lag", "gam_del", "ifov_edge_response",
     "ifov_energy", "ifov_line_spread", "pair_angles", "scan_nadir_angles", "sense_sampled_chords",
     "COARSE_POINTS", "COARSE_STRIDE", "DISC_SAMPLE_INWARD_RAD", "DISC_SAMPLE_POWERS",
-    "GROUND_DISTANCE_FIT_RAD", "GROUND_DISTANCE_POWERS", "TABLE_OVERSAMPLING", "ChainArrays", "ChainKit", "ResponseTables", "chain_kit",
+    "GROUND_DISTANCE_FIT_RAD", "GROUND_DISTANCE_POWERS", "TABLE_OVERSAMPLING", "ChainArrays", "ChainKit",
+    "ResponseTables", "chain_kit",
     "disc_sample_profile", "prepare", "response_tables", "sense_chord", "sense_horizon_chords", "unpack",
 ]

@@ -89,7 +89,8 @@ def background_radius_m(correlation_radius_m: float, synoptic_fraction: float, d
     radius = -chordal / math.log(target) if 0.0 < target < 1.0 else math.inf
     if not radius <= EARTH_MEAN_RADIUS_M:
         raise ValueError(f"a weather correlation radius of {correlation_radius_m / 1e3:g} km cannot be reached with "
-                         f"{100 * w:g} % of the variance in degrees {degrees[0]} … {degrees[1]}: the synoptic fraction must "
+                         f"{100 * w:g} % of the variance in degrees {degrees[0]} … {degrees[1]}: "
+                         "the synoptic fraction must "
                          "be lower")
     return float(radius)
 
@@ -239,7 +240,8 @@ class LayerHeightField:
         time_origin_s: the field's own time at t = 0, s (see :class:`GaussianSphereField`).
     """
 
-    def __init__(self, mean_m: float = 40e3, half_range_m: float = WINDOW_HALF_RANGE_M, correlation_radius_m: float = 700e3,
+    def __init__(self, mean_m: float = 40e3, half_range_m: float = WINDOW_HALF_RANGE_M,
+                 correlation_radius_m: float = 700e3,
                  time_scale_s: float = 86400.0, n_components: int = 256, seed=1,
                  min_wavelength_m: float = MIN_WAVELENGTH_M, time_origin_s: float = 0.0) -> None:
         self.mean_m = check_range("layer height", mean_m / 1e3, 5.0, 150.0, " km") * 1e3

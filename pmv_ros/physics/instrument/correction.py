@@ -229,13 +229,15 @@ def scaled_correction_table(table: CorrectionTable, scale: float) -> CorrectionT
     """
     s = float(scale)
     if not (math.isfinite(s) and SCALE_BOUNDS[0] <= s <= SCALE_BOUNDS[1]):
-        raise ValueError(f"curve scale = {scale} is outside the allowed range {SCALE_BOUNDS[0]:g} … {SCALE_BOUNDS[1]:g}")
+        raise ValueError(f"curve scale = {scale} is outside the allowed range "
+                         f"{SCALE_BOUNDS[0]:g} … {SCALE_BOUNDS[1]:g}")
     return CorrectionTable(table.del_rad, s * table.pop_rad,
                            source=f"{table.source or 'rig curve'} with a gain error ×{s:g}")
 
 
 def meteor_m2_2_table() -> CorrectionTable:
-    """The over-correcting stored curve inferred for Meteor-M No.2-2: the working curve × s (shipped in pmv_ros/data/)."""
+    """The over-correcting stored curve inferred for Meteor-M No.2-2: the working curve × s
+    (shipped in pmv_ros/data/)."""
     text = resources.files("pmv_ros").joinpath("data", METEOR_M2_2_TABLE).read_text(encoding="utf-8")
     return CorrectionTable.from_csv_text(text, source=f"pmv_ros/data/{METEOR_M2_2_TABLE}")
 

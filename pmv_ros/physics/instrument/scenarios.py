@@ -154,7 +154,8 @@ def model_c(b=MEAN_EARTH_RADIANCE_RU, jump=MODEL_C_JUMP_RU, jump_distance_m=MODE
 
 def model_d(b=MEAN_EARTH_RADIANCE_RU, height_m=WINDOW_HEIGHT_M + WINDOW_HEIGHT_SIGMA_M, altitude_m=500e3,
             other_height_m=WINDOW_HEIGHT_M) -> PairScenario:
-    """Model D: equal radiance B r.u.; window-layer height ``height_m`` (m) behind chord 1, ``other_height_m`` behind 2."""
+    """Model D: equal radiance B r.u.; window-layer height ``height_m`` (m) behind chord 1,
+    ``other_height_m`` behind 2."""
     b = _radiance("B", b)
     h1, h2 = _height("window height", height_m), _height("other window height", other_height_m)
     return PairScenario("D", f"layer height: B = {b:g} r.u., h_w = {h1 / 1e3:g} km vs {h2 / 1e3:g} km",

@@ -143,8 +143,8 @@ def scratch_sizes(knots: int) -> tuple[int, int]:
 def sense_samples(times, attitude, states, track_nodes, track_params, static, kit_vector, kit_tables, weather_keys,
                   weather_values, height_keys, height_values, out, misses, need, scratch, int_scratch):
     """Sense N samples: ``times`` (N,) s; ``attitude`` (N, 4): the quaternions orbital → body (x, y, z, w);
-    ``states`` (N, 6), for a followed orbit, the position and velocity there (ECI, m, m/s); the track's node rows and (first
-    node, spacing s, 1 if the orbit is followed) (:class:`~pmv_ros.physics.instrument.track.OrbitTrack`);
+    ``states`` (N, 6), for a followed orbit, the position and velocity there (ECI, m, m/s); the track's node rows
+    and (first node, spacing s, 1 if the orbit is followed) (:class:`~pmv_ros.physics.instrument.track.OrbitTrack`);
     ``static`` (:data:`STATIC_SIZE`): the configuration vector (layout above), the mounting (3 × 3, row by
     row), the two field grids' parameters; the chain's arrays (:class:`~pmv_ros.physics.chain.ChainArrays`);
     the field grids' node tables. Each sample's results go into its row of ``out`` (N, :data:`COLUMNS`);

@@ -112,7 +112,8 @@ class SensorConfig:
             if len(self.mounting_q_xyzw) != 4 or not abs(norm - 1.0) < 1e-9:
                 raise ValueError(f"mounting_q_xyzw = {self.mounting_q_xyzw} is not a unit quaternion (x, y, z, w)")
         if not (0.0 <= self.ideal_layer_height_m <= 100e3):
-            raise ValueError(f"ideal_layer_height_m = {self.ideal_layer_height_m} is outside the allowed range 0 … 100000 m")
+            raise ValueError(f"ideal_layer_height_m = {self.ideal_layer_height_m} is outside the allowed "
+                             "range 0 … 100000 m")
         exclusion = float(self.bright_body_exclusion_rad)
         if not (np.isfinite(exclusion) and 0.0 <= exclusion <= np.pi / 4):
             raise ValueError(f"bright_body_exclusion_rad = {self.bright_body_exclusion_rad} is outside the allowed "
@@ -324,7 +325,8 @@ class RadianceConfig:
         a multiple of 4 spacing them ≤ :data:`~.horizon_fields.FIELD_AZIMUTH_FRACTION` of the field's scale."""
         circle_m = 2.0 * math.pi * EARTH_MEAN_RADIUS_M * math.sin(
             math.acos(EARTH_MEAN_RADIUS_M / (EARTH_MEAN_RADIUS_M + altitude_m)))
-        return tuple(4 * math.ceil(circle_m / (4.0 * FIELD_AZIMUTH_FRACTION * scale)) for scale in self.field_scales_m())
+        return tuple(4 * math.ceil(circle_m / (4.0 * FIELD_AZIMUTH_FRACTION * scale))
+                     for scale in self.field_scales_m())
 
 
 class ChainDetector:
@@ -477,7 +479,8 @@ class SensorModel:
         if fields is not None and not fields.current:
             fields.refresh()
         if self.track.has_errors:
-            self.track.needs(math.floor(float(t.min()) / TRACK_NODE_S) - 1, math.floor(float(t.max()) / TRACK_NODE_S) + 2)
+            self.track.needs(math.floor(float(t.min()) / TRACK_NODE_S) - 1,
+                             math.floor(float(t.max()) / TRACK_NODE_S) + 2)
         missing = self._run(t, attitude, states, table)
         first = 0  # the samples before are done
         while missing:

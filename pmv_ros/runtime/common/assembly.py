@@ -22,7 +22,8 @@ from .frames import FRAME_PARAMS, MOUNTING_PARAMS, Mounting
 from .parameters import ParamSpec
 from .truth_buffer import DEFAULT_BRIDGE_S
 from ...physics.orbit.tle import TleOrbit, element_set_altitude_m
-from ...physics.instrument.sensor import ChainDetector, RadianceConfig, SensorConfig, SensorModel, nominal_scan_start_nadir_rad
+from ...physics.instrument.sensor import (ChainDetector, RadianceConfig, SensorConfig, SensorModel,
+                                          nominal_scan_start_nadir_rad)
 from ...physics.star_tracker import SOLAR_EVENTS
 from .validation import InputBounds
 
@@ -33,7 +34,8 @@ INPUT_PARAMS = (
     ParamSpec("input.max_rate_hz", 500.0, "an input stream stamped faster than this is thinned to it and the rest "
               "counted too_fast (a flood cannot run the stream's clock ahead)", 2.0, 1e5, unit="Hz", read_only=True),
     ParamSpec("input.source_timeout_s", 1.0, "only the first publisher heard on an input is used; it is given up "
-              "after this long without a message (then the next one heard is used)", 0.05, 3600.0, unit="s", read_only=True),
+              "after this long without a message (then the next one heard is used)", 0.05, 3600.0, unit="s",
+              read_only=True),
 )
 
 #: Plausibility bounds of the monitor's inputs: what a horizon sensor on a bound Earth orbit can report.
@@ -106,8 +108,10 @@ SENSOR_PARAMS = INPUT_PARAMS + FRAME_PARAMS + MOUNTING_PARAMS + ORBIT_BOUND_PARA
     ParamSpec("attitude.roll_offset_arcmin", 0.0, "constant roll of the body", -2700.0, 2700.0, unit="arcmin"),
     ParamSpec("attitude.pitch_offset_arcmin", 0.0, "constant pitch of the body", -2700.0, 2700.0, unit="arcmin"),
     ParamSpec("attitude.yaw_offset_arcmin", 0.0, "constant yaw of the body", -2700.0, 2700.0, unit="arcmin"),
-    ParamSpec("attitude.roll_amplitude_arcmin", 0.0, "amplitude of the slow roll oscillation", 0.0, 2700.0, unit="arcmin"),
-    ParamSpec("attitude.pitch_amplitude_arcmin", 0.0, "amplitude of the slow pitch oscillation", 0.0, 2700.0, unit="arcmin"),
+    ParamSpec("attitude.roll_amplitude_arcmin", 0.0, "amplitude of the slow roll oscillation", 0.0, 2700.0,
+              unit="arcmin"),
+    ParamSpec("attitude.pitch_amplitude_arcmin", 0.0, "amplitude of the slow pitch oscillation", 0.0, 2700.0,
+              unit="arcmin"),
     ParamSpec("attitude.oscillation_period_s", 600.0, "period of the slow oscillations", 1.0, 1e6, unit="s"),
     ParamSpec("attitude.roll_drift_arcmin_per_h", 0.0, "linear drift of the body roll with time", -600.0, 600.0,
               unit="arcmin/h"),
@@ -466,7 +470,8 @@ def build_detector(values: dict, orbit: CircularOrbit, epoch: Epoch, correction=
         earth_rotation_at_epoch_rad=rotation_at_clock_zero % (2.0 * math.pi),
     )
     correction = read_correction(values) if correction is READ_CORRECTION else correction
-    return ChainDetector(orbit.altitude_m, radiance, correction, scan_margin_rad=math.radians(values["sensor.scan_margin_deg"]))
+    return ChainDetector(orbit.altitude_m, radiance, correction,
+                         scan_margin_rad=math.radians(values["sensor.scan_margin_deg"]))
 
 
 def read_correction(values: dict):

@@ -19,8 +19,9 @@ grid of control steps, ``control.rate_hz``, and at each step:
 Who advances the plant: a host that steps it (:meth:`ControllerRuntime.step_to`: the campaign's flight before
 each sensor sample; :meth:`ControllerRuntime.step_at_next_measurement`: the in-process pipeline, so the step
 that the sample's measurement decides is taken as soon as that measurement arrives, in the same pass of the
-executor) or the node's timer (:meth:`ControllerRuntime.tick`: every step up to the node clock). A step's attitude is published when the plant reaches it, stamped with
-its time: a following sensor measures at its own sample times between them (slerp).
+executor) or the node's timer (:meth:`ControllerRuntime.tick`: every step up to the node clock). A step's attitude
+is published when the plant reaches it, stamped with its time: a following sensor measures at its own sample
+times between them (slerp).
 
 Inputs are checked as every node checks them (:mod:`pmv_ros.runtime.common.validation`): the frame (the
 sensor's: ``frames.sensor``), the stamp (duplicates, backwards, future, too fast; a jump back by more than

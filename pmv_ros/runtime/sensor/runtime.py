@@ -125,7 +125,8 @@ class SensorRuntime:
     Raises ValueError for a combination of values the parameter ranges cannot check.
     """
 
-    def __init__(self, values: dict, *, clock_epoch_s: float, correction, stepped: bool = False, truth_topic: str = "/attitude/truth",
+    def __init__(self, values: dict, *, clock_epoch_s: float, correction, stepped: bool = False,
+                 truth_topic: str = "/attitude/truth",
                  odometry_topic: str = "/orbit/odometry",
                  graph_problems: Callable[[], tuple[int, tuple]] = _no_graph_problems,
                  source_counters: Callable[[], dict] = dict) -> None:

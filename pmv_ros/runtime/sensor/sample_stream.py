@@ -212,7 +212,8 @@ class SampleStream:
             sight = ((row[_S0], row[_S1], row[_S2]), (row[_S3], row[_S4], row[_S5]), (row[_S6], row[_S7], row[_S8]),
                      (row[_S9], row[_S10], row[_S11]))
             samples.append(SensorSample(t_s, tuple(q_xyzw), sight, row[ROLL], row[PITCH], row[ROLL_UNCORRECTED],
-                                        row[PITCH_UNCORRECTED], (int(row[_C0]), int(row[_C1]), int(row[_C2]), int(row[_C3])),
+                                        row[PITCH_UNCORRECTED],
+                                        (int(row[_C0]), int(row[_C1]), int(row[_C2]), int(row[_C3])),
                                         (int(row[_B0]), int(row[_B1]), int(row[_B2]), int(row[_B3])),
                                         (row[_P0], row[_P1], row[_P2]), (row[_V0], row[_V1], row[_V2])))
         return samples
