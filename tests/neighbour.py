@@ -186,7 +186,8 @@ def running_nodes(tmp_path, params: str = PARAMS, nodes=("error_monitor_node", "
             executable = name.split(":")[0]  # "sensor_node:sat1": a second instance, told apart by the suffix
             processes[name] = subprocess.Popen(
                 [str(VENV_BIN / executable), *(arguments or {}).get(name, ()), "--ros-args",
-                 *(ros_arguments or {}).get(name, ()), "--params-file", str(path)], env=child_env(tmp_path / "log", domain), cwd=tmp_path, stdin=subprocess.DEVNULL,
+                 *(ros_arguments or {}).get(name, ()), "--params-file", str(path)],
+                env=child_env(tmp_path / "log", domain), cwd=tmp_path, stdin=subprocess.DEVNULL,
                 stdout=open(tmp_path / f"{name.replace(':', '_')}.out", "w"), stderr=subprocess.STDOUT)
         yield processes
     finally:

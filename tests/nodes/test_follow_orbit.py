@@ -86,7 +86,8 @@ def test_the_sensor_measures_on_the_users_eccentric_orbit(harness):
     # 771 km (the same plane and phase at the start) the same samples read differently, by far more.
     nominal = CircularOrbit(771e3, ECCENTRIC.inclination_rad, ECCENTRIC.raan_rad, ECCENTRIC.arg_latitude_at_epoch_rad)
     apart = np.max(np.abs(sensed - sensed_on(nominal))) / ARCMIN_RAD
-    print(f"followed vs internal: {np.max(np.abs(sensed - reference)) / ARCMIN_RAD:.2e}′; vs the nominal circle: {apart:.2f}′")
+    print(f"followed vs internal: {np.max(np.abs(sensed - reference)) / ARCMIN_RAD:.2e}′; "
+          f"vs the nominal circle: {apart:.2f}′")
     assert apart > 0.1
 
 

@@ -50,8 +50,8 @@ def _sustainable_rate_hz(seconds: float = 1.5, start_timeout_s: float = 60.0) ->
     RATE_HZ for ``seconds`` (process time of all threads per tick published: the machine's load does not stretch
     it), from the sensor's first tick on: the start-up before it pays one-off costs (the signal chain's response
     tables, now when the sensor is built; before, in its first tick and with scipy.signal's import, 0.5–1.5 s of
-    CPU) that no later tick does — counted in a window that holds a few ticks on a loaded machine, they made the rate a fraction of a
-    hertz and the run published nothing. The share of a core this process gets, by a busy loop."""
+    CPU) that no later tick does — counted in a window that holds a few ticks on a loaded machine, they made the rate a
+    fraction of a hertz and the run published nothing. The share of a core this process gets, by a busy loop."""
     began_wall, began_cpu = time.monotonic(), time.thread_time()
     while time.monotonic() - began_wall < 0.3:
         pass

@@ -320,7 +320,8 @@ def test_a_configure_soon_after_cleanup_takes_back_the_endpoints_which_go_after_
             assert time.monotonic() < deadline, f"{text!r} not echoed within 5 s"
             lifecycle.spin(0.02)
 
-    assert lifecycle.transition(Transition.TRANSITION_CONFIGURE) and lifecycle.transition(Transition.TRANSITION_ACTIVATE)
+    assert (lifecycle.transition(Transition.TRANSITION_CONFIGURE)
+            and lifecycle.transition(Transition.TRANSITION_ACTIVATE))
     first = made()
     assert len(first) == 2
     echo("a")
@@ -333,7 +334,8 @@ def test_a_configure_soon_after_cleanup_takes_back_the_endpoints_which_go_after_
     echo("b")
     assert h.node.heard == ["b"]
 
-    assert lifecycle.transition(Transition.TRANSITION_DEACTIVATE) and lifecycle.transition(Transition.TRANSITION_CLEANUP)
+    assert (lifecycle.transition(Transition.TRANSITION_DEACTIVATE)
+            and lifecycle.transition(Transition.TRANSITION_CLEANUP))
     send.publish(String(data="c"))  # parked: silent, heard by nobody
     began = time.monotonic()
     lifecycle.spin_until(lambda: made() == [], PARKED_S + 10.0, "the parked endpoints destroyed")

@@ -59,7 +59,8 @@ def test_frame_ids_are_the_documented_names():
 
 
 def test_importing_the_shim_and_the_core_does_not_import_rclpy():
-    code = ("import sys, pmv_msgs_shim, pmv_ros.runtime.monitor.core, pmv_ros.analysis.statistics, pmv_ros.physics.ground_error;"
+    code = ("import sys, pmv_msgs_shim, pmv_ros.runtime.monitor.core, pmv_ros.analysis.statistics, "
+            "pmv_ros.physics.ground_error;"
             "sys.exit(1 if 'rclpy' in sys.modules else 0)")
     assert subprocess.run([sys.executable, "-c", code]).returncode == 0
     code = ("import sys, pmv_ros.runtime.monitor.core, pmv_ros.analysis.statistics, pmv_ros.physics.ground_error;"

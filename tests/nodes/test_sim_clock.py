@@ -39,7 +39,8 @@ class SimClockGraph:
     def __init__(self, overrides: dict | None = None):
         self.context = rclpy.Context()
         rclpy.init(args=["--ros-args", "--params-file", str(KONDOR)], context=self.context)
-        parameters = [Parameter(name, value=value) for name, value in {"use_sim_time": True, **(overrides or {})}.items()]
+        parameters = [Parameter(name, value=value)
+                      for name, value in {"use_sim_time": True, **(overrides or {})}.items()]
         self.nodes = [cls(context=self.context, parameter_overrides=parameters)
                       for cls in (SensorNode, StarTrackerNode, ErrorMonitorNode)]
         self.sensor, self.star_tracker, self.monitor = self.nodes

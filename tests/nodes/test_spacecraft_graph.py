@@ -1,4 +1,5 @@
-"""One spacecraft of several in a ROS graph, in-process: namespaces, frames, statuses, inputs checked against their frame.
+"""One spacecraft of several in a ROS graph, in-process: namespaces, frames, statuses,
+inputs checked against their frame.
 
 interfaces.md "Topics" and "Frames": every topic but /clock, /diagnostics,
 /tf and /tf_static is a relative name, so two spacecraft in namespaces run
@@ -121,7 +122,8 @@ def test_two_spacecraft_in_namespaces_share_only_clock_diagnostics_and_tf(capfd)
                 f"pmv_ros/{namespace}/star_tracker_node", f"pmv_ros/{namespace}/error_monitor_node"} <= names, names
     assert {s.hardware_id for s in statuses if s.name == "pmv_ros/sat2/star_tracker_node"} == \
         {"star_tracker:/sat2/star_tracker_node"}
-    assert {s.hardware_id for s in statuses if s.name.startswith("pmv_ros/sat1/sensor_node")} == {"pmv:/sat1/sensor_node"}
+    assert {s.hardware_id for s in statuses if s.name.startswith("pmv_ros/sat1/sensor_node")} == \
+        {"pmv:/sat1/sensor_node"}
     errors = [(s.name, s.message) for s in statuses if s.level == shim.Level.ERROR]
     assert not errors, errors
     # Each orbit status is found by its sensor's name.

@@ -327,7 +327,8 @@ def test_bad_chords_give_nan_and_a_reason_code_without_raising():
         scan_start_nadir_rad=np.array([start] * 7 + [start - math.radians(0.5)]))
     assert readings.status.tolist() == [
         DetectionStatus.OK, DetectionStatus.INVALID_INPUT, DetectionStatus.INVALID_INPUT, DetectionStatus.INVALID_INPUT,
-        DetectionStatus.INVALID_INPUT, DetectionStatus.FIRST_THRESHOLD_NOT_REACHED, DetectionStatus.SECOND_THRESHOLD_NOT_REACHED,
+        DetectionStatus.INVALID_INPUT, DetectionStatus.FIRST_THRESHOLD_NOT_REACHED,
+        DetectionStatus.SECOND_THRESHOLD_NOT_REACHED,
         DetectionStatus.SCAN_STARTED_IN_ATMOSPHERE]
     for name in ("gam_rad", "del_rad", "gam_corrected_rad", "sensed_horizon_nadir_rad"):
         values = getattr(readings, name)

@@ -108,7 +108,8 @@ def test_the_meteor_records_with_the_climatology_as_a_horizon_level(seeds):
 
 
 def _calibration_tool():
-    spec = importlib.util.spec_from_file_location("pmv_calibrate_environment", REPO / "tools" / "calibrate_environment.py")
+    spec = importlib.util.spec_from_file_location("pmv_calibrate_environment",
+                                                  REPO / "tools" / "calibrate_environment.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
@@ -130,5 +131,6 @@ def test_the_calibration_combines_runs_with_lost_chords_linearly():
     c_raw, c_working = tool._harmonics(t, period, raw), tool._harmonics(t, period, working)
     np.testing.assert_allclose(np.abs(c_raw), harmonic_spectrum(t, raw, period, 40)[1], rtol=0, atol=1e-9)
     combined = raw + 1.92 * (working - raw)
-    np.testing.assert_allclose(np.abs(c_raw + 1.92 * (c_working - c_raw)), harmonic_spectrum(t, combined, period, 40)[1],
+    np.testing.assert_allclose(np.abs(c_raw + 1.92 * (c_working - c_raw)),
+                               harmonic_spectrum(t, combined, period, 40)[1],
                                rtol=0, atol=1e-9)

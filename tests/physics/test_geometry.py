@@ -23,7 +23,12 @@ from pmv_ros.physics.geometry import (
     tangent_nadir_angles,
     vertical_from_horizon_angles,
 )
-from pmv_ros.physics.instrument.oblateness import closed_form_oblateness, oblateness_error, sensed_roll_pitch, sensor_axes_eci
+from pmv_ros.physics.instrument.oblateness import (
+    closed_form_oblateness,
+    oblateness_error,
+    sensed_roll_pitch,
+    sensor_axes_eci,
+)
 from pmv_ros.physics.orbit.two_body import CircularOrbit
 
 KONDOR_TABLE = KONDOR_OBLATENESS_TABLE  # physics.md §2.1, Kondor, a quarter orbit

@@ -71,7 +71,8 @@ def test_bad_samples_are_bad_input_of_that_chord_only():
     samples = np.full((3, 3), 2.4)
     samples[1, 2] = np.nan
     readings = sense(np.full(3, 2.4), disc_samples_ru=samples)
-    assert list(readings.status) == [chain.DetectionStatus.OK, chain.DetectionStatus.INVALID_INPUT, chain.DetectionStatus.OK]
+    assert list(readings.status) == [chain.DetectionStatus.OK, chain.DetectionStatus.INVALID_INPUT,
+                                     chain.DetectionStatus.OK]
     with pytest.raises(ValueError, match="disc_samples_ru"):
         sense(np.full(3, 2.4), disc_samples_ru=np.ones((3, 5)))
 

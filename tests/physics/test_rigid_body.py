@@ -14,7 +14,8 @@ import math
 import numpy as np
 import pytest
 
-from pmv_ros.physics.attitude import (body_axes_in_orbital, quaternion_from_roll_pitch_yaw, roll_pitch_yaw_from_quaternion,
+from pmv_ros.physics.attitude import (body_axes_in_orbital, quaternion_from_roll_pitch_yaw,
+                                      roll_pitch_yaw_from_quaternion,
                                       true_roll_pitch, true_yaw)
 from pmv_ros.physics.orbit.two_body import circular_mean_motion_rad_s
 from pmv_ros.physics.rigid_body import PdGains, RigidBody, pd_torque, settling_time_s, tracking_response
@@ -94,7 +95,8 @@ def test_the_same_operators_serve_one_body_and_many():
 
 
 def test_true_yaw_is_the_convention_s_yaw():
-    q = quaternion_from_roll_pitch_yaw(np.array([0.1, -0.5, 1.2]), np.array([0.2, 0.3, -1.0]), np.array([0.3, -2.0, 3.0]))
+    q = quaternion_from_roll_pitch_yaw(np.array([0.1, -0.5, 1.2]), np.array([0.2, 0.3, -1.0]),
+                                       np.array([0.3, -2.0, 3.0]))
     assert np.allclose(true_yaw(q), roll_pitch_yaw_from_quaternion(q)[2], atol=1e-15)
 
 

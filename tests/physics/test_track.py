@@ -41,7 +41,8 @@ def test_the_track_interpolates_the_orbit_far_below_what_a_sensor_sees(name):
     position, velocity = orbit.state_eci(t)
     assert np.max(np.linalg.norm(rows[:, 0:3].T - position, axis=0)) < 5e-3
     assert np.max(np.linalg.norm(rows[:, 3:6].T - velocity, axis=0)) < 5e-6
-    frame = np.abs(orbital_frame_from_state(rows[:, 0:3].T, rows[:, 3:6].T) - orbital_frame_from_state(position, velocity))
+    frame = np.abs(orbital_frame_from_state(rows[:, 0:3].T, rows[:, 3:6].T)
+                   - orbital_frame_from_state(position, velocity))
     assert np.max(frame) < 1e-8
     jd_tt = epoch.julian_date_tt(t)
     # The Sun and the Moon to metres of their millions of kilometres.

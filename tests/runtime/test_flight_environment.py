@@ -84,7 +84,8 @@ def test_meteor_m2_2_flies_the_over_correcting_curve():
     # physics.md §3.2 item 1: No.2-2 flies the working curve with a gain error, POP × s, 1 < s ≤ 2 (an
     # inference from its record); the corrected − uncorrected difference is then s × the working curve's,
     # chord by chord.
-    scale = json.loads((REPO / "pmv_ros" / "data" / "environment_calibration.json").read_text())["fitted"]["curve_scale"]
+    scale = json.loads((REPO / "pmv_ros" / "data"
+                        / "environment_calibration.json").read_text())["fitted"]["curve_scale"]
     assert 1.0 < scale <= 2.0
     _, working, _ = fly_one_orbit(preset_values("meteor_m2_2", sensor__correction="calibrated"))
     _, wrong, _ = fly_one_orbit(preset_values("meteor_m2_2"))

@@ -61,8 +61,10 @@ def test_a_mounting_of_10_arcmin_roll_and_minus_5_pitch_is_the_mean_residual_and
         for k, amplitude in a.harmonics_rad.items():
             assert m.harmonics_rad[k] / ARCMIN_RAD == pytest.approx(amplitude / ARCMIN_RAD, abs=0.01), k
     print(f"mounting +10′ roll, −5′ pitch: mean residual roll {mounted['roll'].mean_rad / ARCMIN_RAD:+.3f}′ "
-          f"(aligned {aligned['roll'].mean_rad / ARCMIN_RAD:+.3f}′), pitch {mounted['pitch'].mean_rad / ARCMIN_RAD:+.3f}′ "
-          f"(aligned {aligned['pitch'].mean_rad / ARCMIN_RAD:+.3f}′); σ roll {mounted['roll'].sigma_rad / ARCMIN_RAD:.4f}′ "
+          f"(aligned {aligned['roll'].mean_rad / ARCMIN_RAD:+.3f}′), "
+          f"pitch {mounted['pitch'].mean_rad / ARCMIN_RAD:+.3f}′ "
+          f"(aligned {aligned['pitch'].mean_rad / ARCMIN_RAD:+.3f}′); "
+          f"σ roll {mounted['roll'].sigma_rad / ARCMIN_RAD:.4f}′ "
           f"/ {aligned['roll'].sigma_rad / ARCMIN_RAD:.4f}′, pitch {mounted['pitch'].sigma_rad / ARCMIN_RAD:.4f}′ "
           f"/ {aligned['pitch'].sigma_rad / ARCMIN_RAD:.4f}′")
 

@@ -42,7 +42,8 @@ def test_preset_keys_are_declared(preset):
 
 @pytest.mark.parametrize("preset", ["kondor.yaml", "meteor_m2.yaml", "meteor_m2_2.yaml"])
 def test_preset_values_without_ros_match_the_file(preset):
-    """``preset_values`` merges ``/**`` and the node section as rclpy does, node section winning, defaults for the rest."""
+    """``preset_values`` merges ``/**`` and the node section as rclpy does, node section winning,
+    defaults for the rest."""
     from pmv_ros.runtime.common.assembly import NODE_PARAMS
     from pmv_ros.runtime.common.parameters import flatten_parameters, preset_values
 

@@ -126,7 +126,8 @@ def test_a_host_steps_the_follower_to_its_own_times_as_the_node_clock_would():
             runtime.add_truth(runtime.frames.orbital, t_s, q, t_s)
             runtime.add_odometry(runtime.frames.eci, runtime.frames.orbital, (t_s, position, velocity), t_s)
         if k >= 10:  # the first ten as one block, then one at a time
-            angles["stepped"] += [(s.t_s, s.roll_rad) for s in stepped.step_to(times[:11] if k == 10 else [t_s]).samples]
+            angles["stepped"] += [(s.t_s, s.roll_rad)
+                                  for s in stepped.step_to(times[:11] if k == 10 else [t_s]).samples]
             angles["ticked"] += [(s.t_s, s.roll_rad) for s in ticked.tick(t_s).samples]
     assert [t for t, _ in angles["stepped"]] == times
     steps = {round(t, 6): roll for t, roll in angles["stepped"]}

@@ -135,7 +135,8 @@ def test_a_hostile_neighbour_changes_nothing_it_should_not(stack, tmp_path):
         assert int(values.get("rejected_clock_other_source", 0)) >= 1
         growth_mb = rss_mb(stack["star_tracker_node"].pid) - tracker_rss
         print(f"adversarial: {flood_sent} flood messages, {values['other_source_star_tracker_attitude']} dropped as "
-              f"another source; worst residual {worst:.3f}′; {len(residuals) - before} residuals since the attack began "
+              f"another source; worst residual {worst:.3f}′; "
+              f"{len(residuals) - before} residuals since the attack began "
               f"({rate_during:.1f}/s during the flood, {rate_before:.1f}/s before, {rate_after:.1f}/s after); "
               f"tracker RSS {growth_mb:+.1f} MB after a 200,000-element list")
         assert growth_mb < 20.0

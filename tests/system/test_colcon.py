@@ -165,7 +165,8 @@ def test_console_script_rejects_invalid_parameter_in_one_line(tmp_path):
     script = VENV_BIN / "sensor_node"
     assert script.is_file(), f"{script} missing: the package is not installed in this venv (make venv)"
     result = subprocess.run([str(script), "--ros-args", "-p", "orbit.altitude_km:=-5.0"],
-                            env=child_env(tmp_path, DOMAIN_ID, fresh_shell=True), cwd=tmp_path, stdin=subprocess.DEVNULL,
+                            env=child_env(tmp_path, DOMAIN_ID, fresh_shell=True), cwd=tmp_path,
+                            stdin=subprocess.DEVNULL,
                             capture_output=True, text=True, timeout=30)
     assert result.returncode != 0, result
     assert "Traceback" not in result.stderr, result.stderr

@@ -67,7 +67,8 @@ def test_every_parameter_has_a_doc_line_and_none_is_stale():
 
 
 def test_the_check_names_a_missing_and_a_stale_doc_line():
-    """The check above can fail: a parameter added without a line, a line whose parameter is gone, a line never shown."""
+    """The check above can fail: a parameter added without a line, a line whose parameter is gone,
+    a line never shown."""
     extension = _extension()
     notes = extension.load_notes(DOCS / extension.NOTES_FILE)
     params = {node: tuple(specs) for node, specs in NODE_PARAMS.items()}

@@ -119,7 +119,8 @@ def test_hostile_odometry_is_counted_and_loses_no_sample(follow_stack, tmp_path)
         # The good stream alone until the chain runs: samples, residuals and a /clock-free monitor.
         deadline = time.monotonic() + 90.0
         while len(neighbour.got["residual"]) < 20:
-            assert time.monotonic() < deadline, "no residuals within 90 s: " + output_of(tmp_path, "sensor_node")[-2000:]
+            assert time.monotonic() < deadline, ("no residuals within 90 s: "
+                                                 + output_of(tmp_path, "sensor_node")[-2000:])
             tick(time.monotonic() + 0.5)
         rss_before = {name: proc_status(process.pid)["rss_mb"] for name, process in follow_stack.items()}
         first_attack_sample = len(attitude)
@@ -180,7 +181,8 @@ def test_hostile_odometry_is_counted_and_loses_no_sample(follow_stack, tmp_path)
         taken = sum(round(t, 3) in aligned for t in attack_stamps) / len(attack_stamps)
         worst = max(max(abs(m.vector.x), abs(m.vector.y)) for m in residuals) / ARCMIN_RAD
         log_lines = [line for line in output_of(tmp_path, "sensor_node").splitlines() if "odometry" in line]
-        print(f"hostile odometry: sent {sent} + {second_sent[0]} from a second publisher + a burst of {burst} in {burst_s:.2f} s; "
+        print(f"hostile odometry: sent {sent} + {second_sent[0]} from a second publisher + "
+              f"a burst of {burst} in {burst_s:.2f} s; "
               f"sensor counted {counted}, too_fast {values.get('rejected_odometry_too_fast')}, other source "
               f"{values.get('other_source_orbit_odometry')}; monitor counted "
               f"{ {k: v for k, v in monitor.items() if 'odometry' in k} }; {stamps.size} samples in the attack, "

@@ -278,7 +278,8 @@ def test_a_bag_metadata_file_past_its_bound_is_refused(tmp_path):
     bag = tmp_path / "bag"
     bag.mkdir()
     write_recording(bag / "bag_0.mcap")
-    head = "rosbag2_bagfile_information:\n  version: 9\n  storage_identifier: mcap\n  relative_file_paths: [bag_0.mcap]\n"
+    head = ("rosbag2_bagfile_information:\n  version: 9\n  storage_identifier: mcap\n"
+            "  relative_file_paths: [bag_0.mcap]\n")
     (bag / "metadata.yaml").write_text(head + "# " + "x" * (MAX_BAG_METADATA_BYTES - len(head) - 2) + "\n")
     _refused(_analyze(bag), "metadata.yaml", f"more than the {MAX_BAG_METADATA_BYTES} allowed")
 

@@ -98,12 +98,14 @@ def refusals(tmp_path_factory):
         runs = {case: future.result() for case, future in nodes.items()}
     assert result.returncode == 0, result.stderr[-3000:]
     outcomes = {line["name"]: line for line in map(json.loads, result.stdout.splitlines())}
-    assert outcomes["warm_up"]["status"] == 2 and "days from the element set's epoch" in outcomes["warm_up"]["stderr"], \
+    assert (outcomes["warm_up"]["status"] == 2
+            and "days from the element set's epoch" in outcomes["warm_up"]["stderr"]), \
         outcomes["warm_up"]
     assert outcomes["control"]["status"] == 0, outcomes["control"]
     for case in CASES:
         outcome, run = outcomes.get(case), runs[case]
-        print(f"TLE {case}: pmv simulate status {outcome and outcome['status']}, {outcome and outcome['wall_s']:.2f} s, "
+        print(f"TLE {case}: pmv simulate status {outcome and outcome['status']}, "
+              f"{outcome and outcome['wall_s']:.2f} s, "
               f"peak {outcome and outcome['peak_mb']:.0f} MB: {outcome and outcome['stderr'].strip()!r}; sensor_node "
               f"status {run.status}, {run.wall_s:.1f} s, peak {run.peak_mb:.0f} MB: {run.stderr.strip()!r}")
     return {case: (outcomes.get(case), runs[case], str(files[case][0]), files[case][1]) for case in CASES}

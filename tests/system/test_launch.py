@@ -171,7 +171,8 @@ def test_launch_follow_starts_no_attitude_source(colcon_install, ros_tools, grap
         truth = node.create_publisher(QuaternionStamped, "/attitude/truth", 10)
         message = QuaternionStamped()
         message.header.frame_id = "orbital"
-        message.quaternion.x, message.quaternion.w = math.sin(0.5 * math.radians(0.1)), math.cos(0.5 * math.radians(0.1))
+        message.quaternion.x, message.quaternion.w = (math.sin(0.5 * math.radians(0.1)),
+                                                      math.cos(0.5 * math.radians(0.1)))
 
         def publish():
             message.header.stamp = node.get_clock().now().to_msg()

@@ -92,7 +92,8 @@ def test_a_parameter_storm_is_refused_counted_and_said_once(stack, tmp_path):
                 time.sleep(pause)
         storm_s, storm_to = time.monotonic() - began, time.time()
         neighbour.spin(1.0)  # the answers and the samples on their way
-        window = sorted(t for t in (shim.time_from_msg(m.header.stamp) for m in attitude) if storm_from <= t <= storm_to)
+        window = sorted(t for t in (shim.time_from_msg(m.header.stamp) for m in attitude)
+                        if storm_from <= t <= storm_to)
         neighbour.wait_for_reports("sensor_node: horizon", "star_tracker_node", "error_monitor_node")
         deadline = time.monotonic() + 30.0  # the residual of the storm's last sample comes with its truth
         while max(shim.time_from_msg(m.header.stamp) for m in neighbour.got["residual"]) < window[-1]:
