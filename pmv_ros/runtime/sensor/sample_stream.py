@@ -42,6 +42,7 @@ class SensorSample(NamedTuple):
         """Per chord, whether it saw a horizon (its status is VALID; the others' lines of sight are NaN)."""
         return tuple(code == ChordStatus.VALID for code in self.chord_status)
 
+
 #: Samples computed per call in fast time with the own attitude profile (the per-call cost of the instrument,
 #: a few µs, and of the environment's node evaluations amortised; benchmarks/bench_sensing.py). A parameter
 #: change discards the block.
