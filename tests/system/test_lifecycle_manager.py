@@ -30,8 +30,8 @@ from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState, GetState
 from rclpy.executors import SingleThreadedExecutor
 
-#: Block 0, as the other launch tests: modules sharing a worker run one after another, the other worker's
-#: domain differs (this module's group is a part of its own: it may run beside the launch tests, on the other one).
+#: Block 0, as the other launch tests: modules sharing a worker run one after another, the other workers'
+#: domains differ (this module's group is a part of its own: it may run beside the launch tests, on another one).
 DOMAIN_ID = domain_id(0)
 
 pytestmark = [

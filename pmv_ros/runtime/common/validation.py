@@ -278,7 +278,7 @@ def check_orbit_state(position_m, velocity_m_s, bounds: InputBounds) -> Rejectio
 
 
 def check_odometry(frame_id: str, child_frame_id: str, state, eci: str, orbital: str, bounds: InputBounds,
-                   stamps: "StampCheck", now_s: float | None) -> tuple[Rejection | None, bool]:
+                   stamps: StampCheck, now_s: float | None) -> tuple[Rejection | None, bool]:
     """(why one orbit/odometry message is refused or None, whether its stamp confirmed a clock jump back).
 
     The sensor's and the tracker's one check of ``orbit.source`` follow: the pose in the ``eci`` frame, the twist
