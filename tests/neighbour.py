@@ -11,8 +11,10 @@ import subprocess
 import sys
 import time
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import rclpy
 from children import child_env, domain_id
 from diagnostic_msgs.msg import DiagnosticArray
@@ -26,8 +28,38 @@ from rclpy.qos import QoSProfile
 from rosgraph_msgs.msg import Clock
 
 import pmv_msgs_shim as shim
+from pmv_ros.runtime.common.assembly import MONITOR_PARAMS
 
 VENV_BIN = Path(sys.executable).parent
+#: The star tracker's frames without attitude for what it saw (physics.md §6: the sky, the Sun, the protons, an
+#: operator's outage) — not for what it was given (invalid_truth, no_orbit, rate_too_high on a nadir stack):
+#: a random share of any orbit (≈ 3 % of frames in a field of 8 stars fail recognition), whatever an attack does.
+SKY_LOSSES = ("outage", "no_stars", "recognition_failure", "buffer_overflow", "exclusion")
+#: The monitor's max_truth_gap_s (s), its default: a sample farther than this from every frame without attitude
+#: has truth on both sides; one nearer may not (at 1 Hz two failed frames in a row leave 3 s without truth).
+MAX_TRUTH_GAP_S = next(spec.default for spec in MONITOR_PARAMS if spec.name == "max_truth_gap_s")
+
+
+@dataclass
+class Alignment:
+    """What became of a window of sensor samples at the monitor: stamps aligned (a residual came), left without
+    truth by the tracker's sky (:data:`SKY_LOSSES` within :data:`MAX_TRUTH_GAP_S`), and neither."""
+
+    samples: int
+    taken: list
+    sky: list
+    other: list
+
+    @property
+    def share(self) -> float:
+        """The share of the window aligned or explained by the sky: what an attack must not lower."""
+        return (len(self.taken) + len(self.sky)) / max(1, self.samples)
+
+    def __str__(self) -> str:
+        return (f"{len(self.taken) / max(1, self.samples):.1%} aligned, {len(self.sky)} left without truth by the "
+                f"star tracker's sky, {len(self.other)} otherwise lost")
+
+
 #: A domain of our own, apart from the other multi-process tests.
 DOMAIN_ID = domain_id(1)
 PARAMS = """\
@@ -93,7 +125,7 @@ class Neighbour:
         self.node = Node("neighbour", context=self.context)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
-        self.got = {"residual": [], "diagnostics": [], "statistics": [], "attitude": []}
+        self.got = {"residual": [], "diagnostics": [], "statistics": [], "attitude": [], "frames": []}
         self.sim_now_s = None
         qos = QoSProfile(depth=100)
         self.node.create_subscription(Vector3Stamped, "/pmv/attitude", self.got["attitude"].append,
@@ -102,6 +134,8 @@ class Neighbour:
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self.got["diagnostics"].append, qos)
         self.node.create_subscription(DiagnosticArray, "/pmv/error_statistics", self.got["statistics"].append, qos)
         self.node.create_subscription(Clock, "/clock", self._on_clock, qos)
+        self.node.create_subscription(DiagnosticArray, "/star_tracker/frame_status",
+                                      lambda m: self.got["frames"].append(shim.frame_status_input(m)), qos)
         self.pub = {name: self.node.create_publisher(kind, topic, qos) for name, kind, topic in (
             ("attitude", Vector3Stamped, "/pmv/attitude"), ("odometry", Odometry, "/orbit/odometry"),
             ("tracker", QuaternionStamped, "/star_tracker/attitude"), ("clock", Clock, "/clock"))}
@@ -164,6 +198,20 @@ class Neighbour:
         self.executor.spin_until_future_complete(future, timeout_sec=10.0)
         assert future.done(), f"no answer from /{node_name}/set_parameters within 10 s"
         return future.result().results[0], time.monotonic() - started
+
+    def alignment(self, window) -> Alignment:
+        """How the monitor took the sensor samples stamped ``window`` (s): :class:`Alignment`."""
+        aligned = {round(shim.time_from_msg(m.header.stamp), 3) for m in self.got["residual"]}
+        lost = np.array([t for t, reason in self.got["frames"] if reason in SKY_LOSSES])
+        taken, sky, other = [], [], []
+        for t in window:
+            if round(t, 3) in aligned:
+                taken.append(t)
+            elif lost.size and np.abs(lost - t).min() <= MAX_TRUTH_GAP_S:
+                sky.append(t)
+            else:
+                other.append(t)
+        return Alignment(len(window), taken, sky, other)
 
     def close(self) -> None:
         self.executor.shutdown()

@@ -12,7 +12,8 @@ locked source bursts at 1 kHz for 2 s. Measured:
   sent), the second publisher is an ERROR naming two publishers and its messages are counted as dropped;
 * nothing is lost: the sensor published every sample of its 10 Hz grid through the attack (no gap in the
   stamps — on a machine so busy that this process's own good stream stalls, no gap longer than that stall),
-  the monitor took ≥ 99 % of them, every residual < 1′;
+  the monitor took ≥ 99 % of them but those the star tracker's sky left without truth (a frame it reported
+  without attitude, as in tests/system/test_parameter_storm.py), every residual < 1′;
 * the burst is thinned (``too_fast``), no sample is lost to it, and no node's memory grows by 20 MB or more;
 * the sensor logged no line per bad message (at most a handful in all).
 """
@@ -177,8 +178,8 @@ def test_hostile_odometry_is_counted_and_loses_no_sample(follow_stack, tmp_path)
         stall_s = float(np.diff(good).max()) if good.size > 1 else 0.0
         skipped = {k: v for k, v in values.items() if k.startswith("skipped_")}
         residuals = neighbour.got["residual"]
-        aligned = {round(shim.time_from_msg(m.header.stamp), 3) for m in residuals}
-        taken = sum(round(t, 3) in aligned for t in attack_stamps) / len(attack_stamps)
+        took = neighbour.alignment(attack_stamps)
+        lost = {k: v for k, v in monitor.items() if k.startswith(("skipped_", "truth_lost_"))}
         worst = max(max(abs(m.vector.x), abs(m.vector.y)) for m in residuals) / ARCMIN_RAD
         log_lines = [line for line in output_of(tmp_path, "sensor_node").splitlines() if "odometry" in line]
         print(f"hostile odometry: sent {sent} + {second_sent[0]} from a second publisher + "
@@ -187,7 +188,7 @@ def test_hostile_odometry_is_counted_and_loses_no_sample(follow_stack, tmp_path)
               f"{values.get('other_source_orbit_odometry')}; monitor counted "
               f"{ {k: v for k, v in monitor.items() if 'odometry' in k} }; {stamps.size} samples in the attack, "
               f"largest gap {gaps.max():.3f} s (the good stream's longest stall {stall_s:.3f} s; skipped {skipped}), "
-              f"{taken:.1%} of them aligned by the monitor; worst residual {worst:.3f}′; "
+              f"the monitor: {took} (its skips {lost}); worst residual {worst:.3f}′; "
               f"RSS MB before {rss_before} after {rss_after}; {len(log_lines)} log lines about odometry")
 
         assert counted == expected, (counted, expected)
@@ -201,7 +202,7 @@ def test_hostile_odometry_is_counted_and_loses_no_sample(follow_stack, tmp_path)
         on_grid = np.isclose(gaps % 0.1, 0.0, atol=1e-6) | np.isclose(gaps % 0.1, 0.1, atol=1e-6)
         assert stamps.size >= 60 and np.all(on_grid), gaps
         assert gaps.max() <= max(0.1 + 1e-6, stall_s + 0.25), (gaps.max(), stall_s)
-        assert taken >= 0.99, taken
+        assert took.share >= 0.99, (str(took), took.other, lost)
         assert worst < 1.0
         for name in follow_stack:
             assert rss_after[name] - rss_before[name] < 20.0, (name, rss_before, rss_after)

@@ -10,7 +10,10 @@ and a name the node does not have, in turn. Measured:
   never answered nor counted);
 * the storm is said once: at most three log lines per node about refused parameters;
 * nothing is lost: the sensor published every sample of its 10 Hz grid through the storm, the monitor
-  aligned ≥ 99 % of them; no node's memory grows by 20 MB or more; every parameter kept its value.
+  aligned ≥ 99 % of them but those the star tracker's own sky left without truth (a frame it reported
+  without attitude within max_truth_gap_s: ≈ 3 % of frames fail recognition in a field of 8 stars, more
+  where stars are few, and there frame after frame; at 1 Hz two failed frames in a row leave 3 s without
+  truth); no node's memory grows by 20 MB or more; every parameter kept its value.
 
 And a storm of good requests: ``use_sim_time`` flipped at ≈ 100 Hz on the two nodes that follow the sensor's
 /clock, for 3 s (60 s with ``--run-long``). rclpy makes and destroys a node's /clock subscription at every flip,
@@ -114,12 +117,13 @@ def test_a_parameter_storm_is_refused_counted_and_said_once(stack, tmp_path):
             figures[name] = dict(sent=len(futures[name]), answered=len(answered), counted=counted, lines=lines,
                                  rss=(round(rss_before[name], 1), round(rss_after[name], 1)))
         stamps = np.array(window)
-        aligned = {round(shim.time_from_msg(m.header.stamp), 3) for m in neighbour.got["residual"]}
-        taken = sum(round(t, 3) in aligned for t in window) / max(1, len(window))
+        took = neighbour.alignment(window)
+        monitor = {k: v for k, v in dict(node_statuses(neighbour.got["diagnostics"], "error_monitor_node")[-1].values)
+                   .items() if k.startswith(("skipped_", "truth_lost_"))}
         rate = {name: round(len(futures[name]) / storm_s) for name in STORM}
         shown = {name: {**f, "lines": len(f["lines"])} for name, f in figures.items()}
         print(f"parameter storm, {storm_s:.1f} s at {rate} requests/s: {shown}; {stamps.size} samples in the storm, "
-              f"largest gap {np.diff(stamps).max():.3f} s, {taken:.1%} aligned")
+              f"largest gap {np.diff(stamps).max():.3f} s, {took}; the monitor's skips {monitor}")
         for name in STORM:
             answered = [f.result() for f in futures[name] if f.done()]
             results = [r for response in answered for r in response.results]
@@ -132,7 +136,7 @@ def test_a_parameter_storm_is_refused_counted_and_said_once(stack, tmp_path):
             assert value(name, STORM[name][0]) == kept[name], name
         assert min(rate.values()) >= 0.3 * TARGET_HZ, rate  # as close to 1,000/s as this process gets on 2 cores
         assert stamps.size >= 20 and np.allclose(np.diff(stamps), 0.1, atol=1e-6), np.diff(stamps).max()
-        assert taken >= 0.99, taken
+        assert took.share >= 0.99, (str(took), took.other, monitor)
     finally:
         neighbour.close()
 
