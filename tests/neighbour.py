@@ -45,10 +45,13 @@ class Alignment:
     """What became of a window of sensor samples at the monitor: stamps aligned (a residual came), left without
     truth by the tracker's sky (:data:`SKY_LOSSES` within :data:`MAX_TRUTH_GAP_S`), and neither."""
 
-    samples: int
     taken: list
     sky: list
     other: list
+
+    @property
+    def samples(self) -> int:
+        return len(self.taken) + len(self.sky) + len(self.other)
 
     @property
     def share(self) -> float:
@@ -211,7 +214,7 @@ class Neighbour:
                 sky.append(t)
             else:
                 other.append(t)
-        return Alignment(len(window), taken, sky, other)
+        return Alignment(taken, sky, other)
 
     def close(self) -> None:
         self.executor.shutdown()

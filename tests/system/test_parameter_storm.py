@@ -118,8 +118,8 @@ def test_a_parameter_storm_is_refused_counted_and_said_once(stack, tmp_path):
                                  rss=(round(rss_before[name], 1), round(rss_after[name], 1)))
         stamps = np.array(window)
         took = neighbour.alignment(window)
-        monitor = {k: v for k, v in dict(node_statuses(neighbour.got["diagnostics"], "error_monitor_node")[-1].values)
-                   .items() if k.startswith(("skipped_", "truth_lost_"))}
+        monitor = {k: v for k, v in dict(monitor_status(neighbour.got["diagnostics"]).values).items()
+                   if k.startswith(("skipped_", "truth_lost_"))}
         rate = {name: round(len(futures[name]) / storm_s) for name in STORM}
         shown = {name: {**f, "lines": len(f["lines"])} for name, f in figures.items()}
         print(f"parameter storm, {storm_s:.1f} s at {rate} requests/s: {shown}; {stamps.size} samples in the storm, "
