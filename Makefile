@@ -11,14 +11,26 @@ export ROS_LOG_DIR ?= $(CURDIR)/.ros_log
 
 venv: $(STAMP)
 
+# The pinned requirements go in with uv (itself pinned, installed by pip into the venv first): it fetches and
+# unpacks in parallel where pip does one wheel after another (a fresh venv on 2 cores, cold caches, back to back:
+# pip 30 s, uv 5 s). `make INSTALL=pip` installs them with pip alone, for a machine whose pip configuration (an
+# index, a proxy) uv does not read. The package itself goes in with pip (editable, as colcon and the tests expect).
 # pip compiles what it installs on one core; compileall does the same on every core: the same bytecode, ≈ 10 s less
 # of a fresh build on 2 cores (two pairs, back to back: 43 → 33 s and 54 → 44 s). Every process of the suite
 # imports from these files: bytecode that is there is not compiled again.
+UV_VERSION := 0.13.9
+INSTALL ?= uv
+ifeq ($(INSTALL),pip)
+REQUIREMENTS := $(BIN)/python -m pip install --quiet --no-compile
+else
+REQUIREMENTS := $(BIN)/uv pip install --quiet --python $(BIN)/python
+endif
 
 $(STAMP): requirements.txt requirements-basilisk.txt setup.py setup.cfg package.xml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --no-compile -r requirements.txt
-	$(BIN)/python -m pip install --quiet --no-compile --no-deps -r requirements-basilisk.txt
+	$(if $(filter pip,$(INSTALL)),,$(BIN)/python -m pip install --quiet uv==$(UV_VERSION))
+	$(REQUIREMENTS) -r requirements.txt
+	$(REQUIREMENTS) --no-deps -r requirements-basilisk.txt
 	$(BIN)/python -m pip install --quiet --no-deps --no-build-isolation -e .
 	$(BIN)/python -m compileall -q -j 0 $(VENV)/lib
 	touch $(STAMP)
