@@ -95,9 +95,12 @@ def _session_group(item) -> str | None:
 
 def _order(items) -> list:
     """The tests in the order ``--dist loadgroup --no-loadscope-reorder`` hands their groups out, each group's tests
-    together and in collection order: first the groups that start processes (much of their time is waiting on
-    children, and the longest tests are among them), then the users of SESSION_RUNS fixtures (their commands run
-    in the background meanwhile), then the rest, whose many short modules let the workers finish together."""
+    together and in collection order: first the parts of SESSION_RUNS groups (``NAME/PART``: modules that mostly
+    wait; a worker waiting on them, for the fixture's command and then on their children, leaves the cores to the
+    other two), then the groups that start processes (much of their time is waiting on children, and the longest
+    tests are among them), then the other users of SESSION_RUNS fixtures (their commands run in the background
+    meanwhile), then the rest, whose many short modules let the workers finish together. A part handed out late
+    is the last to end, the other workers idle."""
     first, session_users, multi_process = {}, set(), set()
     for index, item in enumerate(items):
         group = _group(item)
@@ -108,7 +111,9 @@ def _order(items) -> list:
             multi_process.add(group)
 
     def rank(group):
-        return 1 if group in session_users else 0 if group in multi_process else 2
+        if group in session_users:
+            return 0 if group not in SESSION_RUNS.values() else 2  # NAME/PART, or NAME itself
+        return 1 if group in multi_process else 3
 
     return sorted(items, key=lambda item: (rank(_group(item)), first[_group(item)]))
 
