@@ -59,9 +59,15 @@ def quaternion_from_roll_pitch_yaw(roll_rad, pitch_rad, yaw_rad=0.0):
     Scalars give ``(4,)``; arrays of N give ``(4, N)``.
     """
     roll, pitch, yaw = np.broadcast_arrays(*(np.asarray(a, float) for a in (roll_rad, pitch_rad, yaw_rad)))
-    # R = R_z(ψ) R_y(θ) R_x(φ): scipy's intrinsic Z-Y-X.
-    angles = np.stack([yaw, pitch, roll], axis=-1)
-    return _rotation_type().from_euler("ZYX", angles).as_quat().T
+    # R = R_z(ψ) R_y(θ) R_x(φ) (scipy's intrinsic Z-Y-X): the product q_z(ψ)·q_y(θ)·q_x(φ) of the three
+    # half-angle quaternions, written out (scipy's from_euler composes the same three, at ≈ 1 µs a sample).
+    cr, sr = np.cos(0.5 * roll), np.sin(0.5 * roll)
+    cp, sp = np.cos(0.5 * pitch), np.sin(0.5 * pitch)
+    cy, sy = np.cos(0.5 * yaw), np.sin(0.5 * yaw)
+    return np.array([sr * cp * cy - cr * sp * sy,
+                     cr * sp * cy + sr * cp * sy,
+                     cr * cp * sy - sr * sp * cy,
+                     cr * cp * cy + sr * sp * sy])
 
 
 def roll_pitch_yaw_from_quaternion(q_orbital_to_body):
