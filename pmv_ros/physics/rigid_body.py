@@ -118,19 +118,30 @@ class RigidBody:
 
         Args as :meth:`derivatives`; ``dt_s`` > 0. Returns tuples of components (floats or arrays, as given).
         """
+        # Component by component, no comprehension: the closed loop takes one step per sensor sample, where the
+        # loops' set-up cost as much as the arithmetic (the operations and their order are the same).
         half = 0.5 * dt_s
-        k1q, k1r = self.derivatives(q, rate, torque)
-        k2q, k2r = self.derivatives([b + half * d for b, d in zip(q, k1q)], [b + half * d for b, d in zip(rate, k1r)],
-                                    torque)
-        k3q, k3r = self.derivatives([b + half * d for b, d in zip(q, k2q)], [b + half * d for b, d in zip(rate, k2r)],
-                                    torque)
-        k4q, k4r = self.derivatives([b + dt_s * d for b, d in zip(q, k3q)], [b + dt_s * d for b, d in zip(rate, k3r)],
-                                    torque)
+        x, y, z, w = q
+        p, r, s = rate
+        (k1x, k1y, k1z, k1w), (k1p, k1r, k1s) = self.derivatives(q, rate, torque)
+        (k2x, k2y, k2z, k2w), (k2p, k2r, k2s) = self.derivatives(
+            (x + half * k1x, y + half * k1y, z + half * k1z, w + half * k1w),
+            (p + half * k1p, r + half * k1r, s + half * k1s), torque)
+        (k3x, k3y, k3z, k3w), (k3p, k3r, k3s) = self.derivatives(
+            (x + half * k2x, y + half * k2y, z + half * k2z, w + half * k2w),
+            (p + half * k2p, r + half * k2r, s + half * k2s), torque)
+        (k4x, k4y, k4z, k4w), (k4p, k4r, k4s) = self.derivatives(
+            (x + dt_s * k3x, y + dt_s * k3y, z + dt_s * k3z, w + dt_s * k3w),
+            (p + dt_s * k3p, r + dt_s * k3r, s + dt_s * k3s), torque)
         sixth = dt_s / 6.0
-        q_end = [b + sixth * (a + 2.0 * (c + d) + e) for b, a, c, d, e in zip(q, k1q, k2q, k3q, k4q)]
-        rate_end = tuple([b + sixth * (a + 2.0 * (c + d) + e) for b, a, c, d, e in zip(rate, k1r, k2r, k3r, k4r)])
-        norm = (q_end[0] * q_end[0] + q_end[1] * q_end[1] + q_end[2] * q_end[2] + q_end[3] * q_end[3]) ** 0.5
-        return tuple([c / norm for c in q_end]), rate_end
+        x = x + sixth * (k1x + 2.0 * (k2x + k3x) + k4x)
+        y = y + sixth * (k1y + 2.0 * (k2y + k3y) + k4y)
+        z = z + sixth * (k1z + 2.0 * (k2z + k3z) + k4z)
+        w = w + sixth * (k1w + 2.0 * (k2w + k3w) + k4w)
+        rate_end = (p + sixth * (k1p + 2.0 * (k2p + k3p) + k4p), r + sixth * (k1r + 2.0 * (k2r + k3r) + k4r),
+                    s + sixth * (k1s + 2.0 * (k2s + k3s) + k4s))
+        norm = (x * x + y * y + z * z + w * w) ** 0.5
+        return (x / norm, y / norm, z / norm, w / norm), rate_end
 
 
 @dataclass(frozen=True)
@@ -174,7 +185,8 @@ def pd_torque(gains: PdGains, error, rate):
     """τ = −K_p·e − K_d·rate per axis, N·m: ``error`` ``(3[, N])`` (roll, pitch, yaw errors, rad; an axis that
     is not controlled passes 0 with its rate 0), ``rate`` ``(3[, N])`` body rate relative to the orbital
     frame, rad/s. Components as given (floats or arrays)."""
-    return tuple(-kp * e - kd * r for kp, kd, e, r in zip(gains.proportional, gains.derivative, error, rate))
+    (kp_x, kp_y, kp_z), (kd_x, kd_y, kd_z) = gains.proportional, gains.derivative
+    return -kp_x * error[0] - kd_x * rate[0], -kp_y * error[1] - kd_y * rate[1], -kp_z * error[2] - kd_z * rate[2]
 
 
 def tracking_response(omega_rad_s, bandwidth_hz: float, damping_ratio: float):

@@ -279,8 +279,8 @@ class ControllerRuntime:
         if not settings.yaw_closed:
             control = (control[0], control[1], 0.0)
         cyclic = math.sin(body.mean_motion_rad_s * (t0 - self.origin_s))
-        torque = tuple(c + d + a * cyclic for c, d, a in zip(control, settings.constant_torque_nm,
-                                                               settings.orbital_torque_nm))
+        (dx, dy, dz), (ax, ay, az) = settings.constant_torque_nm, settings.orbital_torque_nm
+        torque = (control[0] + dx + ax * cyclic, control[1] + dy + ay * cyclic, control[2] + dz + az * cyclic)
         self.q, self.rate = body.step(self.q, self.rate, torque, settings.period_s)
         self._steps += 1
         self.time_s = t_s = self.origin_s + self._steps * settings.period_s
