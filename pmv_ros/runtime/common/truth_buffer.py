@@ -113,7 +113,7 @@ class TruthBuffer:
         if self._stamps and t_s <= self._stamps[-1]:
             self.clear()
         self._stamps.append(float(t_s))
-        self._attitudes.append(tuple(float(c) for c in q_xyzw))
+        self._attitudes.append(tuple(map(float, q_xyzw)))
 
     def _routine_horizon_s(self) -> float:
         """How far past the newest sample extrapolation is routine, s: extrapolation_periods truth periods."""

@@ -223,7 +223,8 @@ def check_quaternion(q_xyzw, tolerance: float = QUATERNION_NORM_TOLERANCE):
     if not abs(norm - 1.0) <= tolerance:
         return None, Rejection.BAD_QUATERNION, False
     # Float by float (a message's one quaternion: no array to build): each quotient as an array's would be.
-    return tuple(c / norm for c in components), None, abs(norm - 1.0) > UNIT_ROUNDING
+    x, y, z, w = components
+    return (x / norm, y / norm, z / norm, w / norm), None, abs(norm - 1.0) > UNIT_ROUNDING
 
 
 def check_angles(roll_rad: float, pitch_rad: float, max_abs_rad: float, *, allow_nan: bool) -> Rejection | None:
