@@ -12,8 +12,8 @@ export ROS_LOG_DIR ?= $(CURDIR)/.ros_log
 venv: $(STAMP)
 
 # The pinned requirements go in with uv (itself pinned, installed by pip into the venv first): it fetches and
-# unpacks in parallel where pip does one wheel after another (a fresh venv on 2 cores, cold caches, back to back:
-# pip 30 s, uv 5 s). `make INSTALL=pip` installs them with pip alone, for a machine whose pip configuration (an
+# unpacks in parallel where pip does one wheel after another (the requirements into a fresh venv on 2 cores, cold
+# caches: pip 30 s, uv 5 s). `make INSTALL=pip` installs them with pip alone, for a machine whose pip configuration (an
 # index, a proxy) uv does not read. The package itself goes in with pip (editable, as colcon and the tests expect).
 # pip compiles what it installs on one core; compileall does the same on every core: the same bytecode, ≈ 10 s less
 # of a fresh build on 2 cores (two pairs, back to back: 43 → 33 s and 54 → 44 s). Every process of the suite

@@ -97,7 +97,7 @@ def _order(items) -> list:
     """The tests in the order ``--dist loadgroup --no-loadscope-reorder`` hands their groups out, each group's tests
     together and in collection order: first the parts of SESSION_RUNS groups (``NAME/PART``: modules that mostly
     wait; a worker waiting on them, for the fixture's command and then on their children, leaves the cores to the
-    other two), then the groups that start processes (much of their time is waiting on children, and the longest
+    other workers), then the groups that start processes (much of their time is waiting on children, and the longest
     tests are among them), then the other users of SESSION_RUNS fixtures (their commands run in the background
     meanwhile), then the rest, whose many short modules let the workers finish together. A part handed out late
     is the last to end, the other workers idle."""
