@@ -21,8 +21,9 @@ stepping is timed (building the pipelines is the same work in both). Before the 
 per-sample run are stepped once untimed (``--warmup`` ticks): the first steps load the compiled sensing code
 and fill caches, which would otherwise land on whichever job runs first. The median of the rounds' ratios is
 printed beside the ratio of the totals (a round caught by a burst of load moves the median less). The last line
-is the ratio of (b)'s and (a)'s total times; before it, what (b) would cost with the sensor's runtime at 1.5× the
-open loop's a sample (the follow path's target), everything else as measured.
+of text is the ratio of (b)'s and (a)'s total times; before it, what (b) would cost with the sensor's runtime at
+1.5× the open loop's a sample (the follow path's target), everything else as measured. Then the headline
+(README.md): (b)'s µs a tick, (a)'s beside it (a part of the product: no ratio).
 
     .venv/bin/python benchmarks/bench_closed_loop.py [--orbits 0.2] [--rounds 10] [--samples 1024] [--warmup 100]
 """
@@ -43,6 +44,7 @@ import numpy as np  # noqa: E402
 import yaml  # noqa: E402
 
 from bench_main_job import RuntimeTimes  # noqa: E402  (this folder: the script's own)
+from headline import headline  # noqa: E402  (this folder: the script's own)
 from pmv_ros.nodes.pipeline import Pipeline  # noqa: E402
 from pmv_ros.runtime.common.assembly import READ_CORRECTION  # noqa: E402
 from pmv_ros.runtime.flight import flight_values  # noqa: E402
@@ -164,6 +166,8 @@ def main() -> None:
     ratios = [r[1]["wall_s"] / r[0]["wall_s"] for r in rounds]
     print(f"closed loop / open loop: {closed_us / open_us:.2f}x (median of the rounds' ratios "
           f"{statistics.median(ratios):.2f}x)")
+    headline("closed_loop", "the closed loop (pmv simulate --closed-loop), µs per tick", closed_us, "µs/tick",
+             "lower", open_us, "µs/tick", "the open loop's tick, alternating in the same run")
 
 
 if __name__ == "__main__":

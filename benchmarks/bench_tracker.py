@@ -1,6 +1,6 @@
 """The star tracker's cost in the node and in the campaign, against another tree of pmv_ros in the same run.
 
-    .venv/bin/python benchmarks/bench_tracker.py [--baseline DIR] [--rounds 3] [--seconds 300] [--frame-rate-hz F]
+    .venv/bin/python benchmarks/bench_tracker.py --baseline DIR [--rounds 3] [--seconds 300] [--frame-rate-hz F]
 
 What star_tracker_node's runtime costs (no ROS): a Kondor truth stream at
 10 Hz fed one message at a time through ``receive_truth`` (the node's path:
@@ -15,7 +15,8 @@ rounds, the load average beside it, and the ratios are this tree's speed
 over the baseline's (≥ 1: this tree is as fast). The trees' own presets
 are flown (their frame periods may differ: per frame and per truth message
 are both printed); ``--frame-rate-hz`` flies both at one frame rate, so that
-per frame compares the same number of truth messages a frame.
+per frame compares the same number of truth messages a frame. The headline (README.md): the node's µs per
+truth message against the baseline's; without ``--baseline`` one line says it cannot run.
 """
 
 from __future__ import annotations
@@ -26,6 +27,8 @@ import os
 import subprocess
 import sys
 from pathlib import Path
+
+from headline import headline  # (this folder: the script's own)
 
 HERE = Path(__file__).resolve().parents[1]
 
@@ -82,13 +85,16 @@ def measure(tree: Path, seconds: float, frame_rate_hz: float) -> dict:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--baseline", type=Path, required=True, help="another checkout with its own .venv")
+    parser.add_argument("--baseline", type=Path, help="another checkout with its own .venv")
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--seconds", type=float, default=300.0)
     parser.add_argument("--frame-rate-hz", type=float, default=0.0,
                         help="fly both trees at this frame rate, one their parameters accept (default: each "
                              "tree's preset)")
     args = parser.parse_args(argv)
+    if args.baseline is None:
+        raise SystemExit("bench_tracker: needs --baseline DIR, another checkout with its own .venv to measure "
+                         "against")
     runs = {"this": [], "baseline": []}
     for round_ in range(args.rounds):
         for name, tree in (("this", HERE), ("baseline", args.baseline)):
@@ -105,6 +111,9 @@ def main(argv=None) -> int:
                       ("batch", "campaign path, per frame")):
         print(f"{what}: this {1e6 * best['this'][key]:.1f} µs, baseline {1e6 * best['baseline'][key]:.1f} µs, "
               f"speed ratio {best['baseline'][key] / best['this'][key]:.2f}")
+    headline("tracker_message", "star_tracker_node's runtime, µs per truth message", 1e6 * best["this"]["message"],
+             "µs/message", "lower", 1e6 * best["baseline"]["message"], "µs/message",
+             f"the same stream in {args.baseline.name}", ratio=best["this"]["message"] / best["baseline"]["message"])
     return 0
 
 
