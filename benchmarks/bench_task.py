@@ -68,13 +68,6 @@ def child(python: str, tree: Path, rate_hz: float, orbits: float, tasks: int) ->
     return result["samples"] / result["cpu_s"]
 
 
-def load_average() -> str:
-    try:
-        return " ".join(Path("/proc/loadavg").read_text().split()[:3])
-    except OSError:
-        return "n/a"
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--baseline", type=Path, help="another checkout with its own .venv")
@@ -92,7 +85,8 @@ def main() -> None:
         raise SystemExit("bench_task: needs --baseline DIR, another checkout with its own .venv to measure against")
     baseline = args.baseline.resolve()
     python = str(baseline / ".venv" / "bin" / "python")
-    print(f"Meteor-M No.2, flight environment, {args.tasks} tasks a child; load average at start: {load_average()}")
+    print(f"Meteor-M No.2, flight environment, {args.tasks} tasks a child; load average at start: "
+          f"{os.getloadavg()[0]:.2f}")
     medians, rates_of = {}, {}
     for rate in rates:
         orbits = args.orbits * 10.0 / rate  # the samples of a 10 Hz task at any rate
@@ -104,7 +98,7 @@ def main() -> None:
             rates_of[rate][0].append(mine)
             rates_of[rate][1].append(theirs)
             print(f"{rate:g} Hz round {round_number}: this tree {mine:,.0f}, baseline {theirs:,.0f} samples per CPU "
-                  f"second: {mine / theirs:.2f}x (load {load_average()})")
+                  f"second: {mine / theirs:.2f}x (load {os.getloadavg()[0]:.2f})")
         medians[rate] = statistics.median(ratios)
         print(f"{rate:g} Hz: this tree / baseline {medians[rate]:.2f}x (median of {args.rounds} rounds, "
               f"{min(ratios):.2f}–{max(ratios):.2f})")
