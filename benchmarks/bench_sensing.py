@@ -120,7 +120,7 @@ def main() -> None:
 
     tree = Path(__file__).resolve().parents[1]
     print(f"load average at start: {load_average()}")
-    ratios, per_sample = {}, {}
+    per_sample = {}  # preset → (own, follow) CPU s a sample
     for preset in PRESETS:
         values = sensor_values(tree, preset)
         own_attitude(values, 16)  # load the kernels (and the tables) before timing
@@ -130,7 +130,6 @@ def main() -> None:
             own_s.append(seconds)
             follow_s.append(follow(values, truth))
         own, followed = statistics.median(own_s), statistics.median(follow_s)
-        ratios[preset] = followed / own
         per_sample[preset] = own, followed
         print(f"{preset:10s} own attitude {own * 1e6:7.1f} µs/sample, follow {followed * 1e6:7.1f} µs/sample: "
               f"{followed / own:.2f}x")
@@ -148,9 +147,9 @@ def main() -> None:
             print(f"{preset:10s} own attitude: this tree {a * 1e6:7.1f} µs/sample, baseline {b * 1e6:7.1f} µs/sample: "
                   f"{a / b:.2f}x")
     print(f"load average at end: {load_average()}")
-    print(f"follow / own attitude: {max(ratios.values()):.2f}x")
-    worst = max(ratios, key=ratios.get)
+    worst = max(per_sample, key=lambda preset: per_sample[preset][1] / per_sample[preset][0])
     own, followed = per_sample[worst]
+    print(f"follow / own attitude: {followed / own:.2f}x")
     headline("follow_sample", f"the sensor in follow mode ({worst}), µs per sample", followed * 1e6, "µs/sample",
              "lower", own * 1e6, "µs/sample", "the own attitude's sample, alternating in the same run")
 

@@ -28,13 +28,15 @@ from rclpy.qos import QoSProfile
 from rosgraph_msgs.msg import Clock
 
 import pmv_msgs_shim as shim
+from pmv_ros.physics.star_tracker.model import Outcome
 from pmv_ros.runtime.common.assembly import MONITOR_PARAMS
 
 VENV_BIN = Path(sys.executable).parent
 #: The star tracker's frames without attitude for what it saw (physics.md §6: the sky, the Sun, the protons, an
 #: operator's outage) — not for what it was given (invalid_truth, no_orbit, rate_too_high on a nadir stack):
 #: a random share of any orbit (≈ 3 % of frames in a field of 8 stars fail recognition), whatever an attack does.
-SKY_LOSSES = ("outage", "no_stars", "recognition_failure", "buffer_overflow", "exclusion")
+SKY_LOSSES = tuple(outcome.reason for outcome in (Outcome.OUTAGE, Outcome.NO_STARS, Outcome.RECOGNITION_FAILURE,
+                                                 Outcome.BUFFER_OVERFLOW, Outcome.EXCLUSION))
 #: The monitor's max_truth_gap_s (s), its default: a sample farther than this from every frame without attitude
 #: has truth on both sides; one nearer may not (at 1 Hz two failed frames in a row leave 3 s without truth).
 MAX_TRUTH_GAP_S = next(spec.default for spec in MONITOR_PARAMS if spec.name == "max_truth_gap_s")
