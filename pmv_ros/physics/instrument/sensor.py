@@ -468,12 +468,15 @@ class SensorModel:
         """
         t = np.asarray(t_s, float).reshape(-1)
         q = np.asarray(q_orbital_to_body, float).reshape(4, -1)
+        return SensorReading(t, q, self.sense_rows(t, np.ascontiguousarray(q.T)))
+
+    def sense_rows(self, t: np.ndarray, attitude: np.ndarray) -> np.ndarray:
+        """:meth:`sense`'s table alone, for arguments already in the kernel's layout: ``t`` ``(N,)`` float64 s,
+        ``attitude`` ``(N, 4)`` C-contiguous float64 (x, y, z, w) — a following sensor's few samples, whose
+        attitudes come as rows. Returns ``(N, sensing.COLUMNS)``."""
         table = np.empty((t.size, sensing.COLUMNS))
         if t.size == 0:
-            return SensorReading(t, q, table)
-        attitude = q.T  # (N, 4), as the kernel reads it
-        if not attitude.flags.c_contiguous:
-            attitude = np.ascontiguousarray(attitude)
+            return table
         states = NO_STATES if self.track.model_orbit else self.track.states(t)
         fields = self.fields
         if fields is not None and not fields.current:
@@ -492,4 +495,4 @@ class SensorModel:
                 if missing > self._misses.shape[0]:
                     self._misses = np.empty((2 * missing, 3), np.int64)
             missing = self._run(t[first:], attitude[first:], states[first:], table[first:])
-        return SensorReading(t, q, table)
+        return table

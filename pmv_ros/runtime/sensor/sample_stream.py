@@ -198,23 +198,29 @@ class SampleStream:
         return samples
 
     def samples(self, times, q_xyzw) -> list[SensorSample]:
-        """Samples at ``(N,)`` times, s, with the given ``(N, 4)`` attitudes (x, y, z, w) — follow mode: one
-        sample or many, the same code (a sample reads the same in any block)."""
-        return self.rows(np.array(times, float), np.array(q_xyzw, float).reshape(-1, 4).T)
+        """Samples at the times ``times`` (s, floats) with the attitudes ``q_xyzw`` (x, y, z, w, tuples of floats)
+        — follow mode: one sample or many, the same code (a sample reads the same in any block)."""
+        table = self.model.sense_rows(np.array(times, float), np.array(q_xyzw, float).reshape(-1, 4))
+        return _rows(times, q_xyzw, table)
 
     def rows(self, times: np.ndarray, q: np.ndarray, reading=None) -> list[SensorSample]:
         """Run the instrument for ``(N,)`` times and ``(4, N)`` attitudes (or take its ``reading`` of them):
         N samples, made from the reading's rows (:attr:`~pmv_ros.physics.instrument.sensor.SensorReading.table`)."""
         if reading is None:
             reading = self.model.sense(times, q)
-        samples = []
-        for t_s, q_xyzw, row in zip(reading.t_s.tolist(), reading.q_orbital_to_body.T.tolist(),
-                                    reading.table.tolist()):
-            sight = ((row[_S0], row[_S1], row[_S2]), (row[_S3], row[_S4], row[_S5]), (row[_S6], row[_S7], row[_S8]),
-                     (row[_S9], row[_S10], row[_S11]))
-            samples.append(SensorSample(t_s, tuple(q_xyzw), sight, row[ROLL], row[PITCH], row[ROLL_UNCORRECTED],
-                                        row[PITCH_UNCORRECTED],
-                                        (int(row[_C0]), int(row[_C1]), int(row[_C2]), int(row[_C3])),
-                                        (int(row[_B0]), int(row[_B1]), int(row[_B2]), int(row[_B3])),
-                                        (row[_P0], row[_P1], row[_P2]), (row[_V0], row[_V1], row[_V2])))
-        return samples
+        return _rows(reading.t_s.tolist(), reading.q_orbital_to_body.T.tolist(), reading.table)
+
+
+def _rows(times, attitudes, table: np.ndarray) -> list[SensorSample]:
+    """A :class:`SensorSample` for each of ``times`` (floats, s), ``attitudes`` (x, y, z, w each) and the instrument's
+    ``table`` rows."""
+    samples = []
+    for t_s, q_xyzw, row in zip(times, attitudes, table.tolist()):
+        sight = ((row[_S0], row[_S1], row[_S2]), (row[_S3], row[_S4], row[_S5]), (row[_S6], row[_S7], row[_S8]),
+                 (row[_S9], row[_S10], row[_S11]))
+        samples.append(SensorSample(t_s, tuple(q_xyzw), sight, row[ROLL], row[PITCH], row[ROLL_UNCORRECTED],
+                                    row[PITCH_UNCORRECTED],
+                                    (int(row[_C0]), int(row[_C1]), int(row[_C2]), int(row[_C3])),
+                                    (int(row[_B0]), int(row[_B1]), int(row[_B2]), int(row[_B3])),
+                                    (row[_P0], row[_P1], row[_P2]), (row[_V0], row[_V1], row[_V2])))
+    return samples
