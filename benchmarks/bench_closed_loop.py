@@ -25,7 +25,17 @@ of text is the ratio of (b)'s and (a)'s total times; before it, what (b) would c
 1.5× the open loop's a sample (the follow path's target), everything else as measured. Then the headline
 (README.md): (b)'s µs a tick, (a)'s beside it (a part of the product: no ratio).
 
+``--parts``: two more closed loops in the same rounds, to tell what the loop's messages cost by themselves from
+what its computation costs: (b1) the controller's ``_step`` (the method a user replaces to write a controller of
+their own) replaced by one that holds the attitude and publishes it as the real one does, so no plant, law or
+pointing statistics; (b2) that, with the sensor's follow sensing replaced by its own attitude profile's block
+path as well (the attitude then flown is the profile's, not the one followed: only the cost counts here). What
+is left of (b2) over (a) is the round trip over ROS: two more deliveries a tick (``pmv/attitude`` to the
+controller, ``attitude/truth`` to the sensor), one more pass of the drain (the truth is published from a
+callback), one more node and two more subscriptions asked at each pass.
+
     .venv/bin/python benchmarks/bench_closed_loop.py [--orbits 0.2] [--rounds 10] [--samples 1024] [--warmup 100]
+                                                     [--parts]
 """
 
 from __future__ import annotations
@@ -47,18 +57,45 @@ from bench_main_job import RuntimeTimes  # noqa: E402  (this folder: the script'
 from headline import headline  # noqa: E402  (this folder: the script's own)
 from pmv_ros.nodes.pipeline import Pipeline  # noqa: E402
 from pmv_ros.runtime.common.assembly import READ_CORRECTION  # noqa: E402
+from pmv_ros.runtime.control.controller import TruthPublication  # noqa: E402
 from pmv_ros.runtime.flight import flight_values  # noqa: E402
 from pmv_ros.runtime.sensor.runtime import SensorRuntime  # noqa: E402
 
 KONDOR = Path(__file__).resolve().parents[1] / "config" / "kondor.yaml"
 
 
-class MainJob:
-    """One main job (``closed_loop`` or not) kept alive between rounds: its pipeline stepped a chunk at a time."""
+def hold_the_plant(pipeline: Pipeline) -> None:
+    """(b1): the controller's ``_step`` without its plant, law and pointing statistics — the attitude held, the
+    step's time, truth and health published as :meth:`ControllerRuntime._step` publishes them."""
+    runtime = pipeline.controller.runtime
 
-    def __init__(self, closed_loop: bool):
+    def step() -> None:
+        runtime._steps += 1
+        runtime.time_s = t_s = runtime.origin_s + runtime._steps * runtime.settings.period_s
+        runtime._out.published.append(TruthPublication(t_s, runtime.q, runtime.rate))
+        runtime._report(t_s)
+
+    runtime._step = step
+
+
+def sense_at_own_cost(pipeline: Pipeline) -> None:
+    """(b2)'s second part: the following sensor's samples from its own attitude profile's blocks of 512, at the
+    same times (what the open loop's sensing costs a sample, in the closed loop's place)."""
+    runtime = pipeline.sensor.runtime
+    stream, period = runtime.stream, 1.0 / runtime.values["sensor.rate_hz"]
+    stream.samples = lambda times, _: [stream.next_profile_sample(t_s, period, runtime.fast_time_block)
+                                       for t_s in times]
+
+
+class MainJob:
+    """One main job (``closed_loop`` or not) kept alive between rounds: its pipeline stepped a chunk at a time;
+    ``stubs``: functions that take parts of a closed loop out (``--parts``)."""
+
+    def __init__(self, closed_loop: bool, stubs=()):
         self.closed_loop = closed_loop
         self.pipeline = Pipeline(KONDOR, closed_loop=closed_loop)
+        for stub in stubs:
+            stub(self.pipeline)
         nodes = [self.pipeline.sensor] + ([self.pipeline.controller] if closed_loop else [])
         self.times = RuntimeTimes(nodes)
         self.ticks = 0
@@ -114,12 +151,23 @@ def main() -> None:
                         help="samples of each per-sample run (default 1024: whole blocks of the own-attitude path)")
     parser.add_argument("--warmup", type=int, default=100,
                         help="ticks each job is stepped untimed before the rounds (default 100)")
+    parser.add_argument("--parts", action="store_true",
+                        help="also the closed loop without the controller's physics, and without the follow "
+                             "sensing's extra as well: what the loop's messages cost by themselves")
     args = parser.parse_args()
     open_job, closed_job = MainJob(closed_loop=False), MainJob(closed_loop=True)
+    parts = {}  # name → the closed loop with parts taken out (--parts)
+    if args.parts:
+        parts["(b1), without the controller's plant, law and pointing"] = MainJob(True, (hold_the_plant,))
+        parts["(b2), as (b1) with the follow sensing at the own path's cost"] = MainJob(
+            True, (hold_the_plant, sense_at_own_cost))
+    part_s = dict.fromkeys(parts, 0.0)
     try:
         if args.warmup > 0:
             open_job.run(args.warmup)
             closed_job.run(args.warmup)
+            for job in parts.values():
+                job.run(args.warmup)
             sensor_per_sample(min(args.samples, args.warmup))
         rate = open_job.pipeline.sensor.get_parameter("sensor.rate_hz").value
         ticks = max(args.rounds, round(args.orbits * open_job.pipeline.sensor.orbit.period_s * rate))
@@ -131,6 +179,8 @@ def main() -> None:
         rounds = []
         for round_number in range(1, args.rounds + 1):
             opened, closed = open_job.run(chunk), closed_job.run(chunk)
+            for name, job in parts.items():
+                part_s[name] += job.run(chunk)["wall_s"]
             per_sample = sensor_per_sample(args.samples)
             rounds.append((opened, closed, per_sample))
             print(f"round {round_number}: open loop {opened['wall_s'] / chunk * 1e6:.0f} µs/tick (sensor runtime "
@@ -140,8 +190,8 @@ def main() -> None:
                   f"sensor alone per sample: own attitude {per_sample['own_us']:.0f} µs, follow "
                   f"{per_sample['follow_us']:.0f} µs (load {os.getloadavg()[0]:.2f})")
     finally:
-        open_job.close()
-        closed_job.close()
+        for job in (open_job, closed_job, *parts.values()):
+            job.close()
     total = {key: sum(r[0][key] for r in rounds) for key in ("wall_s", "sensor_s")}
     closed_total = {key: sum(r[1][key] for r in rounds) for key in ("wall_s", "sensor_s", "controller_s")}
     own_us = statistics.median(r[2]["own_us"] for r in rounds)
@@ -163,6 +213,8 @@ def main() -> None:
     at_target = closed_rest + 1.5 * total["sensor_s"] / n * 1e6
     print(f"closed loop with the sensor's runtime at 1.5x the open loop's (estimate): {at_target / open_us:.2f}x "
           "the open loop")
+    for name, seconds in part_s.items():
+        print(f"closed loop {name}: {seconds / n * 1e6:.0f} µs/tick, {seconds / total['wall_s']:.2f}x the open loop")
     ratios = [r[1]["wall_s"] / r[0]["wall_s"] for r in rounds]
     print(f"closed loop / open loop: {closed_us / open_us:.2f}x (median of the rounds' ratios "
           f"{statistics.median(ratios):.2f}x)")
