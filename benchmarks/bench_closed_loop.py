@@ -16,13 +16,15 @@ message and stepped one sample at a time, as the closed loop drives it. The foll
 profile's, at the same times) are computed before the timing: only the sensor's work is timed.
 
 Both pipelines are built first and kept alive; the span is cut into rounds that alternate (a) (b) (c) (a) (b)
-(c) …, so a change of load hits both alike; each round's figures are printed with the load average. Only the
+(c) … ((a) (b) (b1) (b2) (c) with ``--parts``, below), so a change of load hits both alike; each round's figures
+are printed with the load average. Only the
 stepping is timed (building the pipelines is the same work in both). Before the first round each job and the
 per-sample run are stepped once untimed (``--warmup`` ticks): the first steps load the compiled sensing code
 and fill caches, which would otherwise land on whichever job runs first. The median of the rounds' ratios is
 printed beside the ratio of the totals (a round caught by a burst of load moves the median less). The last line
 of text is the ratio of (b)'s and (a)'s total times; before it, what (b) would cost with the sensor's runtime at
-1.5× the open loop's a sample (the follow path's target), everything else as measured. Then the headline
+1.5× the open loop's a sample (the follow path's target), everything else as measured, and (b1)'s and (b2)'s
+totals against (a)'s with ``--parts``. Then the headline
 (README.md): (b)'s µs a tick, (a)'s beside it (a part of the product: no ratio).
 
 ``--parts``: two more closed loops in the same rounds, to tell what the loop's messages cost by themselves from
@@ -30,9 +32,9 @@ what its computation costs: (b1) the controller's ``_step`` (the method a user r
 their own) replaced by one that holds the attitude and publishes it as the real one does, so no plant, law or
 pointing statistics; (b2) that, with the sensor's follow sensing replaced by its own attitude profile's block
 path as well (the attitude then flown is the profile's, not the one followed: only the cost counts here). What
-is left of (b2) over (a) is the round trip over ROS: two more deliveries a tick (``pmv/attitude`` to the
-controller, ``attitude/truth`` to the sensor), one more pass of the drain (the truth is published from a
-callback), one more node and two more subscriptions asked at each pass.
+(b2) costs over (a) is the loop's round trip over ROS with the two inputs' intake: two more deliveries a tick
+(``pmv/attitude`` to the controller, ``attitude/truth`` to the sensor) and their checks, one more pass of the
+drain (the truth is published from a callback), one more node and two more subscriptions asked at each pass.
 
     .venv/bin/python benchmarks/bench_closed_loop.py [--orbits 0.2] [--rounds 10] [--samples 1024] [--warmup 100]
                                                      [--parts]
@@ -66,12 +68,15 @@ KONDOR = Path(__file__).resolve().parents[1] / "config" / "kondor.yaml"
 
 def hold_the_plant(pipeline: Pipeline) -> None:
     """(b1): the controller's ``_step`` without its plant, law and pointing statistics — the attitude held, the
-    step's time, truth and health published as :meth:`ControllerRuntime._step` publishes them."""
+    step's time, count, truth and health kept and published as ``ControllerRuntime._step`` does. ``_step`` is
+    the method the controller's documentation has a user replace to write a controller of their own: this is
+    such a controller, one that does nothing (so it sets the runtime's step state as ``_step`` does)."""
     runtime = pipeline.controller.runtime
 
     def step() -> None:
         runtime._steps += 1
         runtime.time_s = t_s = runtime.origin_s + runtime._steps * runtime.settings.period_s
+        runtime.counters["steps"] += 1
         runtime._out.published.append(TruthPublication(t_s, runtime.q, runtime.rate))
         runtime._report(t_s)
 

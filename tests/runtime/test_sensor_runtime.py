@@ -184,6 +184,23 @@ def test_following_a_recorded_truth_history_reads_what_the_own_attitude_read(pre
     assert np.std([s.pitch_rad for s in recorded]) / ARCMIN_RAD > 0.1  # the environment does move the angles
 
 
+def test_a_sample_is_python_floats_whatever_its_attitude_and_orbit_come_from():
+    # A node publishes a sample's fields into messages without numpy indexing (sample_stream's promise): its
+    # stamp, attitude and angles are Python floats from the own profile's blocks, from a followed attitude, and
+    # from the own profile on a followed orbit (one sample at a time, made from the profile's array).
+    values = preset_values("kondor", sensor__rate_hz=10.0)
+    own = runtime_of(values)
+    follower = runtime_of(dict(values, **{"attitude.source": "follow"}))
+    follower.add_truth(follower.frames.orbital, 0.1, (0.0, 0.0, 0.0, 1.0), 0.1)
+    on_orbit = runtime_of(dict(values, **{"orbit.source": "follow"}))
+    position, velocity = own.orbit.state_eci(0.1)
+    on_orbit.add_odometry(on_orbit.frames.eci, on_orbit.frames.orbital, (0.1, position, velocity), 0.0)
+    for runtime in (own, follower, on_orbit):
+        (sample,) = runtime.step().samples
+        assert type(sample.t_s) is float and type(sample.roll_rad) is float
+        assert isinstance(sample.q_xyzw, tuple) and {type(c) for c in sample.q_xyzw} == {float}
+
+
 def test_a_followed_orbits_field_nodes_placed_ahead_are_placed_again_when_odometry_arrives():
     # orbit.source follow, fast time, one sample a step. The first sample, at 0.1 s, is 0.05 s past the only
     # odometry: it is sensed on the extrapolated state, and the field nodes it and the next samples need are

@@ -471,9 +471,9 @@ class SensorModel:
         return SensorReading(t, q, self.sense_rows(t, np.ascontiguousarray(q.T)))
 
     def sense_rows(self, t: np.ndarray, attitude: np.ndarray) -> np.ndarray:
-        """:meth:`sense`'s table alone, for arguments already in the kernel's layout: ``t`` ``(N,)`` float64 s,
-        ``attitude`` ``(N, 4)`` C-contiguous float64 (x, y, z, w) — a following sensor's few samples, whose
-        attitudes come as rows. Returns ``(N, sensing.COLUMNS)``."""
+        """:meth:`sense`'s table, ``(N, sensing.COLUMNS)``, for arguments already in the kernel's layout: ``t``
+        ``(N,)`` float64, s; ``attitude`` ``(N, 4)`` C-contiguous float64 (x, y, z, w) — :meth:`sense` after
+        its checks, and a following sensor, whose attitudes come as rows. Raises as :meth:`sense` does."""
         table = np.empty((t.size, sensing.COLUMNS))
         if t.size == 0:
             return table

@@ -380,7 +380,7 @@ class SensorRuntime:
         the user's odometry to compute a block from)."""
         for t_s in self._orbit_covered(times):
             for sample in self._orbit_samples(t_s, lambda: self.stream.samples(
-                    [t_s], self.stream.profile.quaternion(np.array([t_s])).T)):
+                    [t_s], self.stream.profile.quaternion(np.array([t_s])).T.tolist())):
                 self._emit_sample(sample)
 
     def _sense_following(self, found: list) -> None:

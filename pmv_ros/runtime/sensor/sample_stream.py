@@ -198,8 +198,9 @@ class SampleStream:
         return samples
 
     def samples(self, times, q_xyzw) -> list[SensorSample]:
-        """Samples at the times ``times`` (s, floats) with the attitudes ``q_xyzw`` (x, y, z, w, tuples of floats)
-        — follow mode: one sample or many, the same code (a sample reads the same in any block)."""
+        """Samples at ``times`` (s) with the attitudes ``q_xyzw`` (x, y, z, w each) — follow mode: one sample or
+        many, the same code (a sample reads the same in any block). ``times``: a list of floats; ``q_xyzw``: a list
+        of four floats each. The samples keep them as given, so a caller passes Python floats, not numpy's."""
         table = self.model.sense_rows(np.array(times, float), np.array(q_xyzw, float).reshape(-1, 4))
         return _rows(times, q_xyzw, table)
 
