@@ -108,12 +108,15 @@ class TruthBuffer:
         self._stamps.extend(other._stamps)
         self._attitudes.extend(other._attitudes)
 
-    def add(self, t_s: float, q_xyzw) -> None:
-        """Keep one sample: stamp (s) and unit quaternion (x, y, z, w). A stamp not after the newest starts over."""
-        if self._stamps and t_s <= self._stamps[-1]:
+    def add(self, t_s: float, q_xyzw: tuple) -> None:
+        """Keep one sample: stamp (s) and unit quaternion (x, y, z, w), a tuple of Python floats as
+        :func:`~pmv_ros.runtime.common.validation.check_quaternion_sample` gives it (kept as it is: the attitude
+        this buffer gives at that instant). A stamp not after the newest starts over."""
+        stamps = self._stamps
+        if stamps and t_s <= stamps[-1]:
             self.clear()
-        self._stamps.append(float(t_s))
-        self._attitudes.append(tuple(map(float, q_xyzw)))
+        stamps.append(float(t_s))
+        self._attitudes.append(q_xyzw)
 
     def _routine_horizon_s(self) -> float:
         """How far past the newest sample extrapolation is routine, s: extrapolation_periods truth periods."""

@@ -283,13 +283,13 @@ class SensorRuntime:
 
     def step(self) -> SensorOutput:
         """Fast time: advance the simulation clock by one sensor period and sense that sample."""
-        period = 1.0 / self.values["sensor.rate_hz"]
         t_s = self._advance()
         if self.following:
             self._sense_following([(t_s, *self.truth.attitude_at(t_s))])
         elif self.orbit_following:
             self._sense_profile_on_followed_orbit([t_s])
         else:
+            period = 1.0 / self.values["sensor.rate_hz"]
             for sample in self._orbit_samples(t_s, lambda: [self.stream.next_profile_sample(
                     t_s, period, self.fast_time_block)]):
                 self._emit_sample(sample)
