@@ -15,17 +15,16 @@ on, Kondor): its own attitude profile stepped in fast time (blocks of 512) again
 message and stepped one sample at a time, as the closed loop drives it. The follower's attitudes (the own
 profile's, at the same times) are computed before the timing: only the sensor's work is timed.
 
-Both pipelines are built first and kept alive; the span is cut into rounds that alternate (a) (b) (c) (a) (b)
-(c) … ((a) (b) (b1) (b2) (c) with ``--parts``, below), so a change of load hits both alike; each round's figures
-are printed with the load average. Only the
-stepping is timed (building the pipelines is the same work in both). Before the first round each job and the
-per-sample run are stepped once untimed (``--warmup`` ticks): the first steps load the compiled sensing code
-and fill caches, which would otherwise land on whichever job runs first. The median of the rounds' ratios is
-printed beside the ratio of the totals (a round caught by a burst of load moves the median less). The last line
-of text is the ratio of (b)'s and (a)'s total times; before it, what (b) would cost with the sensor's runtime at
-1.5× the open loop's a sample (the follow path's target), everything else as measured, and (b1)'s and (b2)'s
-totals against (a)'s with ``--parts``. Then the headline
-(README.md): (b)'s µs a tick, (a)'s beside it (a part of the product: no ratio).
+Both pipelines are built first and kept alive; the span is cut into rounds that alternate (a) (b) (c) (a) (b) (c) …
+((a) (b) (b1) (b2) (c) with ``--parts``, below), so a change of load hits both alike; each round's figures are
+printed with the load average. Only the stepping is timed (building the pipelines is the same work in both). Before
+the first round each job and the per-sample run are stepped once untimed (``--warmup`` ticks): the first steps load
+the compiled sensing code and fill caches, which would otherwise land on whichever job runs first. The median of
+the rounds' ratios is printed beside the ratio of the totals (a round caught by a burst of load moves the median
+less). The last line of text is the ratio of (b)'s and (a)'s total times; before it, what (b) would cost with the
+sensor's runtime at 1.5× the open loop's a sample (the follow path's target), everything else as measured, and
+(b1)'s and (b2)'s totals against (a)'s with ``--parts``. Then the headline (README.md): (b)'s µs a tick, (a)'s
+beside it (a part of the product: no ratio).
 
 ``--parts``: two more closed loops in the same rounds, to tell what the loop's messages cost by themselves from
 what its computation costs: (b1) the controller's ``_step`` (the method a user replaces to write a controller of
