@@ -246,14 +246,20 @@ def fly_closed_loop(values: FlightValues, samples: int) -> Flight:
         raise ValueError("orbit.source = follow: a flight flies an orbit of its own")
     sensor = SensorRuntime(dict(values.sensor, **{"attitude.source": "follow"}), clock_epoch_s=0.0,
                            correction=READ_CORRECTION, stepped=True)
-    controller = ControllerRuntime(values.controller, start_s=sensor.sim_time_s)
+    # The pointing is taken at the sample times below, not at every control step.
+    controller = ControllerRuntime(values.controller, start_s=sensor.sim_time_s, keep_pointing=False)
     period_s = 1.0 / values.sensor["sensor.rate_hz"]
     orbital, sensor_frame = sensor.frames.orbital, controller.frames.sensor
     truth_s, truth_q, kept = [], [], []
     for _ in range(samples):
         now_s = sensor.sim_time_s
-        for state in controller.step_to(now_s + period_s).truth:  # the plant up to the coming sample
+        states = controller.step_to(now_s + period_s).truth  # the plant up to the coming sample
+        # The sample's time lies after the last state but one and at or before the last (within 1 ns): the two
+        # the sensor's truth buffer gives the sample's attitude from. The states before them (more than two where
+        # the control rate is above the sensor's) change nothing the sensor reads: only the star tracker sees them.
+        for state in states[-2:]:
             sensor.add_truth(orbital, state.t_s, state.q_xyzw, now_s)
+        for state in states:
             truth_s.append(state.t_s)
             truth_q.append(state.q_xyzw)
         for sample in sensor.step().samples:
@@ -269,7 +275,7 @@ def fly_closed_loop(values: FlightValues, samples: int) -> Flight:
     released = frames.released_at >= 0
     arrival = np.where(released, np.searchsorted(t, truth_s[np.where(released, frames.released_at, 0)] - 1e-9), -1)
     frames = replace(frames, released_at=arrival)
-    pointing = PointingStatistics(controller.pointing.period_s, controller.pointing.skip_until_s)
+    pointing = controller.new_pointing()
     pointing.add_many(t, q)
     true_roll, true_pitch = true_roll_pitch(q)
     return _monitored(values, sensor.orbit, t, roll, pitch, frames, pointing=pointing, true_roll_rad=true_roll,

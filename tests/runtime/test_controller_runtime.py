@@ -162,6 +162,25 @@ def test_the_pointing_leaves_out_the_settling_time():
     assert roll.max_abs_rad / ARCMIN_RAD < 0.05 * 20.0
 
 
+def test_a_host_that_keeps_its_own_pointing_flies_the_same_plant():
+    # The campaign's flight takes the pointing at its sample times (keep_pointing False): the controller then
+    # keeps no statistics of its own, and its plant, truth and reported pointing are the same as the node's.
+    kept = ControllerRuntime(values(body__initial_attitude_arcmin=[20.0, -10.0, 5.0]), start_s=0.0)
+    bare = ControllerRuntime(values(body__initial_attitude_arcmin=[20.0, -10.0, 5.0]), start_s=0.0,
+                             keep_pointing=False)
+    assert bare.pointing is None
+    assert close_on_biased_sensor(bare, (1e-3, -2e-3), 30.0) == close_on_biased_sensor(kept, (1e-3, -2e-3), 30.0)
+    assert kept.pointing.roll.count + kept.pointing.skipped == 300
+    roll, pitch = true_roll_pitch(bare.q)
+    for runtime in (kept, bare):
+        health = runtime.health(30.0).values
+        assert health["pointing_roll_arcmin"] == roll / ARCMIN_RAD
+        assert health["pointing_pitch_arcmin"] == pitch / ARCMIN_RAD
+    # A host's own statistics of this loop: the same orbit and transient as the node's.
+    own = bare.new_pointing()
+    assert (own.period_s, own.skip_until_s) == (kept.pointing.period_s, kept.pointing.skip_until_s)
+
+
 def test_bad_combinations_are_refused_with_their_names():
     with pytest.raises(ValueError, match="control.bandwidth_hz"):
         LoopSettings.from_values(values(control__bandwidth_hz=0.6))  # above 10 Hz / 20

@@ -14,7 +14,7 @@ grid of control steps, ``control.rate_hz``, and at each step:
    (a constant torque and one at the orbital frequency), held over the step (zero-order hold);
 5. publishes the attitude at the step's end (``attitude/truth``, the ``orbital → base_link`` transform) and
    adds it to the true pointing error (:class:`~pmv_ros.runtime.control.pointing.PointingStatistics`,
-   after the loop's settling time).
+   after the loop's settling time; not for a host that takes the pointing at its own sample times).
 
 Who advances the plant: a host that steps it (:meth:`ControllerRuntime.step_to`: the campaign's flight before
 each sensor sample; :meth:`ControllerRuntime.step_at_next_measurement`: the in-process pipeline, so the step
@@ -36,7 +36,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Callable, NamedTuple
 
-from ...physics.attitude import quaternion_from_roll_pitch_yaw, true_yaw
+from ...physics.attitude import quaternion_from_roll_pitch_yaw, true_roll_pitch, true_yaw
 from ...physics.constants import ARCMIN_RAD
 from ...physics.orbit.two_body import circular_mean_motion_rad_s
 from ...physics.rigid_body import PdGains, RigidBody, pd_torque, settling_time_s
@@ -154,11 +154,15 @@ class ControllerRuntime:
         start_s: the clock at the start, s: the plant's first state (``body.initial_attitude_arcmin``, at rest
             in the orbital frame) is at this time and is not published (a stamp of 0 is no stamp).
         source_counters: ``() -> dict`` of the node's input-source counters, merged into every report.
+        keep_pointing: keep the true pointing statistics of every control step (:attr:`pointing`); a host that
+            takes the pointing at its own sample times (the campaign's flight) passes False, and
+            :attr:`pointing` is None.
 
     Raises ValueError for a combination of values the parameter ranges cannot check.
     """
 
-    def __init__(self, values: dict, *, start_s: float, source_counters: Callable[[], dict] = _no_counters) -> None:
+    def __init__(self, values: dict, *, start_s: float, source_counters: Callable[[], dict] = _no_counters,
+                 keep_pointing: bool = True) -> None:
         self.frames = Frames.from_values(values)
         self.body = plant_of(values)
         self.settings = LoopSettings.from_values(values)
@@ -169,9 +173,7 @@ class ControllerRuntime:
         self.rate = (0.0, 0.0, 0.0)
         self.origin_s = self.time_s = float(start_s)  # the grid's origin and the plant's time
         self._steps = 0  # control steps since the origin: the plant's time is origin + steps × period
-        self.pointing = PointingStatistics(2.0 * math.pi / self.body.mean_motion_rad_s,
-                                           self.origin_s + self.settings.settling_time_s)
-        self.pointing_now = (roll, pitch)  # the latest true roll and pitch, rad
+        self.pointing = self.new_pointing() if keep_pointing else None
         self._roll, self._pitch = _Axis(), _Axis()
         self._stamps = StampCheck(values["clock_jump_s"], values["future_tolerance_s"],
                                   1.0 / values["input.max_rate_hz"])
@@ -180,6 +182,12 @@ class ControllerRuntime:
         self._reported_s = None
         self._deferred_s = None  # a step_to waiting for the next measurement (step_at_next_measurement)
         self._out = ControllerOutput()
+
+    def new_pointing(self) -> PointingStatistics:
+        """Empty true pointing statistics of this loop: harmonics of its orbit, the transient until the loop's
+        settling time after the start left out (:attr:`pointing`'s; a host that keeps its own makes them here)."""
+        return PointingStatistics(2.0 * math.pi / self.body.mean_motion_rad_s,
+                                  self.origin_s + self.settings.settling_time_s)
 
     # -- parameters ---------------------------------------------------------------------------
 
@@ -285,7 +293,8 @@ class ControllerRuntime:
         self._steps += 1
         self.time_s = t_s = self.origin_s + self._steps * settings.period_s
         self.counters["steps"] += 1
-        self.pointing_now = self.pointing.add(t_s, self.q)
+        if self.pointing is not None:
+            self.pointing.add(t_s, self.q)
         self._out.published.append(TruthPublication(t_s, self.q, self.rate))
         self._report(t_s)
 
@@ -321,7 +330,7 @@ class ControllerRuntime:
         problems = ([f"no pmv/attitude {' or '.join(stale)} for more than "
                      f"{self.settings.measurement_timeout_s:g} s (holding the last)"] if stale else []) + \
                    (["rejected pmv/attitude messages"] if refused else [])
-        roll, pitch = self.pointing_now
+        roll, pitch = true_roll_pitch(self.q)  # the latest true roll and pitch
         values = {**self.counters, "measurement_roll_held": self._roll.held, "measurement_pitch_held": self._pitch.held,
                   "pointing_roll_arcmin": roll / ARCMIN_RAD, "pointing_pitch_arcmin": pitch / ARCMIN_RAD,
                   "bandwidth_hz": self.settings.gains.bandwidth_hz, **self._source_counters()}
