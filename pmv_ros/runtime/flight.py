@@ -253,13 +253,8 @@ def fly_closed_loop(values: FlightValues, samples: int) -> Flight:
     truth_s, truth_q, kept = [], [], []
     for _ in range(samples):
         now_s = sensor.sim_time_s
-        states = controller.step_to(now_s + period_s).truth  # the plant up to the coming sample
-        # The sample's time lies after the last state but one and at or before the last (within 1 ns): the two
-        # the sensor's truth buffer gives the sample's attitude from. The states before them (more than two where
-        # the control rate is above the sensor's) change nothing the sensor reads: only the star tracker sees them.
-        for state in states[-2:]:
+        for state in controller.step_to(now_s + period_s).truth:  # the plant up to the coming sample
             sensor.add_truth(orbital, state.t_s, state.q_xyzw, now_s)
-        for state in states:
             truth_s.append(state.t_s)
             truth_q.append(state.q_xyzw)
         for sample in sensor.step().samples:

@@ -47,6 +47,18 @@ def test_the_flight_closes_the_loop_as_the_pipeline_does():
     assert np.allclose(true[1], flight.true_pitch_rad, rtol=0.0, atol=1e-12)
 
 
+@pytest.mark.parametrize("overrides", [{"attitude.follow_timeout_s": 0.95}, {"input.max_rate_hz": 5.0}],
+                         ids=["timeout-below-the-period", "rate-limit-below-the-control-rate"])
+def test_the_flight_gives_the_sensor_every_plant_state_as_its_subscription_would(overrides):
+    # A sensor at 1 Hz, the plant at 10 Hz: ten states a sample, each checked by the sensor as a message. With
+    # a truth time-out below the sample period the states furthest ahead of the sensor's clock are refused as
+    # future stamps, with a rate limit below the control rate some as too fast; the ones it keeps still give
+    # every sample its attitude, as in the pipeline, where the sensor's subscription takes every state.
+    values = flight_values(yaml.safe_load(KONDOR.read_text()), {"seed": 4, "sensor.rate_hz": 1.0, **overrides})
+    flight = fly_closed_loop(values, 60)
+    assert flight.t_s.size == 60 and np.isfinite(flight.sensed_pitch_rad).mean() > 0.9
+
+
 @pytest.fixture(scope="module")
 def closed_campaign(tmp_path_factory):
     out = tmp_path_factory.mktemp("campaign")
